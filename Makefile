@@ -1,0 +1,31 @@
+# Two commands do all set-up on a fresh machine:
+#   make demo   -> virtual environment, install, run the main job on embedded example data
+#   make test   -> same environment plus the test extra, run the test suite
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+
+.PHONY: demo test reports bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $@
+
+demo: $(VENV)/.installed
+	$(BIN)/python examples/demo.py --out reports/demo
+
+test: $(VENV)/.installed
+	$(BIN)/python -m pytest -q
+
+reports: $(VENV)/.installed
+	$(BIN)/python examples/make_reports.py
+
+bench: $(VENV)/.installed
+	$(BIN)/python benchmarks/bench_speed.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,290 @@
+"""The Frobenius residual of seed 000 inside a likelihood with a noise model
+estimated from the spectra.
+
+Residual
+--------
+With ``Y_u = H_u^-1(a) X_u``, ``Y_r = H_r^-1 X_r`` (ground velocity) and
+``T = V_u V_r^+`` the seed's relation is ``Y_u = T Y_r`` (noise aside). The
+seed multiplies it on the right by ``X_u^H`` and sums over frequency:
+``S_uu(a) - T S_ru``. That form carries the SUT's own noise power on its
+diagonal and biases the fit as the coherence falls (gain too high by about
+``1 / coherence``). bayescal uses the same Frobenius residual with the
+reference as the right-hand factor, per band b:
+
+    R_b(theta) = S_ur,b(a) - T(phi) S_rr,b,
+    S_ur,b(a) = sum_{f in b} Y_u(f; a) Y_r(f)^H,   S_rr,b = sum_{f in b} Y_r Y_r^H,
+
+which has zero mean at the truth whatever the SUT's noise (the SUT noise is
+incoherent with the reference), so the estimate stays unbiased at low
+coherence. One band is exactly the seed's single sum; :func:`seed_residual`
+keeps the seed's original form for comparison. The reference is the
+well-known sensor of the protocol: its own noise is assumed small next to the
+SUT's (if both were equally noisy, gains would come out low by about the
+reference's coherence deficit).
+
+Noise model
+-----------
+If the per-bin residual ``e = Y_u - T Y_r`` has covariance ``Sigma_b`` within
+band b, ``vec(R_b)`` has covariance ``Sigma_b (x) S_rr,b^T`` and
+
+    log L = - sum_b  tr( Sigma_b^-1 R_b S_rr,b^-1 R_b^H ) / c_b.
+
+``Sigma_b`` is estimated from the band spectra at the least-squares point.
+Window leakage between neighbouring bins, segment overlap and non-stationary
+noise make the true scatter larger than the independent-bin formula says; the
+factor ``c_b`` measures that ratio from the scatter of the per-segment band
+residuals (with the lag-one covariance of overlapping segments), shrunk
+toward its pooled value over bands. The noise model is held fixed while
+sampling (a plug-in estimate).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .response import TwoPoleFamily
+
+#: Shrinkage weight (in segment x entry counts) of a band's inflation factor
+#: toward the value pooled over bands.
+INFLATION_SHRINK = 50.0
+
+
+@dataclass(frozen=True)
+class Priors:
+    """Explicit, documented priors (wide by default).
+
+    Orientation: uniform on the sphere (or on the circle of a two-channel
+    reference). Natural period: log-uniform in ``[T_nom / period_factor,
+    T_nom * period_factor]``. Damping: uniform in ``damping_range``. Gain:
+    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``.
+    """
+
+    period_factor: float = 10.0
+    damping_range: tuple = (0.02, 2.0)
+    gain_factor: float = 10.0
+
+
+@dataclass(frozen=True)
+class ChannelBlock:
+    """How one SUT channel enters the model.
+
+    ``manifold`` (from :mod:`bayescal.geometry`) holds its orientation
+    parameters; ``free`` is ``"none"``, ``"gain"`` or ``"all"`` (period,
+    damping, gain); ``family`` is the channel's parametric response.
+    """
+
+    channel_id: str
+    manifold: object
+    family: TwoPoleFamily | None
+    free: str = "none"
+
+    @property
+    def n_response(self):
+        return {"none": 0, "gain": 1, "all": 3}[self.free]
+
+    @property
+    def n_params(self):
+        return self.manifold.n_params + self.n_response
+
+    def param_names(self):
+        orient = {2: ["orient_a", "orient_b"], 1: ["azimuth_rad"], 0: []}[self.manifold.n_params]
+        resp = {"none": [], "gain": ["log_gain"], "all": ["log_period", "damping", "log_gain"]}[self.free]
+        return [f"{self.channel_id}:{p}" for p in orient + resp]
+
+
+@dataclass
+class NoiseModel:
+    """Per-band precision factors: ``A_b = Sigma_b^-1 / c_b``, ``B_b = S_rr,b^-1``."""
+
+    A: np.ndarray        # (B, n_u, n_u)
+    B: np.ndarray        # (B, n_r, n_r)
+    sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
+    inflation: np.ndarray  # (B,) c_b
+
+    def cholesky(self):
+        """Factors for the whitened residual ``L_A^H R L_B``."""
+        return np.linalg.cholesky(self.A), np.linalg.cholesky(self.B)
+
+
+class Model:
+    """Parameter layout, priors and the (vectorised) residual of one fit.
+
+    Parameters
+    ----------
+    spectra : :class:`bayescal.spectra.CrossSpectra`
+    ref_vectors : (n_r, 3) reference channel axes (NED unit vectors).
+    blocks : one :class:`ChannelBlock` per SUT channel, in spectra order.
+    """
+
+    def __init__(self, spectra, ref_vectors, blocks, priors=Priors()):
+        self.spectra = spectra
+        self.blocks = list(blocks)
+        self.priors = priors
+        nu, nr = spectra.n_u, spectra.n_r
+        if len(self.blocks) != nu:
+            raise ValueError("one ChannelBlock per SUT channel is needed")
+        self.ref_vectors = np.asarray(ref_vectors, float)
+        self.ref_pinv = np.linalg.pinv(self.ref_vectors)          # (3, n_r)
+        self.names = [n for b in self.blocks for n in b.param_names()]
+        self.ndim = len(self.names)
+        self.slices, i = [], 0
+        for b in self.blocks:
+            self.slices.append((slice(i, i + b.manifold.n_params),
+                                slice(i + b.manifold.n_params, i + b.n_params)))
+            i += b.n_params
+        c = spectra.total
+        self._cur = c[:, :nu, nu:]                                  # (F, nu, nr)
+        self._cuu = c[:, :nu, :nu]
+        self._srr = spectra.band_sums()[:, nu:, nu:]                # (B, nr, nr)
+        # one-hot band membership, (F, B)
+        self._onehot = np.eye(spectra.n_bands)[spectra.band_of]
+        # (nu, F, B*nr): row i of C_ur with the band indicator folded in
+        self._cur_rows = np.einsum("fb,fij->ifbj", self._onehot, self._cur).reshape(
+            nu, spectra.freqs.size, -1)
+        # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
+        self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
+        self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none"]
+        self.noise = None
+
+    # --- parameters -------------------------------------------------------
+    def unpack(self, theta):
+        """theta (W, ndim) -> SUT axes (W, n_u, 3) and response ratios (W, n_u, F)."""
+        theta = np.atleast_2d(theta)
+        w, f = theta.shape[0], self.spectra.freqs.size
+        vecs = np.empty((w, len(self.blocks), 3))
+        ratio = np.ones((w, len(self.blocks), f), dtype=complex)
+        for k, (b, (so, sr)) in enumerate(zip(self.blocks, self.slices)):
+            vecs[:, k] = b.manifold.vectors(theta[:, so])
+            r = theta[:, sr]
+            if b.free == "gain":
+                ratio[:, k] = b.family.gain_only_ratio(np.exp(r[:, 0]))
+            elif b.free == "all":
+                ratio[:, k] = b.family.ratio(self.spectra.freqs, np.exp(r[:, 0]), r[:, 1],
+                                             np.exp(r[:, 2]))
+        return vecs, ratio
+
+    def response_values(self, theta):
+        """Physical response parameters per channel: dict id -> (W, 3) of
+        (period_s, damping, gain), nominal where not free."""
+        theta = np.atleast_2d(theta)
+        out = {}
+        for b, (_, sr) in zip(self.blocks, self.slices):
+            if b.family is None:
+                continue
+            vals = np.tile([b.family.period_s, b.family.damping, b.family.gain], (theta.shape[0], 1))
+            r = theta[:, sr]
+            if b.free == "gain":
+                vals[:, 2] = np.exp(r[:, 0])
+            elif b.free == "all":
+                vals[:, 0], vals[:, 1], vals[:, 2] = np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2])
+            out[b.channel_id] = vals
+        return out
+
+    def log_prior(self, theta):
+        theta = np.atleast_2d(theta)
+        lp = np.zeros(theta.shape[0])
+        pr = self.priors
+        for b, (so, sr) in zip(self.blocks, self.slices):
+            lp += b.manifold.log_prior(theta[:, so])
+            if b.free == "none":
+                continue
+            r = theta[:, sr]
+            lg = r[:, -1] - np.log(b.family.gain)
+            bad = np.abs(lg) > np.log(pr.gain_factor)
+            if b.free == "all":
+                lt = r[:, 0] - np.log(b.family.period_s)
+                bad |= np.abs(lt) > np.log(pr.period_factor)
+                bad |= (r[:, 1] < pr.damping_range[0]) | (r[:, 1] > pr.damping_range[1])
+            lp[bad] = -np.inf
+        return lp
+
+    # --- residual and likelihood -----------------------------------------
+    def residual(self, theta):
+        """R_b(theta), shape (W, B, n_u, n_r)."""
+        vecs, ratio = self.unpack(theta)
+        w = vecs.shape[0]
+        nb, nr = self.spectra.n_bands, self.spectra.n_r
+        t = vecs @ self.ref_pinv                                    # (W, nu, nr)
+        r = np.broadcast_to(self._sur_nominal, (w,) + self._sur_nominal.shape).copy()
+        if self._free_rows:
+            k = self._free_rows
+            # batched BLAS: (k, W, F) @ (k, F, B*nr) -> (k, W, B*nr)
+            rows = np.matmul(ratio[:, k].transpose(1, 0, 2), self._cur_rows[k])
+            r[:, :, k, :] = rows.reshape(len(k), w, nb, nr).transpose(1, 2, 0, 3)
+        r -= np.matmul(t[:, None], self._srr[None])                 # (W, B, nu, nr)
+        return r
+
+    def log_likelihood(self, theta):
+        r = self.residual(theta)
+        arb = np.matmul(np.matmul(self.noise.A[None], r), self.noise.B[None])
+        return -np.sum((arb * r.conj()).real, axis=(1, 2, 3))
+
+    def log_prob(self, theta):
+        """Vectorised log posterior for emcee: theta (W, ndim) -> (W,)."""
+        theta = np.atleast_2d(theta)
+        lp = self.log_prior(theta)
+        ok = np.isfinite(lp)
+        out = np.full(theta.shape[0], -np.inf)
+        if ok.any():
+            out[ok] = lp[ok] + self.log_likelihood(theta[ok])
+        return out
+
+    def whitened_residual(self, theta, factors):
+        """Real vector whose squared norm is ``-log L`` (for least squares)."""
+        la, lb = factors
+        r = self.residual(np.atleast_2d(theta))[0]
+        z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
+        return np.concatenate([z.real.ravel(), z.imag.ravel()])
+
+    # --- noise model -------------------------------------------------------
+    def estimate_noise(self, theta0):
+        """Plug-in noise model at ``theta0`` (see module docstring); sets and
+        returns ``self.noise``."""
+        sp = self.spectra
+        nu = sp.n_u
+        vecs, ratio = self.unpack(theta0)
+        t = (vecs @ self.ref_pinv)[0]
+        rho = ratio[0]                                               # (nu, F)
+        # per-bin residual power summed in each band: sum e e^H
+        yu_yu = np.einsum("if,fij,jf->fij", rho, self._cuu, rho.conj())
+        yu_yr = rho.T[:, :, None] * self._cur
+        e = (yu_yu - t @ yu_yr.conj().transpose(0, 2, 1) - yu_yr @ t.T
+             + t @ sp.total[:, nu:, nu:] @ t.T)
+        sum_e = np.einsum("fb,fij->bij", self._onehot, e)
+        n_bins = sp.bins_per_band * sp.n_segments
+        sigma = sum_e / n_bins[:, None, None]
+        sigma_inv = np.linalg.inv(sigma)
+        b_inv = np.linalg.inv(self._srr)
+        # per-segment band residuals, the band's response ratio at its centre
+        rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
+        seg = sp.per_segment
+        r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
+            "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
+        q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
+        adjacent = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
+        q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
+                       r_k[adjacent].conj()).real
+        p = nu * sp.n_r
+        raw = (q0 + 2.0 * q1) / p
+        pooled = raw.mean()
+        wgt = sp.n_segments * p
+        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
+        c = np.maximum(c, 1e-3 * pooled)
+        self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv, sigma=sigma, inflation=c)
+        return self.noise
+
+    def standardized_band_residuals(self, theta):
+        """(B, n_u) chi-like misfit per band and SUT channel at ``theta``:
+        the whitened residual energy of each row divided by its expectation
+        (``n_r``); about 1 where the model fits."""
+        la, lb = self.noise.cholesky()
+        r = self.residual(np.atleast_2d(theta))[0]
+        z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
+        return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
+
+
+def seed_residual(s_uu, s_ru, v_u, v_r):
+    """The seed's original residual ``S_uu - V_u V_r^-1 S_ru`` (for
+    comparison; biased by the SUT's noise power, see module docstring)."""
+    return s_uu - v_u @ np.linalg.pinv(v_r) @ s_ru

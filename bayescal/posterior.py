@@ -1,0 +1,191 @@
+"""Posterior samples and what users read from them: per-channel azimuth, dip
+(or tilt) and response summaries with credible intervals, convergence
+figures, and the ``result.json`` / ``samples.npz`` pair on disk.
+
+Intervals are equal-tailed: ``ci68`` = [16, 84] %, ``ci90`` = [5, 95] %,
+``ci95`` = [2.5, 97.5] % quantiles of the samples. Azimuths are unwrapped
+around their circular mean first, so an interval crossing north stays
+contiguous (e.g. [-0.4, 0.6]).
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .geometry import NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_from_vertical, unwrap_azimuths
+
+SCHEMA = "bayescal.fit/1"
+QUANTILES = {"ci68": (16.0, 84.0), "ci90": (5.0, 95.0), "ci95": (2.5, 97.5)}
+
+
+def interval_summary(x):
+    """Median, mean, sd and equal-tailed 68/90/95 % intervals of samples."""
+    x = np.asarray(x, float)
+    out = {"median": float(np.median(x)), "mean": float(np.mean(x)), "sd": float(np.std(x))}
+    for key, (lo, hi) in QUANTILES.items():
+        out[key] = [float(np.percentile(x, lo)), float(np.percentile(x, hi))]
+    return out
+
+
+def fixed_summary(value):
+    """Summary of a quantity held fixed (not estimable from the data)."""
+    return {"median": float(value), "fixed": True}
+
+
+@dataclass
+class Posterior:
+    """Samples of one fit and their physical meaning.
+
+    Attributes
+    ----------
+    channel_ids : fitted SUT channels (SEED ids), in order.
+    kinds : per channel "sphere" (azimuth and dip estimated), "circle"
+        (azimuth in the reference's plane) or "fixed" (response only).
+    vectors : (N, n_ch, 3) sampled channel axes (NED).
+    response : channel id -> (N, 3) period_s, damping, gain samples; only
+        for channels whose response was fitted.
+    samples, names, log_prob : raw sampler output in model coordinates.
+    convergence : tau, ESS, R-hat, acceptance, steps.
+    meta : anything the caller wants kept (band, data used, nominal values).
+    """
+
+    channel_ids: list
+    kinds: list
+    vectors: np.ndarray
+    response: dict
+    samples: np.ndarray
+    names: list
+    log_prob: np.ndarray
+    convergence: dict
+    meta: dict = field(default_factory=dict)
+    not_estimable: dict = field(default_factory=dict)
+    trace: np.ndarray | None = None
+    diagnostics: dict = field(default_factory=dict)
+
+    @property
+    def azimuth_dip(self):
+        """(azimuth, dip) sample arrays (N, n_ch) in SEED degrees; azimuths
+        unwrapped per channel around their circular mean."""
+        az, dip = azimuth_dip(self.vectors)
+        az = np.stack([unwrap_azimuths(az[:, k]) for k in range(az.shape[1])], axis=1)
+        return az, dip
+
+    def channel_summary(self, k):
+        cid = self.channel_ids[k]
+        az, dip = self.azimuth_dip
+        med_dip = float(np.median(dip[:, k]))
+        entry = {"kind": self.kinds[k]}
+        if self.kinds[k] == "fixed":
+            entry["azimuth_deg"] = fixed_summary(np.median(az[:, k]))
+            entry["dip_deg"] = fixed_summary(med_dip)
+        elif self.kinds[k] == "circle":
+            entry["azimuth_deg"] = interval_summary(az[:, k])
+            entry["dip_deg"] = fixed_summary(med_dip)
+        elif abs(med_dip) > NEAR_VERTICAL_DIP_DEG:
+            tilt, toward = tilt_from_vertical(self.vectors[:, k])
+            entry["azimuth_deg"] = {"median": float(np.median(az[:, k])), "undefined": True,
+                                    "note": "near-vertical channel: azimuth is not constrained;"
+                                            " see tilt_deg"}
+            entry["dip_deg"] = interval_summary(dip[:, k])
+            entry["tilt_deg"] = interval_summary(tilt)
+            entry["tilt_toward_azimuth_deg"] = float(np.median(unwrap_azimuths(toward)))
+        else:
+            entry["azimuth_deg"] = interval_summary(az[:, k])
+            entry["dip_deg"] = interval_summary(dip[:, k])
+        if cid in self.response:
+            r = self.response[cid]
+            entry["response"] = {name: interval_summary(r[:, j])
+                                 for j, name in enumerate(("period_s", "damping", "gain"))
+                                 if self.meta.get("free_response") == "all" or name == "gain"}
+        nominal = self.meta.get("nominal", {}).get(cid)
+        if nominal:
+            entry["nominal"] = nominal
+        return entry
+
+    def summary(self):
+        """The ``result.json`` content (schema ``bayescal.fit/1``)."""
+        conv = self.convergence
+        return {
+            "schema": SCHEMA,
+            "channels": {cid: self.channel_summary(k) for k, cid in enumerate(self.channel_ids)},
+            "not_estimable": self.not_estimable,
+            "convergence": {"ess_min": float(np.min(conv["ess"])),
+                            "tau_max": float(np.max(conv["tau"])),
+                            "rhat_max": float(np.max(conv["rhat"])),
+                            "n_steps": int(conv["n_steps"]),
+                            "n_walkers": int(conv["n_walkers"]),
+                            "acceptance": float(conv["acceptance"]),
+                            "converged": bool(conv["converged"]),
+                            "per_parameter": {n: {"tau": float(t), "ess": float(e), "rhat": float(r)}
+                                              for n, t, e, r in zip(self.names, conv["tau"],
+                                                                    conv["ess"], conv["rhat"])}},
+            "meta": _jsonable(self.meta),
+        }
+
+    # --- disk ---------------------------------------------------------------
+    def save(self, folder):
+        """Write ``result.json`` and ``samples.npz`` into ``folder`` atomically
+        (each file is written to a temporary name, then renamed)."""
+        os.makedirs(folder, exist_ok=True)
+        arrays = {"samples": self.samples, "log_prob": self.log_prob, "vectors": self.vectors}
+        for cid, r in self.response.items():
+            arrays[f"response::{cid}"] = r
+        if self.trace is not None:
+            arrays["trace"] = self.trace
+        extra = {"channel_ids": self.channel_ids, "kinds": self.kinds, "names": self.names,
+                 "convergence": _jsonable(self.convergence)}
+        tmp = os.path.join(folder, ".samples.tmp.npz")
+        np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
+        os.replace(tmp, os.path.join(folder, "samples.npz"))
+        if self.diagnostics:
+            tmp = os.path.join(folder, ".diagnostics.tmp.npz")
+            np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in self.diagnostics.items()})
+            os.replace(tmp, os.path.join(folder, "diagnostics.npz"))
+        write_json(os.path.join(folder, "result.json"), self.summary())
+
+    @classmethod
+    def load(cls, folder):
+        with open(os.path.join(folder, "result.json")) as fh:
+            summary = json.load(fh)
+        with np.load(os.path.join(folder, "samples.npz")) as z:
+            extra = json.loads(str(z["extra"]))
+            response = {k.split("::", 1)[1]: z[k] for k in z.files if k.startswith("response::")}
+            conv = {k: (np.asarray(v) if isinstance(v, list) else v)
+                    for k, v in extra["convergence"].items()}
+            post = cls(channel_ids=extra["channel_ids"], kinds=extra["kinds"], vectors=z["vectors"],
+                       response=response, samples=z["samples"], names=extra["names"],
+                       log_prob=z["log_prob"], convergence=conv, meta=summary.get("meta", {}),
+                       not_estimable=summary.get("not_estimable", {}),
+                       trace=z["trace"] if "trace" in z.files else None)
+        diag = os.path.join(folder, "diagnostics.npz")
+        if os.path.exists(diag):
+            with np.load(diag) as z:
+                post.diagnostics = {k: z[k] for k in z.files}
+        return post
+
+
+def write_json(path, obj):
+    """Write JSON atomically (temporary file, then rename)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as fh:
+        json.dump(_jsonable(obj), fh, indent=2)
+    os.replace(tmp, path)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if np.isfinite(obj) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    return obj

@@ -1,0 +1,128 @@
+"""Instrument responses: evaluation from ObsPy ``Response`` and the parametric
+family (natural period T0, damping h, generator gain G) of a velocity sensor.
+
+The parametric response of a channel is its complete nominal response with
+the two long-period poles and the first-stage gain replaced:
+
+    H(f; T0, h, G) = H_nom(f) * (G / G_nom) * |D(s_n; p)| / |D(s_n; p_nom)|
+                     * D(s; p_nom) / D(s; p),
+
+    D(s; p) = s^2 + 2 h w0 s + w0^2,   w0 = 2 pi / T0,   s = 2 pi i f,
+
+where ``s_n`` is the first stage's normalisation frequency, so that G keeps
+the meaning StationXML gives it: the first stage's gain (V per m/s for a
+broadband) at the normalisation frequency. Every other pole, zero and stage
+stays at its nominal value. All responses are returned as *velocity*
+responses (counts per m/s) whatever the input units of the StationXML, so a
+sensor whose response is given in acceleration is handled by ObsPy's unit
+conversion rather than mis-scaled.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Names of the response parameters, in the order used everywhere.
+RESPONSE_PARAMS = ("period_s", "damping", "gain")
+
+
+class ResponseError(ValueError):
+    """A response cannot be used as asked (missing stage, wrong type...)."""
+
+
+def evaluate_velocity_response(response, freqs):
+    """Complex velocity response (counts per m/s) of an ObsPy ``Response``."""
+    freqs = np.asarray(freqs, dtype=float)
+    h = response.get_evalresp_response_for_frequencies(
+        freqs, output="VEL", hide_sensitivity_mismatch_warning=True)
+    return np.asarray(h, dtype=complex)
+
+
+def _first_paz_stage(response):
+    stages = getattr(response, "response_stages", None) or []
+    if not stages or not hasattr(stages[0], "poles"):
+        raise ResponseError("the first response stage is not poles and zeros")
+    return stages[0]
+
+
+@dataclass(frozen=True)
+class TwoPoleFamily:
+    """The parametric family of one channel (see module docstring).
+
+    ``ratio`` is vectorised over walkers and is the only thing the likelihood
+    calls; it never touches ObsPy.
+    """
+
+    period_s: float           # nominal T0
+    damping: float            # nominal h
+    gain: float               # nominal first-stage gain G_nom
+    norm_freq: float          # first-stage normalisation frequency (Hz)
+    gain_units: str
+
+    @classmethod
+    def from_response(cls, response):
+        """Nominal T0, h, G read from the first (poles and zeros) stage."""
+        st = _first_paz_stage(response)
+        poles = np.array([complex(p) for p in st.poles])
+        if poles.size < 2:
+            raise ResponseError("the first stage has fewer than two poles")
+        if "HERTZ" in str(st.pz_transfer_function_type).upper():
+            poles = poles * 2.0 * np.pi
+        p1, p2 = poles[np.argsort(np.abs(poles))[:2]]
+        w0sq = (p1 * p2).real
+        two_h_w0 = -(p1 + p2).real
+        if w0sq <= 0:
+            raise ResponseError("the two long-period poles do not form a pendulum pair")
+        w0 = np.sqrt(w0sq)
+        unit = getattr(st.input_units, "upper", lambda: str(st.input_units))()
+        out = str(getattr(st, "output_units", "V"))
+        fn = st.normalization_frequency or (response.instrument_sensitivity.frequency
+                                            if response.instrument_sensitivity else 1.0)
+        return cls(period_s=2 * np.pi / w0, damping=two_h_w0 / (2 * w0), gain=float(st.stage_gain),
+                   norm_freq=float(fn), gain_units=f"{out}/{unit}")
+
+    @staticmethod
+    def _d(s, w0, h):
+        return s * s + 2.0 * h * w0 * s + w0 * w0
+
+    def ratio(self, freqs, period_s, damping, gain):
+        """H(f; T0, h, G) / H_nom(f) for arrays of parameters.
+
+        ``period_s``, ``damping``, ``gain`` have shape (W,) (or are scalars);
+        returns shape (W, F).
+        """
+        s = 2j * np.pi * np.asarray(freqs)[None, :]
+        sn = 2j * np.pi * self.norm_freq
+        w0 = (2 * np.pi / np.atleast_1d(period_s))[:, None]
+        h = np.atleast_1d(damping)[:, None]
+        g = np.atleast_1d(gain)[:, None]
+        w0n, hn = 2 * np.pi / self.period_s, self.damping
+        d_new = self._d(s, w0, h)
+        d_nom = self._d(s, w0n, hn)
+        a0 = np.abs(self._d(sn, w0, h)) / abs(self._d(sn, w0n, hn))
+        return (g / self.gain) * a0 * d_nom / d_new
+
+    def gain_only_ratio(self, gain):
+        """H/H_nom when only the gain differs: (W,) -> (W, 1)."""
+        return (np.atleast_1d(gain) / self.gain)[:, None]
+
+
+def paz_velocity_response(freqs, period_s, damping, gain, extra_poles=(), digitizer_gain=1.0,
+                          norm_freq=1.0):
+    """Velocity response (counts per m/s) of an ideal broadband: two pendulum
+    poles, two zeros at the origin, optional extra real poles (rad/s), gain
+    ``gain`` (V per m/s) at ``norm_freq`` and a flat digitizer (counts/V).
+    Used by the simulator to build the *true* responses independently of
+    ObsPy's evaluation, and by tests as a second construction."""
+    s = 2j * np.pi * np.asarray(freqs, dtype=float)
+    sn = 2j * np.pi * norm_freq
+    w0 = 2 * np.pi / period_s
+
+    def paz(x):
+        out = x * x / (x * x + 2 * damping * w0 * x + w0 * w0)
+        for p in extra_poles:
+            out = out / (x - p)
+        return out
+
+    return gain * digitizer_gain * paz(s) / np.abs(paz(sn))

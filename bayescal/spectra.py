@@ -1,0 +1,214 @@
+"""Cross-spectral matrices of all channels, per segment, grouped in bands.
+
+Convention (written once, here): for a vector of channel spectra ``Z(f)`` the
+cross-spectral matrix is ``C = Z Z^H``, i.e. ``C[i, j] = Z_i conj(Z_j)`` (the
+seed's ``X X^H``). scipy's ``csd(x, y)`` returns ``E[conj(X) Y]``, which is
+``C[j, i]`` here, the complex conjugate of ``C[i, j]``. Spectra use numpy's
+forward FFT (``exp(-2 pi i f t)``), under which a causal filter with Laplace
+transform ``H(s)`` multiplies the spectrum by ``H(2 pi i f)``, as ObsPy's
+responses assume.
+
+Channels are ordered SUT first, reference second: ``Z = [Y_u; Y_r]``. Every
+channel is deconvolved to ground velocity (m/s) by its *nominal* response
+(SUT) or its known response (reference); the parametric SUT response then
+enters the likelihood as a ratio to the nominal.
+
+Segments stream through in chunks, so memory holds one chunk of segments plus
+the per-frequency totals and the small per-segment band matrices; it does not
+grow with the record beyond ``K x B x n x n`` numbers.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.signal import detrend
+from scipy.signal.windows import hann
+
+
+class SpectraError(ValueError):
+    """The data cannot give the spectra asked for (too short, empty band...)."""
+
+
+@dataclass
+class CrossSpectra:
+    """Segment-summed cross-spectra of SUT and reference channels.
+
+    Attributes
+    ----------
+    freqs : (F,) frequencies (Hz) inside the analysis band.
+    band_edges : (B+1,) band edges (Hz); ``band_of`` (F,) gives each bin's band.
+    total : (F, n, n) sum over used segments of ``Z Z^H`` (ground units).
+    per_segment : (K, B, n, n) the same summed within each band, per segment:
+        the raw material of the noise model and of the diagnostics.
+    segment_starts : (K,) first sample of each used segment.
+    n_u, n_r : numbers of SUT and reference channels.
+    psd_scale : multiply ``total / K`` by this to get one-sided PSD, (m/s)^2/Hz.
+    """
+
+    fs: float
+    nperseg: int
+    step: int
+    freqs: np.ndarray
+    band_edges: np.ndarray
+    band_of: np.ndarray
+    total: np.ndarray
+    per_segment: np.ndarray
+    segment_starts: np.ndarray
+    n_u: int
+    n_r: int
+    n_segments_possible: int
+    psd_scale: float
+    sut_ids: list = field(default_factory=list)
+    ref_ids: list = field(default_factory=list)
+
+    @property
+    def n_segments(self):
+        return int(self.per_segment.shape[0])
+
+    @property
+    def n_bands(self):
+        return int(self.band_edges.size - 1)
+
+    @property
+    def band_centres(self):
+        return np.sqrt(self.band_edges[:-1] * self.band_edges[1:])
+
+    @property
+    def bins_per_band(self):
+        return np.bincount(self.band_of, minlength=self.n_bands)
+
+    def band_sums(self):
+        """(B, n, n) sum of ``total`` within each band."""
+        return self.per_segment.sum(axis=0)
+
+    def psd(self):
+        """(n, F) one-sided PSD of every channel, (m/s)^2/Hz, nominal responses."""
+        d = np.real(np.einsum("fii->if", self.total))
+        return d * self.psd_scale / self.n_segments
+
+    def coherence(self, i, j):
+        """(F,) magnitude-squared coherence between channels ``i`` and ``j``."""
+        c = self.total
+        return np.abs(c[:, i, j]) ** 2 / np.real(c[:, i, i] * c[:, j, j])
+
+    def multiple_coherence(self):
+        """(n_u, F): squared multiple coherence of each SUT channel with all
+        reference channels (the fraction of its power the reference explains)."""
+        nu = self.n_u
+        cuu = np.real(np.einsum("fii->fi", self.total[:, :nu, :nu]))
+        cur = self.total[:, :nu, nu:]
+        crr_inv = np.linalg.inv(self.total[:, nu:, nu:])
+        expl = np.real(np.einsum("fij,fjk,fik->fi", cur, crr_inv, cur.conj()))
+        return (expl / cuu).T
+
+    @property
+    def fraction_used(self):
+        return self.n_segments / max(self.n_segments_possible, 1)
+
+    def select(self, sut_index):
+        """The same spectra restricted to the SUT channels ``sut_index``."""
+        sut_index = list(sut_index)
+        keep = sut_index + list(range(self.n_u, self.n_u + self.n_r))
+        ix = np.ix_(keep, keep)
+        return replace(
+            self, total=self.total[:, ix[0], ix[1]],
+            per_segment=self.per_segment[:, :, ix[0], ix[1]], n_u=len(sut_index),
+            sut_ids=[self.sut_ids[i] for i in sut_index] if self.sut_ids else [])
+
+
+def default_nperseg(fs, fmin, n_samples, cycles=10):
+    """Power-of-two segment length giving ``cycles`` periods of ``fmin``
+    (so the lowest band holds enough bins), limited to a quarter of the data."""
+    want = int(2 ** np.ceil(np.log2(cycles * fs / fmin)))
+    return want
+
+
+def make_bands(freqs, fmin, fmax, bands_per_decade=6, min_bins=8):
+    """Log-spaced band edges within [fmin, fmax]; a band with fewer than
+    ``min_bins`` bins is merged with its upper neighbour."""
+    n = max(1, int(np.ceil(np.log10(fmax / fmin) * bands_per_decade)))
+    edges = list(np.geomspace(fmin, fmax, n + 1))
+    merged = [edges[0]]
+    for hi in edges[1:]:
+        cnt = np.count_nonzero((freqs >= merged[-1]) & (freqs < hi))
+        if cnt >= min_bins or hi == edges[-1]:
+            merged.append(hi)
+    # the last band may be too thin: merge it downward
+    if len(merged) > 2:
+        cnt = np.count_nonzero((freqs >= merged[-2]) & (freqs < merged[-1]))
+        if cnt < min_bins:
+            del merged[-2]
+    return np.asarray(merged)
+
+
+def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
+                  bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=()):
+    """Compute :class:`CrossSpectra` from SUT and reference samples.
+
+    Parameters
+    ----------
+    sut, ref : arrays (n_u, N) and (n_r, N) in counts on a common time grid.
+        NaN marks missing samples: a segment touching one is dropped.
+    fs : sampling rate (Hz).
+    sut_response, ref_response : callables ``freqs -> (n, F)`` complex
+        velocity responses (counts per m/s); nominal for the SUT.
+    band : (fmin, fmax) analysis band (Hz).
+    nperseg : segment length (samples); default from :func:`default_nperseg`.
+    overlap : fraction of segment overlap (Welch), 0.5 by default.
+    """
+    sut = np.atleast_2d(np.asarray(sut, dtype=float))
+    ref = np.atleast_2d(np.asarray(ref, dtype=float))
+    if sut.shape[1] != ref.shape[1]:
+        raise SpectraError("SUT and reference arrays differ in length")
+    fmin, fmax = map(float, band)
+    if not 0 < fmin < fmax:
+        raise SpectraError(f"band {band} is not a positive interval")
+    if fmax > fs / 2:
+        raise SpectraError(f"band upper edge {fmax} Hz is above Nyquist ({fs / 2} Hz)")
+    n_samples = sut.shape[1]
+    nperseg = int(nperseg or default_nperseg(fs, fmin, n_samples))
+    step = max(1, int(round(nperseg * (1 - overlap))))
+    if n_samples < nperseg + 3 * step:
+        raise SpectraError(
+            f"too little data for the band: {n_samples / fs:.0f} s recorded, the band's lower "
+            f"edge {fmin:g} Hz needs segments of {nperseg / fs:.0f} s and at least 4 of them")
+
+    all_f = np.fft.rfftfreq(nperseg, 1.0 / fs)
+    keep = (all_f >= fmin) & (all_f <= fmax)
+    freqs = all_f[keep]
+    edges = make_bands(freqs, fmin, fmax, bands_per_decade, min_bins)
+    band_of = np.clip(np.searchsorted(edges, freqs, side="right") - 1, 0, edges.size - 2)
+    bounds = np.r_[0, np.flatnonzero(np.diff(band_of)) + 1]
+
+    inv_resp = 1.0 / np.vstack([np.atleast_2d(sut_response(freqs)), np.atleast_2d(ref_response(freqs))])
+    win = hann(nperseg, sym=False)
+    data = np.vstack([sut, ref])
+    n = data.shape[0]
+    starts = np.arange(0, n_samples - nperseg + 1, step)
+    total = np.zeros((freqs.size, n, n), dtype=complex)
+    per_seg, used = [], []
+    for c0 in range(0, starts.size, chunk):
+        s = starts[c0:c0 + chunk]
+        idx = s[:, None] + np.arange(nperseg)[None, :]
+        seg = data[:, idx].transpose(1, 0, 2)                 # (k, n, nperseg)
+        ok = np.all(np.isfinite(seg), axis=(1, 2))
+        if not ok.any():
+            continue
+        seg = detrend(seg[ok], axis=-1, type="linear") * win
+        z = np.fft.rfft(seg, axis=-1)[:, :, keep] * inv_resp[None]   # (k, n, F)
+        prod = np.einsum("kif,kjf->kfij", z, z.conj())
+        total += prod.sum(axis=0)
+        per_seg.append(np.add.reduceat(prod, bounds, axis=1))
+        used.append(s[ok])
+    if not per_seg:
+        raise SpectraError("no segment without gaps: every window touches missing data")
+    per_segment = np.concatenate(per_seg)
+    if per_segment.shape[0] < 4:
+        raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
+                           " too little data for the band")
+    return CrossSpectra(
+        fs=float(fs), nperseg=nperseg, step=step, freqs=freqs, band_edges=edges, band_of=band_of,
+        total=total, per_segment=per_segment, segment_starts=np.concatenate(used),
+        n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),
+        psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids))
