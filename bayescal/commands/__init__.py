@@ -1,0 +1,1 @@
+"""One module per ``bayescal`` sub-command (see :mod:`bayescal.cli`)."""
