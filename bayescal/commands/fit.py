@@ -1,0 +1,161 @@
+"""Calibrate a sensor under test (SUT) against a co-located reference.
+
+Reads both sensors' recordings (any format ObsPy reads; several files per
+side) and StationXML, estimates the SUT's channel orientations (and, with
+--fit-response, its response), and writes into DIR:
+
+  result.json        medians, 68/90/95 % credible intervals, convergence,
+                     the band and the amount of data used
+  samples.npz        posterior samples
+  diagnostics.npz    spectra, coherence and misfit per band (for reports)
+  sut_corrected.xml  the SUT's StationXML with azimuth, dip (and fitted
+                     response values) replaced by posterior medians, with
+                     plusError/minusError from the 68 % interval
+
+Example:
+  bayescal fit --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
+               --out result --band 0.05 1 --start 2024-01-01T00:00:00 --end 2024-01-01T06:00:00
+
+Sensors without StationXML that are flat (velocity) in the band: give
+--ref-xml flat / --sut-xml flat (orientation from the channel code: N or 1 =
+north, E or 2 = east, Z = vertical).
+
+Exit codes: 0 success, 2 bad input (one line naming the file and the problem;
+nothing is written to DIR).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import tempfile
+import time
+import warnings
+
+HELP = "estimate the SUT's orientation (and response) from recordings beside a reference"
+
+
+def _time(text):
+    import argparse
+
+    from obspy import UTCDateTime
+    try:
+        return UTCDateTime(text)
+    except Exception:
+        raise argparse.ArgumentTypeError(f"not a time: {text!r} (use e.g. 2010-08-24T02:00:00)")
+
+
+def configure(parser):
+    """Arguments of ``bayescal fit``."""
+    g = parser.add_argument_group("inputs")
+    g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
+                   help="reference recording(s): miniSEED or any format ObsPy reads")
+    g.add_argument("--ref-xml", required=True, metavar="XML",
+                   help="reference StationXML (azimuth, dip, response), or 'flat'")
+    g.add_argument("--sut", nargs="+", required=True, metavar="FILE",
+                   help="recording(s) of the sensor under test")
+    g.add_argument("--sut-xml", required=True, metavar="XML",
+                   help="SUT StationXML with its nominal metadata, or 'flat'")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--fit-response", nargs="?", const="all", default="none",
+                        choices=["all", "gain"],
+                        help="also fit the SUT's response: 'all' (default when given: natural "
+                             "period, damping and gain per channel) or 'gain' only")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: chosen from the data where the "
+                             "sensors are coherent)")
+    parser.add_argument("--start", type=_time, metavar="T",
+                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
+    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+
+
+def _say(args, text):
+    if not args.quiet:
+        print(text, file=sys.stderr)
+
+
+def _fmt(entry):
+    if "ci95" in entry:
+        lo, hi = entry["ci95"]
+        return f"{entry['median']:.3f} [{lo:.3f}, {hi:.3f}]"
+    return f"{entry['median']:.3f} (fixed)"
+
+
+def print_summary(summary, stream=sys.stdout):
+    """A short table of the result: medians and 95 % intervals."""
+    print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
+    for cid, e in summary["channels"].items():
+        print(f"{cid:22s}  {_fmt(e['azimuth_deg']):28s}  {_fmt(e['dip_deg'])}", file=stream)
+        for name, r in e.get("response", {}).items():
+            print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+    for cid, why in summary.get("not_estimable", {}).items():
+        print(f"{cid:22s}  not estimable: {why}", file=stream)
+    c = summary["convergence"]
+    print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
+          f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
+
+
+def _publish(tmp, out):
+    """Move the finished files from ``tmp`` into ``out``."""
+    if not os.path.exists(out):
+        os.replace(tmp, out)
+        return
+    for name in os.listdir(tmp):
+        os.replace(os.path.join(tmp, name), os.path.join(out, name))
+    shutil.rmtree(tmp, ignore_errors=True)
+
+
+def run(args):
+    """Run the fit; returns the exit code."""
+    from ..io import InputError, InputWarning
+    from ..pipeline import calibrate_files
+    from ..stationxml import write_corrected
+
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"{args.out}: exists and is not a folder")
+    t_start = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", InputWarning)
+        _say(args, "bayescal fit: reading recordings and metadata ...")
+        post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+                               band=tuple(args.band) if args.band else None,
+                               fit_response=args.fit_response, seed=args.seed,
+                               start=args.start, end=args.end, progress=not args.quiet)
+    for w in caught:
+        if issubclass(w.category, InputWarning):
+            print(f"bayescal: warning: {w.message}", file=sys.stderr)
+    meta = post.meta
+    lo, hi = meta["band_hz"]
+    _say(args, f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})")
+    used = meta["data_used"]
+    _say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
+               f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
+    parent = os.path.dirname(out) or "."
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    try:
+        post.save(tmp)
+        write_corrected(post.sut_inventory, post, os.path.join(tmp, "sut_corrected.xml"))
+        if not args.no_report:
+            try:
+                import bayescal.report as report
+            except ImportError:
+                report = None
+            if report is not None:
+                report.write_report(tmp)
+        _publish(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    elapsed = time.perf_counter() - t_start
+    if not args.quiet:
+        print_summary(post.summary())
+    _say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
+    return 0
