@@ -1,0 +1,172 @@
+"""Batch calibration of a simulated network (3 stations x 3 days, 1 h a day
+at 10 Hz): every item done once, the rotated station flagged on the day it
+turned and no other, a killed run resumed without redoing or losing items,
+the same numbers with 1 and 2 workers, bad pairs recorded without stopping
+the others."""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from bayescal.batch import item_seed, read_log, run_batch
+from bayescal.batch_report import read_results
+from bayescal.cli import main
+from bayescal.netsim import sds_path, write_network
+from bayescal.plan import read_csv_plan, sds_plan
+
+SEED = 7
+THRESHOLD = 2.0
+
+
+@pytest.fixture(scope="module")
+def net(tmp_path_factory):
+    return write_network(tmp_path_factory.mktemp("net"), n_stations=3, n_days=3, seed=3,
+                         rotated_station="ST02", rotation_deg=5.0)
+
+
+@pytest.fixture(scope="module")
+def killed_then_resumed(net, tmp_path_factory):
+    """Run the CLI in a subprocess, SIGKILL it (and its workers) once two
+    items are finished, then resume in this process with 2 workers."""
+    out = str(tmp_path_factory.mktemp("run"))
+    cmd = [sys.executable, "-m", "bayescal.cli", "batch", "--plan", f"sds:{net['archive']}",
+           "--inventory", net["inventory"], "--out", out, "--workers", "1", "--seed", str(SEED),
+           "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    labels = [it["label"] for it in sds_plan(net["archive"], net["inventory"])]
+    deadline = time.time() + 150
+    try:
+        while time.time() < deadline:
+            done = [lb for lb in labels if os.path.exists(os.path.join(out, lb, "result.json"))]
+            if len(done) >= 2:
+                break
+            assert proc.poll() is None, "batch subprocess ended before it could be killed"
+            time.sleep(0.1)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)   # the subprocess and its Dask workers
+        proc.wait()
+    before = {lb: os.path.getmtime(os.path.join(out, lb, "result.json")) for lb in labels
+              if os.path.exists(os.path.join(out, lb, "result.json"))}
+    log_before = read_log(out)
+    summary = run_batch(sds_plan(net["archive"], net["inventory"]), out, seed=SEED, workers=2,
+                        processes=False, quiet=True, threshold_deg=THRESHOLD)
+    return {"out": out, "labels": labels, "before": before, "log_before": log_before,
+            "summary": summary}
+
+
+def test_killed_run_resumes_without_redoing_or_losing(killed_then_resumed):
+    r = killed_then_resumed
+    assert 2 <= len(r["before"]) < len(r["labels"])
+    for lb, mtime in r["before"].items():   # finished before the kill: untouched
+        assert os.path.getmtime(os.path.join(r["out"], lb, "result.json")) == mtime
+    assert r["summary"]["skipped"] == len(r["before"])
+    assert r["summary"]["computed"] == len(r["labels"]) - len(r["before"])
+    assert r["summary"]["failed"] == 0
+    # every item done exactly once over both runs, none lost, nothing half-written left
+    log = read_log(r["out"])
+    done = [e["label"] for e in log if e["event"] == "done"]
+    assert sorted(done) == sorted(set(done))
+    assert set(done) | set(r["before"]) == set(r["labels"])
+    assert set(done[len([e for e in r["log_before"] if e["event"] == "done"]):]).isdisjoint(
+        r["before"])
+    for lb in r["labels"]:
+        assert os.path.exists(os.path.join(r["out"], lb, "result.json"))
+    assert not os.path.exists(os.path.join(r["out"], ".tmp"))
+
+
+def test_results_match_truth_and_rotated_station_flagged(killed_then_resumed, net):
+    out = killed_then_resumed["out"]
+    rows = read_results(os.path.join(out, "results.csv"))
+    assert len(rows) == 9 * 3 and all(r["error"] == "" for r in rows)
+    with open(net["truth"]) as fh:
+        truth = json.load(fh)
+    for r in rows:
+        true = truth["stations"][r["station"].split(".")[1]]["days"][r["day"]][r["channel"]]
+        if r["azimuth"] is not None:
+            err = (r["azimuth"] - true["azimuth_deg"] + 180) % 360 - 180
+            assert abs(err) < 0.6, (r["label"], r["channel"], err)
+            assert r["azimuth_lo95"] < r["azimuth"] < r["azimuth_hi95"]
+        assert abs(r["dip"] - true["dip_deg"]) < 0.6
+        assert r["ess_min"] >= 1000 and r["rhat_max"] < 1.01
+    flags = killed_then_resumed["summary"]["flag_list"]
+    assert {f["station"] for f in flags} == {"XX.ST02"}
+    changed = [f for f in flags if f["flag"] == "changed"]
+    assert {(f["channel"].split(".")[-1], f["quantity"], f["day"]) for f in changed} == \
+        {("BH1", "azimuth", "2026-01-02"), ("BH2", "azimuth", "2026-01-02")}
+    for f in changed:
+        assert abs(f["value"] - 5.0) < 0.6
+    off = {(f["channel"].split(".")[-1], f["day"]) for f in flags if f["flag"] == "off_nominal"}
+    assert off == {(c, d) for c in ("BH1", "BH2") for d in ("2026-01-02", "2026-01-03")}
+    with open(os.path.join(out, "flags.csv")) as fh:
+        assert len(list(csv.DictReader(fh))) == len(flags)
+    for name in ("report.pdf", "report.png"):
+        assert os.path.getsize(os.path.join(out, name)) > 10_000
+
+
+def test_same_seed_same_numbers_with_one_or_two_workers(killed_then_resumed, net, tmp_path):
+    r = killed_then_resumed
+    redo = [lb for lb in r["labels"] if lb not in r["before"]][:2]   # made with 2 workers
+    items = [it for it in sds_plan(net["archive"], net["inventory"]) if it["label"] in redo]
+    run_batch(items, str(tmp_path), seed=SEED, workers=1, processes=False, quiet=True,
+              report=False)
+    for lb in redo:
+        a = np.load(os.path.join(r["out"], lb, "samples.npz"))["samples"]
+        b = np.load(os.path.join(tmp_path, lb, "samples.npz"))["samples"]
+        np.testing.assert_array_equal(a, b)
+        with open(os.path.join(tmp_path, lb, "item.json")) as fh:
+            assert json.load(fh)["seed"] == item_seed(SEED, lb)
+    assert item_seed(SEED, redo[0]) != item_seed(SEED + 1, redo[0]) != item_seed(SEED, redo[1])
+
+
+def test_csv_plan_bad_pairs_recorded_others_done(net, tmp_path, capsys):
+    day = net["days"][0]
+    files = {loc: ";".join(sds_path(net["archive"], "XX", "ST01", loc, c, day)
+                           for c in (("BH1", "BH2", "BHZ") if loc == "10" else
+                                     ("BHN", "BHE", "BHZ")))
+             for loc in ("10", "00")}
+    xml = os.path.join(net["inventory"], "XX.ST01.xml")
+    plan = tmp_path / "plan.csv"
+    plan.write_text(
+        "label,ref,ref_xml,sut,sut_xml,band_min,band_max,start,end\n"
+        f"good,{files['00']},{xml},{files['10']},{xml},0.05,1.0,,\n"
+        f"missing,{files['00']},{xml},/nonexistent/sut.mseed,{xml},,,,\n"
+        f"no_overlap,{files['00']},{xml},{files['10']},{xml},,,"
+        f"{day}T05:00:00,{day}T06:00:00\n")
+    out = tmp_path / "out"
+    code = main(["batch", "--plan", str(plan), "--out", str(out), "--workers", "1", "--quiet",
+                 "--seed", "1"])
+    assert code == 1   # some items failed
+    assert "1 calibrated" in capsys.readouterr().out
+    rows = {r["label"]: r for r in read_results(out / "results.csv")
+            if not r["channel"].endswith("BHZ")}
+    assert "/nonexistent/sut.mseed: waveform file not found" in rows["missing"]["error"]
+    assert "do not overlap" in rows["no_overlap"]["error"]
+    assert rows["good"]["error"] == "" and rows["good"]["azimuth"] is not None
+    assert json.loads((out / "missing" / "error.json").read_text())["label"] == "missing"
+    # a rerun retries the failed items only
+    assert main(["batch", "--plan", str(plan), "--out", str(out), "--quiet"]) == 1
+    log = read_log(out)
+    assert [e["label"] for e in log if e["event"] == "skipped"] == ["good"]
+    assert sorted(e["label"] for e in log if e["event"] == "failed") == \
+        ["missing", "missing", "no_overlap", "no_overlap"]
+
+
+def test_bad_plans_name_the_file(net, tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("label,sut\nx,a.mseed\n")
+    out = tmp_path / "out"
+    assert main(["batch", "--plan", str(bad), "--out", str(out)]) == 2
+    assert f"{bad}: plan needs the columns" in capsys.readouterr().err
+    assert main(["batch", "--plan", f"sds:{tmp_path}", "--inventory", net["inventory"],
+                 "--out", str(out)]) == 2
+    assert "no SDS files" in capsys.readouterr().err
+    assert not out.exists()
+    with pytest.raises(Exception):
+        read_csv_plan(str(tmp_path / "absent.csv"))
