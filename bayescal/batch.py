@@ -5,8 +5,9 @@
     >>> items = sds_plan("archive/", "stationxml/")        # one item per station-day
     >>> summary = run_batch(items, "out/", seed=1)         # LocalCluster, all cores
 
-Each item runs the ordinary pipeline (:func:`bayescal.io.align` inside
-:func:`bayescal.pipeline.calibrate`) on a Dask worker and writes its result
+Each item runs the ordinary pipeline (:func:`bayescal.pipeline.calibrate_files`
+for CSV items, :func:`bayescal.pipeline.calibrate` on ObsPy's SDS reader for
+archive items) on a Dask worker and writes its result
 folder ``out/<label>/`` (``result.json``, ``samples.npz``, ``item.json``)
 *atomically*: everything goes to a temporary folder under ``out/.tmp/`` that
 is renamed into place only when complete. A failing item writes
@@ -62,19 +63,24 @@ def run_item(item, out):
     Returns a small dict (label, status, seconds, worker, error); never
     raises for a problem of the item itself.
     """
-    from .pipeline import calibrate
-    from .plan import load_item
+    from .pipeline import calibrate, calibrate_files
+    from .plan import read_sds_item
 
     t = time.time()
     tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
     os.makedirs(tmp)
     error = None
+    opts = {"band": None if item["band"] is None else tuple(item["band"]),
+            "fit_response": item["fit_response"], "seed": item["seed"], "progress": False}
     try:
-        sut, sut_inv, ref, ref_inv, sut_src, ref_src = load_item(item)
-        post = calibrate(sut, sut_inv, ref, ref_inv, band=tuple(item["band"]),
-                         fit_response=item["fit_response"], seed=item["seed"],
-                         start=_time(item.get("start")), end=_time(item.get("end")),
-                         progress=False, sut_source=sut_src, ref_source=ref_src)
+        if item["kind"] == "files":
+            post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
+                                   start=item.get("start"), end=item.get("end"), **opts)
+        else:
+            sut, ref, inv, sut_src, ref_src = read_sds_item(item)
+            post = calibrate(sut, inv, ref, inv, start=_time(item.get("start")),
+                             end=_time(item.get("end")), sut_source=sut_src,
+                             ref_source=ref_src, **opts)
         post.meta["batch_label"] = item["label"]
         post.save(tmp)
     except Exception as exc:   # recorded, never fatal to the batch

@@ -11,7 +11,8 @@ Two ways to make a plan:
   every station, location ``sut_location`` against ``ref_location``, one item
   per day".
 
-:func:`load_item` reads an item's recordings (ObsPy) on the worker.
+:func:`read_sds_item` reads an SDS item's recordings (ObsPy) on the worker;
+file items go to :func:`bayescal.pipeline.calibrate_files`.
 """
 from __future__ import annotations
 
@@ -21,9 +22,9 @@ import glob
 import os
 import re
 
-from obspy import Inventory, UTCDateTime, read, read_inventory
+from obspy import Inventory, UTCDateTime
 
-from .io import InputError
+from .io import InputError, read_metadata
 
 REQUIRED = ("label", "ref", "ref_xml", "sut", "sut_xml")
 OPTIONAL = ("band_min", "band_max", "fit_response", "seed", "start", "end")
@@ -44,16 +45,14 @@ def check_label(label, source):
 
 def _options(row, source, defaults):
     opts = dict(defaults)
-    band = list(opts["band"])
-    for k, key in enumerate(("band_min", "band_max")):
-        if (row.get(key) or "").strip():
-            try:
-                band[k] = float(row[key])
-            except ValueError:
-                raise InputError(f"{source}: {key} {row[key]!r} is not a number") from None
-    if not 0 < band[0] < band[1]:
-        raise InputError(f"{source}: band {band} Hz is not 0 < min < max")
-    opts["band"] = band
+    band = [(row.get(k) or "").strip() for k in ("band_min", "band_max")]
+    if any(band):
+        try:
+            opts["band"] = [float(b) for b in band]
+        except ValueError:
+            raise InputError(f"{source}: band_min/band_max {band} need two numbers") from None
+    if opts["band"] is not None and not 0 < opts["band"][0] < opts["band"][1]:
+        raise InputError(f"{source}: band {opts['band']} Hz is not 0 < min < max")
     fr = (row.get("fit_response") or "").strip() or opts["fit_response"]
     if fr not in FIT_RESPONSE:
         raise InputError(f"{source}: fit_response {fr!r} is not one of {', '.join(FIT_RESPONSE)}")
@@ -72,10 +71,11 @@ def _options(row, source, defaults):
     return opts
 
 
-def default_options(band=(0.05, 1.0), fit_response="none"):
-    """Fit options an item takes when its plan does not say."""
-    return {"band": list(band), "fit_response": fit_response, "seed": None,
-            "start": None, "end": None}
+def default_options(band=None, fit_response="none"):
+    """Fit options an item takes when its plan does not say (``band`` None:
+    chosen from each pair's coherence, as ``bayescal fit`` does)."""
+    return {"band": None if band is None else [float(b) for b in band],
+            "fit_response": fit_response, "seed": None, "start": None, "end": None}
 
 
 def read_csv_plan(path, defaults=None):
@@ -100,11 +100,16 @@ def read_csv_plan(path, defaults=None):
         seen.add(label)
 
         def paths(key):
-            return [os.path.join(base, p.strip()) for p in (row[key] or "").split(";") if p.strip()]
+            return [p.strip() if p.strip().lower() == "flat" else os.path.join(base, p.strip())
+                    for p in (row[key] or "").split(";") if p.strip()]
 
         item = {"label": label, "kind": "files", "sut": paths("sut"), "ref": paths("ref"),
                 "sut_xml": paths("sut_xml"), "ref_xml": paths("ref_xml"),
                 **_options(row, where, defaults)}
+        for key in ("sut_xml", "ref_xml"):
+            if len(item[key]) > 1:
+                raise InputError(f"{where}: column {key} takes one StationXML file (or 'flat')")
+            item[key] = (item[key] or [""])[0]
         for key in ("sut", "ref", "sut_xml", "ref_xml"):
             if not item[key]:
                 raise InputError(f"{where}: column {key} is empty")
@@ -180,46 +185,26 @@ def sds_plan(archive, inventory, sut_location="10", ref_location="00", days=None
 
 @functools.lru_cache(maxsize=16)
 def read_inventories(path):
-    """An Inventory from a StationXML file or from every file of a folder."""
-    if os.path.isdir(path):
-        files = [f for f in sorted(glob.glob(os.path.join(path, "*"))) if os.path.isfile(f)]
-        if not files:
-            raise InputError(f"{path}: no StationXML files in this folder")
-        return _read_each(files, read_inventory, "StationXML")
-    return _read_each([path], read_inventory, "StationXML")
-
-
-def _read_each(files, reader, what):
-    """Read every file with ``reader`` and add the results up; an unreadable
-    or missing file is an :class:`InputError` naming it."""
-    total = None
+    """An Inventory from a StationXML file or from every file of a folder
+    (cached per process: a worker reads a network's metadata once)."""
+    if not os.path.isdir(path):
+        return read_metadata(path)
+    files = [f for f in sorted(glob.glob(os.path.join(path, "*"))) if os.path.isfile(f)]
+    if not files:
+        raise InputError(f"{path}: no StationXML files in this folder")
+    inv = Inventory(networks=[], source="bayescal")
     for f in files:
-        if not os.path.isfile(f):
-            raise InputError(f"{f}: {what} file not found")
-        try:
-            obj = reader(f)
-        except Exception as exc:
-            raise InputError(f"{f}: cannot read as {what} ({_first_line(exc)})") from None
-        total = obj if total is None else total + obj
-    return total
+        inv += read_metadata(f)
+    return inv
 
 
 def _first_line(exc):
     return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
 
 
-def load_item(item):
-    """``(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source)``
-    for an item, read with ObsPy."""
-    if item["kind"] == "files":
-        sut_inv, ref_inv = Inventory(networks=[]), Inventory(networks=[])
-        for p in item["sut_xml"]:
-            sut_inv += read_inventories(p)
-        for p in item["ref_xml"]:
-            ref_inv += read_inventories(p)
-        return (_read_each(item["sut"], read, "waveform"), sut_inv,
-                _read_each(item["ref"], read, "waveform"), ref_inv,
-                ";".join(item["sut"]), ";".join(item["ref"]))
+def read_sds_item(item):
+    """``(sut, ref, inventory, sut_source, ref_source)`` of an SDS item, read
+    with ObsPy's SDS client (on the worker)."""
     from obspy.clients.filesystem.sds import Client
     client = Client(item["archive"], sds_type=item.get("sds_type", "D"))
     inv = read_inventories(item["inventory"])
@@ -227,9 +212,12 @@ def load_item(item):
     out = []
     for loc in (item["sut_location"], item["ref_location"]):
         st = client.get_waveforms(item["network"], item["station"], loc, item["channels"], t0, t1)
+        for tr in st:   # the day is [t0, t1): not the next day's first sample
+            tr.trim(t0, t1 - tr.stats.delta / 2, nearest_sample=False)
+        st.traces = [tr for tr in st if tr.stats.npts]
         where = f"{item['archive']} {item['network']}.{item['station']}.{loc}.{item['channels']}"
         if not st:
             raise InputError(f"{where}: no data between {t0} and {t1}")
         out.append((st, where))
     (sut, sut_src), (ref, ref_src) = out
-    return sut, inv, ref, inv, sut_src, ref_src
+    return sut, ref, inv, sut_src, ref_src

@@ -18,10 +18,15 @@ from bayescal.batch import item_seed, read_log, run_batch
 from bayescal.batch_report import read_results
 from bayescal.cli import main
 from bayescal.netsim import sds_path, write_network
-from bayescal.plan import read_csv_plan, sds_plan
+from bayescal.plan import default_options, read_csv_plan, sds_plan
 
 SEED = 7
 THRESHOLD = 2.0
+BAND = (0.05, 1.0)   # fixed band: faster than choosing it per pair
+
+
+def plan(net):
+    return sds_plan(net["archive"], net["inventory"], defaults=default_options(band=BAND))
 
 
 @pytest.fixture(scope="module")
@@ -37,10 +42,10 @@ def killed_then_resumed(net, tmp_path_factory):
     out = str(tmp_path_factory.mktemp("run"))
     cmd = [sys.executable, "-m", "bayescal.cli", "batch", "--plan", f"sds:{net['archive']}",
            "--inventory", net["inventory"], "--out", out, "--workers", "1", "--seed", str(SEED),
-           "--quiet"]
+           "--band", *map(str, BAND), "--quiet"]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    labels = [it["label"] for it in sds_plan(net["archive"], net["inventory"])]
+    labels = [it["label"] for it in plan(net)]
     deadline = time.time() + 150
     try:
         while time.time() < deadline:
@@ -55,7 +60,7 @@ def killed_then_resumed(net, tmp_path_factory):
     before = {lb: os.path.getmtime(os.path.join(out, lb, "result.json")) for lb in labels
               if os.path.exists(os.path.join(out, lb, "result.json"))}
     log_before = read_log(out)
-    summary = run_batch(sds_plan(net["archive"], net["inventory"]), out, seed=SEED, workers=2,
+    summary = run_batch(plan(net), out, seed=SEED, workers=2,
                         processes=False, quiet=True, threshold_deg=THRESHOLD)
     return {"out": out, "labels": labels, "before": before, "log_before": log_before,
             "summary": summary}
@@ -113,7 +118,7 @@ def test_results_match_truth_and_rotated_station_flagged(killed_then_resumed, ne
 def test_same_seed_same_numbers_with_one_or_two_workers(killed_then_resumed, net, tmp_path):
     r = killed_then_resumed
     redo = [lb for lb in r["labels"] if lb not in r["before"]][:2]   # made with 2 workers
-    items = [it for it in sds_plan(net["archive"], net["inventory"]) if it["label"] in redo]
+    items = [it for it in plan(net) if it["label"] in redo]
     run_batch(items, str(tmp_path), seed=SEED, workers=1, processes=False, quiet=True,
               report=False)
     for lb in redo:
@@ -132,26 +137,30 @@ def test_csv_plan_bad_pairs_recorded_others_done(net, tmp_path, capsys):
                                      ("BHN", "BHE", "BHZ")))
              for loc in ("10", "00")}
     xml = os.path.join(net["inventory"], "XX.ST01.xml")
-    plan = tmp_path / "plan.csv"
-    plan.write_text(
+    table = tmp_path / "plan.csv"
+    table.write_text(
         "label,ref,ref_xml,sut,sut_xml,band_min,band_max,start,end\n"
-        f"good,{files['00']},{xml},{files['10']},{xml},0.05,1.0,,\n"
+        f"good,{files['00']},{xml},{files['10']},{xml},0.04,0.9,,\n"
         f"missing,{files['00']},{xml},/nonexistent/sut.mseed,{xml},,,,\n"
         f"no_overlap,{files['00']},{xml},{files['10']},{xml},,,"
         f"{day}T05:00:00,{day}T06:00:00\n")
     out = tmp_path / "out"
-    code = main(["batch", "--plan", str(plan), "--out", str(out), "--workers", "1", "--quiet",
-                 "--seed", "1"])
+    code = main(["batch", "--plan", str(table), "--out", str(out), "--workers", "1", "--quiet",
+                 "--seed", "1", "--band", *map(str, BAND)])
     assert code == 1   # some items failed
     assert "1 calibrated" in capsys.readouterr().out
     rows = {r["label"]: r for r in read_results(out / "results.csv")
             if not r["channel"].endswith("BHZ")}
-    assert "/nonexistent/sut.mseed: waveform file not found" in rows["missing"]["error"]
+    assert "/nonexistent/sut.mseed" in rows["missing"]["error"]
+    assert "file not found" in rows["missing"]["error"]
     assert "do not overlap" in rows["no_overlap"]["error"]
     assert rows["good"]["error"] == "" and rows["good"]["azimuth"] is not None
     assert json.loads((out / "missing" / "error.json").read_text())["label"] == "missing"
+    good = json.loads((out / "good" / "result.json").read_text())
+    assert good["meta"]["band_hz"][0] >= 0.04 and good["meta"]["band_hz"][1] <= 0.9 + 1e-9
     # a rerun retries the failed items only
-    assert main(["batch", "--plan", str(plan), "--out", str(out), "--quiet"]) == 1
+    assert main(["batch", "--plan", str(table), "--out", str(out), "--quiet",
+                 "--band", *map(str, BAND)]) == 1
     log = read_log(out)
     assert [e["label"] for e in log if e["event"] == "skipped"] == ["good"]
     assert sorted(e["label"] for e in log if e["event"] == "failed") == \

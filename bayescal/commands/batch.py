@@ -42,8 +42,9 @@ def configure(parser):
     parser.add_argument("--sut-location", default="10", help="SUT location code (sds:, default 10)")
     parser.add_argument("--ref-location", default="00",
                         help="reference location code (sds:, default 00)")
-    parser.add_argument("--band", nargs=2, type=float, default=(0.05, 1.0),
-                        metavar=("FMIN", "FMAX"), help="default band in Hz (default 0.05 1.0)")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="band in Hz for items whose plan row gives none (default: chosen "
+                             "per pair from the data where the sensors are coherent)")
     parser.add_argument("--fit-response", choices=("none", "gain", "all"), default="none",
                         help="default response fit (default none: angles only)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -63,7 +64,7 @@ def make_plan(args):
     """Plan items from the command-line arguments."""
     from ..plan import default_options, read_csv_plan, sds_plan
 
-    if args.band[0] <= 0 or args.band[1] <= args.band[0]:
+    if args.band and not 0 < args.band[0] < args.band[1]:
         raise InputError(f"--band {args.band[0]} {args.band[1]}: need 0 < FMIN < FMAX")
     defaults = default_options(band=args.band, fit_response=args.fit_response)
     if args.plan.startswith("sds:"):
