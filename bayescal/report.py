@@ -1,0 +1,241 @@
+"""Calibration reports: a multi-page PDF plus one PNG per figure, rendered
+from a saved result folder (``result.json``, ``samples.npz``,
+``diagnostics.npz``).
+
+    >>> from bayescal.report import write_report
+    >>> write_report("out")          # out/report.pdf, out/report_*.png
+
+Pages: (1) summary table with flags, (2) angle credible intervals against
+nominal, (3) corner plots of the angles (and of the response parameters when
+fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
+(5) convergence (traces, tau, ESS, R-hat, acceptance). The numbers on the
+pages are real PDF text, so they can be searched and extracted.
+
+This module holds the numbers (table rows, flags, truth) and the file
+handling; the figures are drawn in :mod:`bayescal.report_figures`.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import unit_vector
+from .io import InputError
+
+#: A channel whose axis lies within this angle (degrees) of the opposite of
+#: its nominal axis is flagged as reversed (polarity or a 180 degree turn).
+REVERSED_WITHIN_DEG = 20.0
+
+#: Figures, in page order: (name, builder attribute in report_figures).
+PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "convergence")
+
+
+@dataclass
+class Row:
+    """One line of the summary table (angles in degrees)."""
+
+    channel: str
+    quantity: str          # "azimuth", "dip", "tilt", "period_s", "damping", "gain"
+    median: float | None
+    ci68: list | None
+    ci95: list | None
+    nominal: float | None
+    deviation: float | None
+    note: str = ""
+    truth: float | None = None
+
+
+def wrap180(x):
+    """Angle difference wrapped into (-180, 180] degrees."""
+    return 180.0 - (180.0 - np.asarray(x, float)) % 360.0
+
+
+def load_truth(folder, meta, truth=None):
+    """Simulation truth for truth markers, or None.
+
+    ``truth`` may be a dict (simulate's format ``{"channels": {id: {...}}}``)
+    or a path to a JSON file; otherwise ``meta["truth"]``, otherwise
+    ``folder/truth.json`` when present.
+    """
+    if truth is None and meta.get("truth"):
+        truth = meta["truth"]
+    if truth is None:
+        path = os.path.join(folder, "truth.json")
+        truth = path if os.path.exists(path) else None
+    if isinstance(truth, (str, os.PathLike)):
+        try:
+            with open(truth) as fh:
+                truth = json.load(fh)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{truth}: cannot read the truth file ({exc})") from None
+    if truth is not None and not isinstance(truth.get("channels"), dict):
+        raise InputError(f"{folder}: truth has no 'channels' mapping")
+    return truth
+
+
+def _axis_angle(vectors, nominal):
+    """Angle (degrees) between the mean sampled axis and the nominal axis."""
+    v = np.mean(vectors, axis=0)
+    v /= np.linalg.norm(v)
+    n = unit_vector(nominal["azimuth_deg"], nominal["dip_deg"])
+    return float(np.degrees(np.arccos(np.clip(v @ n, -1.0, 1.0))))
+
+
+def _interval_row(cid, quantity, entry, nominal, deviation, note="", truth=None):
+    return Row(cid, quantity, entry.get("median"), entry.get("ci68"), entry.get("ci95"),
+               nominal, deviation, note, truth)
+
+
+def angle_rows(post, summary, tolerance_deg, truth=None):
+    """Summary-table rows for the angles and the flags raised, per channel.
+
+    Returns ``(rows, flags)``; ``flags`` maps a channel id to a list of
+    messages (azimuth, dip or tilt off nominal by more than
+    ``tolerance_deg``; axis reversed). ``truth`` (simulate's format) fills
+    :attr:`Row.truth`.
+    """
+    rows, flags = [], {}
+    for k, cid in enumerate(post.channel_ids):
+        ch = summary["channels"][cid]
+        nom = ch.get("nominal") or {}
+        naz, ndip = nom.get("azimuth_deg"), nom.get("dip_deg")
+        az, dip = ch["azimuth_deg"], ch["dip_deg"]
+        tru = truth_values(truth, cid)
+        msgs = []
+        if naz is not None and ndip is not None:
+            angle = _axis_angle(post.vectors[:, k], nom)
+            if angle > 180.0 - REVERSED_WITHIN_DEG:
+                msgs.append(f"REVERSED: axis {angle:.1f} deg from nominal (polarity or 180 deg turn)")
+        if "tilt_deg" in ch:
+            rows.append(Row(cid, "azimuth", None, None, None, naz, None,
+                            "undefined (near-vertical): see tilt", tru.get("azimuth_deg")))
+            ntilt = None if ndip is None else 90.0 - abs(ndip)
+            tilt = ch["tilt_deg"]
+            dev = None if ntilt is None else tilt["median"] - ntilt
+            ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
+            rows.append(_interval_row(cid, "tilt", tilt, ntilt, dev,
+                                      f"toward az {ch['tilt_toward_azimuth_deg']:.1f}", ttilt))
+            if dev is not None and abs(dev) > tolerance_deg and not msgs:
+                msgs.append(f"TILT OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
+        else:
+            dev = None if naz is None else float(wrap180(az["median"] - naz))
+            note = "fixed (not estimable)" if az.get("fixed") else ""
+            rows.append(_interval_row(cid, "azimuth", az, naz, dev, note, tru.get("azimuth_deg")))
+            if dev is not None and abs(dev) > tolerance_deg and not msgs and not az.get("fixed"):
+                msgs.append(f"AZIMUTH OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
+        ddev = None if ndip is None else dip["median"] - ndip
+        note = "fixed (reference plane)" if dip.get("fixed") else ""
+        rows.append(_interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
+        if ("tilt_deg" not in ch and ddev is not None and abs(ddev) > tolerance_deg
+                and not msgs and not dip.get("fixed")):
+            msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
+        if msgs:
+            flags[cid] = msgs
+    return rows, flags
+
+
+def response_rows(summary, truth=None):
+    """Summary-table rows for fitted response parameters; deviation in % of
+    the nominal value."""
+    rows = []
+    for cid, ch in summary["channels"].items():
+        nom = ch.get("nominal") or {}
+        tru = truth_values(truth, cid)
+        for name, entry in (ch.get("response") or {}).items():
+            n = nom.get(name)
+            dev = None if not n else 100.0 * (entry["median"] / n - 1.0)
+            rows.append(_interval_row(cid, name, entry, n, dev, truth=tru.get(name)))
+    return rows
+
+
+def truth_values(truth, cid):
+    """Truth entry of one channel, or an empty dict."""
+    if not truth:
+        return {}
+    return truth["channels"].get(cid, {})
+
+
+def _check_folder(folder):
+    if not os.path.isdir(folder):
+        raise InputError(f"{folder}: no such result folder")
+    for name in ("result.json", "samples.npz"):
+        if not os.path.exists(os.path.join(folder, name)):
+            raise InputError(f"{folder}: not a bayescal result folder ({name} is missing)")
+
+
+def load_result(folder):
+    """Load a saved :class:`~bayescal.posterior.Posterior`, turning any
+    reading problem into an :class:`InputError` naming the folder."""
+    from .posterior import Posterior
+    _check_folder(folder)
+    try:
+        return Posterior.load(folder)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
+
+
+def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
+    """Render the calibration report of the result saved in ``folder``.
+
+    Writes ``folder/report.pdf`` (or ``out_pdf``) and one PNG per figure
+    next to it (``report_<figure>.png``). All files are drawn in a temporary
+    folder first and moved into place at the end, so a failure leaves
+    nothing half-written. PNGs of an earlier report that no longer apply
+    (e.g. a response corner plot) are removed.
+
+    Parameters
+    ----------
+    folder : result folder written by :meth:`Posterior.save`.
+    out_pdf : path of the PDF (default ``folder/report.pdf``).
+    nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
+        which a channel is flagged.
+    truth : simulation truth (dict or JSON path) for truth markers; default
+        ``meta["truth"]`` or ``folder/truth.json`` when present.
+
+    Returns the list of written paths (PDF first).
+    """
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from . import __version__
+    from . import report_figures as rf
+
+    folder = os.fspath(folder)
+    post = load_result(folder)
+    truth = load_truth(folder, post.meta, truth)
+    summary = post.summary()
+    out_pdf = os.fspath(out_pdf) if out_pdf else os.path.join(folder, "report.pdf")
+    out_dir = os.path.dirname(os.path.abspath(out_pdf))
+    stem = os.path.splitext(os.path.basename(out_pdf))[0]
+    ctx = rf.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
+                           tolerance_deg=float(nominal_tolerance_deg))
+    tmp = tempfile.mkdtemp(prefix=".report-", dir=out_dir)
+    written = []
+    try:
+        with rf.style():
+            figures = [(name, getattr(rf, f"page_{name}")(ctx)) for name in PAGES]
+            figures = [(n, f) for n, f in figures if f is not None]
+            meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
+                    "Subject": rf.subject_line(ctx), "Creator": f"bayescal {__version__}",
+                    "Keywords": "seismometer calibration; orientation; Bayesian"}
+            with PdfPages(os.path.join(tmp, "report.pdf"), metadata=meta) as pdf:
+                for name, fig in figures:
+                    pdf.savefig(fig)
+                    fig.savefig(os.path.join(tmp, f"{name}.png"), dpi=rf.PNG_DPI)
+        os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
+        written.append(out_pdf)
+        for name, _ in figures:
+            dest = os.path.join(out_dir, f"{stem}_{name}.png")
+            os.replace(os.path.join(tmp, f"{name}.png"), dest)
+            written.append(dest)
+        for name in PAGES:
+            stale = os.path.join(out_dir, f"{stem}_{name}.png")
+            if stale not in written and os.path.exists(stale):
+                os.remove(stale)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return written

@@ -1,0 +1,514 @@
+"""Figures of the calibration report, one function per page.
+
+Each ``page_<name>(ctx)`` returns a :class:`matplotlib.figure.Figure` (or
+None when the page does not apply). Figures are built without pyplot, so
+rendering never needs a display. Conventions: angles in degrees (SEED),
+frequencies in Hz on log axes, black-and-white friendly (line styles and
+markers carry the distinctions, not colour alone), numbers written as text.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import textwrap
+from dataclasses import dataclass
+
+import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from scipy import stats
+
+from .geometry import unit_vector, tilt_from_vertical
+from .report import Row, angle_rows, response_rows, truth_values, wrap180
+
+A4 = (8.27, 11.69)
+PNG_DPI = 100
+#: 2-D contour levels of the corner plots: fractions of posterior mass enclosed.
+CORNER_LEVELS = (0.68, 0.95)
+#: 1-D quantiles marked by dashed lines in the corner plots.
+CORNER_QUANTILES = (0.16, 0.5, 0.84)
+LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
+MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
+GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
+QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "period_s": "s",
+                  "damping": "-", "gain": "V/(m/s)"}
+PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
+               "azimuth_rad": "rad", "log_period": "ln s", "damping": "-",
+               "log_gain": "ln V/(m/s)"}
+
+
+@dataclass
+class ReportContext:
+    """Everything the pages draw from."""
+
+    folder: str
+    post: object
+    summary: dict
+    truth: dict | None
+    tolerance_deg: float
+
+
+@contextlib.contextmanager
+def style():
+    """Report style: TrueType fonts in the PDF (extractable text), ASCII
+    minus signs, thin grid, small fonts that stay inside the page."""
+    with matplotlib.rc_context({"pdf.fonttype": 42, "axes.unicode_minus": False,
+                                "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
+                                "xtick.labelsize": 7, "ytick.labelsize": 7,
+                                "legend.fontsize": 7, "axes.grid": True, "grid.color": "0.85",
+                                "grid.linewidth": 0.5, "savefig.facecolor": "white"}):
+        yield
+
+
+def subject_line(ctx):
+    """One line for the PDF Subject: channels, band, window."""
+    m = ctx.post.meta
+    band = m.get("band_hz") or ["?", "?"]
+    return (f"Orientation{' and response' if m.get('free_response', 'none') != 'none' else ''}"
+            f" of {', '.join(ctx.post.channel_ids)}; band {_g(band[0])}-{_g(band[1])} Hz;"
+            f" start {m.get('starttime', '?')}, {_g(m.get('duration_s'))} s")
+
+
+def _g(x, fmt="{:g}"):
+    return "?" if x is None else fmt.format(x)
+
+
+def fmt_value(quantity, x):
+    """Printed precision of a table value: angles to 0.01 deg, responses to
+    four significant figures."""
+    if x is None:
+        return "-"
+    if quantity in ("azimuth", "dip", "tilt"):
+        return f"{x:.2f}"
+    return f"{x:.4g}"
+
+
+def _fmt_ci(quantity, ci):
+    return "-" if not ci else f"[{fmt_value(quantity, ci[0])}, {fmt_value(quantity, ci[1])}]"
+
+
+def _fmt_dev(row):
+    if row.deviation is None:
+        return "-"
+    if row.quantity in ("azimuth", "dip", "tilt"):
+        return f"{row.deviation:+.2f}"
+    return f"{row.deviation:+.2f} %"
+
+
+#: Height of one table row as a fraction of an A4 page (6.5 pt text).
+ROW_H = 0.0150
+
+
+def _table(fig, top, rows, title, with_truth):
+    """Draw a summary table whose top edge is at figure fraction ``top``;
+    returns the figure fraction just below it."""
+    labels = ["channel", "quantity", "median", "68 % interval", "95 % interval", "nominal",
+              "deviation"] + (["truth"] if with_truth else []) + ["note"]
+    cells = []
+    for r in rows:
+        c = [r.channel, f"{r.quantity} ({QUANTITY_UNITS.get(r.quantity, '')})",
+             fmt_value(r.quantity, r.median), _fmt_ci(r.quantity, r.ci68),
+             _fmt_ci(r.quantity, r.ci95), fmt_value(r.quantity, r.nominal), _fmt_dev(r)]
+        cells.append(c + ([fmt_value(r.quantity, r.truth)] if with_truth else []) + [r.note])
+    fig.text(0.05, top, title, fontweight="bold", va="top")
+    height = ROW_H * (len(rows) + 1)
+    ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
+    ax.axis("off")
+    tab = ax.table(cellText=cells, colLabels=labels, loc="upper left", cellLoc="left",
+                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(6.5)
+    tab.auto_set_column_width(list(range(len(labels))))
+    return top - 0.02 - height - 0.025
+
+
+def page_summary(ctx):
+    """Page 1: what was measured, the table of angles (and responses), flags."""
+    post, m = ctx.post, ctx.post.meta
+    conv = ctx.summary["convergence"]
+    fig = Figure(figsize=A4)
+    fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
+    stations = sorted({".".join(c.split(".")[:2]) for c in post.channel_ids})
+    n_used, n_poss = m.get("n_segments"), m.get("n_segments_possible")
+    seg = m.get("segment_s")
+    dropped = None if n_used is None or n_poss is None else n_poss - n_used
+    band = m.get("band_hz") or [None, None]
+    lines = [
+        f"Result folder: {os.path.abspath(ctx.folder)}",
+        f"Station(s): {', '.join(stations)}",
+        f"Sensor under test: {', '.join(post.channel_ids)}",
+        f"Reference: {', '.join(sorted(m.get('reference', {})))}",
+        f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
+        f" sampling {_g(m.get('sampling_rate'))} Hz",
+        f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each);"
+        f" dropped: {_g(dropped)}" + ("" if not dropped or seg is None
+                                      else f" ({dropped * seg:.0f} s, gaps or bad data)"),
+        f"Band: {_g(band[0])} - {_g(band[1])} Hz in {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
+        f" sub-bands; response fitted: {m.get('free_response', 'none')}",
+        f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min {conv['ess_min']:.0f},"
+        f" R-hat max {conv['rhat_max']:.4f}, converged: {'yes' if conv['converged'] else 'NO'}",
+    ]
+    fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
+    rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
+    resp = response_rows(ctx.summary, ctx.truth)
+    y = _table(fig, 0.81, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
+               " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
+    if resp:
+        y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
+                   " of nominal)", bool(ctx.truth))
+    text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
+    for cid in post.channel_ids:
+        for msg in flags.get(cid, []):
+            text.append(f"  {cid}: {msg}")
+    if len(text) == 1:
+        text.append("  none: every estimated angle lies within tolerance of its nominal value")
+    if not conv["converged"]:
+        text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see page 5)")
+    text.append("")
+    text.append("Not estimable:" + ("" if post.not_estimable else " none"))
+    for cid, reason in post.not_estimable.items():
+        text.append(f"  {cid}: {reason}")
+    text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
+             "\nazimuth intervals crossing north stay contiguous.",
+             "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
+             " instead, with the azimuth it leans toward."]
+    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
+    return fig
+
+
+def _channel_panels(ctx, k):
+    """Per channel: list of (label, samples - nominal offset, nominal, truth) panels."""
+    post = ctx.post
+    cid, kind = post.channel_ids[k], post.kinds[k]
+    ch = ctx.summary["channels"][cid]
+    nom = ch.get("nominal") or {}
+    tru = truth_values(ctx.truth, cid)
+    az, dip = post.azimuth_dip
+    panels = []
+    if "tilt_deg" in ch:
+        tilt, _ = tilt_from_vertical(post.vectors[:, k])
+        ntilt = 90.0 - abs(nom["dip_deg"]) if "dip_deg" in nom else None
+        ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
+        panels.append(("tilt from vertical (deg)", tilt, ntilt, ttilt))
+    elif kind != "fixed":
+        naz = nom.get("azimuth_deg")
+        med = float(np.median(az[:, k]))
+        t = tru.get("azimuth_deg")
+        panels.append(("azimuth (deg)", az[:, k],
+                       None if naz is None else med - float(wrap180(med - naz)),
+                       None if t is None else med - float(wrap180(med - t))))
+    if kind == "sphere":
+        panels.append(("dip (deg)", dip[:, k], nom.get("dip_deg"), tru.get("dip_deg")))
+    return panels
+
+
+def _interval_panel(ax, label, x, nominal, truth, tol):
+    lo95, lo68, med, hi68, hi95 = np.percentile(x, [2.5, 16, 50, 84, 97.5])
+    ax.plot([lo95, hi95], [0, 0], color="k", lw=1.0, solid_capstyle="butt")
+    ax.plot([lo95, lo95], [-0.15, 0.15], color="k", lw=1.0)
+    ax.plot([hi95, hi95], [-0.15, 0.15], color="k", lw=1.0)
+    ax.plot([lo68, hi68], [0, 0], color="k", lw=5.0, solid_capstyle="butt")
+    ax.plot([med], [0], "o", mfc="white", mec="k", ms=6, zorder=5)
+    pts = [lo95, hi95]
+    if nominal is not None:
+        ax.axvline(nominal, color="0.3", ls="--", lw=1.0)
+        for a, b in ((nominal - tol - 1e3, nominal - tol), (nominal + tol, nominal + tol + 1e3)):
+            ax.axvspan(a, b, facecolor="none", edgecolor="0.7", hatch="////", lw=0, zorder=0)
+        pts.append(nominal)
+    if truth is not None:
+        ax.plot([truth], [0.45], "v", color="k", ms=7)
+        pts.append(truth)
+    span = max(pts) - min(pts)
+    pad = 0.15 * span if span > 0 else 0.1
+    ax.set_xlim(min(pts) - pad, max(pts) + pad)
+    ax.set_ylim(-1, 1)
+    ax.set_yticks([])
+    ax.set_xlabel(label)
+    ax.ticklabel_format(axis="x", useOffset=False)
+    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}]"
+    if nominal is not None:
+        txt += f", nominal {nominal:.2f}"
+    ax.text(0.01, 0.93, txt, transform=ax.transAxes, va="top", fontsize=6.5,
+            bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.0})
+
+
+def page_intervals(ctx):
+    """Page 2: per channel, the credible intervals of each angle against the
+    nominal value and the tolerance band."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    post = ctx.post
+    n = len(post.channel_ids)
+    fig = Figure(figsize=(A4[0], min(A4[1], 1.5 + 1.6 * n)))
+    gs = fig.add_gridspec(n, 2, left=0.06, right=0.97, top=1 - 1.0 / fig.get_figheight(),
+                          bottom=0.5 / fig.get_figheight(), hspace=0.9, wspace=0.12)
+    for k, cid in enumerate(post.channel_ids):
+        panels = _channel_panels(ctx, k)
+        for j in range(2):
+            ax = fig.add_subplot(gs[k, j])
+            if j < len(panels):
+                _interval_panel(ax, *panels[j], ctx.tolerance_deg)
+            else:
+                ax.axis("off")
+                msg = ("dip not estimated: the channel is held in the reference's plane"
+                       if post.kinds[k] == "circle" else "direction held fixed: not estimated")
+                ax.text(0.5, 0.5, msg, ha="center", va="center", transform=ax.transAxes)
+            if j == 0:
+                ax.set_title(cid, loc="left", fontweight="bold")
+    handles = [Line2D([], [], marker="o", mfc="white", mec="k", ls="none", label="median"),
+               Line2D([], [], color="k", lw=5, label="68 % interval"),
+               Line2D([], [], color="k", lw=1, label="95 % interval"),
+               Line2D([], [], color="0.3", ls="--", label="nominal (StationXML)"),
+               Patch(facecolor="none", edgecolor="0.6", hatch="////",
+                     label=f"beyond nominal +/- {ctx.tolerance_deg:g} deg (flagged)")]
+    if ctx.truth:
+        handles.append(Line2D([], [], marker="v", color="k", ls="none", label="simulation truth"))
+    fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False,
+               bbox_to_anchor=(0.5, 1 - 0.05 / fig.get_figheight()))
+    fig.text(0.5, 1 - 0.45 / fig.get_figheight(), "Angle credible intervals against nominal",
+             ha="center", fontsize=11, fontweight="bold")
+    return fig
+
+
+def _truth_or_nan(value):
+    return np.nan if value is None else value
+
+
+def angle_columns(ctx):
+    """Corner-plot columns of the angles: (samples (N, D), labels, truths)."""
+    post = ctx.post
+    az, dip = post.azimuth_dip
+    cols, labels, truths = [], [], []
+    for k, cid in enumerate(post.channel_ids):
+        ch = ctx.summary["channels"][cid]
+        tru = truth_values(ctx.truth, cid)
+        short = cid.split(".")[-1]
+        if post.kinds[k] == "fixed":
+            continue
+        if "tilt_deg" in ch:
+            # near-vertical: the axis' North and East components as angles
+            v = post.vectors[:, k] * -np.sign(post.vectors[:, k, 2:3])
+            tv = None
+            if "azimuth_deg" in tru:
+                tv = unit_vector(tru["azimuth_deg"], tru["dip_deg"])
+                tv = tv * -np.sign(tv[2])
+            for j, comp in enumerate("NE"):
+                cols.append(np.degrees(np.arcsin(v[:, j])))
+                labels.append(f"{short} lean {comp} (deg)")
+                truths.append(np.nan if tv is None else np.degrees(np.arcsin(tv[j])))
+            continue
+        med = np.median(az[:, k])
+        cols.append(az[:, k])
+        labels.append(f"{short} azimuth (deg)")
+        t = tru.get("azimuth_deg")
+        truths.append(np.nan if t is None else med - float(wrap180(med - t)))
+        if post.kinds[k] == "sphere":
+            cols.append(dip[:, k])
+            labels.append(f"{short} dip (deg)")
+            truths.append(_truth_or_nan(tru.get("dip_deg")))
+    return np.column_stack(cols), labels, truths
+
+
+def response_columns(ctx):
+    """Corner-plot columns of the fitted response parameters, or None."""
+    post = ctx.post
+    free = post.meta.get("free_response", "none")
+    if free == "none" or not post.response:
+        return None
+    names = ("period_s", "damping", "gain") if free == "all" else ("gain",)
+    units = {"period_s": "s", "damping": "-", "gain": "V/(m/s)"}
+    cols, labels, truths = [], [], []
+    for cid in post.channel_ids:
+        if cid not in post.response:
+            continue
+        tru = truth_values(ctx.truth, cid)
+        for j, name in enumerate(("period_s", "damping", "gain")):
+            if name in names:
+                cols.append(post.response[cid][:, j])
+                labels.append(f"{cid.split('.')[-1]} {name.replace('_s', '')} ({units[name]})")
+                truths.append(_truth_or_nan(tru.get(name)))
+    return np.column_stack(cols), labels, truths
+
+
+def _corner_page(data, labels, truths, title, has_truth):
+    """A corner plot (contours at :data:`CORNER_LEVELS`) under a header that
+    states the levels; axis labels are placed at a fixed distance in inches so
+    they stay on the page whatever the number of panels."""
+    import corner
+
+    k = data.shape[1]
+    width = min(A4[0], max(6.0, 1.45 * k + 1.2))
+    head, foot, side = (1.3, 0.95, 0.95) if k > 4 else (1.3, 0.75, 0.8)   # inches
+    fig = Figure(figsize=(width, width + head - foot))
+    height = fig.get_figheight()
+    truths = None if not has_truth or np.all(np.isnan(truths)) else truths
+    if k > 4:                                   # narrow panels: channel above quantity
+        labels = [lb.replace(" ", "\n", 1) for lb in labels]
+    corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
+                  truths=truths, truth_color="0.25", color="k", plot_datapoints=False,
+                  plot_density=False, fill_contours=True,
+                  contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
+                  smooth=1.0, bins=30, max_n_ticks=3, label_kwargs={"fontsize": 7})
+    fig.subplots_adjust(left=side / width, bottom=foot / height, right=1 - 0.15 / width,
+                        top=1 - head / height, wspace=0.08, hspace=0.08)
+    for ax in fig.axes:
+        pos = ax.get_position()
+        ax.xaxis.set_label_coords(0.5, -0.55 / (pos.height * height))
+        ax.yaxis.set_label_coords(-0.6 / (pos.width * width), 0.5)
+        ax.tick_params(labelsize=6 if k > 4 else 7)
+    lv = " and ".join(f"{100 * x:g} %" for x in CORNER_LEVELS)
+    q = ", ".join(f"{100 * x:g}" for x in CORNER_QUANTILES)
+    note = (f"Contour levels drawn: {lv} of the 2-D posterior mass (explicit levels, not"
+            f" corner's default 39 % '1 sigma'); shading: light inside 95 %, darker inside 68 %."
+            f"\nDashed lines on the 1-D histograms: {q} % quantiles."
+            + ("  Grey lines and squares: simulation truth." if truths else "")
+            + ("\n'lean N/E': angle of a near-vertical channel's upward axis toward North/East"
+               " (its azimuth is undefined)." if any("lean" in lb for lb in labels) else ""))
+    note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
+    fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")
+    fig.text(0.02, 1 - 0.45 / height, note, fontsize=7, va="top")
+    return fig
+
+
+def page_corner_angles(ctx):
+    """Page 3a: corner plot of the angles (degrees)."""
+    data, labels, truths = angle_columns(ctx)
+    if data.size == 0:
+        return None
+    return _corner_page(data, labels, truths, "Posterior of the orientation angles",
+                        bool(ctx.truth))
+
+
+def page_corner_response(ctx):
+    """Page 3b: corner plot of the fitted response parameters (when fitted)."""
+    cols = response_columns(ctx)
+    if cols is None:
+        return None
+    return _corner_page(*cols, "Posterior of the response parameters", bool(ctx.truth))
+
+
+def misfit_range(n_r, p=0.95):
+    """Central ``p`` range of a band misfit for a model that fits: the mean of
+    ``n_r`` unit-variance complex Gaussian energies, Gamma(n_r, 1/n_r)."""
+    lo, hi = stats.gamma.ppf([(1 - p) / 2, (1 + p) / 2], a=n_r, scale=1.0 / n_r)
+    return float(lo), float(hi)
+
+
+def page_data_fit(ctx):
+    """Page 4: PSDs of both sensors, multiple coherence, per-band misfit."""
+    d = ctx.post.diagnostics
+    if not d:
+        fig = Figure(figsize=A4)
+        fig.text(0.1, 0.9, "Data and fit: no diagnostics.npz in the result folder", fontsize=11)
+        return fig
+    f = d["freqs"]
+    sut = [str(s) for s in d["sut_ids"]]
+    ref = [str(s) for s in d["ref_ids"]]
+    fig = Figure(figsize=A4)
+    gs = fig.add_gridspec(3, 1, left=0.11, right=0.96, top=0.93, bottom=0.06, hspace=0.35)
+    fig.text(0.5, 0.965, "Data and fit", ha="center", fontsize=11, fontweight="bold")
+    ax = fig.add_subplot(gs[0])
+    psd = d["psd"]
+    for i, cid in enumerate(sut + ref):
+        is_ref = i >= len(sut)
+        j = i - len(sut) if is_ref else i
+        ax.loglog(f, psd[i], color="0.55" if is_ref else "k", lw=0.9,
+                  ls=LINESTYLES[j % len(LINESTYLES)], label=f"{'REF' if is_ref else 'SUT'} {cid}")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("PSD ((m/s)$^2$/Hz)")
+    ax.set_title("Power spectra, ground velocity (nominal responses removed); "
+                 "SUT black, reference grey", loc="left")
+    ax.legend(ncol=2, loc="best")
+    ax = fig.add_subplot(gs[1])
+    incoherent = np.clip(1.0 - d["multiple_coherence"], 1e-8, 1.0)
+    for i, cid in enumerate(sut):
+        ax.loglog(f, incoherent[i], color="k", lw=0.8, ls=LINESTYLES[i % len(LINESTYLES)],
+                  label=f"{cid} (median coherence {np.median(d['multiple_coherence'][i]):.4f})")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("1 - squared multiple coherence (-)")
+    ax.set_title("Incoherent fraction of each SUT channel's power, against all reference channels"
+                 " (0.01 = coherence 0.99)", loc="left")
+    ax.legend(loc="best")
+    _misfit_panel(fig.add_subplot(gs[2]), d, sut, len(ref))
+    return fig
+
+
+def _misfit_panel(ax, d, sut, n_r):
+    edges = d["band_edges"]
+    centres = np.sqrt(edges[:-1] * edges[1:])
+    mis = d["band_misfit"]
+    lo, hi = misfit_range(n_r)
+    ax.axhspan(lo, hi, facecolor="none", edgecolor="0.75", hatch="////", lw=0,
+               label=f"95 % range if the model fits ({lo:.2f}-{hi:.2f})")
+    ax.axhline(1.0, color="0.4", ls="--", lw=1, label="expectation (1)")
+    for i, cid in enumerate(sut):
+        ax.semilogx(centres, mis[:, i], color="k", lw=0.8, ls=LINESTYLES[i % len(LINESTYLES)],
+                    marker=MARKERS[i % len(MARKERS)], mfc="white", ms=5,
+                    label=f"{cid} (median {np.median(mis[:, i]):.2f})")
+    for e in edges:
+        ax.axvline(e, color="0.85", lw=0.5, zorder=0)
+    ax.set_xlabel("frequency (Hz), band centres; thin lines: band edges")
+    ax.set_ylabel("standardised misfit (-)")
+    ax.set_title("Per-band residual energy over its noise model, per SUT channel",
+                 loc="left")
+    ax.set_ylim(0, max(hi * 1.3, float(np.nanmax(mis)) * 1.15))
+    ax.legend(loc="upper left", ncol=2)
+
+
+def page_convergence(ctx):
+    """Page 5: trace plots and the convergence table."""
+    post = ctx.post
+    conv = ctx.summary["convergence"]
+    names = post.names
+    nd = len(names)
+    fig = Figure(figsize=A4)
+    fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
+    n_rows = int(np.ceil(nd / 2))
+    trace_h = min(0.6, 0.13 * n_rows + 0.05)
+    table_top = 0.93 - trace_h - 0.075
+    if post.trace is not None:
+        gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
+                              bottom=0.93 - trace_h, hspace=0.7, wspace=0.3)
+        tr = post.trace
+        step = max(1, tr.shape[0] // 400)
+        x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
+        walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
+        burn = post.convergence.get("burn")
+        for p, name in enumerate(names):
+            ax = fig.add_subplot(gs[p // 2, p % 2])
+            for w in walkers:
+                ax.plot(x, tr[::step, w, p], color="k", lw=0.4, alpha=0.6)
+            if burn is not None:
+                ax.axvline(float(burn), color="k", ls="--", lw=0.8)
+            suffix = name.split(":")[-1]
+            ax.set_title(name, fontsize=6.5, loc="left")
+            ax.set_ylabel(PARAM_UNITS.get(suffix, ""), fontsize=6)
+            ax.tick_params(labelsize=6)
+            if p >= nd - 2:
+                ax.set_xlabel("step")
+        fig.text(0.1, 0.93 - trace_h - 0.045,
+                 f"Traces of {len(walkers)} of {tr.shape[1]} walkers in model coordinates;"
+                 " dashed line: end of burn-in (samples after it are kept).", fontsize=7)
+    ax = fig.add_axes([0.06, 0.04, 0.9, table_top - 0.04])
+    ax.axis("off")
+    per = conv["per_parameter"]
+    cells = [[n, f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}", f"{per[n]['rhat']:.4f}"]
+             for n in names]
+    ax.set_title(
+        f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
+        f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; ESS min {conv['ess_min']:.0f};"
+        f" R-hat max {conv['rhat_max']:.4f}; converged: {'yes' if conv['converged'] else 'NO'}",
+        loc="left", fontsize=7.5)
+    tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
+                   loc="upper left", cellLoc="left", colLoc="left", edges="horizontal")
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(7)
+    tab.auto_set_column_width([0, 1, 2, 3])
+    fig.text(0.06, 0.015, "Default convergence rule of bayescal.fit.sample: kept chain >= 50 tau, ESS >= 1000 for every parameter, split"
+             " R-hat (chain halves) < 1.01.", fontsize=7)
+    return fig
+
+
+__all__ = ["ReportContext", "Row", "style", "page_summary", "page_intervals",
+           "page_corner_angles", "page_corner_response", "page_data_fit", "page_convergence"]

@@ -1,0 +1,214 @@
+"""The calibration report: every page exists and carries the numbers of the
+saved result (read back from the PDF text with pypdf), flags follow the
+simulated truth, and bad folders fail cleanly."""
+import json
+import os
+import re
+
+import numpy as np
+import pytest
+
+pypdf = pytest.importorskip("pypdf")
+
+import bayescal  # noqa: E402
+from bayescal.cli import main as cli_main  # noqa: E402
+from bayescal.io import InputError  # noqa: E402
+from bayescal.report import write_report  # noqa: E402
+from bayescal.simulate import simulate_pair  # noqa: E402
+
+BAND = (0.03, 1.0)
+# BH1 turned 12 deg from its nominal north (beyond the 5 deg tolerance), BH2
+# wired with reversed polarity, BHZ tilted 0.5 deg.
+TRUE_AZ = (12.0, 90.0, 0.0)
+TRUE_DIP = (0.0, 0.0, -89.5)
+
+
+def _fit(tmp, name, sim, ref=None, **kw):
+    post = bayescal.calibrate(sim.sut, sim.sut_inventory, ref or sim.ref, sim.ref_inventory,
+                              band=BAND, progress=False, **kw)
+    folder = str(tmp / name)
+    post.save(folder)
+    with open(os.path.join(folder, "truth.json"), "w") as fh:
+        json.dump(sim.truth, fh)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def flagged(tmp_path_factory):
+    """Orientation-only fit of a pair with one turned and one reversed channel."""
+    sim = simulate_pair(duration=3600, fs=10, seed=4, coherence=0.99, sut_azimuth=TRUE_AZ,
+                        sut_dip=TRUE_DIP, polarity_reversal=1)
+    folder = _fit(tmp_path_factory.mktemp("flagged"), "result", sim)
+    paths = write_report(folder)
+    return folder, paths
+
+
+@pytest.fixture(scope="module")
+def gain_fit(tmp_path_factory):
+    """Fit with free gains (true gains differ from the nominal 750) against a
+    two-channel horizontal reference, so BHZ is not estimable."""
+    sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0),
+                        sut_response=((30.0, 0.707, 790.0), (30.0, 0.707, 720.0),
+                                      (30.0, 0.707, 750.0)))
+    folder = _fit(tmp_path_factory.mktemp("gain"), "result", sim,
+                  ref=sim.ref.select(channel="BH[NE]"), fit_response="gain")
+    paths = write_report(folder, nominal_tolerance_deg=3.0)
+    return folder, paths
+
+
+def _pages(folder):
+    reader = pypdf.PdfReader(os.path.join(folder, "report.pdf"))
+    return reader, [p.extract_text() for p in reader.pages]
+
+
+def _result(folder):
+    with open(os.path.join(folder, "result.json")) as fh:
+        return json.load(fh)
+
+
+def _row(text, cid, quantity):
+    """Tokens of the summary-table row of one channel and quantity."""
+    for line in text.splitlines():
+        if line.startswith(f"{cid} {quantity} ("):
+            return line.split()
+    raise AssertionError(f"no table row for {cid} {quantity}:\n{text}")
+
+
+def test_pages_pngs_and_metadata(flagged):
+    folder, paths = flagged
+    reader, pages = _pages(folder)
+    # summary, intervals, corner (angles), data and fit, convergence
+    assert len(pages) == 5
+    assert paths[0] == os.path.join(folder, "report.pdf")
+    names = sorted(os.path.basename(p) for p in paths[1:])
+    assert names == sorted(f"report_{n}.png" for n in
+                           ("summary", "intervals", "corner_angles", "data_fit", "convergence"))
+    for p in paths[1:]:
+        with open(p, "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    meta = reader.metadata
+    assert "XX.SIM.10.BH1" in meta.title
+    assert "band 0.03-1 Hz" in meta.subject
+    assert "bayescal calibration report" in pages[0]
+    assert "Angle credible intervals" in pages[1]
+    assert "Posterior of the orientation angles" in pages[2]
+    assert "Data and fit" in pages[3]
+    assert "Convergence of the sampler" in pages[4]
+    assert not [f for f in os.listdir(folder) if f.startswith(".report")]
+
+
+def test_summary_table_matches_result_and_truth(flagged):
+    folder, _ = flagged
+    _, pages = _pages(folder)
+    res = _result(folder)
+    for cid, ch in res["channels"].items():
+        quantities = ["tilt", "dip"] if "tilt_deg" in ch else ["azimuth", "dip"]
+        for q in quantities:
+            entry = ch[f"{q}_deg"]
+            tok = _row(pages[0], cid, q)
+            assert tok[3] == f"{entry['median']:.2f}"
+            assert " ".join(tok[4:6]) == f"[{entry['ci68'][0]:.2f}, {entry['ci68'][1]:.2f}]"
+            assert " ".join(tok[6:8]) == f"[{entry['ci95'][0]:.2f}, {entry['ci95'][1]:.2f}]"
+    # the printed numbers are right about the simulated sensor, not just copied
+    tok = _row(pages[0], "XX.SIM.10.BH1", "azimuth")
+    assert abs(float(tok[3]) - TRUE_AZ[0]) < 1.0
+    assert tok[8] == "0.00"                              # nominal (StationXML)
+    assert float(tok[9]) == pytest.approx(float(tok[3]), abs=0.011)   # deviation from nominal
+    assert tok[10] == f"{TRUE_AZ[0]:.2f}"                # truth column
+    tok = _row(pages[0], "XX.SIM.10.BHZ", "tilt")
+    assert abs(float(tok[3]) - 0.5) < 0.2
+    assert "window: start 2026-01-01T00:00:00" in pages[0]
+    assert "duration 3600 s" in pages[0]
+    m = res["meta"]
+    assert f"Segments used: {m['n_segments']} of {m['n_segments_possible']}" in pages[0]
+    assert "Band: 0.03 - 1 Hz" in pages[0]
+
+
+def test_flags_follow_truth(flagged, tmp_path):
+    folder, _ = flagged
+    _, pages = _pages(folder)
+    flags = pages[0][pages[0].index("Flags"):pages[0].index("Not estimable")]
+    assert re.search(r"XX\.SIM\.10\.BH1: AZIMUTH OFF: \+1[12]\.\d\d deg", flags)
+    assert re.search(r"XX\.SIM\.10\.BH2: REVERSED: axis 1[6-8]\d\.\d deg", flags)
+    assert "BHZ" not in flags
+    # a wider tolerance clears the turned channel but never the reversed one
+    out = str(tmp_path / "wide.pdf")
+    write_report(folder, out_pdf=out, nominal_tolerance_deg=20.0)
+    text = pypdf.PdfReader(out).pages[0].extract_text()
+    flags = text[text.index("Flags"):text.index("Not estimable")]
+    assert "BH1" not in flags and "REVERSED" in flags
+    assert os.path.exists(tmp_path / "wide_summary.png")
+
+
+def test_corner_page_states_levels_and_truth(flagged):
+    _, pages = _pages(flagged[0])
+    assert "Contour levels drawn: 68 % and 95 % of the 2-D posterior mass" in pages[2]
+    assert "simulation truth" in pages[2]
+    assert "BH1 azimuth (deg)" in pages[2]
+    assert "BHZ lean N (deg)" in pages[2]
+
+
+def test_data_page_numbers(flagged):
+    folder, _ = flagged
+    _, pages = _pages(folder)
+    with np.load(os.path.join(folder, "diagnostics.npz")) as d:
+        coh = d["multiple_coherence"]
+        mis = d["band_misfit"]
+        sut = [str(s) for s in d["sut_ids"]]
+    for i, cid in enumerate(sut):
+        assert f"{cid} (median coherence {np.median(coh[i]):.4f})" in pages[3]
+        assert f"{cid} (median {np.median(mis[:, i]):.2f})" in pages[3]
+        # the simulated sensor has coherence 0.99 with the ground
+        assert 0.97 < np.median(coh[i]) < 1.0
+    assert "frequency (Hz)" in pages[3]
+
+
+def test_convergence_page_numbers(flagged):
+    folder, _ = flagged
+    _, pages = _pages(folder)
+    conv = _result(folder)["convergence"]
+    assert f"ESS min {conv['ess_min']:.0f}" in pages[4]
+    assert f"Acceptance fraction {conv['acceptance']:.3f}" in pages[4]
+    assert f"R-hat max {conv['rhat_max']:.4f}" in pages[4]
+    for name, p in conv["per_parameter"].items():
+        assert f"{name} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[4]
+
+
+def test_response_rows_and_not_estimable(gain_fit):
+    folder, paths = gain_fit
+    reader, pages = _pages(folder)
+    assert len(pages) == 6                       # response corner page added
+    assert any(p.endswith("report_corner_response.png") for p in paths)
+    assert "Posterior of the response parameters" in pages[3]
+    res = _result(folder)
+    for cid, true_gain in (("XX.SIM.10.BH1", 790.0), ("XX.SIM.10.BH2", 720.0)):
+        g = res["channels"][cid]["response"]["gain"]
+        tok = _row(pages[0], cid, "gain")
+        assert tok[3] == f"{g['median']:.4g}"
+        assert abs(float(tok[3]) / true_gain - 1) < 0.03
+        assert f"750 {100 * (g['median'] / 750.0 - 1):+.2f} % {true_gain:.4g}" in " ".join(tok)
+    assert "XX.SIM.10.BHZ: its axis lies outside the span" in pages[0]
+    assert "fixed (reference plane)" in pages[0]          # circle channels: dip not estimated
+    assert "Flags (tolerance 3 deg" in pages[0]
+
+
+def test_cli_report_and_bad_folders(flagged, tmp_path, capsys):
+    folder, _ = flagged
+    assert cli_main(["report", folder, "--threshold", "20"]) == 0
+    text = pypdf.PdfReader(os.path.join(folder, "report.pdf")).pages[0].extract_text()
+    assert "Flags (tolerance 20 deg" in text
+    missing = str(tmp_path / "nowhere")
+    assert cli_main(["report", missing]) == 2
+    assert missing in capsys.readouterr().err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match="result.json is missing"):
+        write_report(str(empty))
+    assert os.listdir(empty) == []
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "result.json").write_text("{not json")
+    (broken / "samples.npz").write_bytes(b"nope")
+    with pytest.raises(InputError, match=str(broken)):
+        write_report(str(broken))
+    assert sorted(os.listdir(broken)) == ["result.json", "samples.npz"]
