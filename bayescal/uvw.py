@@ -357,8 +357,17 @@ class RunModel:
         self._cyy = t[:, :no, :no]
         self._onehot = np.eye(spectra.n_bands)[spectra.band_of]     # (F, B)
         self._starts = np.r_[0, np.flatnonzero(np.diff(spectra.band_of)) + 1]
-        # outputs sharing one nominal family share one ratio evaluation
-        self._fam_index = [families.index(fam) for fam in families]
+        # TwoPoleFamily.ratio split into per-frequency constants and the one
+        # factor that depends on (T, h): 1 / D(s; T, h), shared by all outputs
+        self._s = 2j * np.pi * f
+        self._sn = 2j * np.pi * np.array([fam.norm_freq for fam in families])
+        d_nom = np.array([fam._d(self._s, 2 * np.pi / fam.period_s, fam.damping)
+                          for fam in families])                       # (no, F)
+        self._dn_norm = np.array([abs(fam._d(sn, 2 * np.pi / fam.period_s, fam.damping))
+                                  for fam, sn in zip(families, self._sn)])
+        self._g_nom = np.array([fam.gain for fam in families])
+        self._const = d_nom / self.base                               # (no, F)
+        self._kernel = self.coef[:, None] * self._const * self._saa[None]
         self._cya_b = self._cya.T @ self._onehot                    # (no, B)
         self._saa_b = self._saa @ self._onehot                      # (B,)
         self.noise = None
@@ -373,14 +382,22 @@ class RunModel:
                        np.log(nom.gain * pr.gain_factor)])
         return lo, hi
 
+    def _factors(self, theta):
+        """(W, no) gain and normalisation factor and (W, F) ``1 / D(s; T, h)``."""
+        theta = np.atleast_2d(theta)
+        w0 = (2 * np.pi / np.exp(theta[:, 0]))[:, None]
+        h = theta[:, 1][:, None]
+        inv = 1.0 / (self._s * self._s + 2.0 * h * w0 * self._s + w0 * w0)
+        d_sn = np.abs(self._sn[None] ** 2 + 2.0 * h * w0 * self._sn[None] + w0 * w0)  # (W, no)
+        amp = np.exp(theta[:, 2])[:, None] / self._g_nom[None] * d_sn / self._dn_norm[None]
+        return amp, inv
+
     def ratio(self, theta):
         """Element response over each output's deconvolution response,
-        ``rho_c / base_c``, shape (W, n_out, F)."""
-        theta = np.atleast_2d(theta)
-        f = self.spectra.freqs
-        t, h, g = np.exp(theta[:, 0]), theta[:, 1], np.exp(theta[:, 2])
-        uniq = {i: self.families[i].ratio(f, t, h, g) for i in set(self._fam_index)}
-        return np.stack([uniq[i] for i in self._fam_index], axis=1) / self.base[None]
+        ``rho_c / base_c`` (``TwoPoleFamily.ratio`` of each output), shape
+        (W, n_out, F)."""
+        amp, inv = self._factors(theta)
+        return amp[:, :, None] * self._const[None] * inv[:, None, :]
 
     def mu(self, theta):
         """Model transfer ``m_c rho_c / base_c``, shape (W, n_out, F)."""
@@ -388,8 +405,9 @@ class RunModel:
 
     def residual(self, theta):
         """Band residuals ``R_b,c``, shape (W, B, n_out)."""
-        mu = self.mu(theta)
-        r = self._cya_b[None] - np.add.reduceat(mu * self._saa, self._starts, axis=2)
+        amp, inv = self._factors(theta)
+        model = np.add.reduceat(self._kernel[None] * inv[:, None, :], self._starts, axis=2)
+        r = self._cya_b[None] - amp[:, :, None] * model
         return r.transpose(0, 2, 1)
 
     def log_prior(self, theta):
@@ -530,7 +548,13 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     nominal = run.families[-1]
     sp = run_spectra(run, coil_constant, band, nperseg)
     model = RunModel(sp, coef, run.families, nominal, priors)
-    theta0, scale = _start(model)
+    # start from the Z output when there is one: every element shows in Z with
+    # the same sign in the built-in geometries, so a wrong X/Y sign convention
+    # shows up as a misfit and a Z-only disagreement rather than a failed start
+    iz = run.axes.index("Z") if "Z" in run.axes else None
+    start_model = model if iz is None else RunModel(sp.select([iz]), coef[[iz]],
+                                                    [run.families[iz]], nominal, priors)
+    theta0, scale = _start(start_model)
     if not scale > 0:
         raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} with "
                        "the opposite sign to the geometry: check the coil wiring, the output "

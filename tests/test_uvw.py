@@ -1,0 +1,272 @@
+"""UVW (coil-by-coil) calibration: geometry, the seed's algebra, recovery of
+simulated element responses, Z-only vs all-output agreement, XYZ responses,
+interval coverage, and the ``bayescal uvw`` command end to end."""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+from obspy import read
+from scipy.stats import binom
+
+from bayescal import cli, uvw
+from bayescal.calsim import STS2_NOMINAL, simulate_calibration
+from bayescal.geometry import STS2_UVW, TRILLIUM_UVW
+from bayescal.io import InputError
+from bayescal.response import paz_velocity_response
+from bayescal.simulate import NORM_FREQ
+
+TILT_DEG = 54.7356          # arccos(1/sqrt(3)), elements' angle from the vertical
+TRUE = ((118.0, 0.700, 1490.0), (121.5, 0.720, 1512.0), (119.0, 0.690, 1500.0))
+COIL = 1e-9
+
+
+# --- geometry -----------------------------------------------------------------
+
+def axes_from_rotations(azimuths_deg):
+    """Element axes built from rotations: tilt TILT_DEG from the vertical (Z up),
+    then turned by the azimuth from X toward Y."""
+    out = []
+    for az in azimuths_deg:
+        t, a = np.radians(TILT_DEG), np.radians(az)
+        ry = np.array([[np.cos(t), 0, np.sin(t)], [0, 1, 0], [-np.sin(t), 0, np.cos(t)]])
+        rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+        out.append(rz @ ry @ np.array([0.0, 0.0, 1.0]))
+    return np.array(out)
+
+
+def test_trillium_matrix_matches_rotation_construction():
+    # Trillium manual: U in the X-Z plane leaning toward +X, V and W 120 degrees on
+    m = axes_from_rotations([0.0, 120.0, 240.0])
+    np.testing.assert_allclose(TRILLIUM_UVW, m, atol=1e-6)
+    np.testing.assert_allclose(uvw.sensor_matrix("trillium")[0], m, atol=1e-6)
+
+
+def test_sts2_matrix_matches_rotation_construction():
+    # STS-2 manual: U leans toward -X, V at 60 and W at 300 degrees
+    np.testing.assert_allclose(STS2_UVW, axes_from_rotations([180.0, 60.0, 300.0]), atol=1e-6)
+
+
+@pytest.mark.parametrize("m", [STS2_UVW, TRILLIUM_UVW])
+def test_matrices_orthonormal_and_tilted(m):
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(np.degrees(np.arccos(m[:, 2])), TILT_DEG, atol=1e-4)
+
+
+@pytest.mark.parametrize("m", [STS2_UVW, TRILLIUM_UVW])
+def test_seed_formula_is_the_diagonal_of_the_response_matrix(m):
+    rng = np.random.default_rng(3)
+    k = rng.normal(1, 0.05, (3, 40)) * np.exp(1j * rng.normal(0, 0.05, (3, 40)))
+    h3 = m[:, 2][:, None] * k           # Z output of the run driving each element
+    full = uvw.response_matrix(k, m)
+    np.testing.assert_allclose(uvw.seed_xyz_diagonal(h3, m), np.einsum("llf->lf", full),
+                               rtol=1e-12)
+    # (M o M)^T k, the seed's matrix of squared values
+    np.testing.assert_allclose(np.einsum("llf->lf", full), (m * m).T @ k, rtol=1e-12)
+
+
+def test_equal_elements_give_no_cross_talk():
+    k = np.ones((3, 5)) * (0.9 + 0.1j)
+    t = uvw.response_matrix(k, STS2_UVW)
+    np.testing.assert_allclose(t, np.eye(3)[:, :, None] * k[0], atol=1e-12)
+    assert uvw.cross_talk(t)[0] < 1e-12
+    k[0] *= 1.01                        # 1 % gain difference in U
+    ct = uvw.cross_talk(uvw.response_matrix(k, STS2_UVW))[0]
+    # T_XZ = M_UX M_UZ dk = -sqrt(2)/3 * 0.01, over sqrt(T_XX T_ZZ) ~ 1
+    assert abs(ct - np.sqrt(2) / 3 * 0.01) < 2e-4
+
+
+def test_load_matrix(tmp_path):
+    good = tmp_path / "m.txt"
+    good.write_text("# rows U V W\n" + "\n".join(", ".join(f"{x:.12f}" for x in r)
+                                                  for r in TRILLIUM_UVW))
+    np.testing.assert_allclose(uvw.load_matrix(str(good)), TRILLIUM_UVW, atol=1e-11)
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 0 0\n0 1 0\n0 0 2\n")
+    with pytest.raises(InputError, match="bad.txt.*orthonormal"):
+        uvw.load_matrix(str(bad))
+    short = tmp_path / "short.txt"
+    short.write_text("1 0 0\n0 1 0\n")
+    with pytest.raises(InputError, match="short.txt"):
+        uvw.load_matrix(str(short))
+
+
+def test_xyz_uvw_rotation_matches_sensor_in_uvw_mode():
+    kw = dict(elements=TRUE, duration=3600.0, seed=5, digitizer_noise=0.0)
+    xyz = simulate_calibration(outputs="xyz", **kw)
+    uvw_mode = simulate_calibration(outputs="uvw", **kw)
+    for e in uvw.ELEMENTS:
+        rot = uvw.xyz_to_uvw(xyz.runs[e].select(channel="LH?"), STS2_UVW)
+        ref = uvw_mode.runs[e]
+        for ax in uvw.ELEMENTS:
+            a = rot.select(channel=f"LH{ax}")[0].data
+            b = ref.select(channel=f"LH{ax}")[0].data
+            np.testing.assert_allclose(a, b, atol=1e-9 * np.abs(b).max())
+        back = uvw.uvw_to_xyz(rot, STS2_UVW)
+        for code in "12Z":
+            np.testing.assert_allclose(back.select(channel=f"LH{code}")[0].data,
+                                       xyz.runs[e].select(channel=f"LH{code}")[0].data,
+                                       atol=1e-9 * np.abs(b).max())
+
+
+def test_run_model_ratio_is_the_two_pole_family():
+    """The likelihood's split evaluation equals TwoPoleFamily.ratio of each output."""
+    sim = simulate_calibration(elements=TRUE, seed=2, duration=3 * 3600.0)
+    run = uvw.read_run("W", sim.runs["W"], sim.inventory, "BC0", "cal_W")
+    sp = uvw.run_spectra(run, COIL, (0.005, 0.1), nperseg=2048)
+    base = np.stack([f.ratio(sp.freqs, 119.0, 0.69, 1501.0)[0] for f in run.families])
+    model = uvw.RunModel(sp, run.coefficients(STS2_UVW), run.families, run.families[-1],
+                         base=base)
+    theta = np.array([[np.log(118.0), 0.70, np.log(1490.0)], [np.log(125.0), 0.6, np.log(1400.0)]])
+    want = np.stack([f.ratio(sp.freqs, np.exp(theta[:, 0]), theta[:, 1], np.exp(theta[:, 2]))
+                     for f in run.families], axis=1) / base[None]
+    np.testing.assert_allclose(model.ratio(theta), want, rtol=1e-12)
+
+
+# --- wrong geometry is caught --------------------------------------------------
+
+def test_wrong_sign_convention_is_reported():
+    """STS-2 data fitted with the Trillium matrix: V's X coefficient has the
+    wrong sign, so the all-output fit disagrees with Z only and the apparent
+    coefficient comes out with the opposite sign."""
+    sim = simulate_calibration(elements=TRUE, seed=11, duration=6 * 3600.0)
+    run = uvw.read_run("V", sim.runs["V"], sim.inventory, "BC0", "cal_V")
+    band = (0.5 / 120, 0.1)
+    fit_all = uvw.fit_run(run, TRILLIUM_UVW, COIL, band, seed=1)
+    fit_z = uvw.fit_run(run.select(["Z"]), TRILLIUM_UVW, COIL, band, seed=2)
+    worst = max(abs(v["z"]) for v in uvw.agreement(fit_all, fit_z).values())
+    assert worst > uvw.AGREEMENT_Z
+    x = fit_all.apparent["X"]
+    assert x["expected"] == pytest.approx(-STS2_UVW[1, 0])
+    assert x["estimate"] == pytest.approx(STS2_UVW[1, 0], abs=0.02)
+    assert fit_all.misfit["X"] > 3
+
+
+# --- end to end on written miniSEED --------------------------------------------
+
+@pytest.fixture(scope="module")
+def cli_run(tmp_path_factory):
+    root = tmp_path_factory.mktemp("uvw")
+    sim = simulate_calibration(elements=TRUE, seed=7, duration=8 * 3600.0, coil_constant=COIL)
+    paths = sim.write(str(root / "in"))
+    out = root / "out"
+    rc = cli.main(["uvw", "--cal", f"U={paths['U']}", "--cal", f"V={paths['V']}",
+                   "--cal", f"W={paths['W']}", "--input-channel", "BC0",
+                   "--coil-constant", str(COIL), "--sensor", "sts2", "--sut-xml", paths["xml"],
+                   "--out", str(out), "--seed", "1", "--quiet"])
+    with open(out / "uvw.json") as fh:
+        summary = json.load(fh)
+    return {"rc": rc, "summary": summary, "out": out, "paths": paths, "sim": sim}
+
+
+def test_cli_writes_schema(cli_run):
+    s = cli_run["summary"]
+    assert cli_run["rc"] == 0
+    assert s["schema"] == "bayescal.uvw/1"
+    assert set(s["elements"]) == {"U", "V", "W"} and set(s["xyz"]) == {"X", "Y", "Z"}
+    for e in s["elements"].values():
+        for p in ("period_s", "damping", "gain"):
+            assert {"median", "ci68", "ci95"} <= set(e[p])
+    for x in s["xyz"].values():
+        for p in ("period_s", "damping", "gain"):
+            assert {"median", "ci68", "ci95"} <= set(x[p])
+    assert {"median", "ci95"} <= set(s["cross_talk_max"])
+    for name in ("uvw_report.pdf", "uvw_elements.png", "uvw_xyz.png", "uvw_agreement.png",
+                 "uvw_samples.npz"):
+        assert (cli_run["out"] / name).stat().st_size > 1000
+    from pypdf import PdfReader
+    assert len(PdfReader(str(cli_run["out"] / "uvw_report.pdf")).pages) == 3
+
+
+def test_elements_recovered(cli_run):
+    s = cli_run["summary"]["elements"]
+    inside95 = 0
+    for e, truth in zip(uvw.ELEMENTS, TRUE):
+        for p, t in zip(uvw.PARAMS, truth):
+            est = s[e][p]
+            assert abs(est["median"] - t) < 3.5 * est["sd"], (e, p, est, t)
+            inside95 += est["ci95"][0] <= t <= est["ci95"][1]
+            if p != "damping":
+                assert abs(est["median"] / t - 1) < 0.01
+    assert inside95 >= 7          # of 9; P(fewer) < 1 % if the intervals are right
+
+
+def test_z_only_agrees_with_all_outputs(cli_run):
+    s = cli_run["summary"]
+    assert s["agreement"]["consistent"], s["agreement"]
+    for e in uvw.ELEMENTS:
+        for p in ("period_s", "gain"):
+            assert abs(s["z_only"][e][p]["median"] / s["elements"][e][p]["median"] - 1) < 0.01
+        # all outputs are at least as informative as Z alone
+        assert s["elements"][e]["gain"]["sd"] <= s["z_only"][e]["gain"]["sd"] * 1.05
+    assert s["geometry"]["max_abs_deviation"] < 0.02
+
+
+def test_xyz_gains_match_response_matrix(cli_run):
+    s = cli_run["summary"]
+    m = STS2_UVW
+    # truth: M^T diag(k) M at the normalisation frequency, k from the true elements
+    k = np.array([paz_velocity_response([NORM_FREQ], *el, norm_freq=NORM_FREQ)[0]
+                  for el in TRUE])
+    t = m.T @ np.diag(k) @ m
+    for i, ax in enumerate(uvw.XYZ):
+        est = s["xyz"][ax]["gain_at_norm_freq"]
+        assert abs(est["median"] - abs(t[i, i])) < 3.5 * est["sd"], (ax, est, t[i, i])
+        # the two-pole equivalent gain is the same diagonal, (M o M)^T G
+        g_lin = (m * m).T @ np.array([el[2] for el in TRUE])
+        assert s["xyz"][ax]["gain"]["median"] == pytest.approx(g_lin[i], rel=2e-3)
+        assert s["xyz"][ax]["two_pole_misfit_max"] < 1e-2
+    # cross-talk of the true elements over the same frequency grid
+    freqs = np.load(cli_run["out"] / "uvw_samples.npz")["freqs"]
+    kt = np.array([paz_velocity_response(freqs, *el) for el in TRUE])
+    ct_true = uvw.cross_talk(uvw.response_matrix(kt, m))[0]
+    ct = s["cross_talk_max"]
+    assert ct["ci95"][0] - 0.5 * ct["sd"] <= ct_true <= ct["ci95"][1] + 0.5 * ct["sd"]
+
+
+def test_cli_bad_input_exit_2_nothing_written(tmp_path, cli_run, capsys):
+    paths = cli_run["paths"]
+    st = read(paths["V"])
+    bad = tmp_path / "cal_V_noinput.mseed"
+    st.select(channel="LH?").write(str(bad), format="MSEED")
+    out = tmp_path / "out"
+    rc = cli.main(["uvw", "--cal", f"U={paths['U']}", "--cal", f"V={bad}",
+                   "--cal", f"W={paths['W']}", "--coil-constant", str(COIL),
+                   "--sut-xml", paths["xml"], "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and "cal_V_noinput.mseed" in err[0] and "BC0" in err[0]
+    assert "Traceback" not in err[0]
+    assert not out.exists()
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".uvw-")]
+
+
+# --- coverage -------------------------------------------------------------------
+
+N_COVERAGE = 30
+
+
+def _coverage_run(seed):
+    rng = np.random.default_rng(500 + seed)
+    t0, h0, g0 = STS2_NOMINAL
+    els = tuple((t0 * (1 + 0.03 * rng.standard_normal()), h0 + 0.02 * rng.standard_normal(),
+                 g0 * (1 + 0.01 * rng.standard_normal())) for _ in range(3))
+    sim = simulate_calibration(elements=els, seed=200 + seed, duration=6 * 3600.0)
+    e = uvw.ELEMENTS[seed % 3]
+    run = uvw.read_run(e, sim.runs[e], sim.inventory, "BC0", e)
+    fit = uvw.fit_run(run, STS2_UVW, COIL, (0.5 / 120, 0.1), seed=seed, n_walkers=16,
+                      min_ess=400)
+    s = fit.summary()
+    truth = els[uvw.ELEMENTS.index(e)]
+    return [s[p]["ci90"][0] <= t <= s[p]["ci90"][1] for p, t in zip(uvw.PARAMS, truth)]
+
+
+def test_coverage_of_90_percent_intervals():
+    hits = np.array([_coverage_run(s) for s in range(N_COVERAGE)])      # (runs, 3 params)
+    lo = binom.ppf(0.001, N_COVERAGE, 0.9)
+    for j, p in enumerate(uvw.PARAMS):
+        assert hits[:, j].sum() >= lo, (p, hits[:, j].sum(), lo)
+    # intervals grossly too wide would cover (nearly) always
+    assert hits.sum() <= binom.isf(0.001, hits.size, 0.9), hits.sum()
