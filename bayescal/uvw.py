@@ -807,4 +807,4 @@ def _relative_coil_constant(runs, m, band, nperseg, fam):
             raise FitError(f"{run.source}: the outputs respond to the coil of {e} with the "
                            "opposite sign to the geometry")
         logs.append(np.log(scale))
-    return float(np.exp(-np.mean(logs)))
+    return float(np.exp(np.mean(logs)))

@@ -69,9 +69,9 @@ def elements_page(result, summary):
                    f"{summary['elements'][e][p]['ci95'][1]:.5g}]" for p in PARAMS]
             for e in ELEMENTS]
     tab = ax.table(cellText=rows, colLabels=["", "period (s)", "damping", "gain"],
-                   loc="upper center", cellLoc="center")
+                   loc="upper center", cellLoc="center", colWidths=[0.1, 0.3, 0.3, 0.3])
     tab.auto_set_font_size(False)
-    tab.set_fontsize(8)
+    tab.set_fontsize(7)
     tab.scale(1, 3)
     ax.set_title(f"medians [95 %]  ({summary['mode']})\ngain: {summary['gain_units']}",
                  fontsize=8)

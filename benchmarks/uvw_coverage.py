@@ -47,10 +47,17 @@ def one(seed, duration, band, modes):
         dt = time.perf_counter() - t
         s = fit.summary()
         out[mode] = {"time_s": dt, "element": e, "steps": fit.convergence["n_steps"],
-                     **{p: {"truth": truth[p], "median": s[p]["median"],
+                     "samples": fit.samples,
+                     **{p: {"truth": truth[p], "median": s[p]["median"], "sd": s[p]["sd"],
                             **{lv: bool(s[p][lv][0] <= truth[p] <= s[p][lv][1]) for lv in LEVELS}}
                         for p in uvw.PARAMS}}
     return out
+
+
+def _agreement_z(a, z, j):
+    from types import SimpleNamespace
+    ag = uvw.agreement(SimpleNamespace(samples=a), SimpleNamespace(samples=z))
+    return ag[uvw.PARAMS[j]]["z"]
 
 
 def summarise(records, mode):
@@ -67,6 +74,14 @@ def summarise(records, mode):
         err = np.array([abs(r[p]["median"] - r[p]["truth"]) / abs(r[p]["truth"]) for r in rec])
         cov[p]["relative_error"] = {"median": float(np.median(err)), "max": float(err.max())}
     times = np.array([r["time_s"] for r in rec])
+    if mode == "all" and "z" in records[0]:
+        # Z-only vs all-output agreement statistic (uvw.agreement) under the
+        # true model: should be about standard normal
+        zs = np.array([[_agreement_z(r["all"]["samples"], r["z"]["samples"], j)
+                        for j in range(3)] for r in records])
+        cov["agreement_z"] = {"sd": zs.std(axis=0).tolist(),
+                              "fraction_abs_above_3": float(np.mean(np.abs(zs) > 3)),
+                              "max_abs": float(np.abs(zs).max())}
     return {"coverage": cov, "time_per_fit_s": {"median": float(np.median(times)),
                                                  "max": float(times.max())}}
 
@@ -82,13 +97,20 @@ def main():
     args = ap.parse_args()
     modes = args.modes.split(",")
     t0 = time.perf_counter()
-    records = [one(s, args.duration, tuple(args.band), modes) for s in range(args.n)]
+    records = []
+    for s in range(args.n):
+        records.append(one(s, args.duration, tuple(args.band), modes))
+        print(f"simulation {s + 1}/{args.n} done, {time.perf_counter() - t0:.0f} s", flush=True)
     result = {"n": args.n, "duration_s": args.duration, "band_hz": list(args.band),
               "wall_s": time.perf_counter() - t0,
               **{mode: summarise(records, mode) for mode in modes}}
     for mode in modes:
         print(f"mode {mode}:")
         for p, c in result[mode]["coverage"].items():
+            if p == "agreement_z":
+                print(f"  Z-only vs all-output z: sd per parameter {np.round(c['sd'], 2).tolist()}, "
+                      f"|z|>3 in {100 * c['fraction_abs_above_3']:.1f} %")
+                continue
             levels = "  ".join(f"{lv} {c[lv]['covered']}/{c[lv]['n']} "
                                f"[{c[lv]['ci95'][0]:.2f}, {c[lv]['ci95'][1]:.2f}]" for lv in LEVELS)
             print(f"  {p:9s} {levels}  rel. error median {c['relative_error']['median']:.2e} "
@@ -97,7 +119,7 @@ def main():
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as fh:
-            json.dump(result, fh, indent=2)
+            json.dump(result, fh, indent=2, default=float)
 
 
 if __name__ == "__main__":

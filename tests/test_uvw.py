@@ -125,6 +125,17 @@ def test_run_model_ratio_is_the_two_pole_family():
     np.testing.assert_allclose(model.ratio(theta), want, rtol=1e-12)
 
 
+def test_without_coil_constant_the_scale_is_removed():
+    """No --coil-constant: the effective constant puts the elements' geometric
+    mean gain at nominal, so relative gains keep their meaning."""
+    c_true = 3e-8
+    sim = simulate_calibration(elements=TRUE, seed=4, duration=3 * 3600.0, coil_constant=c_true)
+    runs = {e: uvw.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in uvw.ELEMENTS}
+    c_eff = uvw._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
+    gmean = np.exp(np.mean(np.log([el[2] for el in TRUE])))
+    assert c_eff == pytest.approx(c_true * gmean / STS2_NOMINAL[2], rel=0.01)
+
+
 # --- wrong geometry is caught --------------------------------------------------
 
 def test_wrong_sign_convention_is_reported():
@@ -155,7 +166,7 @@ def cli_run(tmp_path_factory):
     rc = cli.main(["uvw", "--cal", f"U={paths['U']}", "--cal", f"V={paths['V']}",
                    "--cal", f"W={paths['W']}", "--input-channel", "BC0",
                    "--coil-constant", str(COIL), "--sensor", "sts2", "--sut-xml", paths["xml"],
-                   "--out", str(out), "--seed", "1", "--quiet"])
+                   "--out", str(out), "--seed", "1", "--band", "0.0042", "0.1", "--quiet"])
     with open(out / "uvw.json") as fh:
         summary = json.load(fh)
     return {"rc": rc, "summary": summary, "out": out, "paths": paths, "sim": sim}
