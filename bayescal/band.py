@@ -6,9 +6,10 @@ squared multiple coherence of every SUT channel with all reference channels
 (the fraction of its power the reference explains), smooths it over a tenth
 of a decade, and returns the widest contiguous frequency range (in log
 frequency) where every SUT channel the reference can see is above
-``threshold``. Channels whose coherence never reaches the threshold (for
-example a vertical beside a horizontal-only reference) are left out of the
-criterion; they are reported by the fit as not estimable.
+``threshold``. Channels the reference cannot see (a SUT vertical beside a
+horizontal-only reference: nominal axis outside the span of the reference
+axes) and channels whose coherence never reaches the threshold are left out
+of the criterion; the fit reports the former as not estimable.
 """
 from __future__ import annotations
 
@@ -72,6 +73,17 @@ def _widest_run(mask, freqs):
     return best
 
 
+def _inside_span(sut, ref):
+    """Indices of SUT channels whose nominal axis the reference can see."""
+    from .fit import SPAN_TOLERANCE_DEG, _span_basis
+
+    basis, _ = _span_basis(np.asarray(ref.vectors, float))
+    if basis.shape[0] == 3:
+        return list(range(len(sut.ids)))
+    inside = np.linalg.norm(np.asarray(sut.vectors, float) @ basis.T, axis=1)
+    return [i for i in range(len(sut.ids)) if inside[i] >= np.cos(np.radians(SPAN_TOLERANCE_DEG))]
+
+
 def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     """Choose ``(fmin, fmax)`` from the coherence of aligned sides.
 
@@ -93,7 +105,7 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     spectra = cross_spectra(sut.data, ref.data, fs, sut.response_fn(), ref.response_fn(),
                             (fmin, fmax), nperseg=nperseg, sut_ids=sut.ids, ref_ids=ref.ids)
     coh = _smooth(spectra.freqs, np.clip(spectra.multiple_coherence(), 0, 1))
-    visible = [i for i in range(coh.shape[0]) if np.nanmax(coh[i]) >= threshold]
+    visible = [i for i in _inside_span(sut, ref) if np.nanmax(coh[i]) >= threshold]
     if not visible:
         raise InputError(f"{source}no frequency band where the sensors are coherent "
                          f"(best multiple coherence {np.nanmax(coh):.2f}, needed {threshold}); "

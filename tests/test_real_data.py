@@ -68,3 +68,21 @@ def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):
     # the fitted gain is the amplitude in this band (flat there)
     assert r["gain"]["median"] == pytest.approx(med, rel=0.01)
     assert np.isfinite(r["period_s"]["median"]) and 0.02 <= r["damping"]["median"] <= 2.0
+
+
+def test_cowi_band_chosen_from_coherence(cowi_data):
+    """Without --band: the chosen band covers the secondary microseism,
+    leaves out the vertical (no vertical reference), and the azimuths still
+    agree with ASL."""
+    from bayescal.pipeline import calibrate_files
+
+    post = calibrate_files(cowi_data / "C100823215422_COWI.LHx", "flat",
+                           [cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], "flat",
+                           start="2010-08-24T02:00:00", end="2010-08-24T13:00:00",
+                           progress=False)
+    lo, hi = post.meta["band_hz"]
+    assert lo <= 1 / 8 and hi >= 1 / 3
+    assert "LHZ" not in post.meta["band_choice"]
+    az = post.summary()["channels"]
+    assert abs(az["US.COWI..LHN"]["azimuth_deg"]["median"] - PUBLISHED_COWI_DEG) < COWI_TOL
+    assert abs(az["US.COWI..LHE"]["azimuth_deg"]["median"] - 90 - PUBLISHED_COWI_DEG) < COWI_TOL
