@@ -105,6 +105,12 @@ def main(argv=None):
     for name, e in ch["response"].items():
         print(f"  {name:9s} median {e['median']:.4g}  68 % [{e['ci68'][0]:.4g}, {e['ci68'][1]:.4g}]"
               f"  95 % [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]")
+    from bayescal import Posterior
+    s = Posterior.load(os.path.join(a.out, "fit")).response[cid]
+    hf = 2 * s[:, 1] / s[:, 0]
+    print(f"  2 h / T0 (what a band well above the corner constrains: phase lead 2 h f0 / f) "
+          f"median {np.median(hf):.4g} Hz, 95 % [{np.percentile(hf, 2.5):.4g}, "
+          f"{np.percentile(hf, 97.5):.4g}]")
     med, lo, hi = fitted_amplitude(os.path.join(a.out, "fit"), sut_xml)
     print(f"  |H_unknown| median over {COMPARE_BAND[0]}-{COMPARE_BAND[1]} Hz: {med:.1f} "
           f"counts/(m/s), 95 % [{lo:.1f}, {hi:.1f}]")
