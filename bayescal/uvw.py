@@ -61,7 +61,7 @@ from .io import InputError
 from .likelihood import INFLATION_SHRINK, Priors
 from .posterior import interval_summary
 from .response import ResponseError, TwoPoleFamily, evaluate_velocity_response
-from .spectra import cross_spectra
+from .spectra import SpectraError, cross_spectra
 
 SCHEMA = "bayescal.uvw/1"
 ELEMENTS = ("U", "V", "W")
@@ -318,7 +318,15 @@ def read_run(element, stream, inventory, input_channel, source):
 def run_spectra(run, coil_constant, band, nperseg=None, base=None):
     """Cross-spectra of a run's outputs (deconvolved by their nominal response
     times ``base(freqs) -> (n_out, F)`` when given) and its input (as ground
-    velocity, ``A = C U / (2 pi i f)``)."""
+    velocity, ``A = C U / (2 pi i f)``). Too little data raises
+    :class:`InputError` naming the run's file."""
+    try:
+        return _run_spectra(run, coil_constant, band, nperseg, base)
+    except SpectraError as exc:
+        raise InputError(f"{run.source}: {exc}") from None
+
+
+def _run_spectra(run, coil_constant, band, nperseg, base):
     def out_resp(f):
         h = run.nominal_response(np.asarray(f, float))
         return h if base is None else h * base(f)

@@ -281,3 +281,15 @@ def test_coverage_of_90_percent_intervals():
         assert hits[:, j].sum() >= lo, (p, hits[:, j].sum(), lo)
     # intervals grossly too wide would cover (nearly) always
     assert hits.sum() <= binom.isf(0.001, hits.size, 0.9), hits.sum()
+
+
+def test_cli_too_short_record_names_the_file(tmp_path, capsys):
+    paths = simulate_calibration(duration=3000.0, seed=3).write(str(tmp_path / "in"))
+    out = tmp_path / "out"
+    rc = cli.main(["uvw"] + sum([["--cal", f"{e}={paths[e]}"] for e in uvw.ELEMENTS], [])
+                  + ["--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out", str(out),
+                     "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert "cal_U.mseed" in err[0] and "too little data" in err[0]
+    assert not out.exists()
