@@ -1,10 +1,11 @@
 """The whole chain in one call: recordings -> spectra -> posterior.
 
-From files (any waveform format ObsPy reads, StationXML)::
+From files (any waveform format ObsPy reads, StationXML), the same as
+``bayescal fit``::
 
-    >>> import bayescal
-    >>> post = bayescal.calibrate_files("sut.mseed", "sut.xml", "ref.mseed", "ref.xml")
-    >>> post.save("out")           # result.json, samples.npz, diagnostics.npz
+    >>> from bayescal.pipeline import calibrate_files, write_results
+    >>> post = calibrate_files("sut.mseed", "sut.xml", "ref.mseed", "ref.xml", band=(0.05, 1))
+    >>> write_results(post, "out")   # result.json, samples.npz, diagnostics.npz, sut_corrected.xml
 
 From ObsPy objects::
 
@@ -80,6 +81,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     post = fit_spectra(spectra, r.vectors, s.vectors, families, free=fit_response, priors=priors,
                        seed=seed, progress=progress, meta=meta, **sample_kw)
     post.spectra = spectra
+    post.sut_inventory = sut_inventory
     return post
 
 
@@ -102,8 +104,8 @@ def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_respo
     """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path
     or a list (any waveform format ObsPy reads); ``sut_xml``/``ref_xml`` a
     StationXML path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
-    ``start``/``end`` may be ISO strings. Returns the Posterior with
-    ``posterior.sut_inventory`` attached (for the corrected StationXML)."""
+    ``start``/``end`` may be ISO strings. Returns the Posterior (with
+    ``posterior.sut_inventory`` attached, for the corrected StationXML)."""
     from obspy import UTCDateTime
 
     sut = read_waveforms(sut_files, "SUT waveform")
@@ -114,8 +116,26 @@ def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_respo
     end = UTCDateTime(end) if end is not None else None
     sut_name = sut_xml if isinstance(sut_xml, str) else "SUT StationXML"
     ref_name = ref_xml if isinstance(ref_xml, str) else "reference StationXML"
-    post = calibrate(sut, sut_inv, ref, ref_inv, band=band, fit_response=fit_response,
+    return calibrate(sut, sut_inv, ref, ref_inv, band=band, fit_response=fit_response,
                      seed=seed, start=start, end=end, progress=progress,
                      sut_source=str(sut_name), ref_source=str(ref_name), **kw)
-    post.sut_inventory = sut_inv
-    return post
+
+
+def write_results(posterior, folder):
+    """Write everything ``bayescal fit`` writes (without the report) into
+    ``folder``: ``result.json``, ``samples.npz``, ``diagnostics.npz`` and,
+    when the posterior came from :func:`calibrate_files` (or has a
+    ``sut_inventory`` attribute), ``sut_corrected.xml``. Each file is written
+    atomically. Returns the list of paths written."""
+    import os
+
+    from .stationxml import write_corrected
+
+    posterior.save(folder)
+    names = ["result.json", "samples.npz"] + (["diagnostics.npz"] if posterior.diagnostics
+                                              else [])
+    inv = getattr(posterior, "sut_inventory", None)
+    if inv is not None:
+        write_corrected(inv, posterior, os.path.join(folder, "sut_corrected.xml"))
+        names.append("sut_corrected.xml")
+    return [os.path.join(folder, n) for n in names]

@@ -187,3 +187,41 @@ def test_messy_simulated_pair_still_recovers_the_orientation(sim_pair):
         assert abs(e["median"] - truth[cid]["azimuth_deg"]) < 0.2
     used = summ["meta"]["data_used"]
     assert used["segments"] < used["segments_possible"]
+
+
+def _as_acceleration(inventory):
+    """The same sensors described in acceleration: input M/S**2, one more
+    pole at the origin, gain and A0 rescaled so the physics is unchanged."""
+    import copy
+    inv = copy.deepcopy(inventory)
+    for ch in inv[0][0]:
+        st = ch.response.response_stages[0]
+        fn = st.normalization_frequency
+        s = 2j * np.pi * fn
+        st.poles = list(st.poles) + [0j]
+        st.normalization_factor = st.normalization_factor * abs(s)
+        st.stage_gain = st.stage_gain / abs(s)
+        st.input_units = "M/S**2"
+        ch.response.instrument_sensitivity.value /= 2 * np.pi * \
+            ch.response.instrument_sensitivity.frequency
+        ch.response.instrument_sensitivity.input_units = "M/S**2"
+    return inv
+
+
+def test_acceleration_response_is_not_misscaled(sim_pair):
+    """A SUT whose StationXML gives its response in acceleration yields the
+    same velocity response, and the same orientation, as in velocity."""
+    import bayescal
+    from tests.conftest import SIM_BAND
+
+    acc = _as_acceleration(sim_pair.sut_inventory)
+    s_vel, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory)
+    s_acc, *_ = align(sim_pair.sut, acc, sim_pair.ref, sim_pair.ref_inventory)
+    f = np.geomspace(0.01, 4, 50)
+    np.testing.assert_allclose(s_acc.response_fn()(f), s_vel.response_fn()(f), rtol=1e-6)
+    post = bayescal.calibrate(sim_pair.sut, acc, sim_pair.ref, sim_pair.ref_inventory,
+                              band=SIM_BAND, progress=False)
+    truth = sim_pair.truth["channels"]
+    for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
+        med = post.summary()["channels"][cid]["azimuth_deg"]["median"]
+        assert abs(med - truth[cid]["azimuth_deg"]) < 0.15

@@ -11,6 +11,12 @@ side) and StationXML, estimates the SUT's channel orientations (and, with
   sut_corrected.xml  the SUT's StationXML with azimuth, dip (and fitted
                      response values) replaced by posterior medians, with
                      plusError/minusError from the 68 % interval
+  report.pdf         figures of the fit (unless --no-report)
+
+Only segments in which every channel is continuous are used; the band used,
+how it was chosen and the amount of data used are printed and kept in
+result.json. Channels the reference cannot see (a SUT vertical beside a
+horizontal-only reference) are listed as not estimable.
 
 Example:
   bayescal fit --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
@@ -111,8 +117,7 @@ def _publish(tmp, out):
 def run(args):
     """Run the fit; returns the exit code."""
     from ..io import InputError, InputWarning
-    from ..pipeline import calibrate_files
-    from ..stationxml import write_corrected
+    from ..pipeline import calibrate_files, write_results
 
     out = os.path.abspath(args.out)
     if os.path.exists(out) and not os.path.isdir(out):
@@ -141,8 +146,7 @@ def run(args):
     os.umask(umask)
     os.chmod(tmp, 0o777 & ~umask)
     try:
-        post.save(tmp)
-        write_corrected(post.sut_inventory, post, os.path.join(tmp, "sut_corrected.xml"))
+        write_results(post, tmp)
         if not args.no_report:
             try:
                 import bayescal.report as report
