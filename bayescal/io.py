@@ -39,9 +39,11 @@ SUBSAMPLE_TOLERANCE = 0.01
 #: Half-length (samples) of the fractional-delay filter.
 DELAY_HALF_LENGTH = 16
 #: A channel is reported as clipped when at least this many samples (and
-#: this fraction of all) sit at its extreme value.
+#: this fraction of all) sit at its extreme value inside flat tops, and its
+#: data hold at least CLIP_MIN_DISTINCT distinct values.
 CLIP_MIN_SAMPLES = 5
 CLIP_MIN_FRACTION = 1e-5
+CLIP_MIN_DISTINCT = 50
 #: Orientation implied by a SEED component code when StationXML has none.
 CODE_ORIENTATION = {"N": (0.0, 0.0), "E": (90.0, 0.0), "Z": (0.0, -90.0)}
 
@@ -304,10 +306,10 @@ def _place(grid, count, tr, x, fs, t0):
     seg = x[lo - off:hi - off]
     cur = grid[lo:hi]
     cnt = count[lo:hi]
-    both = cnt > 0
+    have = (cnt > 0) & np.isfinite(cur)
     scale = np.nanmax(np.abs(seg)) if np.isfinite(seg).any() else 0.0
-    disagree = both & ~(np.abs(cur - seg) <= 1e-6 * max(scale, 1e-30))
-    new = np.where(both, cur, seg)
+    disagree = have & np.isfinite(seg) & (np.abs(cur - seg) > 1e-6 * max(scale, 1e-30))
+    new = np.where(have, cur, seg)
     new[disagree] = np.nan
     grid[lo:hi] = new
     count[lo:hi] += 1
@@ -329,18 +331,25 @@ def _check_channel(x, tid, source):
 
 
 def _mask_clipped(x, tid, source):
-    """Warn about, and turn into gaps, samples sitting at the trace's extreme
-    value (a clipped recording holds many of them; a natural one a few)."""
+    """Warn about, and turn into gaps, the flat tops of a clipped recording:
+    runs of three or more consecutive samples sitting at the trace's extreme
+    value (a natural record reaches its peak once; coarse, low-amplitude
+    integer data with few distinct values are not judged)."""
     finite = np.isfinite(x)
     if not finite.any():
         return x
-    peak = np.max(np.abs(x[finite]))
-    at_peak = finite & (np.abs(np.where(finite, x, 0.0)) >= peak) & (peak > 0)
-    n_clip = int(np.count_nonzero(at_peak))
-    if n_clip >= max(CLIP_MIN_SAMPLES, CLIP_MIN_FRACTION * finite.sum()):
-        warnings.warn(f"{source}: channel {tid} looks clipped ({n_clip} samples at "
-                      f"+-{peak:g} counts); those samples are treated as gaps", InputWarning,
-                      stacklevel=4)
+    vals = x[finite]
+    peak = np.max(np.abs(vals))
+    if peak == 0 or np.unique(vals[:100_000]).size < CLIP_MIN_DISTINCT:
+        return x
+    at_peak = finite & (np.abs(np.where(finite, x, 0.0)) >= peak)
+    flat = at_peak & np.roll(at_peak, 1) & np.roll(at_peak, -1)
+    flat[[0, -1]] = False
+    n_flat = int(np.count_nonzero(flat))
+    if n_flat >= max(CLIP_MIN_SAMPLES, CLIP_MIN_FRACTION * vals.size):
+        warnings.warn(f"{source}: channel {tid} looks clipped ({int(at_peak.sum())} samples at "
+                      f"+-{peak:g} counts, in flat tops); those samples are treated as gaps",
+                      InputWarning, stacklevel=4)
         x = np.where(at_peak, np.nan, x)
     return x
 

@@ -63,9 +63,16 @@ def test_fit_recovers_simulated_orientation_and_writes_everything(sim_files, sim
 
 
 def test_fit_without_band_chooses_and_reports_it(sim_files, sim_pair, tmp_path):
+    """Also: the SUT given as one file per channel (several files per side)."""
     out = tmp_path / "auto"
-    cmd = [PY, "-m", "bayescal.cli", "fit", *map(str, base_args(sim_files)), "--out", str(out),
-           "--no-report"]
+    parts = []
+    for tr in obspy.read(str(sim_files["sut.mseed"])):
+        parts.append(tmp_path / f"{tr.stats.channel}.mseed")
+        tr.write(str(parts[-1]), format="MSEED", encoding="FLOAT64")
+    args = [str(x) for x in base_args(sim_files) if str(x) != str(sim_files["sut.mseed"])]
+    i = args.index("--sut")
+    args[i + 1:i + 1] = [str(p) for p in parts]
+    cmd = [PY, "-m", "bayescal.cli", "fit", *args, "--out", str(out), "--no-report"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "chosen from the data" in proc.stderr
@@ -73,6 +80,7 @@ def test_fit_without_band_chooses_and_reports_it(sim_files, sim_pair, tmp_path):
     lo, hi = res["meta"]["band_hz"]
     assert 0 < lo < hi <= 5.0
     assert "chosen from the data" in res["meta"]["band_choice"]
+    assert len(res["meta"]["files"]["sut"]) == 3
     truth = sim_pair.truth["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
     assert abs(res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]["median"] - truth) < 0.15
 

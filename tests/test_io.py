@@ -225,3 +225,46 @@ def test_acceleration_response_is_not_misscaled(sim_pair):
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
         med = post.summary()["channels"][cid]["azimuth_deg"]["median"]
         assert abs(med - truth[cid]["azimuth_deg"]) < 0.15
+
+
+def test_natural_and_coarse_records_are_not_called_clipped():
+    rng = np.random.default_rng(1)
+    fs, n = 10.0, 5000
+    natural = rng.normal(0, 1000, n).round()
+    coarse = rng.integers(-3, 4, n).astype(float)      # 7 distinct values
+    for x in (natural, coarse):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", InputWarning)
+            s, *_ = align(*pair([trace(x, fs, T0)], [trace(natural, fs, T0, sta="R")]))
+        assert np.isfinite(s.data).all()
+
+
+def test_missing_angles_in_stationxml_come_from_the_code(sim_pair):
+    import copy
+    inv = copy.deepcopy(sim_pair.ref_inventory)
+    for ch in inv[0][0]:
+        ch.azimuth = ch.dip = None
+    # the reference's channel codes (BHN/BHE/BHZ or 1/2/Z) then give the axes
+    s, r, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, inv)
+    s2, r2, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory)
+    np.testing.assert_allclose(r.vectors, r2.vectors, atol=1e-12)
+
+
+def test_two_channel_reference_gives_horizontal_azimuths_only(sim_pair):
+    """Partial channel set: a reference without its vertical still gives the
+    SUT's horizontal azimuths; the SUT vertical is reported not estimable."""
+    import bayescal
+    from tests.conftest import SIM_BAND
+
+    ref = sim_pair.ref.copy()
+    for tr in [t for t in ref if t.stats.channel.endswith("Z")]:
+        ref.remove(tr)
+    post = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, ref, sim_pair.ref_inventory,
+                              band=SIM_BAND, progress=False)
+    summ = post.summary()
+    assert list(summ["not_estimable"]) == ["XX.SIM.10.BHZ"]
+    truth = sim_pair.truth["channels"]
+    for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
+        e = summ["channels"][cid]
+        assert e["kind"] == "circle"
+        assert abs(e["azimuth_deg"]["median"] - truth[cid]["azimuth_deg"]) < 0.2
