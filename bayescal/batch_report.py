@@ -159,16 +159,18 @@ def _date(day):
     return datetime.date.fromisoformat(day)
 
 
-def _figure(rows, flags, stations, threshold_deg):
+def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(stations), 2, figsize=(11, 2.4 * len(stations) + 0.8),
+    quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
+    fig, axes = plt.subplots(len(stations), len(quantities),
+                             figsize=(5.5 * len(quantities), 2.4 * len(stations) + 0.8),
                              squeeze=False, sharex=True)
     flagged = {(f["channel"], f["quantity"], f["day"]) for f in flags}
     for row, sta in zip(axes, stations):
-        for ax, quantity in zip(row, ("azimuth", "dip")):
+        for ax, quantity in zip(row, quantities):
             for (s, cid), series in sorted(_series(rows, quantity).items()):
                 if s != sta:
                     continue
@@ -185,10 +187,11 @@ def _figure(rows, flags, stations, threshold_deg):
             for f in flags:
                 if f["station"] == sta and f["quantity"] == quantity and f["flag"] == "changed":
                     ax.axvline(_date(f["day"]), color="red", ls="--", lw=1)
-            for y in (-threshold_deg, threshold_deg):
+            thr, unit = (gain_threshold_pct, "%") if quantity == "gain" else (threshold_deg, "deg")
+            for y in (-thr, thr):
                 ax.axhline(y, color="grey", ls=":", lw=1)
             ax.axhline(0, color="k", lw=0.6)
-            ax.set_ylabel(f"{quantity} - nominal (deg)")
+            ax.set_ylabel(f"{quantity} - nominal ({unit})")
             ax.set_title(f"{sta}: {quantity}", fontsize=10, loc="left")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7, loc="best")
@@ -197,9 +200,10 @@ def _figure(rows, flags, stations, threshold_deg):
         ax.xaxis.set_major_locator(mdates.AutoDateLocator(minticks=2, maxticks=10))
         ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
     fig.autofmt_xdate()
-    fig.suptitle("Orientation against time (median, 95 % credible band; red x: flagged, "
+    fig.suptitle("Orientation (and gain) against time (median, 95 % credible band; red x: flagged, "
                  "red dashed: changed from the day before; "
-                 f"dotted: +-{threshold_deg:g} deg)", fontsize=10)
+                 f"dotted: thresholds +-{threshold_deg:g} deg, +-{gain_threshold_pct:g} %)",
+                 fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -211,8 +215,13 @@ def _text_page(rows, flags, threshold_deg, gain_threshold_pct):
 
     labels = sorted({r["label"] for r in rows})
     errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
+    ok = [r for r in rows if not r.get("error")]
     lines = [f"bayescal batch: {len(labels)} items, {len(labels) - len(errors)} calibrated, "
              f"{len(errors)} failed",
+             (f"convergence: min ESS {min(r['ess_min'] for r in ok):.0f}, max R-hat "
+              f"{max(r['rhat_max'] for r in ok):.4f}, max tau {max(r['tau_max'] for r in ok):.0f};"
+              f" not converged: {sorted({r['label'] for r in ok if r['converged'] != 'True'})}"
+              if ok else "convergence: no result"),
              f"thresholds: {threshold_deg:g} deg (angles), {gain_threshold_pct:g} % (gain); "
              "flag = beyond threshold AND beyond the 95 % uncertainty", "",
              f"Flagged stations ({len({f['station'] for f in flags})}):"]
@@ -251,7 +260,7 @@ def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, pe
         pdf.savefig(fig)
         plt.close(fig)
         for k, page in enumerate(pages):
-            fig = _figure(rows, flags, page, threshold_deg)
+            fig = _figure(rows, flags, page, threshold_deg, gain_threshold_pct)
             pdf.savefig(fig)
             if k == 0:
                 fig.savefig(paths["png"] + ".tmp.png", dpi=90)
