@@ -70,7 +70,10 @@ PARAMS = ("period_s", "damping", "gain")
 #: Narrow bands: the response ratio barely changes within one.
 BANDS_PER_DECADE = 20
 #: |z| above which Z-only and all-output estimates are called inconsistent.
-AGREEMENT_Z = 3.0
+#: Calibrated by benchmarks/uvw_coverage.py: under the true model the
+#: statistic's sd is 1.0-1.2 per parameter and its largest |z| in 180 draws
+#: 3.7, so 4 keeps false alarms near 1 % per nine-parameter calibration.
+AGREEMENT_Z = 4.0
 
 SENSORS = {
     "sts2": (STS2_UVW, "Streckeisen STS-2 manual: X=(-2U+V+W)/sqrt6, Y=(V-W)/sqrt2, "
