@@ -357,7 +357,14 @@ def _mask_clipped(x, tid, source):
 def _grid_stream(stream, fs, t0, n):
     """Channels of ``stream`` on the grid: dict id -> (data, first trace)."""
     out = {}
-    for tr in stream:
+    for full in stream:
+        if full.id not in out:   # every channel gets a row, even with no data in the window
+            out[full.id] = (np.full(n, np.nan), np.zeros(n, int), full)
+        # only the analysis window, plus a margin for the filters' edges
+        pad = (4 * DELAY_HALF_LENGTH + 10) / min(fs, full.stats.sampling_rate) + 1.0
+        tr = full.slice(t0 - pad, t0 + (n - 1) / fs + pad)
+        if tr.stats.npts == 0:
+            continue
         x = _as_float(tr.data)
         source = getattr(tr.stats, "bayescal_source", tr.id)
         if np.isnan(x).any() and not np.ma.isMaskedArray(tr.data):
@@ -365,8 +372,6 @@ def _grid_stream(stream, fs, t0, n):
                           InputWarning, stacklevel=3)
         x = _mask_clipped(x, tr.id, source)
         x = _resample(x, tr.stats.sampling_rate, fs)
-        if tr.id not in out:
-            out[tr.id] = (np.full(n, np.nan), np.zeros(n, int), tr)
         grid, count, _ = out[tr.id]
         _place(grid, count, tr, x, fs, t0)
     return {tid: (g, t) for tid, (g, c, t) in out.items()}
