@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import unit_vector
+from .geometry import NEAR_VERTICAL_DIP_DEG, unit_vector
 from .io import InputError
 
 #: A channel whose axis lies within this angle (degrees) of the opposite of
@@ -111,7 +111,9 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             angle = _axis_angle(post.vectors[:, k], nom)
             if angle > 180.0 - REVERSED_WITHIN_DEG:
                 msgs.append(f"REVERSED: axis {angle:.1f} deg from nominal (polarity or 180 deg turn)")
-        if "tilt_deg" in ch:
+        if post.kinds[k] == "fixed":
+            rows += _fixed_rows(cid, az, dip, naz, ndip, tru)
+        elif "tilt_deg" in ch:
             rows.append(Row(cid, "azimuth", None, None, None, naz, None,
                             "undefined (near-vertical): see tilt", tru.get("azimuth_deg")))
             ntilt = None if ndip is None else 90.0 - abs(ndip)
@@ -128,15 +130,30 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             rows.append(_interval_row(cid, "azimuth", az, naz, dev, note, tru.get("azimuth_deg")))
             if dev is not None and abs(dev) > tolerance_deg and not msgs and not az.get("fixed"):
                 msgs.append(f"AZIMUTH OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
-        ddev = None if ndip is None else dip["median"] - ndip
-        note = "fixed (reference plane)" if dip.get("fixed") else ""
-        rows.append(_interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
-        if ("tilt_deg" not in ch and ddev is not None and abs(ddev) > tolerance_deg
-                and not msgs and not dip.get("fixed")):
-            msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
+        if post.kinds[k] != "fixed":
+            ddev = None if ndip is None else dip["median"] - ndip
+            note = "fixed (reference plane)" if dip.get("fixed") else ""
+            rows.append(_interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
+            if ("tilt_deg" not in ch and ddev is not None and abs(ddev) > tolerance_deg
+                    and not msgs and not dip.get("fixed")):
+                msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         if msgs:
             flags[cid] = msgs
     return rows, flags
+
+
+def _fixed_rows(cid, az, dip, naz, ndip, tru):
+    """Rows of a channel held along the reference axis (direction not
+    estimated; only its response may be fitted)."""
+    note = "held along the reference axis: not estimated"
+    rows = []
+    if abs(dip["median"]) <= NEAR_VERTICAL_DIP_DEG:
+        dev = None if naz is None else float(wrap180(az["median"] - naz))
+        rows.append(Row(cid, "azimuth", az["median"], None, None, naz, dev, note,
+                        tru.get("azimuth_deg")))
+    ddev = None if ndip is None else dip["median"] - ndip
+    rows.append(Row(cid, "dip", dip["median"], None, None, ndip, ddev, note, tru.get("dip_deg")))
+    return rows
 
 
 def response_rows(summary, truth=None):
@@ -225,7 +242,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
             with PdfPages(os.path.join(tmp, "report.pdf"), metadata=meta) as pdf:
                 for name, fig in figures:
                     pdf.savefig(fig)
-                    fig.savefig(os.path.join(tmp, f"{name}.png"), dpi=rf.PNG_DPI)
+                    rf.save_png(fig, os.path.join(tmp, f"{name}.png"))
         os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
         written.append(out_pdf)
         for name, _ in figures:

@@ -9,16 +9,18 @@ markers carry the distinctions, not colour alone), numbers written as text.
 from __future__ import annotations
 
 import contextlib
-import os
 import textwrap
 from dataclasses import dataclass
+from datetime import datetime, timezone
 
 import matplotlib
 import numpy as np
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from scipy import stats
 
-from .geometry import unit_vector, tilt_from_vertical
+from . import __version__
+from .geometry import tilt_from_vertical, unit_vector
 from .report import Row, angle_rows, response_rows, truth_values, wrap180
 
 A4 = (8.27, 11.69)
@@ -31,10 +33,10 @@ LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
 MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
 GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
 QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "period_s": "s",
-                  "damping": "-", "gain": "V/(m/s)"}
+                  "damping": "-", "gain": "stage-1 units per m/s"}
 PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
-               "azimuth_rad": "rad", "log_period": "ln s", "damping": "-",
-               "log_gain": "ln V/(m/s)"}
+               "azimuth_rad": "rad", "log_period": "ln s", "damping": "dimensionless",
+               "log_gain": "ln of gain"}
 
 
 @dataclass
@@ -60,12 +62,27 @@ def style():
         yield
 
 
+def save_png(fig, path, dpi=PNG_DPI):
+    """Write ``fig`` as an 8-bit greyscale PNG (the report draws in greys
+    only, so nothing is lost and the file is about half the size)."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    buf.seek(0)
+    with Image.open(buf) as im:
+        im.convert("L").save(path)
+
+
 def subject_line(ctx):
     """One line for the PDF Subject: channels, band, window."""
     m = ctx.post.meta
-    band = m.get("band_hz") or ["?", "?"]
+    band = m.get("band_hz") or [None, None]
     return (f"Orientation{' and response' if m.get('free_response', 'none') != 'none' else ''}"
-            f" of {', '.join(ctx.post.channel_ids)}; band {_g(band[0])}-{_g(band[1])} Hz;"
+            f" of {', '.join(ctx.post.channel_ids)}; band {_g(band[0], '{:.4g}')}-"
+            f"{_g(band[1], '{:.4g}')} Hz;"
             f" start {m.get('starttime', '?')}, {_g(m.get('duration_s'))} s")
 
 
@@ -122,40 +139,65 @@ def _table(fig, top, rows, title, with_truth):
     return top - 0.02 - height - 0.025
 
 
-def page_summary(ctx):
-    """Page 1: what was measured, the table of angles (and responses), flags."""
+def _files_line(label, files, width=110):
+    text = ", ".join(str(f) for f in files)
+    return textwrap.shorten(f"{label}: {text}", width, placeholder=" ...")
+
+
+def _header_lines(ctx):
+    """Page-1 header: what was measured, with which data, how."""
     post, m = ctx.post, ctx.post.meta
     conv = ctx.summary["convergence"]
-    fig = Figure(figsize=A4)
-    fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
     stations = sorted({".".join(c.split(".")[:2]) for c in post.channel_ids})
     n_used, n_poss = m.get("n_segments"), m.get("n_segments_possible")
     seg = m.get("segment_s")
     dropped = None if n_used is None or n_poss is None else n_poss - n_used
     band = m.get("band_hz") or [None, None]
+    used = m.get("data_used") or {}
     lines = [
-        f"Result folder: {os.path.abspath(ctx.folder)}",
+        f"Result: {ctx.summary.get('schema', '?')}, rendered"
+        f" {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by bayescal {__version__}",
         f"Station(s): {', '.join(stations)}",
         f"Sensor under test: {', '.join(post.channel_ids)}",
-        f"Reference: {', '.join(sorted(m.get('reference', {})))}",
+        f"Reference: {', '.join(sorted(m.get('reference', {})))}"]
+    for label, key in (("SUT files", "sut"), ("Reference files", "reference")):
+        if (m.get("files") or {}).get(key):
+            lines.append(_files_line(label, m["files"][key]))
+    lines += [
         f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
         f" sampling {_g(m.get('sampling_rate'))} Hz",
-        f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each);"
-        f" dropped: {_g(dropped)}" + ("" if not dropped or seg is None
-                                      else f" ({dropped * seg:.0f} s, gaps or bad data)"),
-        f"Band: {_g(band[0])} - {_g(band[1])} Hz in {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
-        f" sub-bands; response fitted: {m.get('free_response', 'none')}",
-        f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min {conv['ess_min']:.0f},"
-        f" R-hat max {conv['rhat_max']:.4f}, converged: {'yes' if conv['converged'] else 'NO'}",
-    ]
+        f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each)"
+        + (f", about {used['approx_seconds']:.0f} s of data" if used.get("approx_seconds") else "")
+        + f"; dropped: {_g(dropped)}"
+        + ("" if not dropped else f" ({used.get('note', 'gaps or bad data')})"),
+        f"Band: {_g(band[0], '{:.4g}')} - {_g(band[1], '{:.4g}')} Hz in"
+        f" {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
+        f" sub-bands; response fitted: {m.get('free_response', 'none')}"]
+    if m.get("band_choice"):
+        lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
+    lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
+                 f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"
+                 f" converged: {'yes' if conv['converged'] else 'NO'}")
+    return lines
+
+
+def page_summary(ctx):
+    """Page 1: what was measured, the table of angles (and responses), flags."""
+    post = ctx.post
+    conv = ctx.summary["convergence"]
+    fig = Figure(figsize=A4)
+    fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
+    lines = _header_lines(ctx)
     fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
+    top = 0.945 - 0.0143 * len(lines) - 0.02
     rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
     resp = response_rows(ctx.summary, ctx.truth)
-    y = _table(fig, 0.81, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
+    y = _table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
                " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
     if resp:
         y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
-                   " of nominal)", bool(ctx.truth))
+                   " of nominal; gain in the StationXML's stage-1 output units, e.g. V, per m/s)",
+                   bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
     for cid in post.channel_ids:
         for msg in flags.get(cid, []):
@@ -252,7 +294,8 @@ def page_intervals(ctx):
             else:
                 ax.axis("off")
                 msg = ("dip not estimated: the channel is held in the reference's plane"
-                       if post.kinds[k] == "circle" else "direction held fixed: not estimated")
+                       if post.kinds[k] == "circle" else
+                       "direction held along the reference axis: not estimated" if j == 0 else "")
                 ax.text(0.5, 0.5, msg, ha="center", va="center", transform=ax.transAxes)
             if j == 0:
                 ax.set_title(cid, loc="left", fontweight="bold")
@@ -307,6 +350,8 @@ def angle_columns(ctx):
             cols.append(dip[:, k])
             labels.append(f"{short} dip (deg)")
             truths.append(_truth_or_nan(tru.get("dip_deg")))
+    if not cols:
+        return np.empty((post.vectors.shape[0], 0)), labels, truths
     return np.column_stack(cols), labels, truths
 
 
@@ -317,7 +362,7 @@ def response_columns(ctx):
     if free == "none" or not post.response:
         return None
     names = ("period_s", "damping", "gain") if free == "all" else ("gain",)
-    units = {"period_s": "s", "damping": "-", "gain": "V/(m/s)"}
+    units = {"period_s": "s", "damping": "-", "gain": "stage-1 units per m/s"}
     cols, labels, truths = [], [], []
     for cid in post.channel_ids:
         if cid not in post.response:
@@ -346,10 +391,12 @@ def _corner_page(data, labels, truths, title, has_truth):
     if k > 4:                                   # narrow panels: channel above quantity
         labels = [lb.replace(" ", "\n", 1) for lb in labels]
     corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
-                  truths=truths, truth_color="0.25", color="k", plot_datapoints=False,
+                  truths=truths if k > 1 else None,     # corner cannot draw 1-D truths truth_color="0.25", color="k", plot_datapoints=False,
                   plot_density=False, fill_contours=True,
                   contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
                   smooth=1.0, bins=30, max_n_ticks=3, label_kwargs={"fontsize": 7})
+    if k == 1 and truths is not None:
+        fig.axes[0].axvline(truths[0], color="0.25")
     fig.subplots_adjust(left=side / width, bottom=foot / height, right=1 - 0.15 / width,
                         top=1 - head / height, wspace=0.08, hspace=0.08)
     for ax in fig.axes:
@@ -465,32 +512,38 @@ def page_convergence(ctx):
     fig = Figure(figsize=A4)
     fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
     n_rows = int(np.ceil(nd / 2))
-    trace_h = min(0.6, 0.13 * n_rows + 0.05)
-    table_top = 0.93 - trace_h - 0.075
+    trace_h = min(0.55, 0.12 * n_rows + 0.03)
+    table_h = 0.0135 * (nd + 1)
+    table_top = 0.93 - trace_h - 0.085
     if post.trace is not None:
         gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
-                              bottom=0.93 - trace_h, hspace=0.7, wspace=0.3)
+                              bottom=0.93 - trace_h, hspace=0.15, wspace=0.3)
         tr = post.trace
-        step = max(1, tr.shape[0] // 400)
+        step = max(1, tr.shape[0] // 250)
         x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
         walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
         burn = post.convergence.get("burn")
         for p, name in enumerate(names):
             ax = fig.add_subplot(gs[p // 2, p % 2])
-            for w in walkers:
-                ax.plot(x, tr[::step, w, p], color="k", lw=0.4, alpha=0.6)
+            segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)),
+                             tr[::step, walkers, p].T], axis=-1)
+            ax.add_collection(LineCollection(segs, colors="k", linewidths=0.4, alpha=0.6))
+            ax.autoscale_view()
+            ax.margins(y=0.35)
             if burn is not None:
                 ax.axvline(float(burn), color="k", ls="--", lw=0.8)
-            suffix = name.split(":")[-1]
-            ax.set_title(name, fontsize=6.5, loc="left")
-            ax.set_ylabel(PARAM_UNITS.get(suffix, ""), fontsize=6)
+            ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
+                    bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
+            ax.set_ylabel(PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
             ax.tick_params(labelsize=6)
             if p >= nd - 2:
                 ax.set_xlabel("step")
-        fig.text(0.1, 0.93 - trace_h - 0.045,
+            else:
+                ax.tick_params(labelbottom=False)
+        fig.text(0.1, 0.93 - trace_h - 0.05,
                  f"Traces of {len(walkers)} of {tr.shape[1]} walkers in model coordinates;"
                  " dashed line: end of burn-in (samples after it are kept).", fontsize=7)
-    ax = fig.add_axes([0.06, 0.04, 0.9, table_top - 0.04])
+    ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
     ax.axis("off")
     per = conv["per_parameter"]
     cells = [[n, f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}", f"{per[n]['rhat']:.4f}"]
@@ -501,12 +554,13 @@ def page_convergence(ctx):
         f" R-hat max {conv['rhat_max']:.4f}; converged: {'yes' if conv['converged'] else 'NO'}",
         loc="left", fontsize=7.5)
     tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
-                   loc="upper left", cellLoc="left", colLoc="left", edges="horizontal")
+                   loc="upper left", cellLoc="left", colLoc="left", edges="horizontal",
+                   bbox=[0, 0, 1, 1])
     tab.auto_set_font_size(False)
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
-    fig.text(0.06, 0.015, "Default convergence rule of bayescal.fit.sample: kept chain >= 50 tau, ESS >= 1000 for every parameter, split"
-             " R-hat (chain halves) < 1.01.", fontsize=7)
+    fig.text(0.06, 0.015, "Default convergence rule of bayescal.fit.sample: kept chain >= 50 tau,"
+             " ESS >= 1000 for every parameter, split R-hat (chain halves) < 1.01.", fontsize=7)
     return fig
 
 

@@ -70,7 +70,8 @@ def _row(text, cid, quantity):
     """Tokens of the summary-table row of one channel and quantity."""
     for line in text.splitlines():
         if line.startswith(f"{cid} {quantity} ("):
-            return line.split()
+            unit, rest = line[len(f"{cid} {quantity} "):].split(") ", 1)
+            return [cid, quantity, unit + ")"] + rest.split()
     raise AssertionError(f"no table row for {cid} {quantity}:\n{text}")
 
 
@@ -144,8 +145,9 @@ def test_corner_page_states_levels_and_truth(flagged):
     _, pages = _pages(flagged[0])
     assert "Contour levels drawn: 68 % and 95 % of the 2-D posterior mass" in pages[2]
     assert "simulation truth" in pages[2]
-    assert "BH1 azimuth (deg)" in pages[2]
-    assert "BHZ lean N (deg)" in pages[2]
+    flat = " ".join(pages[2].split())            # labels may wrap onto two lines
+    assert "BH1 azimuth (deg)" in flat
+    assert "BHZ lean N (deg)" in flat
 
 
 def test_data_page_numbers(flagged):
@@ -212,3 +214,24 @@ def test_cli_report_and_bad_folders(flagged, tmp_path, capsys):
     with pytest.raises(InputError, match=str(broken)):
         write_report(str(broken))
     assert sorted(os.listdir(broken)) == ["result.json", "samples.npz"]
+
+
+def test_single_channel_reference(tmp_path):
+    """A vertical-only reference: horizontals not estimable, the vertical held
+    along the reference axis with its gain fitted; no angle corner page."""
+    sim = simulate_pair(duration=3600, fs=10, seed=6, coherence=0.99,
+                        sut_response=((30.0, 0.707, 750.0), (30.0, 0.707, 750.0),
+                                      (30.0, 0.707, 700.0)))
+    folder = _fit(tmp_path, "z", sim, ref=sim.ref.select(channel="BHZ"), fit_response="gain")
+    paths = write_report(folder)
+    _, pages = _pages(folder)
+    names = [os.path.basename(p) for p in paths[1:]]
+    assert "report_corner_angles.png" not in names and "report_corner_response.png" in names
+    assert len(pages) == len(names) == 5
+    tok = _row(pages[0], "XX.SIM.10.BHZ", "dip")
+    assert tok[3:5] == ["-90.00", "-"]
+    assert "held along the reference axis: not estimated" in pages[0]
+    for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
+        assert f"{cid}: its axis lies outside the span of the 1 reference" in pages[0]
+    gain = float(_row(pages[0], "XX.SIM.10.BHZ", "gain")[3])
+    assert abs(gain / 700.0 - 1) < 0.03
