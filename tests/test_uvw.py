@@ -293,3 +293,18 @@ def test_cli_too_short_record_names_the_file(tmp_path, capsys):
     assert rc == 2 and len(err) == 1
     assert "cal_U.mseed" in err[0] and "too little data" in err[0]
     assert not out.exists()
+
+
+def test_cli_rotate_matches_sensor_in_uvw_mode(tmp_path):
+    kw = dict(elements=TRUE, duration=3600.0, seed=6, digitizer_noise=0.0)
+    xyz = simulate_calibration(outputs="xyz", **kw)
+    uvw_mode = simulate_calibration(outputs="uvw", **kw)
+    rec = tmp_path / "rec.mseed"
+    xyz.runs["W"].select(channel="LH?").write(str(rec), format="MSEED", encoding="FLOAT64")
+    assert cli.main(["uvw", "--rotate", str(rec), "--sensor", "sts2", "--out",
+                     str(tmp_path / "out"), "--quiet"]) == 0
+    got = read(str(tmp_path / "out" / "rec_uvw.mseed"))
+    for ax in uvw.ELEMENTS:
+        want = uvw_mode.runs["W"].select(channel=f"LH{ax}")[0].data
+        np.testing.assert_allclose(got.select(channel=f"LH{ax}")[0].data, want,
+                                   atol=1e-9 * np.abs(want).max())

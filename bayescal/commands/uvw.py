@@ -16,6 +16,11 @@ Example:
                --sut-xml sut.xml --out out/
 Writes out/uvw.json (schema bayescal.uvw/1), out/uvw_samples.npz and the
 report (out/uvw_report.pdf and PNG pages).
+
+Everyday use, no calibration: rotate recorded X, Y, Z to the element axes
+U, V, W (or U, V, W back to X, Y, Z) to find a noisy or failed element:
+  bayescal uvw --rotate rec.mseed --sensor sts2 --out out/
+writes out/rec_uvw.mseed (or out/rec_xyz.mseed).
 """
 from __future__ import annotations
 
@@ -32,7 +37,7 @@ HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
 def configure(parser):
     """Arguments of ``bayescal uvw``."""
-    parser.add_argument("--cal", action="append", required=True, metavar="ELEMENT=FILE",
+    parser.add_argument("--cal", action="append", metavar="ELEMENT=FILE",
                         help="calibration run of one element (U, V or W), miniSEED; repeat "
                              "for each element")
     parser.add_argument("--input-channel", default="BC0",
@@ -45,7 +50,10 @@ def configure(parser):
     parser.add_argument("--matrix", metavar="FILE",
                         help="UVW matrix file (3 rows U, V, W of 3 numbers X, Y, Z); "
                              "overrides --sensor")
-    parser.add_argument("--sut-xml", required=True, metavar="SUT.xml",
+    parser.add_argument("--rotate", metavar="FILE",
+                        help="only rotate FILE's X, Y, Z channels to U, V, W (or back) and "
+                             "write it to DIR; no calibration")
+    parser.add_argument("--sut-xml", metavar="SUT.xml",
                         help="StationXML with the nominal responses of the outputs")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--z-only", action="store_true",
@@ -146,10 +154,43 @@ def _print_summary(summary, out):
     print(f"written to {out}")
 
 
+def rotate_file(args):
+    """``--rotate``: X, Y, Z -> U, V, W (or back) with the chosen geometry,
+    written atomically to ``DIR/<name>_uvw.mseed`` (``_xyz``)."""
+    from obspy import read
+
+    from .. import uvw
+
+    m = uvw.load_matrix(args.matrix) if args.matrix else uvw.sensor_matrix(args.sensor)[0]
+    try:
+        st = read(args.rotate)
+    except Exception as exc:
+        raise InputError(f"{args.rotate}: not a readable waveform file ({exc})") from None
+    axes = {uvw.output_axis(tr.stats.channel) for tr in st}
+    to_uvw = set(uvw.XYZ) <= axes
+    if not to_uvw and not set(uvw.ELEMENTS) <= axes:
+        raise InputError(f"{args.rotate}: needs three X, Y, Z (1/N, 2/E, Z) or U, V, W channels")
+    out = (uvw.xyz_to_uvw if to_uvw else uvw.uvw_to_xyz)(st, m, source=args.rotate)
+    os.makedirs(args.out, exist_ok=True)
+    stem = os.path.splitext(os.path.basename(args.rotate))[0]
+    path = os.path.join(args.out, f"{stem}_{'uvw' if to_uvw else 'xyz'}.mseed")
+    tmp = path + ".tmp"
+    out.write(tmp, format="MSEED", encoding="FLOAT64")
+    os.replace(tmp, path)
+    if not args.quiet:
+        print(f"rotated {'XYZ to UVW' if to_uvw else 'UVW to XYZ'}: {path}")
+    return 0
+
+
 def run(args):
     """Entry point of ``bayescal uvw``."""
     from .. import uvw
 
+    if args.rotate:
+        return rotate_file(args)
+    if not args.cal or not args.sut_xml:
+        raise InputError("bayescal uvw needs --cal U=... --cal V=... --cal W=... and --sut-xml "
+                         "(or --rotate FILE)")
     runs, m, source = load_inputs(args)
     band = tuple(args.band) if args.band else None
     result = uvw.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
