@@ -91,7 +91,7 @@ def test_different_sampling_rates_are_brought_to_the_lower_with_antialiasing():
     assert np.std(resid) < 1.0
 
 
-def test_different_start_times_give_common_window(cowi_free_streams=None):
+def test_different_start_times_give_common_window():
     fs = 1.0
     a = trace(tone(0.1, fs, 3000), fs, T0 + 15, cha="LHN")
     b = trace(tone(0.1, fs, 3000), fs, T0 + 103, cha="LHE")
