@@ -153,7 +153,12 @@ def run(args):
             except ImportError:
                 report = None
             if report is not None:
-                report.write_report(tmp)
+                _say(args, "writing the report ...")
+                try:
+                    report.write_report(tmp)
+                except Exception as exc:  # the fit's results matter more than its figures
+                    print(f"bayescal: warning: the report could not be written "
+                          f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
         _publish(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
