@@ -8,7 +8,8 @@
 Each item runs the ordinary pipeline (:func:`bayescal.pipeline.calibrate_files`
 for CSV items, :func:`bayescal.pipeline.calibrate` on ObsPy's SDS reader for
 archive items) on a Dask worker and writes its result
-folder ``out/<label>/`` (``result.json``, ``samples.npz``, ``item.json``)
+folder ``out/<label>/`` (``result.json``, ``samples.npz``, ``diagnostics.npz``,
+``sut_corrected.xml`` as ``bayescal fit`` writes them, and ``item.json``)
 *atomically*: everything goes to a temporary folder under ``out/.tmp/`` that
 is renamed into place only when complete. A failing item writes
 ``out/<label>/error.json`` (its one-line message) the same way and does not
@@ -65,33 +66,49 @@ def run_item(item, out):
     """
     from .pipeline import calibrate, calibrate_files
     from .plan import read_sds_item
+    from .stationxml import write_corrected
 
     t = time.time()
     tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
     os.makedirs(tmp)
-    error = None
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
             "fit_response": item["fit_response"], "seed": item["seed"], "progress": False}
     try:
         if item["kind"] == "files":
             post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
                                    start=item.get("start"), end=item.get("end"), **opts)
+            sut_inv = post.sut_inventory
         else:
             sut, ref, inv, sut_src, ref_src = read_sds_item(item)
             post = calibrate(sut, inv, ref, inv, start=_time(item.get("start")),
                              end=_time(item.get("end")), sut_source=sut_src,
                              ref_source=ref_src, **opts)
+            sut_inv = inv.select(network=item["network"], station=item["station"],
+                                 location=item["sut_location"])
         post.meta["batch_label"] = item["label"]
         post.save(tmp)
+        if sut_inv is not None and not isinstance(sut_inv, str):
+            write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
     except Exception as exc:   # recorded, never fatal to the batch
-        error = f"{type(exc).__name__}: " + (str(exc).strip().splitlines() or [""])[0]
-        for name in os.listdir(tmp):
-            os.remove(os.path.join(tmp, name))
-        write_json(os.path.join(tmp, "error.json"), {"label": item["label"], "error": error})
+        shutil.rmtree(tmp)
+        return record_error(item, out, exc, time.time() - t)
     seconds = time.time() - t
     write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})
     _publish(tmp, os.path.join(out, item["label"]))
-    return {"label": item["label"], "status": "failed" if error else "done", "seconds": seconds,
+    return {"label": item["label"], "status": "done", "seconds": seconds,
+            "worker": f"{socket.gethostname()}:{os.getpid()}", "error": None}
+
+
+def record_error(item, out, exc, seconds=0.0):
+    """Publish ``out/<label>/error.json`` (the one-line message) and
+    ``item.json`` atomically; returns the item's status dict."""
+    error = f"{type(exc).__name__}: " + (str(exc).strip().splitlines() or [""])[0]
+    tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
+    os.makedirs(tmp)
+    write_json(os.path.join(tmp, "error.json"), {"label": item["label"], "error": error})
+    write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})
+    _publish(tmp, os.path.join(out, item["label"]))
+    return {"label": item["label"], "status": "failed", "seconds": seconds,
             "worker": f"{socket.gethostname()}:{os.getpid()}", "error": error}
 
 
@@ -162,8 +179,12 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
             if not quiet:
                 from tqdm.auto import tqdm
                 bar = tqdm(total=len(todo), unit="pair", desc="calibrating")
+            by_key = {fut.key: it for fut, it in zip(futures, todo)}
             for fut in as_completed(futures):
-                res = fut.result()
+                try:
+                    res = fut.result()
+                except Exception as exc:   # the worker died (memory, crash...)
+                    res = record_error(by_key[fut.key], os.path.abspath(out), exc)
                 counts["computed" if res["status"] == "done" else "failed"] += 1
                 _log(out, [{"event": res["status"], **res}])
                 if bar is not None:

@@ -113,6 +113,9 @@ def test_results_match_truth_and_rotated_station_flagged(killed_then_resumed, ne
         assert len(list(csv.DictReader(fh))) == len(flags)
     for name in ("report.pdf", "report.png"):
         assert os.path.getsize(os.path.join(out, name)) > 10_000
+    for lb in killed_then_resumed["labels"]:   # the usual result folder of `bayescal fit`
+        for name in ("result.json", "samples.npz", "sut_corrected.xml", "item.json"):
+            assert os.path.exists(os.path.join(out, lb, name)), (lb, name)
 
 
 def test_same_seed_same_numbers_with_one_or_two_workers(killed_then_resumed, net, tmp_path):
@@ -179,3 +182,34 @@ def test_bad_plans_name_the_file(net, tmp_path, capsys):
     assert not out.exists()
     with pytest.raises(Exception):
         read_csv_plan(str(tmp_path / "absent.csv"))
+
+
+def _row(day, az, half, gain=None, gain_half=0.0, channel="XX.A.10.BH1"):
+    return {"label": f"XX.A.{day}", "station": "XX.A", "day": day, "channel": channel,
+            "azimuth": az, "azimuth_lo95": az - half, "azimuth_hi95": az + half,
+            "nominal_azimuth": 0.0, "dip": None, "nominal_dip": 0.0, "gain": gain,
+            "gain_lo95": None if gain is None else gain - gain_half,
+            "gain_hi95": None if gain is None else gain + gain_half,
+            "nominal_gain": None if gain is None else 750.0, "error": ""}
+
+
+def test_flag_rule_needs_threshold_and_uncertainty():
+    from bayescal.batch_report import find_flags
+
+    def flags(rows):
+        return {(f["quantity"], f["flag"], f["day"]) for f in find_flags(rows, 2.0, 2.0)}
+
+    # across north: 359.5 -> 0.7 is a 1.2 degree change, not 358.8
+    assert flags([_row("2026-01-01", 359.5, 0.1), _row("2026-01-02", 0.7, 0.1)]) == set()
+    # 3 degrees, tight intervals: changed and off nominal
+    assert flags([_row("2026-01-01", 0.0, 0.1), _row("2026-01-02", 3.0, 0.1)]) == \
+        {("azimuth", "changed", "2026-01-02"), ("azimuth", "off_nominal", "2026-01-02")}
+    # 3 degrees but 95 % half-widths of 2.5 each (combined 3.5): the change is within the
+    # uncertainty; the second day is still off nominal (its interval [0.5, 5.5] excludes 0)
+    assert flags([_row("2026-01-01", 0.0, 2.5), _row("2026-01-02", 3.0, 2.5)]) == \
+        {("azimuth", "off_nominal", "2026-01-02")}
+    assert flags([_row("2026-01-01", 0.0, 3.5), _row("2026-01-02", 3.0, 3.5)]) == set()
+    # gain 3 % above nominal, +-0.5 %: off nominal; +-4 %: not
+    assert flags([_row("2026-01-01", 0.0, 0.1, gain=772.5, gain_half=3.75)]) == \
+        {("gain", "off_nominal", "2026-01-01")}
+    assert flags([_row("2026-01-01", 0.0, 0.1, gain=772.5, gain_half=30.0)]) == set()
