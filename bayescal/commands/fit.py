@@ -94,7 +94,10 @@ def print_summary(summary, stream=sys.stdout):
     """A short table of the result: medians and 95 % intervals."""
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
     for cid, e in summary["channels"].items():
-        print(f"{cid:22s}  {_fmt(e['azimuth_deg']):28s}  {_fmt(e['dip_deg'])}", file=stream)
+        az = e["azimuth_deg"]
+        vertical = abs(e["dip_deg"]["median"]) > 89.999 and "ci95" not in az
+        az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
+        print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         for name, r in e.get("response", {}).items():
             print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
