@@ -73,6 +73,9 @@ def summarise(records, mode):
             cov[p][lv] = {"covered": k, "n": n, "fraction": k / n, "ci95": [ci.low, ci.high]}
         err = np.array([abs(r[p]["median"] - r[p]["truth"]) / abs(r[p]["truth"]) for r in rec])
         cov[p]["relative_error"] = {"median": float(np.median(err)), "max": float(err.max())}
+        z = np.array([(r[p]["median"] - r[p]["truth"]) / r[p]["sd"] for r in rec])
+        cov[p]["standardised_error"] = {"mean": float(z.mean()), "sd": float(z.std()),
+                                        "mean_se": float(z.std() / np.sqrt(n))}
     times = np.array([r["time_s"] for r in rec])
     if mode == "all" and "z" in records[0]:
         # Z-only vs all-output agreement statistic (uvw.agreement) under the
@@ -114,7 +117,9 @@ def main():
             levels = "  ".join(f"{lv} {c[lv]['covered']}/{c[lv]['n']} "
                                f"[{c[lv]['ci95'][0]:.2f}, {c[lv]['ci95'][1]:.2f}]" for lv in LEVELS)
             print(f"  {p:9s} {levels}  rel. error median {c['relative_error']['median']:.2e} "
-                  f"max {c['relative_error']['max']:.2e}")
+                  f"max {c['relative_error']['max']:.2e}; (median-truth)/sd mean "
+                  f"{c['standardised_error']['mean']:+.2f} +- {c['standardised_error']['mean_se']:.2f}"
+                  f" sd {c['standardised_error']['sd']:.2f}")
         print(f"  time per fit: median {result[mode]['time_per_fit_s']['median']:.1f} s")
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
