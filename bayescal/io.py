@@ -264,12 +264,13 @@ def _resample(x, fs_in, fs_out):
     y = resample_poly(np.where(finite, x, 0.0), up, down, window=("kaiser", 8.0))
     # the FIR half-length (scipy: 10 * max(up, down) taps at the input rate)
     edge = int(np.ceil(10 * max(up, down) / down)) + 1
-    bad = np.flatnonzero(~finite)
     mask = np.zeros(y.size, bool)
     mask[:edge] = mask[-edge:] = True
-    for i in bad:   # spread input NaNs over the filter's reach
-        c = int(i * up / down)
-        mask[max(c - edge, 0):c + edge + 1] = True
+    if not finite.all():   # spread input NaNs over the filter's reach
+        bad = np.zeros(y.size, bool)
+        idx = np.minimum((np.flatnonzero(~finite) * up) // down, y.size - 1)
+        bad[idx] = True
+        mask |= np.convolve(bad, np.ones(2 * edge + 1), mode="same") > 0
     y[mask] = np.nan
     return y
 

@@ -268,3 +268,19 @@ def test_two_channel_reference_gives_horizontal_azimuths_only(sim_pair):
         e = summ["channels"][cid]
         assert e["kind"] == "circle"
         assert abs(e["azimuth_deg"]["median"] - truth[cid]["azimuth_deg"]) < 0.2
+
+
+def test_gap_in_a_trace_to_be_resampled_spreads_over_the_filter_only():
+    fs_hi, n = 40.0, 8000
+    x = tone(1.0, fs_hi, n)
+    x[4000:4040] = np.nan                    # one second missing
+    sut = trace(x, fs_hi, T0)
+    ref = trace(tone(1.0, 20.0, n // 2), 20.0, T0, sta="R")
+    with pytest.warns(InputWarning, match="NaN samples"):
+        s, r, fs, _ = align(*pair([sut], [ref]))
+    bad = np.flatnonzero(np.isnan(s.data[0]))
+    inner = bad[(bad > 100) & (bad < s.data.shape[1] - 100)]
+    # the gap (samples 2000-2020 at 20 Hz) plus the anti-alias filter's reach
+    assert inner.min() >= 2000 - 30 and inner.max() <= 2020 + 30 and inner.size < 100
+    ok = np.isfinite(s.data[0])
+    assert np.std(s.data[0][ok] - r.data[0][ok]) < 1.0
