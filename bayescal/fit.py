@@ -158,16 +158,20 @@ def least_squares_fit(model, theta0, iterations=2):
     lo, hi = _bounds(model)
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     model.estimate_noise(theta)
+    tol = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)
     for _ in range(iterations):
         fac = model.noise.cholesky()
-        res = least_squares(model.whitened_residual, theta, args=(fac,), bounds=(lo, hi),
-                            x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        # Levenberg-Marquardt: the trust-region method stalls when the start
+        # is exactly zero in the tangent-plane coordinates (its first trust
+        # radius is |x0| = 0); fall back to it only when LM leaves the box.
+        res = least_squares(model.whitened_residual, theta, args=(fac,), method="lm", **tol)
+        if np.any(res.x < lo) or np.any(res.x > hi):
+            res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
+                                args=(fac,), bounds=(lo, hi), method="trf", **tol)
         theta = res.x
         model.estimate_noise(theta)
     fac = model.noise.cholesky()
-    res = least_squares(model.whitened_residual, theta, args=(fac,), bounds=(lo, hi),
-                        x_scale="jac", method="trf", max_nfev=1)
-    jac = res.jac
+    jac = least_squares(model.whitened_residual, theta, args=(fac,), method="lm", max_nfev=1).jac
     fisher = 2.0 * jac.T @ jac
     try:
         cov = np.linalg.inv(fisher)

@@ -149,7 +149,9 @@ class Model:
 
     # --- parameters -------------------------------------------------------
     def unpack(self, theta):
-        """theta (W, ndim) -> SUT axes (W, n_u, 3) and response ratios (W, n_u, F)."""
+        """theta (W, ndim) -> SUT axes (W, n_u, 3) and deconvolution factors
+        ``H_nom(f) / H(f; a)`` (W, n_u, F) that turn the nominally deconvolved
+        SUT spectra into spectra deconvolved by the parametric response."""
         theta = np.atleast_2d(theta)
         w, f = theta.shape[0], self.spectra.freqs.size
         vecs = np.empty((w, len(self.blocks), 3))
@@ -158,10 +160,10 @@ class Model:
             vecs[:, k] = b.manifold.vectors(theta[:, so])
             r = theta[:, sr]
             if b.free == "gain":
-                ratio[:, k] = b.family.gain_only_ratio(np.exp(r[:, 0]))
+                ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
             elif b.free == "all":
-                ratio[:, k] = b.family.ratio(self.spectra.freqs, np.exp(r[:, 0]), r[:, 1],
-                                             np.exp(r[:, 2]))
+                ratio[:, k] = 1.0 / b.family.ratio(self.spectra.freqs, np.exp(r[:, 0]), r[:, 1],
+                                                   np.exp(r[:, 2]))
         return vecs, ratio
 
     def response_values(self, theta):

@@ -117,10 +117,15 @@ class CrossSpectra:
             sut_ids=[self.sut_ids[i] for i in sut_index] if self.sut_ids else [])
 
 
-def default_nperseg(fs, fmin, n_samples, cycles=10):
-    """Power-of-two segment length giving ``cycles`` periods of ``fmin``
-    (so the lowest band holds enough bins), limited to a quarter of the data."""
+def default_nperseg(fs, fmin, n_samples, cycles=10, min_cycles=4, min_segments=24):
+    """Power-of-two segment length: ``cycles`` periods of ``fmin`` (so the
+    lowest band holds enough bins), halved while the record would give fewer
+    than ``min_segments`` half-overlapping segments, but never below
+    ``min_cycles`` periods. Many segments make the plug-in noise model (and so
+    the credible intervals) reliable; long ones keep window leakage small."""
     want = int(2 ** np.ceil(np.log2(cycles * fs / fmin)))
+    while want / 2 >= min_cycles * fs / fmin and 2 * n_samples / want - 1 < min_segments:
+        want //= 2
     return want
 
 
