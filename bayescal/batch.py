@@ -61,14 +61,15 @@ def item_status(out, label):
 def run_item(item, out):
     """Run one item (on a worker): read, calibrate, save atomically.
 
-    Returns a small dict (label, status, seconds, worker, error); never
+    Returns a small dict (label, status, seconds, cpu_seconds of this
+    thread, worker, error); never
     raises for a problem of the item itself.
     """
     from .pipeline import calibrate, calibrate_files
     from .plan import read_sds_item
     from .stationxml import write_corrected
 
-    t = time.time()
+    t, cpu = time.time(), time.thread_time()
     tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
     os.makedirs(tmp)
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
@@ -92,10 +93,10 @@ def run_item(item, out):
     except Exception as exc:   # recorded, never fatal to the batch
         shutil.rmtree(tmp)
         return record_error(item, out, exc, time.time() - t)
-    seconds = time.time() - t
-    write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})
+    seconds, cpu = time.time() - t, time.thread_time() - cpu
+    write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds, "cpu_seconds": cpu})
     _publish(tmp, os.path.join(out, item["label"]))
-    return {"label": item["label"], "status": "done", "seconds": seconds,
+    return {"label": item["label"], "status": "done", "seconds": seconds, "cpu_seconds": cpu,
             "worker": f"{socket.gethostname()}:{os.getpid()}", "error": None}
 
 

@@ -5,8 +5,10 @@ calibrated repeatedly by a ``distributed.LocalCluster`` of 1, 2, ... single-
 threaded worker processes; each repetition starts from an empty output
 folder. Reported per worker count: the median wall time of the batch on a
 running cluster, pairs per minute from it, the speed-up against 1 worker
-measured in the same run, and the median cluster start-up time (paid once per
-``bayescal batch`` call). It also checks that the posterior samples are
+measured in the same run, the median cluster start-up time (paid once per
+``bayescal batch`` call) and the median CPU seconds per pair (the worker
+thread's CPU time), which bounds the throughput of an idle machine: a shared
+machine's wall times depend on what else runs. It also checks that the posterior samples are
 identical whatever the worker count (seeds derive from the labels).
 
     python benchmarks/bench_batch.py                 # workers 1 2, 3 repeats
@@ -28,7 +30,7 @@ import numpy as np
 def main():
     from distributed import LocalCluster
 
-    from bayescal.batch import run_batch
+    from bayescal.batch import read_log, run_batch
     from bayescal.netsim import write_network
     from bayescal.plan import default_options, sds_plan
 
@@ -51,7 +53,7 @@ def main():
               f"load average before: {os.getloadavg()[0]:.1f}")
         rows, samples = [], {}
         for n in args.workers:
-            walls, starts = [], []
+            walls, starts, cpus = [], [], []
             for rep in range(args.repeats):
                 t = time.perf_counter()
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
@@ -66,19 +68,23 @@ def main():
                 finally:
                     cluster.close()
                 assert s["computed"] == len(items), s
+                cpus += [e["cpu_seconds"] for e in read_log(out) if e["event"] == "done"]
                 samples[n] = {it["label"]: np.load(os.path.join(out, it["label"],
                                                                 "samples.npz"))["samples"]
                               for it in items}
             wall = statistics.median(walls)
             rows.append((n, wall, 60 * len(items) / wall, statistics.median(starts),
-                         min(walls), max(walls)))
+                         min(walls), max(walls), statistics.median(cpus)))
         base = rows[0][1]
         print("\n| workers | median wall (s) | pairs / min | speed-up vs 1 | cluster start (s) "
-              "| min-max wall (s) |")
-        print("|---|---|---|---|---|---|")
-        for n, wall, ppm, start, lo, hi in rows:
+              "| min-max wall (s) | median CPU s / pair |")
+        print("|---|---|---|---|---|---|---|")
+        for n, wall, ppm, start, lo, hi, cpu in rows:
             print(f"| {n} | {wall:.1f} | {ppm:.1f} | {base / wall:.2f} | {start:.1f} "
-                  f"| {lo:.1f}-{hi:.1f} |")
+                  f"| {lo:.1f}-{hi:.1f} | {cpu:.1f} |")
+        cpu = statistics.median(r[6] for r in rows)
+        print(f"\nidle-machine bound from CPU time: {60 / cpu:.1f} pairs / min per core "
+              f"({60 * os.cpu_count() / cpu:.1f} on {os.cpu_count()} cores)")
         first = samples[args.workers[0]]
         same = all(np.array_equal(first[k], samples[n][k]) for n in samples for k in first)
         print(f"\nposterior samples identical across worker counts: {same}")
