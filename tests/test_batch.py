@@ -57,8 +57,12 @@ def killed_then_resumed(net, tmp_path_factory):
     finally:
         os.killpg(proc.pid, signal.SIGKILL)   # the subprocess and its Dask workers
         proc.wait()
+        time.sleep(0.5)   # let the worker processes of the group die too
     before = {lb: os.path.getmtime(os.path.join(out, lb, "result.json")) for lb in labels
               if os.path.exists(os.path.join(out, lb, "result.json"))}
+    # the kill left no half-written item folder in place (only under .tmp/)
+    placed = [lb for lb in labels if os.path.isdir(os.path.join(out, lb))]
+    assert set(placed) == set(before), (placed, before)
     log_before = read_log(out)
     summary = run_batch(plan(net), out, seed=SEED, workers=2,
                         processes=False, quiet=True, threshold_deg=THRESHOLD)
@@ -122,8 +126,11 @@ def test_same_seed_same_numbers_with_one_or_two_workers(killed_then_resumed, net
     r = killed_then_resumed
     redo = [lb for lb in r["labels"] if lb not in r["before"]][:2]   # made with 2 workers
     items = [it for it in plan(net) if it["label"] in redo]
-    run_batch(items, str(tmp_path), seed=SEED, workers=1, processes=False, quiet=True,
-              report=False)
+    from distributed import LocalCluster
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:   # an existing scheduler
+        run_batch(items, str(tmp_path), seed=SEED, scheduler=cluster.scheduler_address,
+                  quiet=True, report=False)
     for lb in redo:
         a = np.load(os.path.join(r["out"], lb, "samples.npz"))["samples"]
         b = np.load(os.path.join(tmp_path, lb, "samples.npz"))["samples"]
