@@ -34,6 +34,7 @@ MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
 GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
 QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "period_s": "s",
                   "damping": "-", "gain": "stage-1 units per m/s"}
+QUANTITY_NAMES = {"period_s": "period"}
 PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
                "azimuth_rad": "rad", "log_period": "ln s", "damping": "dimensionless",
                "log_gain": "ln of gain"}
@@ -64,16 +65,21 @@ def style():
 
 def save_png(fig, path, dpi=PNG_DPI):
     """Write ``fig`` as an 8-bit greyscale PNG (the report draws in greys
-    only, so nothing is lost and the file is about half the size)."""
-    import io
-
+    only, so nothing is lost and the file is about half the size). The Agg
+    pixel buffer goes straight to Pillow, without an intermediate PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    buf.seek(0)
-    with Image.open(buf) as im:
-        im.convert("L").save(path)
+    old_dpi = fig.dpi
+    fig.dpi = dpi
+    try:
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        rgba = canvas.buffer_rgba()
+        Image.frombuffer("RGBA", (rgba.shape[1], rgba.shape[0]), rgba, "raw", "RGBA", 0, 1) \
+            .convert("L").save(path)
+    finally:
+        fig.dpi = old_dpi
 
 
 def subject_line(ctx):
@@ -123,7 +129,8 @@ def _table(fig, top, rows, title, with_truth):
               "deviation"] + (["truth"] if with_truth else []) + ["note"]
     cells = []
     for r in rows:
-        c = [r.channel, f"{r.quantity} ({QUANTITY_UNITS.get(r.quantity, '')})",
+        c = [r.channel, f"{QUANTITY_NAMES.get(r.quantity, r.quantity)}"
+             f" ({QUANTITY_UNITS.get(r.quantity, '')})",
              fmt_value(r.quantity, r.median), _fmt_ci(r.quantity, r.ci68),
              _fmt_ci(r.quantity, r.ci95), fmt_value(r.quantity, r.nominal), _fmt_dev(r)]
         cells.append(c + ([fmt_value(r.quantity, r.truth)] if with_truth else []) + [r.note])
@@ -161,8 +168,10 @@ def _header_lines(ctx):
         f"Sensor under test: {', '.join(post.channel_ids)}",
         f"Reference: {', '.join(sorted(m.get('reference', {})))}"]
     for label, key in (("SUT files", "sut"), ("Reference files", "reference")):
-        if (m.get("files") or {}).get(key):
-            lines.append(_files_line(label, m["files"][key]))
+        files = [f for f in (m.get("files") or {}).get(key, [])
+                 if f not in ("SUT", "reference", "stream")]      # in-memory stream names
+        if files:
+            lines.append(_files_line(label, files))
     lines += [
         f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
         f" sampling {_g(m.get('sampling_rate'))} Hz",
@@ -196,8 +205,7 @@ def page_summary(ctx):
                " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
     if resp:
         y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
-                   " of nominal; gain in the StationXML's stage-1 output units, e.g. V, per m/s)",
-                   bool(ctx.truth))
+                   " of nominal)", bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
     for cid in post.channel_ids:
         for msg in flags.get(cid, []):
@@ -214,6 +222,9 @@ def page_summary(ctx):
              "\nazimuth intervals crossing north stay contiguous.",
              "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
              " instead, with the azimuth it leans toward."]
+    if resp:
+        text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
+                    " StationXML's stage-1 output units (e.g. V) per m/s.")
     fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
     return fig
 
@@ -356,83 +367,115 @@ def angle_columns(ctx):
 
 
 def response_columns(ctx):
-    """Corner-plot columns of the fitted response parameters, or None."""
+    """Corner-plot columns of the fitted response parameters, one entry per
+    channel: ``[(channel id, samples (N, D), labels, truths), ...]``."""
     post = ctx.post
     free = post.meta.get("free_response", "none")
     if free == "none" or not post.response:
-        return None
+        return []
     names = ("period_s", "damping", "gain") if free == "all" else ("gain",)
-    units = {"period_s": "s", "damping": "-", "gain": "stage-1 units per m/s"}
-    cols, labels, truths = [], [], []
+    units = {"period_s": "s", "damping": "-", "gain": "per m/s"}
+    out = []
     for cid in post.channel_ids:
         if cid not in post.response:
             continue
         tru = truth_values(ctx.truth, cid)
-        for j, name in enumerate(("period_s", "damping", "gain")):
-            if name in names:
-                cols.append(post.response[cid][:, j])
-                labels.append(f"{cid.split('.')[-1]} {name.replace('_s', '')} ({units[name]})")
-                truths.append(_truth_or_nan(tru.get(name)))
-    return np.column_stack(cols), labels, truths
+        idx = [j for j, n in enumerate(("period_s", "damping", "gain")) if n in names]
+        out.append((cid, post.response[cid][:, idx],
+                    [f"{names[i].replace('_s', '')} ({units[names[i]]})" for i in range(len(idx))],
+                    [_truth_or_nan(tru.get(n)) for n in names]))
+    return out
 
 
-def _corner_page(data, labels, truths, title, has_truth):
-    """A corner plot (contours at :data:`CORNER_LEVELS`) under a header that
-    states the levels; axis labels are placed at a fixed distance in inches so
-    they stay on the page whatever the number of panels."""
+def _corner(fig, data, labels, truths, width, height, box):
+    """Draw a corner plot into ``fig`` (a Figure or SubFigure of ``width`` x
+    ``height`` inches) inside ``box`` = (left, bottom, right, top) margins in
+    inches; axis labels sit at a fixed distance in inches so they stay on
+    the page whatever the number of panels. Returns True if truths were drawn."""
     import corner
 
     k = data.shape[1]
-    width = min(A4[0], max(6.0, 1.45 * k + 1.2))
-    head, foot, side = (1.3, 0.95, 0.95) if k > 4 else (1.3, 0.75, 0.8)   # inches
-    fig = Figure(figsize=(width, width + head - foot))
-    height = fig.get_figheight()
-    truths = None if not has_truth or np.all(np.isnan(truths)) else truths
+    truths = None if truths is None or np.all(np.isnan(truths)) else list(truths)
     if k > 4:                                   # narrow panels: channel above quantity
         labels = [lb.replace(" ", "\n", 1) for lb in labels]
     corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
-                  truths=truths if k > 1 else None,     # corner cannot draw 1-D truths truth_color="0.25", color="k", plot_datapoints=False,
-                  plot_density=False, fill_contours=True,
-                  contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
+                  truths=truths if k > 1 else None,       # corner cannot draw 1-D truths
+                  truth_color="0.25", color="k", plot_datapoints=False, plot_density=False,
+                  fill_contours=True, contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
                   smooth=1.0, bins=30, max_n_ticks=3, label_kwargs={"fontsize": 7})
+    axes = fig.axes
     if k == 1 and truths is not None:
-        fig.axes[0].axvline(truths[0], color="0.25")
-    fig.subplots_adjust(left=side / width, bottom=foot / height, right=1 - 0.15 / width,
-                        top=1 - head / height, wspace=0.08, hspace=0.08)
-    for ax in fig.axes:
-        pos = ax.get_position()
-        ax.xaxis.set_label_coords(0.5, -0.55 / (pos.height * height))
-        ax.yaxis.set_label_coords(-0.6 / (pos.width * width), 0.5)
+        axes[0].axvline(truths[0], color="0.25")
+    left, bottom, right, top = box
+    fig.subplots_adjust(left=left / width, bottom=bottom / height, right=1 - right / width,
+                        top=1 - top / height, wspace=0.08, hspace=0.08)
+    pw = (1 - (left + right) / width) * width / k          # panel size, inches
+    ph = (1 - (bottom + top) / height) * height / k
+    for ax in axes:
+        ax.xaxis.set_label_coords(0.5, -0.55 / ph)
+        ax.yaxis.set_label_coords(-0.6 / pw, 0.5)
         ax.tick_params(labelsize=6 if k > 4 else 7)
+    return truths is not None
+
+
+def _corner_note(truths_drawn, labels):
     lv = " and ".join(f"{100 * x:g} %" for x in CORNER_LEVELS)
     q = ", ".join(f"{100 * x:g}" for x in CORNER_QUANTILES)
-    note = (f"Contour levels drawn: {lv} of the 2-D posterior mass (explicit levels, not"
+    return (f"Contour levels drawn: {lv} of the 2-D posterior mass (explicit levels, not"
             f" corner's default 39 % '1 sigma'); shading: light inside 95 %, darker inside 68 %."
             f"\nDashed lines on the 1-D histograms: {q} % quantiles."
-            + ("  Grey lines and squares: simulation truth." if truths else "")
+            + ("  Grey lines and squares: simulation truth." if truths_drawn else "")
             + ("\n'lean N/E': angle of a near-vertical channel's upward axis toward North/East"
                " (its azimuth is undefined)." if any("lean" in lb for lb in labels) else ""))
+
+
+def _header(fig, title, note, width):
+    height = fig.get_figheight()
     note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
     fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")
     fig.text(0.02, 1 - 0.45 / height, note, fontsize=7, va="top")
-    return fig
 
 
 def page_corner_angles(ctx):
-    """Page 3a: corner plot of the angles (degrees)."""
+    """Page 3a: corner plot of the angles (degrees), all channels jointly."""
     data, labels, truths = angle_columns(ctx)
     if data.size == 0:
         return None
-    return _corner_page(data, labels, truths, "Posterior of the orientation angles",
-                        bool(ctx.truth))
+    k = data.shape[1]
+    width = min(A4[0], max(6.0, 1.45 * k + 1.2))
+    box = (0.95, 0.95, 0.15, 1.3) if k > 4 else (0.8, 0.75, 0.15, 1.3)
+    fig = Figure(figsize=(width, width + box[3] - box[1]))
+    drawn = _corner(fig, data, labels, truths if ctx.truth else None, width,
+                    fig.get_figheight(), box)
+    _header(fig, "Posterior of the orientation angles", _corner_note(drawn, labels), width)
+    return fig
 
 
 def page_corner_response(ctx):
-    """Page 3b: corner plot of the fitted response parameters (when fitted)."""
-    cols = response_columns(ctx)
-    if cols is None:
+    """Page 3b: corner plots of the fitted response parameters, one per
+    channel (when fitted)."""
+    blocks = response_columns(ctx)
+    if not blocks:
         return None
-    return _corner_page(*cols, "Posterior of the response parameters", bool(ctx.truth))
+    n = len(blocks)
+    ncol = 1 if n == 1 else 2
+    nrow = int(np.ceil(n / ncol))
+    sub_w = A4[0] / ncol
+    sub_h = min(sub_w, (A4[1] - 1.3) / nrow)
+    fig = Figure(figsize=(A4[0], 1.3 + sub_h * nrow))
+    # a header band of 1.3 in, then the grid of per-channel subfigures
+    gs = fig.add_gridspec(nrow + 1, ncol, height_ratios=[1.3] + [sub_h] * nrow,
+                          left=0, right=1, top=1, bottom=0, hspace=0, wspace=0)
+    subs = [fig.add_subfigure(gs[1 + i // ncol, i % ncol]) for i in range(n)]
+    drawn = False
+    for sf, (cid, data, labels, truths) in zip(subs, blocks):
+        box = (0.8, 0.75, 0.2, 0.35)
+        drawn |= _corner(sf, data, labels, truths if ctx.truth else None, sub_w, sub_h, box)
+        sf.text(0.5, 1 - 0.12 / sub_h, cid, ha="center", va="top", fontweight="bold")
+    _header(fig, "Posterior of the response parameters, per channel",
+            _corner_note(drawn, []) + "\nGain: first-stage sensitivity in the StationXML's"
+            " stage-1 output units (e.g. V) per m/s.", A4[0])
+    return fig
 
 
 def misfit_range(n_r, p=0.95):
@@ -512,7 +555,7 @@ def page_convergence(ctx):
     fig = Figure(figsize=A4)
     fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
     n_rows = int(np.ceil(nd / 2))
-    trace_h = min(0.55, 0.12 * n_rows + 0.03)
+    trace_h = min(0.55, 0.16 * n_rows + 0.03)
     table_h = 0.0135 * (nd + 1)
     table_top = 0.93 - trace_h - 0.085
     if post.trace is not None:

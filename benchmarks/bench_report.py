@@ -13,6 +13,7 @@ report). ``--folder DIR`` times an existing result folder instead.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import tempfile
@@ -52,7 +53,9 @@ def main(argv=None):
             wall.append(time.perf_counter() - w0)
             cpu.append(time.process_time() - c0)
         size = sum(os.path.getsize(q) for q in paths) / 1e6
-        print(f"result: {folder} ({'response fitted' if a.response else 'orientation only'})")
+        with open(os.path.join(folder, "result.json")) as fh:
+            free = json.load(fh)["meta"].get("free_response", "none")
+        print(f"result: {folder} (response fitted: {free})")
         print(f"pages/figures: {len(paths) - 1}, output {size:.2f} MB")
         print(f"import of bayescal.report: {import_s:.2f} s (once per process)")
         print(f"render, median of {a.repeats}: wall {statistics.median(wall):.2f} s "
