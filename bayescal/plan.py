@@ -155,8 +155,13 @@ def sds_plan(archive, inventory, sut_location="10", ref_location="00", days=None
     """
     defaults = defaults or default_options()
     read_inventories(inventory)   # fail early, naming the file, if unreadable
-    lo, hi = (None, None) if days is None else (UTCDateTime(days[0]).date.isoformat(),
-                                                 UTCDateTime(days[1]).date.isoformat())
+    lo = hi = None
+    if days is not None:
+        try:
+            lo, hi = (UTCDateTime(str(d)).date.isoformat() for d in days)
+        except Exception:
+            raise InputError(f"{archive}: --days {' '.join(map(str, days))}: need two dates "
+                             "YYYY-MM-DD") from None
     items = []
     for (net, sta), locs in sorted(scan_sds(archive, sds_type).items()):
         if sut_location not in locs or ref_location not in locs:
