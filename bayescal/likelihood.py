@@ -45,6 +45,9 @@ import numpy as np
 
 from .response import TwoPoleFamily
 
+#: Density of the nodes at which response ratios are evaluated.
+NODES_PER_DECADE = 30
+
 #: Shrinkage weight (in segment x entry counts) of a band's inflation factor
 #: toward the value pooled over bands.
 INFLATION_SHRINK = 50.0
@@ -139,9 +142,14 @@ class Model:
         self._srr = spectra.band_sums()[:, nu:, nu:]                # (B, nr, nr)
         # one-hot band membership, (F, B)
         self._onehot = np.eye(spectra.n_bands)[spectra.band_of]
-        # (nu, F, B*nr): row i of C_ur with the band indicator folded in
-        self._cur_rows = np.einsum("fb,fij->ifbj", self._onehot, self._cur).reshape(
-            nu, spectra.freqs.size, -1)
+        # The deconvolution factor H_nom/H(a) is smooth in frequency: it is
+        # evaluated at log-spaced nodes and linearly interpolated (in log f)
+        # to the bins. The interpolation weights are folded into the spectra,
+        # so a likelihood call costs O(nodes), not O(bins).
+        self.nodes, self._interp = interpolation_nodes(spectra.freqs, NODES_PER_DECADE)
+        # (nu, Q, B*nr): row i of C_ur, band indicator and weights folded in
+        self._cur_rows = np.einsum("fq,fb,fij->iqbj", self._interp, self._onehot,
+                                   self._cur).reshape(nu, self.nodes.size, -1)
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
         self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none"]
@@ -150,10 +158,11 @@ class Model:
     # --- parameters -------------------------------------------------------
     def unpack(self, theta):
         """theta (W, ndim) -> SUT axes (W, n_u, 3) and deconvolution factors
-        ``H_nom(f) / H(f; a)`` (W, n_u, F) that turn the nominally deconvolved
-        SUT spectra into spectra deconvolved by the parametric response."""
+        ``H_nom(f) / H(f; a)`` at the interpolation nodes (W, n_u, Q) that turn
+        the nominally deconvolved SUT spectra into spectra deconvolved by the
+        parametric response (``ratio @ self._interp.T`` gives them per bin)."""
         theta = np.atleast_2d(theta)
-        w, f = theta.shape[0], self.spectra.freqs.size
+        w, f = theta.shape[0], self.nodes.size
         vecs = np.empty((w, len(self.blocks), 3))
         ratio = np.ones((w, len(self.blocks), f), dtype=complex)
         for k, (b, (so, sr)) in enumerate(zip(self.blocks, self.slices)):
@@ -162,7 +171,7 @@ class Model:
             if b.free == "gain":
                 ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
             elif b.free == "all":
-                ratio[:, k] = 1.0 / b.family.ratio(self.spectra.freqs, np.exp(r[:, 0]), r[:, 1],
+                ratio[:, k] = 1.0 / b.family.ratio(self.nodes, np.exp(r[:, 0]), r[:, 1],
                                                    np.exp(r[:, 2]))
         return vecs, ratio
 
@@ -211,7 +220,7 @@ class Model:
         r = np.broadcast_to(self._sur_nominal, (w,) + self._sur_nominal.shape).copy()
         if self._free_rows:
             k = self._free_rows
-            # batched BLAS: (k, W, F) @ (k, F, B*nr) -> (k, W, B*nr)
+            # batched BLAS: (k, W, Q) @ (k, Q, B*nr) -> (k, W, B*nr)
             rows = np.matmul(ratio[:, k].transpose(1, 0, 2), self._cur_rows[k])
             r[:, :, k, :] = rows.reshape(len(k), w, nb, nr).transpose(1, 2, 0, 3)
         r -= np.matmul(t[:, None], self._srr[None])                 # (W, B, nu, nr)
@@ -247,7 +256,7 @@ class Model:
         nu = sp.n_u
         vecs, ratio = self.unpack(theta0)
         t = (vecs @ self.ref_pinv)[0]
-        rho = ratio[0]                                               # (nu, F)
+        rho = ratio[0] @ self._interp.T                              # (nu, F)
         # per-bin residual power summed in each band: sum e e^H
         yu_yu = np.einsum("if,fij,jf->fij", rho, self._cuu, rho.conj())
         yu_yr = rho.T[:, :, None] * self._cur
@@ -290,3 +299,22 @@ def seed_residual(s_uu, s_ru, v_u, v_r):
     """The seed's original residual ``S_uu - V_u V_r^-1 S_ru`` (for
     comparison; biased by the SUT's noise power, see module docstring)."""
     return s_uu - v_u @ np.linalg.pinv(v_r) @ s_ru
+
+
+def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):
+    """Log-spaced nodes spanning ``freqs`` and the (F, Q) matrix of linear
+    interpolation weights (in log frequency) from nodes to bins. With fewer
+    bins than nodes, the bins themselves are the nodes (weights = identity)."""
+    freqs = np.asarray(freqs, float)
+    lo, hi = np.log10(freqs[0]), np.log10(freqs[-1])
+    q = max(2, int(np.ceil((hi - lo) * per_decade)) + 1)
+    if q >= freqs.size:
+        return freqs.copy(), np.eye(freqs.size)
+    nodes = np.logspace(lo, hi, q)
+    x, xn = np.log10(freqs), np.log10(nodes)
+    j = np.clip(np.searchsorted(xn, x, side="right") - 1, 0, q - 2)
+    frac = (x - xn[j]) / (xn[j + 1] - xn[j])
+    weights = np.zeros((freqs.size, q))
+    weights[np.arange(freqs.size), j] = 1.0 - frac
+    weights[np.arange(freqs.size), j + 1] = frac
+    return nodes, weights
