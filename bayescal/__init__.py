@@ -7,7 +7,7 @@ try:
 except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0+local"
 
-from .pipeline import calibrate  # noqa: E402
+from .pipeline import calibrate, calibrate_files, write_results  # noqa: E402
 from .posterior import Posterior  # noqa: E402
 
-__all__ = ["calibrate", "Posterior", "__version__"]
+__all__ = ["calibrate", "calibrate_files", "write_results", "Posterior", "__version__"]
