@@ -24,7 +24,7 @@ from .geometry import tilt_from_vertical, unit_vector
 from .report import Row, angle_rows, response_rows, truth_values, wrap180
 
 A4 = (8.27, 11.69)
-PNG_DPI = 100
+PNG_DPI = 90
 #: 2-D contour levels of the corner plots: fractions of posterior mass enclosed.
 CORNER_LEVELS = (0.68, 0.95)
 #: 1-D quantiles marked by dashed lines in the corner plots.
@@ -542,7 +542,12 @@ def _misfit_panel(ax, d, sut, n_r):
     ax.set_ylabel("standardised misfit (-)")
     ax.set_title("Per-band residual energy over its noise model, per SUT channel",
                  loc="left")
-    ax.set_ylim(0, max(hi * 1.3, float(np.nanmax(mis)) * 1.15))
+    top = float(np.nanmax(mis))
+    if top > 10 * hi:                    # far off: a log axis keeps the expected range visible
+        ax.set_yscale("log")
+        ax.set_ylim(min(lo, float(np.nanmin(mis))) / 1.5, top * 2)
+    else:
+        ax.set_ylim(0, max(hi * 1.3, top * 1.15))
     ax.legend(loc="upper left", ncol=2)
 
 
@@ -562,7 +567,7 @@ def page_convergence(ctx):
         gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
                               bottom=0.93 - trace_h, hspace=0.15, wspace=0.3)
         tr = post.trace
-        step = max(1, tr.shape[0] // 250)
+        step = max(1, tr.shape[0] // 200)
         x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
         walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
         burn = post.convergence.get("burn")

@@ -11,23 +11,26 @@ Cases (each written to ``reports/<name>/``: ``result.json``, ``samples.npz``,
   (``fit_response="all"``), the true responses differing from the nominal
   StationXML by a few per cent.
 * ``huddle``: ObsPy's huddle pair (real data, vertical only, response fitted),
-  through ``examples/real_huddle.py``; skipped when ``../shared/data`` is
+  through ``examples/real_huddle.py``; ``cowi``: the ASL COWI azimuth set
+  through ``examples/real_cowi.py``; both skipped when ``../shared/data`` is
   absent.
+* ``uvw`` and ``batch``: the other issues' galleries, through
+  ``examples/uvw_example.py`` and ``examples/batch_example.py`` (they write
+  their own reports).
 
     python examples/make_reports.py [--out reports] [--only simulated ...]
 """
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "real" / "obspy_relcal"
 
 
 def _simulated_fit(folder, sim_kw, fit_kw):
@@ -63,25 +66,35 @@ def simulated_response(out):
                           dict(band=(0.03, 1.0), fit_response="all", seed=5))
 
 
-def huddle(out):
-    """ObsPy huddle pair through examples/real_huddle.py (None without data)."""
-    if not DATA.is_dir():
-        print(f"huddle: skipped, {DATA} not found")
-        return None
-    spec = importlib.util.spec_from_file_location("real_huddle", ROOT / "examples" / "real_huddle.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    dest = os.path.join(out, "huddle")
-    try:
-        mod.main(["--data", str(DATA), "--out", dest])
-    except SystemExit as exc:
-        if exc.code:
-            print(f"huddle: real_huddle.py failed ({exc.code})")
+def _script(name, script, needs_data=None):
+    """A case run by another example script (``examples/<script>``) with
+    ``--out reports/<name>``; a calibration report is rendered for the
+    result folder it leaves (``<name>/`` or ``<name>/fit/``), if any. Cases
+    on real data are skipped when ``../shared/data`` is absent."""
+    def run(out):
+        dest = os.path.join(out, name)
+        if needs_data is not None and not needs_data.is_dir():
+            print(f"{name}: skipped, {needs_data} not found")
             return None
-    return os.path.join(dest, "fit")
+        rc = subprocess.run([sys.executable, str(ROOT / "examples" / script), "--out", dest],
+                            cwd=ROOT).returncode
+        if rc:
+            print(f"{name}: examples/{script} failed (exit code {rc})")
+            return None
+        for folder in (dest, os.path.join(dest, "fit")):
+            if os.path.exists(os.path.join(folder, "samples.npz")):
+                return folder
+        return None                      # the script wrote its own report
+    run.__doc__ = f"examples/{script} into reports/{name}/"
+    return run
 
 
-CASES = {"simulated": simulated, "simulated_response": simulated_response, "huddle": huddle}
+REAL = ROOT.parent / "shared" / "data" / "real"
+CASES = {"simulated": simulated, "simulated_response": simulated_response,
+         "huddle": _script("huddle", "real_huddle.py", REAL / "obspy_relcal"),
+         "cowi": _script("cowi", "real_cowi.py", REAL / "asl_cowi_azimuth"),
+         "uvw": _script("uvw", "uvw_example.py"),
+         "batch": _script("batch", "batch_example.py")}
 
 
 def main(argv=None):
