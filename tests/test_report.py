@@ -4,6 +4,8 @@ simulated truth, and bad folders fail cleanly."""
 import json
 import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -223,7 +225,10 @@ def test_single_channel_reference(tmp_path):
                         sut_response=((30.0, 0.707, 750.0), (30.0, 0.707, 750.0),
                                       (30.0, 0.707, 700.0)))
     folder = _fit(tmp_path, "z", sim, ref=sim.ref.select(channel="BHZ"), fit_response="gain")
+    stale = os.path.join(folder, "report_corner_angles.png")     # from an earlier report
+    open(stale, "wb").close()
     paths = write_report(folder)
+    assert not os.path.exists(stale)
     _, pages = _pages(folder)
     names = [os.path.basename(p) for p in paths[1:]]
     assert "report_corner_angles.png" not in names and "report_corner_response.png" in names
@@ -235,3 +240,17 @@ def test_single_channel_reference(tmp_path):
         assert f"{cid}: its axis lies outside the span of the 1 reference" in pages[0]
     gain = float(_row(pages[0], "XX.SIM.10.BHZ", "gain")[3])
     assert abs(gain / 700.0 - 1) < 0.03
+
+
+def test_renders_without_display(flagged, tmp_path):
+    """No display needed: an interactive backend and no DISPLAY still render,
+    because the report never draws through pyplot."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["MPLBACKEND"] = "TkAgg"
+    out = str(tmp_path / "headless.pdf")
+    code = ("import sys; from bayescal.report import write_report; "
+            f"p = write_report({flagged[0]!r}, out_pdf={out!r}); print(len(p))")
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "6"
+    assert len(pypdf.PdfReader(out).pages) == 5
