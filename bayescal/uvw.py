@@ -71,7 +71,7 @@ PARAMS = ("period_s", "damping", "gain")
 BANDS_PER_DECADE = 20
 #: |z| above which Z-only and all-output estimates are called inconsistent.
 #: Calibrated by benchmarks/uvw_coverage.py: under the true model the
-#: statistic's sd is 1.0-1.2 per parameter and its largest |z| in 180 draws
+#: statistic's sd is 1.14-1.17 per parameter and its largest |z| in 360 draws
 #: 3.7, so 4 keeps false alarms near 1 % per nine-parameter calibration.
 AGREEMENT_Z = 4.0
 
