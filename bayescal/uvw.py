@@ -736,6 +736,11 @@ class UVWResult:
         out["geometry"]["max_abs_deviation"] = float(max(dev))
         if self.z_fits:
             zs = {e: self.z_fits[e].summary() for e in ELEMENTS}
+            if self.relative_gain:
+                zj = _pair([self.z_fits[e] for e in ELEMENTS], self.joint.shape[0],
+                           np.random.default_rng(0))
+                for j, e in enumerate(ELEMENTS):
+                    zs[e]["gain"] = interval_summary(zj[:, j, 2] / self._gain_scale(zj))
             ag = {e: agreement(self.fits[e], self.z_fits[e]) for e in ELEMENTS}
             worst = max(abs(v["z"]) for a in ag.values() for v in a.values())
             out["z_only"] = zs

@@ -119,7 +119,7 @@ def agreement_page(result, summary):
                 ax.plot([q[1], q[3]], [y, y], color=col, lw=3)
                 ax.plot(q[2], y, "o", color=col, ms=4, label=label if i == 0 else None)
         ax.set_yticks(range(3), ELEMENTS)
-        ax.set_title(LABELS[p] + (" (absolute)" if p == "gain" else ""), fontsize=9)
+        ax.set_title(LABELS[p] + (" (as fitted)" if p == "gain" else ""), fontsize=9)
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     ag = summary.get("agreement")

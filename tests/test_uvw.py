@@ -136,6 +136,41 @@ def test_without_coil_constant_the_scale_is_removed():
     assert c_eff == pytest.approx(c_true * gmean / STS2_NOMINAL[2], rel=0.01)
 
 
+def test_relative_gain_summary():
+    """Without a coil constant every gain (elements, Z-only, XYZ) is reported
+    over the elements' geometric mean, sample by sample."""
+    from bayescal.response import TwoPoleFamily
+    from bayescal.simulate import velocity_response
+    fam = TwoPoleFamily.from_response(velocity_response(*STS2_NOMINAL, sample_rate=1.0))
+    rng = np.random.default_rng(8)
+    c_unknown = 0.37                     # gains as fitted carry an unknown scale
+
+    def fake_fit(e, el):
+        smp = np.column_stack([rng.normal(el[0], 0.2, 4000), rng.normal(el[1], 0.002, 4000),
+                               rng.normal(el[2] * c_unknown, 0.5, 4000)])
+        app = {"Z": {"estimate": STS2_UVW[uvw.ELEMENTS.index(e), 2],
+                     "expected": STS2_UVW[uvw.ELEMENTS.index(e), 2], "imag": 0.0}}
+        return uvw.ElementFit(e, ["Z"], smp, None, None, {}, {"Z": 1.0}, app, None, (0.004, 0.2))
+
+    fits = {e: fake_fit(e, el) for e, el in zip(uvw.ELEMENTS, TRUE)}
+    z_fits = {e: fake_fit(e, el) for e, el in zip(uvw.ELEMENTS, TRUE)}
+    joint = uvw._pair([fits[e] for e in uvw.ELEMENTS], 2000, rng)
+    freqs = np.geomspace(0.004, 0.2, 60)
+    res = uvw.UVWResult(STS2_UVW, "test", fits, z_fits, joint,
+                        uvw.derive_xyz(joint, STS2_UVW, fam, freqs), freqs, fam, True, "all-outputs")
+    s = res.summary()
+    g = np.array([el[2] for el in TRUE])
+    rel = g / np.exp(np.mean(np.log(g)))
+    for j, e in enumerate(uvw.ELEMENTS):
+        assert s["elements"][e]["gain"]["median"] == pytest.approx(rel[j], abs=1e-3)
+        assert s["z_only"][e]["gain"]["median"] == pytest.approx(rel[j], abs=1e-3)
+    for i, ax in enumerate(uvw.XYZ):
+        assert s["xyz"][ax]["gain"]["median"] == pytest.approx(((STS2_UVW ** 2).T @ rel)[i],
+                                                               abs=2e-3)
+    assert s["gain_units"].startswith("relative")
+    assert s["agreement"]["consistent"]
+
+
 # --- wrong geometry is caught --------------------------------------------------
 
 def test_wrong_sign_convention_is_reported():
