@@ -254,3 +254,22 @@ def test_renders_without_display(flagged, tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "6"
     assert len(pypdf.PdfReader(out).pages) == 5
+
+
+def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
+    """A result whose sampler did not converge says so on pages 1 and 5; a
+    result without diagnostics.npz still renders, saying what is missing."""
+    from bayescal.posterior import Posterior
+
+    post = Posterior.load(flagged[0])
+    post.convergence["converged"] = False
+    post.diagnostics = {}
+    folder = str(tmp_path / "unconverged")
+    post.save(folder)
+    assert not os.path.exists(os.path.join(folder, "diagnostics.npz"))
+    write_report(folder)
+    _, pages = _pages(folder)
+    assert "SAMPLER NOT CONVERGED" in pages[0]
+    assert "converged: NO" in pages[0] and "converged: NO" in pages[4]
+    assert "no diagnostics.npz in the result folder" in pages[3]
+    assert "SAMPLER NOT CONVERGED" not in _pages(flagged[0])[1][0]
