@@ -46,7 +46,7 @@ import numpy as np
 from .response import TwoPoleFamily
 
 #: Density of the nodes at which response ratios are evaluated.
-NODES_PER_DECADE = 30
+NODES_PER_DECADE = 60
 
 #: Shrinkage weight (in segment x entry counts) of a band's inflation factor
 #: toward the value pooled over bands.
@@ -96,6 +96,35 @@ class ChannelBlock:
         return [f"{self.channel_id}:{p}" for p in orient + resp]
 
 
+class Effect:
+    """A physical effect the base model leaves out, as an extension of it.
+
+    An effect multiplies the SUT deconvolution factor of the channels
+    ``rows`` (indices into the model's SUT channels) by ``factor(freqs, p)``,
+    a complex array of shape (W, len(rows), F) or broadcastable to it, for
+    parameters ``p`` of shape (W, n_params). An effect on the reference (a
+    pole missing from its metadata, its clock) is expressed on the SUT side as
+    the reciprocal factor applied to every row. ``factor`` must be 1 at the
+    effect's null value, so the extended model nests the base model.
+    Subclasses set ``name``, ``param_names``, ``rows`` and implement
+    ``factor`` and ``log_prior`` (vectorised, -inf outside the support).
+    """
+
+    name = "effect"
+    param_names: tuple = ()
+    rows: list = []
+
+    @property
+    def n_params(self):
+        return len(self.param_names)
+
+    def factor(self, freqs, p):
+        raise NotImplementedError
+
+    def log_prior(self, p):
+        return np.zeros(p.shape[0])
+
+
 @dataclass
 class NoiseModel:
     """Per-band precision factors: ``A_b = Sigma_b^-1 / c_b``, ``B_b = S_rr,b^-1``."""
@@ -120,22 +149,29 @@ class Model:
     blocks : one :class:`ChannelBlock` per SUT channel, in spectra order.
     """
 
-    def __init__(self, spectra, ref_vectors, blocks, priors=Priors()):
+    def __init__(self, spectra, ref_vectors, blocks, priors=Priors(), effects=()):
         self.spectra = spectra
         self.blocks = list(blocks)
         self.priors = priors
+        self.effects = list(effects)
         nu, nr = spectra.n_u, spectra.n_r
         if len(self.blocks) != nu:
             raise ValueError("one ChannelBlock per SUT channel is needed")
         self.ref_vectors = np.asarray(ref_vectors, float)
         self.ref_pinv = np.linalg.pinv(self.ref_vectors)          # (3, n_r)
         self.names = [n for b in self.blocks for n in b.param_names()]
-        self.ndim = len(self.names)
         self.slices, i = [], 0
         for b in self.blocks:
             self.slices.append((slice(i, i + b.manifold.n_params),
                                 slice(i + b.manifold.n_params, i + b.n_params)))
             i += b.n_params
+        # extension parameters (see Effect) follow the channel blocks
+        self.effect_slices = []
+        for e in self.effects:
+            self.effect_slices.append(slice(i, i + e.n_params))
+            self.names += [f"{e.name}:{p}" for p in e.param_names]
+            i += e.n_params
+        self.ndim = len(self.names)
         c = spectra.total
         self._cur = c[:, :nu, nu:]                                  # (F, nu, nr)
         self._cuu = c[:, :nu, :nu]
@@ -152,7 +188,8 @@ class Model:
                                    self._cur).reshape(nu, self.nodes.size, -1)
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
-        self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none"]
+        affected = {k for e in self.effects for k in e.rows}
+        self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
         self.noise = None
 
     # --- parameters -------------------------------------------------------
@@ -173,6 +210,8 @@ class Model:
             elif b.free == "all":
                 ratio[:, k] = 1.0 / b.family.ratio(self.nodes, np.exp(r[:, 0]), r[:, 1],
                                                    np.exp(r[:, 2]))
+        for e, sl in zip(self.effects, self.effect_slices):
+            ratio[:, e.rows] *= e.factor(self.nodes, theta[:, sl])
         return vecs, ratio
 
     def response_values(self, theta):
@@ -208,6 +247,8 @@ class Model:
                 bad |= np.abs(lt) > np.log(pr.period_factor)
                 bad |= (r[:, 1] < pr.damping_range[0]) | (r[:, 1] > pr.damping_range[1])
             lp[bad] = -np.inf
+        for e, sl in zip(self.effects, self.effect_slices):
+            lp += e.log_prior(theta[:, sl])
         return lp
 
     # --- residual and likelihood -----------------------------------------
