@@ -63,7 +63,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     families = s.families()
     nominal = {cid: {"azimuth_deg": az, "dip_deg": dip,
                      **({} if fam is None else {"period_s": fam.period_s, "damping": fam.damping,
-                                                "gain": fam.gain})}
+                                                "gain": fam.gain, "gain_units": fam.gain_units})}
                for cid, az, dip, fam in zip(s.ids, s.azimuths, s.dips, families)}
     used_s = (spectra.n_segments * spectra.step + spectra.nperseg - spectra.step) / fs
     meta = {"nominal": nominal, "reference": {cid: {"azimuth_deg": az, "dip_deg": dip}
