@@ -69,6 +69,9 @@ XYZ = ("X", "Y", "Z")
 PARAMS = ("period_s", "damping", "gain")
 #: Narrow bands: the response ratio barely changes within one.
 BANDS_PER_DECADE = 20
+#: Segments hold this many periods of the band's lower edge (power of two):
+#: long enough that window leakage does not bias the element's period.
+SEGMENT_CYCLES = 10
 #: |z| above which Z-only and all-output estimates are called inconsistent.
 #: Calibrated by benchmarks/uvw_coverage.py: under the true model the
 #: statistic's sd is 1.14-1.17 per parameter and its largest |z| in 360 draws
@@ -329,6 +332,14 @@ def run_spectra(run, coil_constant, band, nperseg=None, base=None):
         raise InputError(f"{run.source}: {exc}") from None
 
 
+def default_nperseg(fs, fmin):
+    """Segment length (samples) for calibration runs: ``SEGMENT_CYCLES``
+    periods of ``fmin`` rounded up to a power of two. Fixed here rather than
+    taken from :func:`bayescal.spectra.default_nperseg`, whose choice serves
+    ambient-noise records; the coverage benchmark was run with this one."""
+    return int(2 ** np.ceil(np.log2(SEGMENT_CYCLES * fs / fmin)))
+
+
 def _run_spectra(run, coil_constant, band, nperseg, base):
     def out_resp(f):
         h = run.nominal_response(np.asarray(f, float))
@@ -338,7 +349,7 @@ def _run_spectra(run, coil_constant, band, nperseg, base):
         return (2j * np.pi * np.asarray(f) / coil_constant)[None, :]
 
     return cross_spectra(run.data, run.input[None, :], run.fs, out_resp, in_resp, band,
-                         nperseg=nperseg, bands_per_decade=BANDS_PER_DECADE, min_bins=8,
+                         nperseg=nperseg or default_nperseg(run.fs, band[0]), bands_per_decade=BANDS_PER_DECADE, min_bins=8,
                          sut_ids=run.ids, ref_ids=["input"])
 
 

@@ -31,7 +31,7 @@ def draw_elements(rng):
                   g0 * (1 + 0.01 * rng.standard_normal())) for _ in range(3))
 
 
-def one(seed, duration, band, modes):
+def one(seed, duration, band, modes, nperseg=None):
     """Fit one element of one simulation; returns a record per mode."""
     rng = np.random.default_rng(1000 + seed)
     els = draw_elements(rng)
@@ -43,7 +43,8 @@ def one(seed, duration, band, modes):
     for mode in modes:
         r = run.select(["Z"]) if mode == "z" else run
         t = time.perf_counter()
-        fit = uvw.fit_run(r, uvw.STS2_UVW, sim.truth["coil_constant"], band, seed=seed)
+        fit = uvw.fit_run(r, uvw.STS2_UVW, sim.truth["coil_constant"], band, nperseg=nperseg,
+                          seed=seed)
         dt = time.perf_counter() - t
         s = fit.summary()
         out[mode] = {"time_s": dt, "element": e, "steps": fit.convergence["n_steps"],
@@ -96,15 +97,18 @@ def main():
     ap.add_argument("--duration", type=float, default=8 * 3600.0, help="record per run (s)")
     ap.add_argument("--band", nargs=2, type=float, default=(0.5 / 120, 25 / 120))
     ap.add_argument("--modes", default="all,z", help="all and/or z")
+    ap.add_argument("--nperseg", type=int, default=None,
+                    help="segment length (samples); default: bayescal.uvw's choice")
     ap.add_argument("--out", default=None, help="write the summary JSON here")
     args = ap.parse_args()
     modes = args.modes.split(",")
     t0 = time.perf_counter()
     records = []
     for s in range(args.n):
-        records.append(one(s, args.duration, tuple(args.band), modes))
+        records.append(one(s, args.duration, tuple(args.band), modes, args.nperseg))
         print(f"simulation {s + 1}/{args.n} done, {time.perf_counter() - t0:.0f} s", flush=True)
     result = {"n": args.n, "duration_s": args.duration, "band_hz": list(args.band),
+              "nperseg": args.nperseg,
               "wall_s": time.perf_counter() - t0,
               **{mode: summarise(records, mode) for mode in modes}}
     for mode in modes:
