@@ -1,0 +1,270 @@
+"""A catalogue of physics that the base calibration model leaves out.
+
+Each entry is an :class:`bayescal.likelihood.Effect` (a factor on the SUT
+deconvolution that equals 1 at the effect's null value, so the extended model
+nests the base model), a *signature* test that scores how well the misfit
+located after the base fit looks like it, and a sentence in plain words.
+
+Signatures read the per-band complex ratio ``q[b, i]`` of what SUT channel
+``i`` recorded over what the fitted model predicts from the reference (1
+where the model fits; see :func:`bayescal.diagnose.band_ratio`):
+
+* ``timing_offset``: phase of ``q`` linear in frequency through the origin,
+  flat amplitude (SUT late by tau: phase ``-2 pi f tau`` on every channel).
+* ``clock_drift``: the per-segment timing (phase slope) changes steadily
+  through the record.
+* ``extra_pole``: amplitude rolls off (SUT has a pole its metadata lacks:
+  ``|q|`` falls, phase lags) or rises (the reference lacks one: ``|q|``
+  rises, phase leads) toward high frequency.
+* ``gain_error``: one channel's ``|q|`` flat and different from 1, phase 0.
+* ``polarity_reversal`` / ``channel_swap``: the base fit estimates
+  orientation freely, so these show as a fitted axis opposite to the
+  metadata axis, or two channels whose fitted axes match each other's
+  metadata axes (:func:`orientation_findings`).
+* ``tilt_noise``: coherence deficit on the horizontals only, growing toward
+  long periods (:func:`tilt_signature`); it is noise, not a response error,
+  and the per-band noise model already absorbs it: named, not modelled.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .likelihood import Effect
+
+#: Angle (degrees) within which a fitted axis "matches" a metadata axis.
+MATCH_DEG = 30.0
+#: Horizontal/vertical coherence-deficit ratio (two lowest bands) naming tilt noise.
+TILT_RATIO = 4.0
+
+
+class TimingOffset(Effect):
+    """The SUT's clock is late by ``seconds`` relative to the reference's."""
+
+    name = "timing_offset"
+    param_names = ("seconds",)
+
+    def __init__(self, rows, limit_s=30.0):
+        self.rows = list(rows)
+        self.limit_s = limit_s
+
+    def factor(self, f, p):
+        return np.exp(2j * np.pi * f[None, None, :] * p[:, :1, None])
+
+    def log_prior(self, p):
+        return np.where(np.abs(p[:, 0]) < self.limit_s, 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"seconds": p[:, 0]}
+
+    @staticmethod
+    def explain(med):
+        s = med["seconds"]
+        return (f"the SUT's clock is {abs(s):.3g} s {'late' if s > 0 else 'early'} relative to "
+                "the reference's (a timing offset between the digitizers)")
+
+
+class ClockDrift(Effect):
+    """The SUT's clock offset grows linearly through the record:
+    ``tau(t) = seconds + ppm * 1e-6 * (t - t_mid)``. The likelihood works on
+    segment-summed spectra, so the factor undoes the segment-averaged phase
+    ``mean_k exp(-2 pi i f tau(t_k))`` (segment centres ``t_k``)."""
+
+    name = "clock_drift"
+    param_names = ("seconds_mid", "ppm")
+
+    def __init__(self, rows, segment_times_s, limit_ppm=2000.0):
+        self.rows = list(rows)
+        t = np.asarray(segment_times_s, float)
+        self.dt = t - t.mean()
+        self.limit_ppm = limit_ppm
+
+    def factor(self, f, p):
+        tau = p[:, 0, None] + 1e-6 * p[:, 1, None] * self.dt[None, :]          # (W, K)
+        m = np.mean(np.exp(-2j * np.pi * f[None, None, :] * tau[:, :, None]), axis=1)  # (W, F)
+        mag = np.maximum(np.abs(m), 0.05)
+        return (np.abs(m) / mag / np.where(m == 0, 1, m))[:, None, :]
+
+    def log_prior(self, p):
+        return np.where((np.abs(p[:, 0]) < 30) & (np.abs(p[:, 1]) < self.limit_ppm), 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"seconds_mid": p[:, 0], "ppm": p[:, 1]}
+
+    @staticmethod
+    def explain(med):
+        return (f"the SUT's clock drifts by {med['ppm']:.3g} ppm relative to the reference's "
+                f"(offset {med['seconds_mid']:.3g} s at mid-record)")
+
+
+class ExtraPole(Effect):
+    """A real pole at ``corner_hz`` missing from the metadata of the SUT
+    (``which="sut"``) or of the reference (``which="ref"``), normalised like
+    the first stage (unit gain at ``norm_freq``). Parameter: ``1 / corner``
+    in seconds (0 = no pole; the prior keeps it positive)."""
+
+    name = "extra_pole"
+    param_names = ("inverse_corner_s",)
+
+    def __init__(self, rows, which, norm_freq=1.0, max_inverse_s=100.0):
+        self.rows = list(rows)
+        self.which = which
+        self.norm_freq = norm_freq
+        self.max_inverse_s = max_inverse_s
+
+    def factor(self, f, p):
+        x = p[:, :1, None]
+        undo = (1 + 1j * f[None, None, :] * x) / np.abs(1 + 1j * self.norm_freq * x)
+        return undo if self.which == "sut" else 1.0 / undo
+
+    def log_prior(self, p):
+        return np.where((p[:, 0] >= 0) & (p[:, 0] < self.max_inverse_s), 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        with np.errstate(divide="ignore"):
+            return {"corner_hz": 1.0 / np.maximum(p[:, 0], 1e-12)}
+
+    def explain(self, med):
+        who = "sensor under test" if self.which == "sut" else "reference"
+        return (f"the {who}'s response has a pole near {med['corner_hz']:.3g} Hz that its "
+                "metadata lacks (its amplitude rolls off and its phase lags above that)")
+
+
+class GainError(Effect):
+    """SUT channel ``row``'s sensitivity is ``1 + fraction`` times its
+    metadata value (only testable when gains are not fitted)."""
+
+    name = "gain_error"
+    param_names = ("fraction",)
+
+    def __init__(self, row, channel_id=""):
+        self.rows = [row]
+        self.channel_id = channel_id
+
+    def factor(self, f, p):
+        return (1.0 / (1.0 + p[:, :1, None])) * np.ones_like(f)[None, None, :]
+
+    def log_prior(self, p):
+        return np.where(np.abs(p[:, 0]) < 0.9, 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"fraction": p[:, 0]}
+
+    def explain(self, med):
+        return (f"{self.channel_id}'s sensitivity is {100 * med['fraction']:+.2g} % off its "
+                "metadata value")
+
+
+# --- signatures -------------------------------------------------------------
+
+def _wls_slope(x, y, w):
+    """Weighted least-squares slope through the origin and its R^2-like fit quality."""
+    slope = np.sum(w * x * y) / np.sum(w * x * x)
+    resid = np.sum(w * (y - slope * x) ** 2)
+    total = np.sum(w * y * y) + 1e-30
+    return slope, 1.0 - resid / total
+
+
+def signatures(freqs_b, q, weight):
+    """Score each response-side candidate from the per-band ratio ``q``
+    (B, n_u) and per-band weights (B, n_u) (inverse variance of log q).
+
+    Returns a dict name -> {"score": 0..1, "start": parameter guess, ...}.
+    The score is how well the pattern matches (fit quality of the
+    signature's shape); the likelihood comparison decides.
+    """
+    logq = np.log(np.where(np.abs(q) > 0, q, 1.0))
+    amp, phase = logq.real, np.unwrap(logq.imag, axis=0)
+    f = np.broadcast_to(freqs_b[:, None], q.shape)
+    out = {}
+    # timing: common phase slope on all channels
+    slope, fit = _wls_slope(f.ravel(), phase.ravel(), weight.ravel())
+    out["timing_offset"] = {"score": float(max(fit, 0)), "start": float(-slope / (2 * np.pi))}
+    # extra pole: log-amplitude change with f^2 at low f x, phase ~ -f x
+    mean_amp = np.average(amp, axis=1, weights=weight)
+    mean_ph = np.average(phase, axis=1, weights=weight)
+    wb = weight.sum(axis=1)
+    trend = np.polyfit(np.log(freqs_b), mean_amp, 1, w=np.sqrt(wb))[0]
+    pole_fit = float(max(_wls_slope(freqs_b, mean_ph, wb)[1], 0))
+    out["extra_pole:sut"] = {"score": pole_fit * float(trend < 0), "amplitude_trend": float(trend)}
+    out["extra_pole:ref"] = {"score": pole_fit * float(trend > 0), "amplitude_trend": float(trend)}
+    # gain: per channel, flat amplitude offset with little phase
+    for i in range(q.shape[1]):
+        a = np.average(amp[:, i], weights=weight[:, i])
+        spread = np.sqrt(np.average((amp[:, i] - a) ** 2, weights=weight[:, i]))
+        out[f"gain_error:{i}"] = {"score": float(abs(a) / (abs(a) + spread + 1e-12)),
+                                  "start": float(np.exp(a) - 1)}
+    return out
+
+
+def drift_signature(times_s, tau_k, weight_k):
+    """Per-segment timing ``tau_k`` (s) against segment time: the slope in
+    ppm and its t-statistic (clock drift when large)."""
+    t = np.asarray(times_s, float) - np.mean(times_s)
+    w = np.asarray(weight_k, float)
+    a = np.average(tau_k, weights=w)
+    slope = np.sum(w * t * (tau_k - a)) / np.sum(w * t * t)
+    resid = tau_k - a - slope * t
+    dof = max(len(t) - 2, 1)
+    s2 = np.sum(w * resid ** 2) / dof
+    se = np.sqrt(s2 / np.sum(w * t * t))
+    return {"ppm": float(slope * 1e6), "t_stat": float(slope / se) if se > 0 else 0.0,
+            "seconds_mid": float(a)}
+
+
+def tilt_signature(band_centres, coherence, horizontal):
+    """Coherence deficit ``1 - coherence`` (B, n_u) on the horizontals
+    against the verticals in the lowest third of the bands, and whether it
+    grows toward long periods. Returns dict with ``score`` (ratio of
+    deficits), ``rising`` and the channels concerned."""
+    horizontal = np.asarray(horizontal, bool)
+    deficit = np.clip(1.0 - coherence, 1e-6, 1)
+    nb = deficit.shape[0]
+    low, high = slice(0, min(2, nb)), slice(max(nb - 3, 0), None)
+    if not horizontal.any():
+        return {"score": 0.0, "rising": False, "channels": []}
+    hz = np.flatnonzero(horizontal)
+    h_low = deficit[low][:, hz].mean(axis=0)
+    ref_level = (deficit[low][:, ~horizontal].mean() if (~horizontal).any()
+                 else deficit[high][:, hz].mean())
+    ratio = h_low / ref_level
+    rising = h_low > TILT_RATIO * deficit[high][:, hz].mean(axis=0)
+    chans = [int(i) for i, r, up, d in zip(hz, ratio, rising, h_low)
+             if r > TILT_RATIO and up and d > 0.02]
+    return {"score": float(ratio.max()), "rising": bool(rising.any()), "channels": chans,
+            "deficit_low": h_low.tolist(), "reference_deficit": float(ref_level)}
+
+
+def _angle(a, b):
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1, 1))))
+
+
+def orientation_findings(fitted, nominal, ids):
+    """Compare fitted axes (n, 3) with metadata axes (n, 3): a channel whose
+    fitted axis is within :data:`MATCH_DEG` of minus its metadata axis is a
+    polarity reversal; two channels whose fitted axes match each other's
+    metadata axes are swapped. Returns a list of findings (dicts)."""
+    out = []
+    n = len(ids)
+    swapped = set()
+    for i in range(n):
+        for j in range(i + 1, n):
+            if (_angle(fitted[i], nominal[j]) < MATCH_DEG and _angle(fitted[j], nominal[i]) < MATCH_DEG
+                    and _angle(fitted[i], nominal[i]) > 60):
+                swapped |= {i, j}
+                out.append({"name": "channel_swap", "rows": [i, j], "channels": [ids[i], ids[j]],
+                            "explanation": f"{ids[i]} and {ids[j]} are exchanged: each one's "
+                                           "fitted axis is the other's metadata axis (wiring "
+                                           "or channel naming swapped)"})
+    for i in range(n):
+        if i in swapped:
+            continue
+        if _angle(fitted[i], -nominal[i]) < MATCH_DEG:
+            out.append({"name": "polarity_reversal", "rows": [i], "channels": [ids[i]],
+                        "explanation": f"{ids[i]} is wired backwards: its fitted axis points "
+                                       f"{_angle(fitted[i], nominal[i]):.0f} degrees from its "
+                                       "metadata axis (polarity reversed)"})
+    return out
