@@ -1,0 +1,50 @@
+"""One page (PDF and PNG) of a diagnosis: the findings in words, the
+per-band misfit before and after, and the recorded/predicted ratio."""
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+
+
+def write_page(diagnosis, stem):
+    """Write ``stem.pdf`` and ``stem.png``; returns the two paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = diagnosis
+    edges = np.asarray(d.band_edges)
+    centres = np.sqrt(edges[:-1] * edges[1:])
+    fig = plt.figure(figsize=(8.27, 11.0))
+    text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
+    if d.before["mismatch"]:
+        text.append("Mismatch of the base model: " + "; ".join(
+            f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on {', '.join(m['channels'])} "
+            f"(p = {m['p_value']:.2g})" for m in d.before["mismatch"]))
+    wrapped = "\n".join(textwrap.fill(t, 95) for t in text)
+    fig.text(0.06, 0.97, wrapped, va="top", family="monospace", fontsize=7.5)
+    ax1 = fig.add_axes([0.1, 0.42, 0.85, 0.25])
+    ax2 = fig.add_axes([0.1, 0.08, 0.85, 0.25])
+    for i, cid in enumerate(d.ids):
+        line, = ax1.loglog(centres, d.before["misfit"][:, i], "o--", label=f"{cid} before")
+        ax1.loglog(centres, d.after["misfit"][:, i], "s-", color=line.get_color(),
+                   label=f"{cid} after")
+        ax2.semilogx(centres, np.degrees(np.angle(d.ratio_before[:, i])), "o--",
+                     color=line.get_color(), label=f"{cid} phase before")
+        ax2.semilogx(centres, 100 * (np.abs(d.ratio_before[:, i]) - 1), "^:",
+                     color=line.get_color(), label=f"{cid} amplitude before (%)")
+    ax1.axhline(1.0, color="k", lw=0.8)
+    ax1.set_ylabel("standardised misfit per band (1 = fits)")
+    ax1.set_title("misfit before and after modelling the effects", fontsize=9)
+    ax1.legend(fontsize=6, ncol=2)
+    ax2.axhline(0.0, color="k", lw=0.8)
+    ax2.set_xlabel("frequency (Hz)")
+    ax2.set_ylabel("recorded / predicted: phase (deg), amplitude - 1 (%)")
+    ax2.set_title("ratio of the SUT's recording to the base model's prediction", fontsize=9)
+    ax2.legend(fontsize=6, ncol=2)
+    paths = (f"{stem}.pdf", f"{stem}.png")
+    fig.savefig(paths[0])
+    fig.savefig(paths[1], dpi=80)
+    plt.close(fig)
+    return paths

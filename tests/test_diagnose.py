@@ -1,0 +1,122 @@
+"""bayescal diagnose on simulated pairs with a concealed effect: the effect is
+found, named, and its size recovered within its interval; a clean pair
+raises no alarm; the command works end to end on written files."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import bayescal
+from bayescal.diagnose import diagnose
+from bayescal.simulate import simulate_pair
+
+AZ = (5.0, 95.0, 0.0)
+
+
+def _diagnose(band=(0.05, 3.0), seed=1, **effect):
+    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=0.99, sut_azimuth=AZ,
+                        nominal_azimuth=(3.0, 93.0, 0.0), **effect)
+    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
+                              progress=False, min_ess=200, n_tau=20)
+    return diagnose(post, mcmc=False)
+
+
+def _only(d, name):
+    assert d.names == [name], d.sentences()
+    return d.effects[0]
+
+
+def _inside(entry, key, truth):
+    p = entry["parameters"][key]
+    assert p["ci95"][0] <= truth <= p["ci95"][1], (key, truth, p)
+
+
+def test_clean_pair_raises_no_alarm():
+    d = _diagnose()
+    assert d.effects == []
+    assert d.before["mismatch"] == []
+    assert "no mismatch" in d.sentences()[0]
+
+
+def test_timing_offset_found_and_sized():
+    d = _diagnose(timing_offset_s=0.12)
+    e = _only(d, "timing_offset")
+    _inside(e, "seconds", 0.12)
+    assert e["score_gain"] > 100
+    assert d.before["misfit"].max() > 5 and d.after["misfit"].max() < 3
+    assert "0.12 s late" in d.sentences()[0]
+
+
+@pytest.mark.parametrize("which", ["sut", "ref"])
+def test_extra_pole_on_the_right_sensor(which):
+    d = _diagnose(extra_pole=(which, 0.8))
+    e = _only(d, "extra_pole")
+    assert e["parameters"]["which"] == which
+    _inside(e, "corner_hz", 0.8)
+
+
+def test_gain_error_on_one_channel():
+    resp = ((30.0, 0.707, 750.0), (30.0, 0.707, 750.0 * 0.95), (30.0, 0.707, 750.0))
+    d = _diagnose(sut_response=resp)
+    e = _only(d, "gain_error")
+    assert e["channels"] == ["XX.SIM.10.BH2"]
+    _inside(e, "fraction", -0.05)
+
+
+def test_polarity_reversal_and_swap_named_from_orientation():
+    d = _diagnose(polarity_reversal=2)
+    e = _only(d, "polarity_reversal")
+    assert e["channels"] == ["XX.SIM.10.BHZ"]
+    d = _diagnose(channel_swap=(0, 1))
+    e = _only(d, "channel_swap")
+    assert sorted(e["channels"]) == ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
+
+
+def test_clock_drift_named_not_a_constant_offset():
+    d = _diagnose(clock_drift_ppm=60.0)
+    e = _only(d, "clock_drift")
+    ppm = e["parameters"]["ppm"]["median"]
+    assert abs(ppm - 60.0) < 3.0      # a few % (see docs/diagnose.md)
+    _inside(e, "seconds_mid", 60e-6 * 1800)
+
+
+def test_tilt_noise_named_on_horizontals():
+    d = _diagnose(band=(0.02, 3.0), tilt_noise=30.0)
+    e = _only(d, "tilt_noise")
+    assert e["channels"] == ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
+
+
+def test_cli_end_to_end(tmp_path):
+    from bayescal.cli import main
+
+    sim = simulate_pair(duration=3600, fs=10, seed=2, coherence=0.99, sut_azimuth=AZ,
+                        timing_offset_s=-0.2)
+    p = sim.write(tmp_path / "in")
+    out = tmp_path / "out"
+    code = main(["diagnose", "--ref", p["ref.mseed"], "--ref-xml", p["ref.xml"], "--sut",
+                 p["sut.mseed"], "--sut-xml", p["sut.xml"], "--out", str(out), "--band", "0.05",
+                 "3", "--quiet"])
+    assert code == 0
+    doc = json.loads((out / "diagnosis.json").read_text())
+    assert doc["schema"] == "bayescal.diagnose/1"
+    assert [e["name"] for e in doc["effects"]] == ["timing_offset"]
+    s = doc["effects"][0]["parameters"]["seconds"]
+    assert s["ci95"][0] <= -0.2 <= s["ci95"][1]
+    assert doc["base"]["schema"] == doc["final"]["schema"] == "bayescal.fit/1"
+    assert doc["mismatch"] and doc["mismatch"][0]["p_value"] < 1e-6
+    assert (out / "diagnosis.pdf").stat().st_size > 0 and (out / "result.json").exists()
+    assert np.isfinite(doc["final"]["convergence"]["ess_min"])
+
+
+def test_cli_bad_input_writes_nothing(tmp_path, capsys):
+    from bayescal.cli import main
+
+    bad = tmp_path / "bad.mseed"
+    bad.write_text("not a waveform")
+    out = tmp_path / "out"
+    code = main(["diagnose", "--ref", str(bad), "--ref-xml", "flat", "--sut", str(bad),
+                 "--sut-xml", "flat", "--out", str(out), "--quiet"])
+    assert code == 2
+    assert not out.exists()
