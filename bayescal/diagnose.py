@@ -42,6 +42,8 @@ ALPHA = 0.01
 #: strong" evidence on the Kass & Raftery scale).
 BIC_KEEP = 10.0
 MAX_EFFECTS = 3
+#: |t| of the per-segment timing trend above which clock drift is a candidate.
+DRIFT_T = 5.0
 
 
 # --- locate -----------------------------------------------------------------
@@ -124,7 +126,7 @@ def segment_timing(model, theta):
 
 # --- candidates -------------------------------------------------------------
 
-def _candidates(model, free, current):
+def _candidates(model, free, current, drift=None):
     """(key, effect, grid of starting parameters) for every applicable
     catalogue entry not already in ``current`` (list of effects)."""
     sp = model.spectra
@@ -134,16 +136,13 @@ def _candidates(model, free, current):
     out = []
     span = min(5.0, 0.5 / fmin)
     step = 0.05 / fmax
-    out.append(("timing_offset", physics.TimingOffset(rows),
-                np.arange(-span, span + step, step)[:, None]))
-    times = (sp.segment_starts + sp.nperseg / 2.0) / sp.fs
-    duration = times.max() - times.min() + sp.nperseg / sp.fs
-    ppm_span = 1e6 * 1.0 / (fmax * duration)
-    t_now = next((e for e in current if e.name == "timing_offset"), None)
-    secs = np.arange(-span, span + step, 4 * step) if t_now is None else np.array([0.0])
-    ppm = np.linspace(-ppm_span, ppm_span, 41)
-    grid = np.array([(s, q) for s in secs for q in ppm])
-    out.append(("clock_drift", physics.ClockDrift(rows, times), grid))
+    if not any(e.name == "clock_drift" for e in current):
+        out.append(("timing_offset", physics.TimingOffset(rows),
+                    np.arange(-span, span + step, step)[:, None]))
+    if drift is not None and abs(drift["t_stat"]) > DRIFT_T:
+        times = (sp.segment_starts + sp.nperseg / 2.0) / sp.fs
+        out.append(("clock_drift", physics.ClockDrift(rows, times, drift["ppm"]),
+                    np.arange(-span, span + step, step)[:, None]))
     norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
     x = np.r_[np.geomspace(0.03 / fmax, 3.0 / fmin, 60)]
     for which in ("sut", "ref"):
@@ -210,6 +209,11 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
         return None
     if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
         return None
+    new = effects[new_index]
+    sp = m.spectra
+    if hasattr(new, "identifiable") and not new.identifiable(theta[new_slice], sp.band_edges[0],
+                                                             sp.band_edges[-1]):
+        return None
     return m, theta, cov
 
 
@@ -228,26 +232,29 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
     sp = cur_model.spectra
     n = 2 * sp.n_bands * sp.n_u * sp.n_r
-    k = ext_model.ndim - cur_model.ndim
+    k = ext_model.ndim - cur_model.ndim + sum(getattr(e, "n_estimated_outside", 0)
+                                              for e in ext_model.effects) - sum(
+        getattr(e, "n_estimated_outside", 0) for e in cur_model.effects)
     return {"delta_loglik": ll_ext - ll_cur, "delta_bic": 2 * (ll_ext - ll_cur) - k * np.log(n),
             "n_data": n, "n_extra_params": k}
 
 
-def search(model, theta, free, log=None):
+def search(model, theta, free, log=None, drift=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps)."""
     cur, th, cov = model, theta, None
     steps = []
     while len(cur.effects) < MAX_EFFECTS:
         tried = []
-        for key, effect, grid in _candidates(cur, free, cur.effects):
+        for key, effect, grid in _candidates(cur, free, cur.effects, drift):
             effects = list(cur.effects)
             if key == "clock_drift":      # nests timing_offset: replaces it
                 effects = [e for e in effects if e.name != "timing_offset"]
             effects.append(effect)
             fit = fit_candidate(cur, th, effects, grid, len(effects) - 1)
             if fit is None:
-                tried.append({"effect": key, "delta_bic": None, "note": "left the prior support"})
+                tried.append({"effect": key, "delta_bic": None,
+                          "note": "left the prior support or not identifiable in the band"})
                 continue
             s = score(cur, th, fit[0], fit[1])
             tried.append({"effect": key, **s, "fit": fit})
@@ -343,7 +350,8 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     sig = physics.signatures(sp.band_centres, q, ratio_weights(sp))
     times, tau_k, w_k = segment_timing(model0, th0)
     sig["clock_drift"] = physics.drift_signature(times, tau_k, w_k)
-    model, th, cov, steps = search(_with(model0, []), th0, free, log=log)
+    model, th, cov, steps = search(_with(model0, []), th0, free, log=log,
+                                   drift=sig["clock_drift"])
     if cov is None:
         model, th, cov = model0, th0, least_squares_fit(model0, th0)[1]
     after = locate(model, th)

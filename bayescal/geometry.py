@@ -71,6 +71,16 @@ def tilt_from_vertical(v):
     return tilt, toward
 
 
+def tilt_components(v):
+    """Signed tilt (degrees) of a near-vertical axis toward north and toward
+    east: the angles by which its upward direction leans. Unlike the tilt's
+    size, both are well defined and nearly Gaussian when the tilt is small."""
+    v = np.asarray(v, dtype=float)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    up = np.where(v[..., 2:3] <= 0, v, -v)
+    return np.degrees(np.arcsin(up[..., 0])), np.degrees(np.arcsin(up[..., 1]))
+
+
 def unwrap_azimuths(samples_deg):
     """Shift azimuth samples by multiples of 360 so they sit contiguously around
     their circular mean, e.g. ``[359.8, 0.3]`` -> ``[-0.2, 0.3]``.

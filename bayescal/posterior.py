@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_from_vertical, unwrap_azimuths
+from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
+                       tilt_from_vertical, unwrap_azimuths)
 
 SCHEMA = "bayescal.fit/1"
 QUANTILES = {"ci68": (16.0, 84.0), "ci90": (5.0, 95.0), "ci95": (2.5, 97.5)}
@@ -92,6 +93,9 @@ class Posterior:
             entry["dip_deg"] = interval_summary(dip[:, k])
             entry["tilt_deg"] = interval_summary(tilt)
             entry["tilt_toward_azimuth_deg"] = float(np.median(unwrap_azimuths(toward)))
+            north, east = tilt_components(self.vectors[:, k])
+            entry["tilt_north_deg"] = interval_summary(north)
+            entry["tilt_east_deg"] = interval_summary(east)
         else:
             entry["azimuth_deg"] = interval_summary(az[:, k])
             entry["dip_deg"] = interval_summary(dip[:, k])

@@ -83,8 +83,29 @@ class TwoPoleFamily:
                    norm_freq=float(fn), gain_units=f"{out}/{unit}")
 
     @staticmethod
-    def _d(s, w0, h):
+    def denominator(s, w0, h):
+        """The pendulum pair's factor ``D(s) = s^2 + 2 h w0 s + w0^2``."""
         return s * s + 2.0 * h * w0 * s + w0 * w0
+
+    _d = denominator
+
+    def inverse_ratio_at(self, freqs):
+        """A fast vectorised ``(T0, h, G) -> H_nom(f) / H(f; T0, h, G)`` for
+        fixed ``freqs`` (the likelihood's hot path: constants precomputed)."""
+        s = 2j * np.pi * np.asarray(freqs, float)[None, :]
+        sn = 2j * np.pi * self.norm_freq
+        w0n = 2 * np.pi / self.period_s
+        inv_d_nom = 1.0 / self.denominator(s, w0n, self.damping)
+        scale = self.gain * abs(self.denominator(sn, w0n, self.damping))
+
+        def inverse(period_s, damping, gain):
+            w0 = (2 * np.pi / period_s)[:, None]
+            two_h_w0 = 2.0 * damping[:, None] * w0
+            w0sq = w0 * w0
+            d_new = s * s + two_h_w0 * s + w0sq
+            a_new = np.abs(sn * sn + two_h_w0 * sn + w0sq)
+            return (scale / (gain[:, None] * a_new)) * d_new * inv_d_nom
+        return inverse
 
     def ratio(self, freqs, period_s, damping, gain):
         """H(f; T0, h, G) / H_nom(f) for arrays of parameters.

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from bayescal.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere, azimuth_dip,
+from bayescal.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere, azimuth_dip, tilt_components,
                                orientation_matrix, tilt_from_vertical, unit_vector,
                                unwrap_azimuths)
 
@@ -69,3 +69,10 @@ def test_uvw_matrices_orthonormal_at_cube_corner(m):
     assert np.allclose(np.degrees(np.arccos(m[:, 2])), 54.7356, atol=1e-4)
     az = np.degrees(np.arctan2(m[:, 1], m[:, 0])) % 360
     assert np.allclose(np.sort(np.diff(np.sort(az))), [120, 120])
+
+
+def test_tilt_components_signed_and_sign_of_axis_irrelevant():
+    n, e = tilt_components(unit_vector(0.0, -89.0))        # leaning 1 degree toward north
+    assert n == pytest.approx(1.0) and e == pytest.approx(0.0, abs=1e-12)
+    n2, e2 = tilt_components(-unit_vector(90.0, -89.5))    # reversed axis, 0.5 toward east
+    assert n2 == pytest.approx(0.0, abs=1e-12) and e2 == pytest.approx(0.5)
