@@ -146,7 +146,10 @@ def _candidates(model, free, current, drift=None):
     norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
     x = np.r_[np.geomspace(0.03 / fmax, 3.0 / fmin, 60)]
     for which in ("sut", "ref"):
-        out.append((f"extra_pole:{which}", physics.ExtraPole(rows, which, norm), x[:, None]))
+        n = sum(1 for e in current if e.name == "extra_pole" and e.which == which)
+        e = physics.ExtraPole(rows, which, norm)
+        e.index = n + 1
+        out.append((_key(e), e, x[:, None]))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", physics.GainError(i, b.channel_id),
@@ -156,7 +159,8 @@ def _candidates(model, free, current, drift=None):
 
 def _key(effect):
     if effect.name == "extra_pole":
-        return f"extra_pole:{effect.which}"
+        k = getattr(effect, "index", 1)
+        return f"extra_pole:{effect.which}" + (f"#{k}" if k > 1 else "")
     if effect.name == "gain_error":
         return f"gain_error:{effect.rows[0]}"
     return effect.name
@@ -445,13 +449,16 @@ class Diagnosis:
         for e in self.effects:
             s = e["explanation"]
             if e.get("score_gain") is not None:
-                fixed = self.before["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
-                if fixed.any():
-                    s += (f"; modelling it removes the misfit in "
-                          f"{edges[np.flatnonzero(fixed)[0]]:.3g}-"
-                          f"{edges[np.flatnonzero(fixed)[-1] + 1]:.3g} Hz")
                 s += f" (BIC gain {e['score_gain']:.0f})"
             out.append(s)
+        fixed = self.before["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
+        if fixed.any() and any(e.get("score_gain") for e in self.effects):
+            b = np.flatnonzero(fixed)
+            before = self.before["misfit"][fixed].max()
+            after = self.after["misfit"][fixed].max()
+            out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
+                       f"misfit in {edges[b[0]]:.3g}-{edges[b[-1] + 1]:.3g} Hz (largest "
+                       f"standardised misfit there {before:.3g} -> {after:.3g})")
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]
