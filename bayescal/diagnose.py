@@ -229,10 +229,20 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
     cur.noise = noise
     fac = noise.cholesky()
     lo, hi = _bounds(cur)
-    res = least_squares(cur.whitened_residual, np.clip(cur_theta, lo + 1e-9, hi - 1e-9), args=(fac,),
-                        method="trf" if np.isfinite(lo).any() else "lm",
-                        bounds=(lo, hi) if np.isfinite(lo).any() else (-np.inf, np.inf))
-    ll_cur = float(cur.log_likelihood(res.x)[0])
+    bounded = bool(np.isfinite(lo).any())
+    # start from the current optimum and from the extended optimum's shared
+    # parameters (the plug-in noise moves the optimum), keep the better
+    ext_params = _effect_params(ext_model, ext_theta)
+    shared = np.concatenate([_theta_base(ext_model, ext_theta)] + [
+        ext_params.get(_key(e), np.asarray(cur_theta)[sl])
+        for e, sl in zip(cur.effects, cur.effect_slices)])
+    ll_cur = -np.inf
+    for start in (np.asarray(cur_theta, float), shared):
+        res = least_squares(cur.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
+                            args=(fac,), method="trf" if bounded else "lm",
+                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        ll_cur = max(ll_cur, float(cur.log_likelihood(res.x)[0]))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
     sp = cur_model.spectra
     n = 2 * sp.n_bands * sp.n_u * sp.n_r
