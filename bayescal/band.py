@@ -102,7 +102,9 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     fmax = NYQUIST_FRACTION * fs / 2
     if fmin >= fmax:
         raise InputError(f"{source}too little data to choose a band: {n / fs:.0f} s")
-    spectra = cross_spectra(sut.data, ref.data, fs, sut.response_fn(), ref.response_fn(),
+    # coherence is unchanged by each channel's own (invertible) response: no
+    # deconvolution, so no run-edge margins either
+    spectra = cross_spectra(sut.data, ref.data, fs, None, None,
                             (fmin, fmax), nperseg=nperseg, sut_ids=sut.ids, ref_ids=ref.ids)
     coh = _smooth(spectra.freqs, np.clip(spectra.multiple_coherence(), 0, 1))
     visible = [i for i in _inside_span(sut, ref) if np.nanmax(coh[i]) >= threshold]

@@ -75,7 +75,9 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
                           "fraction": spectra.fraction_used,
                           "approx_seconds": min(used_s, s.data.shape[1] / fs),
                           "note": "segments touching a gap, an overlap with conflicting data "
-                                  "or a clipped sample are dropped"},
+                                  "or a clipped sample are dropped, and so are those within two "
+                                  "periods of the band's lower edge from the ends of the record "
+                                  "or of a gap (the deconvolution's transient)"},
             "band_choice": band_note,
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
     post = fit_spectra(spectra, r.vectors, s.vectors, families, free=fit_response, priors=priors,

@@ -13,15 +13,26 @@ channel is deconvolved to ground velocity (m/s) by its *nominal* response
 (SUT) or its known response (reference); the parametric SUT response then
 enters the likelihood as a ratio to the nominal.
 
+Responses are removed from each gap-free run of the record *before* it is cut
+into windowed segments (a band-limited inverse, identical for every channel).
+Dividing each windowed segment's spectrum by the response instead is only
+exact for a response that is flat across the window's kernel: below a
+sensor's corner it is not, and that leakage biased fitted periods and
+dampings by about 0.1 % (measured on noise-free simulations: 8e-4 per
+segment, 1e-5 per run). Samples within two periods of the band's lower edge
+from a run's ends, where the inverse filter's transient lives, are left out.
+
 Segments stream through in chunks, so memory holds one chunk of segments plus
 the per-frequency totals and the small per-segment band matrices; it does not
-grow with the record beyond ``K x B x n x n`` numbers.
+grow with the record beyond ``K x B x n x n`` numbers (the deconvolution holds
+one run of one sensor at a time).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.fft import next_fast_len
 from scipy.signal import detrend
 from scipy.signal.windows import hann
 
@@ -147,8 +158,52 @@ def make_bands(freqs, fmin, fmax, bands_per_decade=6, min_bins=8):
     return np.asarray(merged)
 
 
+def band_taper(freqs, band):
+    """1 inside ``band``, cosine ramps over an octave on each side, 0 beyond."""
+    lo, hi = band
+    f = np.asarray(freqs, float)
+    t = np.zeros_like(f)
+    t[(f >= lo) & (f <= hi)] = 1.0
+    up = (f >= lo / 2) & (f < lo)
+    t[up] = 0.5 - 0.5 * np.cos(np.pi * (f[up] - lo / 2) / (lo / 2))
+    down = (f > hi) & (f <= 2 * hi)
+    t[down] = 0.5 + 0.5 * np.cos(np.pi * (f[down] - hi) / hi)
+    return t
+
+
+def deconvolve_runs(data, fs, response, band, margin):
+    """Ground velocity from counts, run by run (runs of finite samples): a
+    band-limited inverse of ``response`` (``band_taper`` around ``band``)
+    applied with a zero-padded FFT; ``margin`` samples at each end of every
+    run are set to NaN (the inverse filter's transient)."""
+    if response is None:                      # already ground velocity
+        return np.asarray(data, dtype=float)
+    out = np.full(data.shape, np.nan)
+    finite = np.all(np.isfinite(data), axis=0).astype(np.int8)
+    edges = np.flatnonzero(np.diff(np.r_[0, finite, 0]))
+    cache = {}
+    for a, b in zip(edges[::2], edges[1::2]):
+        n = b - a
+        if n <= 2 * margin:
+            continue
+        nfft = next_fast_len(2 * n)
+        if nfft not in cache:
+            f = np.fft.rfftfreq(nfft, 1.0 / fs)
+            taper = band_taper(f, band)
+            use = taper > 0
+            cache[nfft] = (use, taper[use] / np.atleast_2d(response(f[use])))
+        use, inverse = cache[nfft]
+        x = detrend(data[:, a:b], axis=1, type="linear")
+        spec = np.fft.rfft(x, n=nfft, axis=1)
+        y = np.zeros_like(spec)
+        y[:, use] = spec[:, use] * inverse
+        out[:, a + margin:b - margin] = np.fft.irfft(y, n=nfft, axis=1)[:, margin:n - margin]
+    return out
+
+
 def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
-                  bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=()):
+                  bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
+                  edge_periods=2.0):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
 
     Parameters
@@ -157,10 +212,13 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         NaN marks missing samples: a segment touching one is dropped.
     fs : sampling rate (Hz).
     sut_response, ref_response : callables ``freqs -> (n, F)`` complex
-        velocity responses (counts per m/s); nominal for the SUT.
+        velocity responses (counts per m/s); nominal for the SUT. ``None``
+        when the data are already ground velocity (no deconvolution).
     band : (fmin, fmax) analysis band (Hz).
     nperseg : segment length (samples); default from :func:`default_nperseg`.
     overlap : fraction of segment overlap (Welch), 0.5 by default.
+    edge_periods : periods of the band's lower edge left out at the ends of
+        every gap-free run (the deconvolution's transient).
     """
     sut = np.atleast_2d(np.asarray(sut, dtype=float))
     ref = np.atleast_2d(np.asarray(ref, dtype=float))
@@ -186,9 +244,10 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     band_of = np.clip(np.searchsorted(edges, freqs, side="right") - 1, 0, edges.size - 2)
     bounds = np.r_[0, np.flatnonzero(np.diff(band_of)) + 1]
 
-    inv_resp = 1.0 / np.vstack([np.atleast_2d(sut_response(freqs)), np.atleast_2d(ref_response(freqs))])
+    margin = int(round(edge_periods * fs / fmin))
+    data = np.vstack([deconvolve_runs(sut, fs, sut_response, (fmin, fmax), margin),
+                      deconvolve_runs(ref, fs, ref_response, (fmin, fmax), margin)])
     win = hann(nperseg, sym=False)
-    data = np.vstack([sut, ref])
     n = data.shape[0]
     starts = np.arange(0, n_samples - nperseg + 1, step)
     total = np.zeros((freqs.size, n, n), dtype=complex)
@@ -201,7 +260,7 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         if not ok.any():
             continue
         seg = detrend(seg[ok], axis=-1, type="linear") * win
-        z = np.fft.rfft(seg, axis=-1)[:, :, keep] * inv_resp[None]   # (k, n, F)
+        z = np.fft.rfft(seg, axis=-1)[:, :, keep]                    # (k, n, F), m/s
         prod = np.einsum("kif,kjf->kfij", z, z.conj())
         total += prod.sum(axis=0)
         per_seg.append(np.add.reduceat(prod, bounds, axis=1))
