@@ -118,7 +118,11 @@ def segment_timing(model, theta):
     mean_phase = np.angle(c.sum(axis=0))
     phase = np.angle(c * np.exp(-1j * mean_phase)[None])
     w = ratio_weights(sp).sum(axis=1)
-    f = sp.band_centres
+    # effective frequency of each band's phase: bins weighted by the
+    # predicted cross-power (the geometric band centre would bias tau)
+    power = np.abs(np.einsum("fij,ij->f", sp.total[:, :nu, nu:], t))
+    f = np.bincount(sp.band_of, power * sp.freqs, sp.n_bands) / np.bincount(
+        sp.band_of, power, sp.n_bands)
     tau = -np.sum(w * f * phase, axis=1) / (2 * np.pi * np.sum(w * f * f))
     times = (sp.segment_starts + sp.nperseg / 2.0) / sp.fs
     return times, tau, np.ones_like(tau)
@@ -411,13 +415,13 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
 def _drift_from_segments(entry, drift, effect):
     """The segment-summed likelihood sees a drift only through the
     decoherence it causes, which is even in the rate: its sign and size are
-    taken from the per-segment timing regression instead (interval widened
-    by sqrt(2) for the correlation of half-overlapping segments)."""
-    ppm = drift["ppm"]
-    se = abs(ppm / drift["t_stat"]) * np.sqrt(2) if drift["t_stat"] else np.inf
+    taken from the per-segment timing regression instead (block-jackknife
+    standard error, see :func:`bayescal.physics.drift_signature`)."""
+    ppm, se = drift["ppm"], drift["sd_ppm"]
     entry["parameters"]["ppm"] = {"median": ppm, "sd": se,
                                   "ci95": [ppm - 1.96 * se, ppm + 1.96 * se],
-                                  "method": "per-segment phase-slope regression"}
+                                  "method": "per-segment phase-slope regression, "
+                                            "block-jackknife interval"}
     entry["explanation"] = effect.explain({k: v["median"] for k, v in entry["parameters"].items()})
 
 

@@ -214,19 +214,28 @@ def signatures(freqs_b, q, weight):
     return out
 
 
-def drift_signature(times_s, tau_k, weight_k):
-    """Per-segment timing ``tau_k`` (s) against segment time: the slope in
-    ppm and its t-statistic (clock drift when large)."""
+def _drift_fit(t, tau, w):
+    a = np.average(tau, weights=w)
+    return np.sum(w * t * (tau - a)) / np.sum(w * t * t), a
+
+
+def drift_signature(times_s, tau_k, weight_k, blocks=10):
+    """Per-segment timing ``tau_k`` (s) against segment time: the weighted
+    regression slope in ppm, its standard error from a delete-one-block
+    jackknife over ``blocks`` contiguous blocks of segments (neighbouring
+    segments overlap and share slow noise, so the regression's own error
+    is too small), and the t-statistic (clock drift when large)."""
     t = np.asarray(times_s, float) - np.mean(times_s)
+    tau = np.asarray(tau_k, float)
     w = np.asarray(weight_k, float)
-    a = np.average(tau_k, weights=w)
-    slope = np.sum(w * t * (tau_k - a)) / np.sum(w * t * t)
-    resid = tau_k - a - slope * t
-    dof = max(len(t) - 2, 1)
-    s2 = np.sum(w * resid ** 2) / dof
-    se = np.sqrt(s2 / np.sum(w * t * t))
-    return {"ppm": float(slope * 1e6), "t_stat": float(slope / se) if se > 0 else 0.0,
-            "seconds_mid": float(a)}
+    slope, a = _drift_fit(t, tau, w)
+    groups = np.array_split(np.arange(len(t)), min(blocks, len(t)))
+    loo = np.array([_drift_fit(np.delete(t, g), np.delete(tau, g), np.delete(w, g))[0]
+                    for g in groups])
+    g = len(groups)
+    se = np.sqrt((g - 1) / g * np.sum((loo - loo.mean()) ** 2))
+    return {"ppm": float(slope * 1e6), "sd_ppm": float(se * 1e6),
+            "t_stat": float(slope / se) if se > 0 else 0.0, "seconds_mid": float(a)}
 
 
 def tilt_signature(band_centres, coherence, horizontal):
