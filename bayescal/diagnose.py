@@ -153,6 +153,8 @@ def _candidates(model, free, current, drift=None):
         n = sum(1 for e in current if e.name == "extra_pole" and e.which == which)
         e = physics.ExtraPole(rows, which, norm)
         e.index = n + 1
+        if n:   # unique parameter names for a second pole on the same sensor
+            e.param_names = (f"inverse_corner_s_{n + 1}",)
         out.append((_key(e), e, x[:, None]))
     if free == "none":
         for i, b in enumerate(model.blocks):
