@@ -76,6 +76,9 @@ def configure(parser):
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress display")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="also locate any mismatch between model and recordings, name and "
+                             "model the missing physics (the same as `bayescal diagnose`)")
 
 
 def _say(args, text):
@@ -119,6 +122,9 @@ def _publish(tmp, out):
 
 def run(args):
     """Run the fit; returns the exit code."""
+    if getattr(args, "diagnose", False):
+        from .diagnose import run as run_diagnose
+        return run_diagnose(args)
     from ..io import InputError, InputWarning
     from ..pipeline import calibrate_files, write_results
 
