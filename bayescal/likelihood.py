@@ -16,8 +16,8 @@ reference as the right-hand factor, per band b:
 
 which has zero mean at the truth whatever the SUT's noise (the SUT noise is
 incoherent with the reference), so the estimate stays unbiased at low
-coherence. One band is exactly the seed's single sum; :func:`seed_residual`
-keeps the seed's original form for comparison. The reference is the
+coherence (``tests/test_likelihood.py`` measures both forms at coherence
+0.9). One band is exactly the seed's single sum. The reference is the
 well-known sensor of the protocol: its own noise is assumed small next to the
 SUT's (if both were equally noisy, gains would come out low by about the
 reference's coherence deficit).
@@ -338,12 +338,6 @@ class Model:
         r = self.residual(np.atleast_2d(theta))[0]
         z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
         return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
-
-
-def seed_residual(s_uu, s_ru, v_u, v_r):
-    """The seed's original residual ``S_uu - V_u V_r^-1 S_ru`` (for
-    comparison; biased by the SUT's noise power, see module docstring)."""
-    return s_uu - v_u @ np.linalg.pinv(v_r) @ s_ru
 
 
 def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):
