@@ -233,7 +233,7 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         n_walkers, ndim, model.log_prob, vectorize=True,
         moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)])
     sampler.random_state = np.random.RandomState(seed).get_state()
-    bar = _progress(progress, max_steps)
+    bar = _progress(progress)
     state, steps, chunk, converged = p0, 0, 1000, False
     while True:
         state = sampler.run_mcmc(state, chunk, progress=False)
@@ -286,7 +286,7 @@ class _NoBar:
         pass
 
 
-def _progress(enabled, total):
+def _progress(enabled):
     if not enabled:
         return _NoBar()
     from tqdm.auto import tqdm

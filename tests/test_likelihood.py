@@ -18,8 +18,9 @@ def _spectra(seed, coherence, band=(0.03, 1.0), **kw):
 def test_node_interpolation_matches_per_bin_sum():
     sp, s, r = _spectra(0, 0.99, band=(0.01, 1.0))
     model = build_model(sp, r.vectors, s.vectors, s.families(), free="all").model
-    theta = model.names and np.array(
-        [0.01, -0.02, np.log(27.0), 0.65, np.log(760.0)] * 3)
+    # per channel: two tangent-plane angles, log period, damping, log gain
+    theta = np.array([0.01, -0.02, np.log(27.0), 0.65, np.log(760.0)] * 3)
+    assert theta.size == model.ndim
     # exact: the deconvolution factor evaluated at every bin
     fam = model.blocks[0].family
     exact_rho = 1.0 / fam.ratio(sp.freqs, 27.0, 0.65, 760.0)[0]
