@@ -29,8 +29,10 @@ LEVEL_BINS = (5, 7, 10, 20, 50, 100)
 HORIZONTAL = np.array([True, True, False])
 
 
-def pair_spectra(seed, coherence, azimuth, level):
-    """Cross-spectra of one simulated pair, computed as the pipeline does."""
+def pair_spectra(seed, coherence, azimuth, level, band=BAND):
+    """Cross-spectra of one simulated pair (3600 s at 10 Hz, SUT turned by
+    ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
+    the pipeline does. Also used by tests/test_tilt.py."""
     from bayescal.io import align
     from bayescal.simulate import simulate_pair
     from bayescal.spectra import cross_spectra
@@ -38,7 +40,7 @@ def pair_spectra(seed, coherence, azimuth, level):
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence,
                         sut_azimuth=(azimuth, azimuth + 90, 0.0), tilt_noise=level)
     s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
-    return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), BAND,
+    return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band,
                          sut_ids=s.ids, ref_ids=r.ids)
 
 
