@@ -42,8 +42,11 @@ ALPHA = 0.01
 #: strong" evidence on the Kass & Raftery scale).
 BIC_KEEP = 10.0
 MAX_EFFECTS = 3
-#: |t| of the per-segment timing trend above which clock drift is a candidate.
-DRIFT_T = 5.0
+#: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
+N_STARTS = 3
+#: |t| of the per-segment timing trend above which clock drift is a candidate
+#: (a cheap screen; the BIC decides).
+DRIFT_T = 3.0
 
 
 # --- locate -----------------------------------------------------------------
@@ -84,7 +87,7 @@ def locate(model, theta):
     ``{"band_hz", "channels", "p_value", "misfit_max"}``."""
     sp = model.spectra
     v = model.standardized_band_residuals(theta)
-    nr = sp.n_r
+    nr = sp.n_r * model.n_time_blocks
     p = gamma.sf(nr * v, nr)
     flag = p < ALPHA / p.size
     ids = [b.channel_id for b in model.blocks]
@@ -143,10 +146,11 @@ def _candidates(model, free, current, drift=None):
     if not any(e.name == "clock_drift" for e in current):
         out.append(("timing_offset", physics.TimingOffset(rows),
                     np.arange(-span, span + step, step)[:, None]))
-    if drift is not None and abs(drift["t_stat"]) > DRIFT_T:
-        times = (sp.segment_starts + sp.nperseg / 2.0) / sp.fs
-        out.append(("clock_drift", physics.ClockDrift(rows, times, drift["ppm"]),
-                    np.arange(-span, span + step, step)[:, None]))
+    if (drift is not None and abs(drift["t_stat"]) > DRIFT_T and sp.block_totals is not None
+            and sp.block_totals.shape[0] >= 4):
+        taus = np.arange(-span, span + step, step)
+        out.append(("clock_drift", physics.ClockDrift(rows, sp),
+                    np.column_stack([taus, np.full(taus.size, drift["ppm"])])))
     norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
     x = np.r_[np.geomspace(0.03 / fmax, 3.0 / fmin, 60)]
     for which in ("sut", "ref"):
@@ -172,9 +176,14 @@ def _key(effect):
     return effect.name
 
 
-def _with(model, effects):
-    m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects)
-    m.noise = model.noise
+def _with(model, effects, per_block=False):
+    """``model`` with ``effects`` and its noise model. Once a time-dependent
+    effect is in, the likelihood is per time block (and stays so, so that the
+    models a search compares use the same data)."""
+    m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
+              per_block=per_block or model.per_block)
+    if model.noise is not None:
+        m.adopt_noise(model.noise)
     return m
 
 
@@ -207,19 +216,28 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     theta0 = np.concatenate([base] + pieces)
     trial = np.repeat(theta0[None], len(grid), axis=0)
     trial[:, new_slice] = grid
-    m.noise = cur_model.noise
     lp = m.log_prior(trial)
     ok = np.isfinite(lp)
     ll = np.full(len(grid), -np.inf)
     ll[ok] = m.log_likelihood(trial[ok])
-    theta0 = trial[int(np.argmax(ll))]
-    try:
-        theta, cov = least_squares_fit(m, theta0)
-    except Exception:
-        return None
-    if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
-        return None
     new = effects[new_index]
+    best = None
+    for theta0 in _starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1):
+        try:
+            theta, cov = least_squares_fit(m, theta0)
+        except Exception:
+            continue
+        if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
+            continue
+        # starts are compared under one noise model, the current model's
+        judge = _with(m, m.effects)
+        judge.adopt_noise(cur_model.noise)
+        fit_ll = float(judge.log_likelihood(theta)[0])
+        if best is None or fit_ll > best[0]:
+            best = (fit_ll, theta, cov, m.noise)
+    if best is None:
+        return None
+    _, theta, cov, m.noise = best
     sp = m.spectra
     if hasattr(new, "identifiable") and not new.identifiable(theta[new_slice], sp.band_edges[0],
                                                              sp.band_edges[-1]):
@@ -227,13 +245,22 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     return m, theta, cov
 
 
+def _starts(trial, ll, n):
+    """The ``n`` best local maxima of ``ll`` along the grid ``trial`` (a
+    delay's likelihood is multimodal: one least-squares run from the grid's
+    best point can end in a neighbouring mode)."""
+    inner = np.r_[True, ll[1:] >= ll[:-1]] & np.r_[ll[:-1] >= ll[1:], True] & np.isfinite(ll)
+    idx = np.flatnonzero(inner)
+    idx = idx[np.argsort(ll[idx])[::-1]][:n]
+    return [trial[i] for i in idx] or [trial[int(np.argmax(ll))]]
+
+
 def score(cur_model, cur_theta, ext_model, ext_theta):
     """BIC gain of ``ext_model`` over ``cur_model`` under the extended
     model's noise model (the current model re-optimised under it)."""
-    noise = ext_model.noise
-    cur = _with(cur_model, cur_model.effects)
-    cur.noise = noise
-    fac = noise.cholesky()
+    cur = _with(cur_model, cur_model.effects, per_block=ext_model.per_block)
+    cur.adopt_noise(ext_model.noise)
+    fac = cur.noise.cholesky()
     lo, hi = _bounds(cur)
     bounded = bool(np.isfinite(lo).any())
     # start from the current optimum and from the extended optimum's shared
@@ -250,11 +277,8 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
                             xtol=1e-12, ftol=1e-12, gtol=1e-12)
         ll_cur = max(ll_cur, float(cur.log_likelihood(res.x)[0]))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
-    sp = cur_model.spectra
-    n = 2 * sp.n_bands * sp.n_u * sp.n_r
-    k = ext_model.ndim - cur_model.ndim + sum(getattr(e, "n_estimated_outside", 0)
-                                              for e in ext_model.effects) - sum(
-        getattr(e, "n_estimated_outside", 0) for e in cur_model.effects)
+    n = ext_model.n_data
+    k = ext_model.ndim - cur_model.ndim
     return {"delta_loglik": ll_ext - ll_cur, "delta_bic": 2 * (ll_ext - ll_cur) - k * np.log(n),
             "n_data": n, "n_extra_params": k}
 
@@ -382,8 +406,6 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     for e, sl in zip(model.effects, model.effect_slices):
         entry = _effect_entry(model, e, sl, final.samples, kept.get(_key(e)))
         entry["signature"] = sig.get(_key(e), {})
-        if e.name == "clock_drift":
-            _drift_from_segments(entry, sig["clock_drift"], e)
         effects.append(entry)
     # orientation effects: fitted axes against the metadata axes
     fitted = np.median(base.vectors, axis=0)
@@ -412,19 +434,6 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
                      steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
                      ratio_before=q, ratio_after=band_ratio(model, th))
-
-
-def _drift_from_segments(entry, drift, effect):
-    """The segment-summed likelihood sees a drift only through the
-    decoherence it causes, which is even in the rate: its sign and size are
-    taken from the per-segment timing regression instead (block-jackknife
-    standard error, see :func:`bayescal.physics.drift_signature`)."""
-    ppm, se = drift["ppm"], drift["sd_ppm"]
-    entry["parameters"]["ppm"] = {"median": ppm, "sd": se,
-                                  "ci95": [ppm - 1.96 * se, ppm + 1.96 * se],
-                                  "method": "per-segment phase-slope regression, "
-                                            "block-jackknife interval"}
-    entry["explanation"] = effect.explain({k: v["median"] for k, v in entry["parameters"].items()})
 
 
 class Diagnosis:

@@ -36,6 +36,15 @@ factor ``c_b`` measures that ratio from the scatter of the per-segment band
 residuals (with the lag-one covariance of overlapping segments), shrunk
 toward its pooled value over bands. The noise model is held fixed while
 sampling (a plug-in estimate).
+
+Time blocks
+-----------
+With ``per_block=True`` (forced by a time-dependent effect such as a
+drifting clock) the residual is formed per band *and* per time block g of
+the record, ``R_b,g = S_ur,b,g(a) - T S_rr,b,g``, with covariance
+``Sigma_b (x) S_rr,b,g^T``. Summed over blocks, a phase that changes
+linearly through the record cancels to first order (it only decoheres the
+sum, evenly in its rate); per block its progression, sign included, is seen.
 """
 from __future__ import annotations
 
@@ -47,6 +56,9 @@ from .response import TwoPoleFamily
 
 #: Density of the nodes at which response ratios are evaluated.
 NODES_PER_DECADE = 60
+
+#: Fewest time blocks with which the per-block likelihood is used.
+MIN_TIME_BLOCKS = 4
 
 #: Shrinkage weight (in segment x entry counts) of a band's inflation factor
 #: toward the value pooled over bands.
@@ -108,11 +120,17 @@ class Effect:
     effect's null value, so the extended model nests the base model.
     Subclasses set ``name``, ``param_names``, ``rows`` and implement
     ``factor`` and ``log_prior`` (vectorised, -inf outside the support).
+
+    An effect that changes through the record (a drifting clock) sets
+    ``blocked = True``; its ``factor`` then returns one factor per time block
+    of the spectra (``CrossSpectra.block_totals``), shape (W, G, len(rows), F)
+    or broadcastable to it.
     """
 
     name = "effect"
     param_names: tuple = ()
     rows: list = []
+    blocked = False
 
     @property
     def n_params(self):
@@ -127,10 +145,11 @@ class Effect:
 
 @dataclass
 class NoiseModel:
-    """Per-band precision factors: ``A_b = Sigma_b^-1 / c_b``, ``B_b = S_rr,b^-1``."""
+    """Per-band precision factors: ``A_b = Sigma_b^-1 / c_b``, ``B_b = S_rr,b^-1``
+    (per time block ``g`` with the per-block likelihood: ``S_rr,b,g^-1``)."""
 
     A: np.ndarray        # (B, n_u, n_u)
-    B: np.ndarray        # (B, n_r, n_r)
+    B: np.ndarray        # (G, B, n_r, n_r), G = 1 unless per-block
     sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
     inflation: np.ndarray  # (B,) c_b
 
@@ -149,7 +168,7 @@ class Model:
     blocks : one :class:`ChannelBlock` per SUT channel, in spectra order.
     """
 
-    def __init__(self, spectra, ref_vectors, blocks, priors=Priors(), effects=()):
+    def __init__(self, spectra, ref_vectors, blocks, priors=Priors(), effects=(), per_block=False):
         self.spectra = spectra
         self.blocks = list(blocks)
         self.priors = priors
@@ -190,6 +209,32 @@ class Model:
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
         self._inverse = {k: b.family.inverse_ratio_at(self.nodes)
                          for k, b in enumerate(self.blocks) if b.free == "all"}
+        self._blocked = [(e, sl) for e, sl in zip(self.effects, self.effect_slices) if e.blocked]
+        # A time-dependent effect needs the per-time-block likelihood: one
+        # residual per band and block (see "Time blocks" in the module notes).
+        self.per_block = bool(per_block or self._blocked)
+        bt = spectra.block_totals
+        has_blocks = bt is not None and bt.shape[0] >= MIN_TIME_BLOCKS
+        if self.per_block and not has_blocks:
+            raise ValueError("the per-block likelihood needs spectra with at least "
+                             f"{MIN_TIME_BLOCKS} time blocks")
+        # With effects the noise inflation is measured on exact per-block
+        # residuals (see estimate_noise), so the blocks are kept then too.
+        self._exact_blocks = has_blocks and (self.per_block or bool(self.effects))
+        if self._exact_blocks:
+            # per time block, as _cur_rows: (G, nu, Q, B*nr)
+            self._cur_blocks = np.einsum("fq,fb,gfij->giqbj", self._interp, self._onehot,
+                                         bt[:, :, :nu, nu:]).reshape(bt.shape[0], nu,
+                                                                     self.nodes.size, -1)
+            band = np.einsum("fb,gfij->gbij", self._onehot, bt)
+            self._sur_blocks, self._srr_blocks = band[:, :, :nu, nu:], band[:, :, nu:, nu:]
+        if self.per_block:
+            self.n_time_blocks = bt.shape[0]
+            self._sur_g, self._srr_g = self._sur_blocks, self._srr_blocks
+        else:
+            self.n_time_blocks = 1
+            self._sur_g = self._sur_nominal[None]
+            self._srr_g = self._srr[None]
         affected = {k for e in self.effects for k in e.rows}
         self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
         self.noise = None
@@ -212,8 +257,21 @@ class Model:
             elif b.free == "all":
                 ratio[:, k] = self._inverse[k](np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2]))
         for e, sl in zip(self.effects, self.effect_slices):
-            ratio[:, e.rows] *= e.factor(self.nodes, theta[:, sl])
+            if not e.blocked:
+                ratio[:, e.rows] *= e.factor(self.nodes, theta[:, sl])
         return vecs, ratio
+
+    def block_factors(self, theta):
+        """(W, G, n_u, Q) per-time-block factors of the time-dependent
+        effects at the nodes (multiplying ``unpack``'s ratio), or None."""
+        if not self._blocked:
+            return None
+        theta = np.atleast_2d(theta)
+        g = self.spectra.block_totals.shape[0]
+        out = np.ones((theta.shape[0], g, len(self.blocks), self.nodes.size), dtype=complex)
+        for e, sl in self._blocked:
+            out[:, :, e.rows] *= e.factor(self.nodes, theta[:, sl])
+        return out
 
     def response_values(self, theta):
         """Physical response parameters per channel: dict id -> (W, 3) of
@@ -253,28 +311,56 @@ class Model:
         return lp
 
     # --- residual and likelihood -----------------------------------------
-    def residual(self, theta):
-        """R_b(theta), shape (W, B, n_u, n_r)."""
+    def residual_blocks(self, theta):
+        """R_{b,g}(theta) per band and time block, shape (W, G, B, n_u, n_r)
+        (G = 1 unless ``per_block``)."""
+        if self.per_block:
+            return self._exact_block_residuals(theta)
         vecs, ratio = self.unpack(theta)
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv                                    # (W, nu, nr)
-        r = np.broadcast_to(self._sur_nominal, (w,) + self._sur_nominal.shape).copy()
-        if self._free_rows:
-            k = self._free_rows
-            # one BLAS product per row: (W, Q) @ (Q, B*nr); operands must be
-            # contiguous (a transposed view drops matmul off BLAS, 50x slower)
-            for j in k:
-                row = np.ascontiguousarray(ratio[:, j]) @ self._cur_rows[j]
-                r[:, :, j, :] = row.reshape(w, nb, nr)
-        r -= np.einsum("wij,bjk->wbik", t, self._srr)              # (W, B, nu, nr)
+        r = np.broadcast_to(self._sur_g, (w,) + self._sur_g.shape).copy()
+        # one BLAS product per row: (W, Q) @ (Q, B*nr); operands must be
+        # contiguous (a transposed view drops matmul off BLAS, 50x slower)
+        for j in self._free_rows:
+            r[:, 0, :, j, :] = (np.ascontiguousarray(ratio[:, j]) @ self._cur_rows[j]).reshape(
+                w, nb, nr)
+        r -= np.einsum("wij,gbjk->wgbik", t, self._srr_g)          # (W, 1, B, nu, nr)
         return r
 
+    def _exact_block_residuals(self, theta):
+        """(W, G, B, n_u, n_r): the residual of every time block of the
+        spectra, with each effect's factor applied per frequency bin."""
+        vecs, ratio = self.unpack(theta)
+        w = vecs.shape[0]
+        nb, nr = self.spectra.n_bands, self.spectra.n_r
+        t = vecs @ self.ref_pinv
+        r = np.broadcast_to(self._sur_blocks, (w,) + self._sur_blocks.shape).copy()
+        bf = self.block_factors(theta)
+        for j in self._free_rows:
+            for g in range(self._cur_blocks.shape[0]):
+                rg = ratio[:, j] if bf is None else ratio[:, j] * bf[:, g, j]
+                r[:, g, :, j, :] = (np.ascontiguousarray(rg) @ self._cur_blocks[g, j]).reshape(
+                    w, nb, nr)
+        r -= np.einsum("wij,gbjk->wgbik", t, self._srr_blocks)
+        return r
+
+    def residual(self, theta):
+        """R_b(theta) summed over time blocks, shape (W, B, n_u, n_r)."""
+        return self.residual_blocks(theta).sum(axis=1)
+
+    @property
+    def n_data(self):
+        """Number of real residual entries the likelihood uses."""
+        sp = self.spectra
+        return 2 * self.n_time_blocks * sp.n_bands * sp.n_u * sp.n_r
+
     def log_likelihood(self, theta):
-        r = self.residual(theta)
-        ar = np.einsum("bij,wbjk->wbik", self.noise.A, r)
-        arb = np.einsum("wbik,bkl->wbil", ar, self.noise.B)
-        return -np.sum((arb * r.conj()).real, axis=(1, 2, 3))
+        r = self.residual_blocks(theta)
+        ar = np.einsum("bij,wgbjk->wgbik", self.noise.A, r)
+        arb = np.einsum("wgbik,gbkl->wgbil", ar, self.noise.B)
+        return -np.sum((arb * r.conj()).real, axis=(1, 2, 3, 4))
 
     def log_prob(self, theta):
         """Vectorised log posterior for emcee: theta (W, ndim) -> (W,)."""
@@ -286,11 +372,14 @@ class Model:
             out[ok] = lp[ok] + self.log_likelihood(theta[ok])
         return out
 
+    def _whiten(self, theta, factors):
+        la, lb = factors
+        r = self.residual_blocks(np.atleast_2d(theta))[0]
+        return np.einsum("bji,gbjk,gbkl->gbil", la.conj(), r, lb)
+
     def whitened_residual(self, theta, factors):
         """Real vector whose squared norm is ``-log L`` (for least squares)."""
-        la, lb = factors
-        r = self.residual(np.atleast_2d(theta))[0]
-        z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
+        z = self._whiten(theta, factors)
         return np.concatenate([z.real.ravel(), z.imag.ravel()])
 
     # --- noise model -------------------------------------------------------
@@ -301,10 +390,16 @@ class Model:
         nu = sp.n_u
         vecs, ratio = self.unpack(theta0)
         t = (vecs @ self.ref_pinv)[0]
-        rho = ratio[0] @ self._interp.T                              # (nu, F)
+        bf = self.block_factors(theta0)
+        if bf is None:
+            rho_g = (ratio[0] @ self._interp.T)[None]                # (1, nu, F)
+            c_g = sp.total[None]
+        else:
+            rho_g = (ratio[0][None] * bf[0]) @ self._interp.T        # (G, nu, F)
+            c_g = sp.block_totals
         # per-bin residual power summed in each band: sum e e^H
-        yu_yu = np.einsum("if,fij,jf->fij", rho, self._cuu, rho.conj())
-        yu_yr = rho.T[:, :, None] * self._cur
+        yu_yu = np.einsum("gif,gfij,gjf->fij", rho_g, c_g[:, :, :nu, :nu], rho_g.conj())
+        yu_yr = np.einsum("gif,gfij->fij", rho_g, c_g[:, :, :nu, nu:])
         e = (yu_yu - t @ yu_yr.conj().transpose(0, 2, 1) - yu_yr @ t.T
              + t @ sp.total[:, nu:, nu:] @ t.T)
         sum_e = np.einsum("fb,fij->bij", self._onehot, e)
@@ -312,32 +407,50 @@ class Model:
         sigma = sum_e / n_bins[:, None, None]
         sigma_inv = np.linalg.inv(sigma)
         b_inv = np.linalg.inv(self._srr)
+        b_inv_g = np.linalg.inv(self._srr_g)                         # (G, B, nr, nr)
         # per-segment band residuals, the band's response ratio at its centre
-        rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
-        seg = sp.per_segment
-        r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
-            "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
+        if self._exact_blocks:
+            # An effect's factor can vary within a band (a delay's phase does):
+            # the residuals of the time blocks, which keep every bin, carry it
+            # exactly; a per-segment band residual would not.
+            r_k = self._exact_block_residuals(theta0)[0]                # (G, B, nu, nr)
+            adjacent = np.arange(r_k.shape[0] - 1)
+        else:
+            rho = rho_g[0]
+            rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
+            seg = sp.per_segment
+            r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
+                "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
+            adjacent = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
-        adjacent = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
                        r_k[adjacent].conj()).real
         p = nu * sp.n_r
         raw = (q0 + 2.0 * q1) / p
         pooled = raw.mean()
-        wgt = sp.n_segments * p
+        wgt = r_k.shape[0] * p
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
         c = np.maximum(c, 1e-3 * pooled)
-        self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv, sigma=sigma, inflation=c)
+        self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
+                                inflation=c)
+        return self.noise
+
+    def adopt_noise(self, noise):
+        """Set the noise model to ``noise`` (from a model on the same
+        spectra), its reference factor recomputed for this model's layout
+        (band sums, or per time block)."""
+        b = noise.B
+        if b.shape[0] != self.n_time_blocks:
+            b = np.linalg.inv(self._srr_g)
+        self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation)
         return self.noise
 
     def standardized_band_residuals(self, theta):
         """(B, n_u) chi-like misfit per band and SUT channel at ``theta``:
         the whitened residual energy of each row divided by its expectation
         (``n_r``); about 1 where the model fits."""
-        la, lb = self.noise.cholesky()
-        r = self.residual(np.atleast_2d(theta))[0]
-        z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
-        return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
+        z = self._whiten(theta, self.noise.cholesky())              # (G, B, nu, nr)
+        return np.sum(np.abs(z) ** 2, axis=(0, 3)) / (self.n_time_blocks * self.spectra.n_r)
 
 
 def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):

@@ -23,7 +23,8 @@ segment, 1e-5 per run). Samples within two periods of the band's lower edge
 from a run's ends, where the inverse filter's transient lives, are left out.
 
 Segments stream through in chunks, so memory holds one chunk of segments plus
-the per-frequency totals and the small per-segment band matrices; it does not
+the per-frequency totals (whole record and 16 time blocks) and the small
+per-segment band matrices; it does not
 grow with the record beyond ``K x B x n x n`` numbers (the deconvolution holds
 one run of one sensor at a time).
 """
@@ -35,6 +36,10 @@ import numpy as np
 from scipy.fft import next_fast_len
 from scipy.signal import detrend
 from scipy.signal.windows import hann
+
+
+#: Time blocks kept of the per-frequency totals (see ``CrossSpectra.block_totals``).
+TIME_BLOCKS = 16
 
 
 class SpectraError(ValueError):
@@ -53,6 +58,9 @@ class CrossSpectra:
     per_segment : (K, B, n, n) the same summed within each band, per segment:
         the raw material of the noise model and of the diagnostics.
     segment_starts : (K,) first sample of each used segment.
+    block_totals : (G, F, n, n) ``total`` split into G consecutive time blocks
+        of equal length (``block_of`` (K,) gives each segment's block): what a
+        model of a clock that drifts through the record needs.
     n_u, n_r : numbers of SUT and reference channels.
     psd_scale : multiply ``total / K`` by this to get one-sided PSD, (m/s)^2/Hz.
     """
@@ -72,6 +80,8 @@ class CrossSpectra:
     psd_scale: float
     sut_ids: list = field(default_factory=list)
     ref_ids: list = field(default_factory=list)
+    block_totals: np.ndarray | None = None
+    block_of: np.ndarray | None = None
 
     @property
     def n_segments(self):
@@ -113,6 +123,10 @@ class CrossSpectra:
         expl = np.real(np.einsum("fij,fjk,fik->fi", cur, crr_inv, cur.conj()))
         return (expl / cuu).T
 
+    def segment_times(self):
+        """(K,) centre time of each used segment, seconds from the record's start."""
+        return (self.segment_starts + self.nperseg / 2.0) / self.fs
+
     @property
     def fraction_used(self):
         return self.n_segments / max(self.n_segments_possible, 1)
@@ -125,6 +139,8 @@ class CrossSpectra:
         return replace(
             self, total=self.total[:, ix[0], ix[1]],
             per_segment=self.per_segment[:, :, ix[0], ix[1]], n_u=len(sut_index),
+            block_totals=(None if self.block_totals is None
+                          else self.block_totals[:, :, ix[0], ix[1]]),
             sut_ids=[self.sut_ids[i] for i in sut_index] if self.sut_ids else [])
 
 
@@ -203,7 +219,7 @@ def deconvolve_runs(data, fs, response, band, margin):
 
 def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
                   bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
-                  edge_periods=2.0):
+                  edge_periods=2.0, time_blocks=TIME_BLOCKS):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
 
     Parameters
@@ -219,6 +235,7 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     overlap : fraction of segment overlap (Welch), 0.5 by default.
     edge_periods : periods of the band's lower edge left out at the ends of
         every gap-free run (the deconvolution's transient).
+    time_blocks : number of equal time blocks of ``block_totals``.
     """
     sut = np.atleast_2d(np.asarray(sut, dtype=float))
     ref = np.atleast_2d(np.asarray(ref, dtype=float))
@@ -251,6 +268,9 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     n = data.shape[0]
     starts = np.arange(0, n_samples - nperseg + 1, step)
     total = np.zeros((freqs.size, n, n), dtype=complex)
+    n_blocks = max(1, min(int(time_blocks), starts.size // 2))
+    block_of_start = np.minimum((starts * n_blocks) // max(n_samples - nperseg + 1, 1), n_blocks - 1)
+    blocks = np.zeros((n_blocks,) + total.shape, dtype=complex)
     per_seg, used = [], []
     for c0 in range(0, starts.size, chunk):
         s = starts[c0:c0 + chunk]
@@ -263,16 +283,21 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         z = np.fft.rfft(seg, axis=-1)[:, :, keep]                    # (k, n, F), m/s
         prod = np.einsum("kif,kjf->kfij", z, z.conj())
         total += prod.sum(axis=0)
+        ids = block_of_start[c0:c0 + chunk][ok]
+        for g in np.unique(ids):
+            blocks[g] += prod[ids == g].sum(axis=0)
         per_seg.append(np.add.reduceat(prod, bounds, axis=1))
         used.append(s[ok])
     if not per_seg:
         raise SpectraError("no segment without gaps: every window touches missing data")
     per_segment = np.concatenate(per_seg)
+    segment_starts = np.concatenate(used)
     if per_segment.shape[0] < 4:
         raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
                            " too little data for the band")
     return CrossSpectra(
         fs=float(fs), nperseg=nperseg, step=step, freqs=freqs, band_edges=edges, band_of=band_of,
-        total=total, per_segment=per_segment, segment_starts=np.concatenate(used),
+        total=total, per_segment=per_segment, segment_starts=segment_starts,
         n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),
-        psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids))
+        psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids),
+        block_totals=blocks, block_of=block_of_start[np.searchsorted(starts, segment_starts)])

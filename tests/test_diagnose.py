@@ -74,12 +74,14 @@ def test_polarity_reversal_and_swap_named_from_orientation():
     assert sorted(e["channels"]) == ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
 
 
-def test_clock_drift_named_not_a_constant_offset():
-    d = _diagnose(clock_drift_ppm=60.0)
+@pytest.mark.parametrize("ppm", [60.0, -8.0])
+def test_clock_drift_rate_and_sign_from_the_posterior(ppm):
+    d = _diagnose(clock_drift_ppm=ppm)
     e = _only(d, "clock_drift")
-    ppm = e["parameters"]["ppm"]["median"]
-    assert abs(ppm - 60.0) < 3.0      # a few % (see docs/diagnose.md)
-    _inside(e, "seconds_mid", 60e-6 * 1800)
+    _inside(e, "ppm", ppm)
+    assert e["parameters"]["ppm"]["ci95"][1] - e["parameters"]["ppm"]["ci95"][0] < 1.0
+    t_mid = d.base.spectra.segment_times().mean()
+    _inside(e, "seconds_mid", ppm * 1e-6 * t_mid)
 
 
 def test_tilt_noise_named_on_horizontals():
