@@ -42,10 +42,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from .spectra import make_bands
+
 #: Bounds of the common exponent (tilt power ~ f^-alpha).
 ALPHA_RANGE = (0.5, 8.0)
 #: Bounds of the log tilt NSR in the lowest band (the lower one is the null).
 LEVEL_RANGE = (-15.0, 8.0)
+#: Finer bands for the test (bands per decade, minimum bins per band).
+FINE_BANDS = (10, 4)
 
 
 def _var_of_mean(z, starts, nperseg):
@@ -61,35 +65,97 @@ def _var_of_mean(z, starts, nperseg):
     return np.maximum(var + 2 * lag, 0.5 * var) / k
 
 
-def nsr_data(sp, pool=True):
-    """Per-band noise-to-signal ratio of every SUT channel and its error.
-
-    ``pool``: average the variance of ``y`` over the SUT channels of each
-    band. For Gaussian data it does not depend on the channel (the relative
-    variance of a power estimate does not depend on the power), and the
-    per-channel estimate from a few tens of segments is noisy enough to
-    swing the chi-square.
-
-    Returns a dict of (B, n_u) arrays: ``y`` = log(P_inc / P_coh), ``sd``
-    its standard error, ``p_coh`` and ``p_inc`` (band sums, m^2/s^2)."""
-    nu = sp.n_u
-    s = sp.band_sums()
-    suu, sur, srr = s[:, :nu, :nu], s[:, :nu, nu:], s[:, nu:, nu:]
-    t = np.einsum("bij,bjk->bik", sur, np.linalg.inv(srr))              # (B, nu, nr)
+def _powers(sums, nu):
+    """Transfer ``T`` (B, n_u, n_r), coherent and incoherent powers (B, n_u)
+    from band sums (B, n, n)."""
+    suu, sur, srr = sums[:, :nu, :nu], sums[:, :nu, nu:], sums[:, nu:, nu:]
+    t = np.einsum("bij,bjk->bik", sur, np.linalg.inv(srr))
     p_uu = np.real(np.einsum("bii->bi", suu))
     p_coh = np.real(np.einsum("bij,bjk,bik->bi", t, srr, t.conj()))
-    p_inc = np.maximum(p_uu - p_coh, 1e-12 * p_uu)
+    return t, p_coh, np.maximum(p_uu - p_coh, 1e-12 * p_uu)
+
+
+def _band_variance(sp):
+    """(B, n_u) variance of ``y`` on the spectra's own bands, from the
+    per-segment powers (see :func:`nsr_data`)."""
+    nu = sp.n_u
+    t, p_coh, p_inc = _powers(sp.band_sums(), nu)
     seg = sp.per_segment                                                # (K, B, n, n)
     c_k = np.real(np.einsum("bij,kbjl,bil->kbi", t, seg[:, :, nu:, nu:], t.conj()))
     x_k = np.real(np.einsum("bij,kbji->kbi", t, seg[:, :, nu:, :nu]))   # diag(T S_ru,k)
     e_k = np.real(np.einsum("kbii->kbi", seg[:, :, :nu, :nu])) - 2 * x_k + c_k
     k = seg.shape[0]
     z = e_k / (p_inc / k) - c_k / (p_coh / k)                           # relative deviations
-    var = _var_of_mean(z, sp.segment_starts, sp.nperseg)
+    return _var_of_mean(z, sp.segment_starts, sp.nperseg)
+
+
+def _inverse_bins(total, band_of, nb, nu):
+    """(B, n_u) mean over the incoherent and coherent powers of ``1 /
+    n_eff``, the effective number of bins of a band, ``n_eff = (sum p)^2 /
+    sum p^2`` over its bins (equal to the bin count for a flat spectrum,
+    near 1 when one bin dominates, as for steep red noise). Powers per bin
+    use the band's transfer."""
+    member = (band_of[None, :] == np.arange(nb)[:, None]).astype(float)
+    t, _, _ = _powers(np.einsum("bf,fij->bij", member, total), nu)
+    tb = t[band_of]
+    c = np.real(np.einsum("fij,fjk,fik->fi", tb, total[:, nu:, nu:], tb.conj()))
+    x = np.real(np.einsum("fij,fji->fi", tb, total[:, nu:, :nu]))
+    e = np.maximum(np.real(np.einsum("fii->fi", total[:, :nu, :nu])) - 2 * x + c, 0.0)
+    inv = [(member @ p ** 2) / np.maximum(member @ p, 1e-300) ** 2 for p in (e, c)]
+    return member, 0.5 * (inv[0] + inv[1])
+
+
+def nsr_data(sp, pool=True, fine=FINE_BANDS, debias=True):
+    """Per-band noise-to-signal ratio of every SUT channel and its error.
+
+    The variance of ``y`` in a band is ``u / n_eff``: ``u`` the variance of
+    one bin's worth, measured from the per-segment band powers of the
+    spectra's own bands, and ``n_eff`` the band's effective number of bins
+    (:func:`_inverse_bins`), which falls when a steep spectrum (tilt noise)
+    puts most of a band's power in a few bins.
+
+    ``pool``: average ``u`` over the SUT channels of each band. For Gaussian
+    data it does not depend on the channel (the relative variance of a power
+    estimate does not depend on the power), and the per-channel estimate
+    from a few tens of segments is noisy enough to swing the chi-square.
+
+    ``fine``: (bands per decade, minimum bins) of finer bands made from the
+    per-bin totals (None: the spectra's own bands). The pipeline's bands
+    hold at least 8 bins, which merges the long-period end (where tilt noise
+    lives, falling steeply with frequency) into one wide band and dilutes
+    it. A fine band takes ``u`` from its parent bands (independent bins;
+    adjacent Hann bins are positively correlated, so this errs high for a
+    band narrower than its parent).
+
+    Returns a dict: (B, n_u) arrays ``y`` = log(P_inc / P_coh), ``sd`` its
+    standard error, ``p_coh`` and ``p_inc`` (band sums, m^2/s^2); and the
+    bands ``edges`` (B+1,), ``centres`` (B,), ``band_of`` (F,) over
+    ``sp.freqs``."""
+    nu = sp.n_u
+    _, h_parent = _inverse_bins(sp.total, sp.band_of, sp.n_bands, nu)
+    u = _band_variance(sp) / h_parent                                   # per effective bin
     if pool:
-        var = np.broadcast_to(var.mean(axis=1, keepdims=True), var.shape)
+        u = np.broadcast_to(u.mean(axis=1, keepdims=True), u.shape)
+    if fine is None:
+        edges, band_of = sp.band_edges, sp.band_of
+    else:
+        edges = make_bands(sp.freqs, sp.band_edges[0], sp.band_edges[-1], *fine)
+        band_of = np.clip(np.searchsorted(edges, sp.freqs, side="right") - 1, 0, edges.size - 2)
+    member, h = _inverse_bins(sp.total, band_of, edges.size - 1, nu)
+    u_band = (member @ u[sp.band_of]) / member.sum(axis=1)[:, None]
+    var = u_band * h
+    _, p_coh, p_inc = _powers(np.einsum("bf,fij->bij", member, sp.total), nu)
+    if debias:
+        # the regression on n_r reference channels moves a share n_r / N of
+        # the incoherent power into the coherent one by chance correlation,
+        # N = effective independent samples = 2 n_eff / u (u ~ 2 / K_eff)
+        n_r = sp.n_r
+        big_n = np.maximum(2.0 / (h * u_band), 2.0 * n_r)
+        shift = p_inc * n_r / (big_n - n_r)
+        p_coh, p_inc = np.maximum(p_coh - shift, 0.5 * p_coh), p_inc + shift
     return {"y": np.log(p_inc / p_coh), "sd": np.sqrt(np.maximum(var, 1e-8)),
-            "p_coh": p_coh, "p_inc": p_inc}
+            "p_coh": p_coh, "p_inc": p_inc, "edges": np.asarray(edges),
+            "centres": np.sqrt(edges[:-1] * edges[1:]), "band_of": band_of}
 
 
 def base_fit(y, sd):
@@ -115,10 +181,10 @@ class TiltModel:
         self.y, self.sd = data["y"], data["sd"]
         self.nb, self.nu = self.y.shape
         self.hz = list(hz)
-        self._lf = np.log(sp.freqs / sp.band_centres[0])
-        self._member = (sp.band_of[None, :] == np.arange(self.nb)[:, None]).astype(float)
+        self._lf = np.log(sp.freqs / data["centres"][0])
+        self._member = (data["band_of"][None, :] == np.arange(self.nb)[:, None]).astype(float)
         self._lcoh = np.log(data["p_coh"])
-        self._lfc = np.log(sp.band_centres / sp.band_centres[0])
+        self._lfc = np.log(data["centres"] / data["centres"][0])
         self.shape = shape
 
     def log_template(self, alpha):
@@ -199,7 +265,7 @@ def _name(sp, i):
     return ids[i].split(".")[-1] if i < len(ids) else f"channel {i}"
 
 
-def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd"):
+def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine=FINE_BANDS):
     """Test for tilt noise on the SUT's horizontals (see the module docstring).
 
     Parameters
@@ -211,6 +277,7 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd"):
         costs more than this in BIC (judged only when the model is kept).
     shape : "psd" (tilt power ~ f^-alpha, the default) or "nsr" (tilt
         noise-to-signal ratio ~ f^-alpha).
+    fine : bands for the test, see :func:`nsr_data` (None: the spectra's).
 
     Returns a JSON-safe dict: ``applicable``, ``reason``, ``kept``,
     ``delta_bic``, ``channels`` (SUT indices with tilt), ``channel_ids``,
@@ -230,11 +297,11 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd"):
     if horizontal.all():
         return _not_applicable("no vertical SUT channel: without one the tilt noise on the "
                                "horizontals cannot be told from a common noise shape")
-    if sp.n_bands < 4:
-        return _not_applicable(f"only {sp.n_bands} bands: at least 4 are needed to see a "
-                               "noise-to-signal ratio rising toward long periods")
-    data = nsr_data(sp)
+    data = nsr_data(sp, fine=fine)
     y, sd = data["y"], data["sd"]
+    if y.shape[0] < 4:
+        return _not_applicable(f"only {y.shape[0]} bands: at least 4 are needed to see a "
+                               "noise-to-signal ratio rising toward long periods")
     nb, nu = y.shape
     pred0, chi2_base, p_base = base_fit(y, sd)
     model = TiltModel(sp, data, hz, shape)
@@ -278,12 +345,11 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd"):
     alpha = {"median": al, "ci95": np.clip([al - 1.96 * al_sd, al + 1.96 * al_sd],
                                            *ALPHA_RANGE).tolist()}
     pred1 = model.predict(res.x)
-    f1 = float(sp.band_centres[0])
+    f1 = float(data["centres"][0])
     out = {"applicable": True, "reason": "", "kept": kept, "delta_bic": float(dbic),
            "bic_keep": float(bic_keep), "channels": channels,
            "channel_ids": [_name(sp, i) for i in channels], "per_channel": per_channel,
-           "alpha": alpha, "shape": shape, "lowest_band_hz": [float(sp.band_edges[0]),
-                                                             float(sp.band_edges[1])],
+           "alpha": alpha, "shape": shape, "lowest_band_hz": data["edges"][:2].tolist(),
            "lowest_band_centre_hz": f1, "phi": float(phi), "chi2_base": float(chi2_base),
            "chi2_tilt": float(chi2_tilt), "n_data": int(n), "n_added_parameters": int(k),
            "dof_tilt": int(dof), "interval_method": "Laplace (least-squares covariance x phi)",

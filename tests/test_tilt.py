@@ -33,8 +33,8 @@ def test_clean_pairs_are_not_flagged(seed, coherence):
     out = tilt_test(_spectra(seed, coherence, 0.0, azimuth=seed * 7.0), HORIZONTAL)
     assert out["applicable"]
     assert not out["kept"] and out["channels"] == []
-    # the BIC penalty of 3 parameters on 30 data is 10.2: a clean run sits near it
-    assert -11.0 < out["delta_bic"] < 5.0
+    # the BIC penalty of 3 parameters on 57 data is 12.1: a clean run sits near it
+    assert -12.5 < out["delta_bic"] < 5.0
     assert "no tilt noise" in out["explanation"]
 
 
