@@ -25,13 +25,15 @@ Steps (see docs/diagnose.md):
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import gamma
 
 from . import physics
 from .fit import _bounds, diagnostics, least_squares_fit, sample
-from .geometry import unit_vector
+from .geometry import Fixed, unit_vector
 from .likelihood import Model
 from .posterior import Posterior, interval_summary
 
@@ -255,27 +257,69 @@ def _starts(trial, ll, n):
     return [trial[i] for i in idx] or [trial[int(np.argmax(ll))]]
 
 
+def _best_loglik(model, starts):
+    """Largest log-likelihood of ``model`` under its (fixed) noise model,
+    maximised by least squares from each of ``starts``."""
+    return _refit(model, starts)[0]
+
+
+def _refit(model, starts):
+    """(log-likelihood, theta) of the best least-squares refit of ``model``
+    from ``starts`` under its fixed noise model."""
+    if model.ndim == 0:
+        return float(model.log_likelihood(np.zeros((1, 0)))[0]), np.zeros(0)
+    fac = model.noise.cholesky()
+    lo, hi = _bounds(model)
+    bounded = bool(np.isfinite(lo).any())
+    best = (-np.inf, None)
+    for start in starts:
+        res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
+                            args=(fac,), method="trf" if bounded else "lm",
+                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        ll = float(model.log_likelihood(res.x)[0])
+        if ll > best[0]:
+            best = (ll, res.x)
+    return best
+
+
+def held_orientation_loglik(model, theta, axes):
+    """Log-likelihood with every SUT axis held at ``axes`` (n_u, 3) and the
+    response parameters re-fitted, under ``model``'s noise model."""
+    blocks = [replace(b, manifold=Fixed(np.asarray(a, float))) for b, a in zip(model.blocks, axes)]
+    held = Model(model.spectra, model.ref_vectors, blocks, model.priors)
+    held.adopt_noise(model.noise)
+    start = np.concatenate([np.asarray(theta)[sr] for _, sr in model.slices])
+    return _best_loglik(held, (start,))
+
+
+def orientation_score(model, theta, nominal, finding):
+    """BIC difference between the metadata's axes and the metadata's axes
+    with ``finding``'s channels reversed or exchanged, both held fixed (no
+    extra parameter: ``2 (logL_alt - logL_metadata)``) under the base
+    model's noise model."""
+    alt = np.array(nominal, float)
+    rows = finding["rows"]
+    if finding["name"] == "channel_swap":
+        alt[rows] = nominal[rows[::-1]]
+    else:
+        alt[rows] = -nominal[rows]
+    return 2.0 * (held_orientation_loglik(model, theta, alt)
+                  - held_orientation_loglik(model, theta, nominal))
+
+
 def score(cur_model, cur_theta, ext_model, ext_theta):
     """BIC gain of ``ext_model`` over ``cur_model`` under the extended
     model's noise model (the current model re-optimised under it)."""
     cur = _with(cur_model, cur_model.effects, per_block=ext_model.per_block)
     cur.adopt_noise(ext_model.noise)
-    fac = cur.noise.cholesky()
-    lo, hi = _bounds(cur)
-    bounded = bool(np.isfinite(lo).any())
     # start from the current optimum and from the extended optimum's shared
     # parameters (the plug-in noise moves the optimum), keep the better
     ext_params = _effect_params(ext_model, ext_theta)
     shared = np.concatenate([_theta_base(ext_model, ext_theta)] + [
         ext_params.get(_key(e), np.asarray(cur_theta)[sl])
         for e, sl in zip(cur.effects, cur.effect_slices)])
-    ll_cur = -np.inf
-    for start in (np.asarray(cur_theta, float), shared):
-        res = least_squares(cur.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
-                            args=(fac,), method="trf" if bounded else "lm",
-                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
-        ll_cur = max(ll_cur, float(cur.log_likelihood(res.x)[0]))
+    ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
     n = ext_model.n_data
     k = ext_model.ndim - cur_model.ndim
@@ -399,6 +443,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     if cov is None:
         model, th, cov = model0, th0, least_squares_fit(model0, th0)[1]
     after = locate(model, th)
+    # the base model's misfit under the final noise model: the base's own
+    # noise estimate is inflated by the misfit it leaves (before/after on one scale)
+    common = _with(model0, [], per_block=model.per_block)
+    common.adopt_noise(model.noise)
+    before_common = locate(common, _refit(common, (th0,))[1])
     final = posterior_of(model, th, cov, base.meta, base.not_estimable, free, seed=seed,
                          mcmc=mcmc, progress=progress, **sample_kw)
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
@@ -413,12 +462,16 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
     if nominal is not None:
         for f in physics.orientation_findings(fitted, nominal, ids):
+            gain = orientation_score(model0, th0, nominal, f)
+            sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
+            if gain <= BIC_KEEP:
+                continue
             ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
                 base.vectors[:, r] @ nominal[r], -1, 1))))
                 for c, r in zip(f["channels"], f["rows"])}
             effects.append({"name": f["name"], "channels": f["channels"],
                             "parameters": {"angle_to_metadata_axis_deg": ang},
-                            "score_gain": None, "explanation": f["explanation"]
+                            "score_gain": gain, "explanation": f["explanation"]
                             + "; the free orientation fit already models it"})
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
         tilt = physics.tilt_signature(sp.band_centres, band_coherence(sp), horizontal)
@@ -432,6 +485,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                                            "model absorbs it, it is not modelled as a response "
                                            "effect", "signature": tilt})
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
+                     before_common=before_common,
                      steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
                      ratio_before=q, ratio_after=band_ratio(model, th))
 
@@ -476,14 +530,15 @@ class Diagnosis:
             if e.get("score_gain") is not None:
                 s += f" (BIC gain {e['score_gain']:.0f})"
             out.append(s)
-        fixed = self.before["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
+        fixed = self.before_common["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
         if fixed.any() and any(e.get("score_gain") for e in self.effects):
             b = np.flatnonzero(fixed)
-            before = self.before["misfit"][fixed].max()
+            before = self.before_common["misfit"][fixed].max()
             after = self.after["misfit"][fixed].max()
             out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
                        f"misfit in {edges[b[0]]:.3g}-{edges[b[-1] + 1]:.3g} Hz (largest "
-                       f"standardised misfit there {before:.3g} -> {after:.3g})")
+                       f"standardised misfit there {before:.3g} -> {after:.3g}, both under the "
+                       "final model's noise model)")
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]
@@ -504,6 +559,7 @@ class Diagnosis:
                 "summary": self.sentences(),
                 "per_band": {"band_edges_hz": self.band_edges, "channels": self.ids,
                              "before": cells(self.before), "after": cells(self.after),
+                             "before_under_final_noise": cells(self.before_common),
                              "ratio_amplitude_before": np.abs(self.ratio_before),
                              "ratio_phase_deg_before": np.degrees(np.angle(self.ratio_before)),
                              "ratio_amplitude_after": np.abs(self.ratio_after),
