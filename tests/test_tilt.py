@@ -3,6 +3,7 @@
 coherence-ratio rule misses is found on both horizontals with the simulator's
 exponent (its tilt power falls as f^-2), its level scales with the simulated
 level, and the test declines when it cannot be done."""
+import json
 import sys
 from pathlib import Path
 
@@ -19,8 +20,8 @@ from tilt_power import pair_spectra  # noqa: E402  (the benchmark's simulated sp
 HORIZONTAL = np.array([True, True, False])
 
 
-def _spectra(seed, coherence, level, azimuth=30.0, band=(0.02, 3.0)):
-    return pair_spectra(seed, coherence, azimuth, level, band)
+def _spectra(seed, coherence, level, azimuth=30.0, band=(0.02, 3.0), **effects):
+    return pair_spectra(seed, coherence, azimuth, level, band, **effects)
 
 
 def _old_rule(sp):
@@ -36,6 +37,15 @@ def test_clean_pairs_are_not_flagged(seed, coherence):
     # the BIC penalty of 3 parameters on 57 data is 12.1: a clean run sits near it
     assert -12.5 < out["delta_bic"] < 5.0
     assert "no tilt noise" in out["explanation"]
+
+
+@pytest.mark.parametrize("effect", [{"clock_drift_ppm": 50.0}, {"timing_offset_s": 0.3},
+                                    {"extra_pole": ("sut", 0.5)}, {"channel_swap": (0, 2)}])
+def test_other_effects_are_not_taken_for_tilt(effect):
+    """Effects of the catalogue that change the response or the timing, not
+    the noise on the horizontals alone, must not be named tilt noise."""
+    out = tilt_test(_spectra(111, 0.95, 0.0, **effect), HORIZONTAL)
+    assert out["applicable"] and not out["kept"]
 
 
 def test_noise_to_signal_errors_are_calibrated_on_clean_pairs():
@@ -91,6 +101,7 @@ def test_strong_tilt_level_scales_with_the_simulated_level():
         assert 3.5 < ratio < 7.0
     assert np.abs(np.array(strong["misfit_tilt"])).max() < 4.0
     assert np.abs(np.array(strong["misfit_base"])).max() > 8.0
+    assert json.loads(json.dumps(strong))["channels"] == [0, 1]      # JSON-safe
 
 
 def test_tilt_on_one_horizontal_names_that_channel_only():
