@@ -67,10 +67,10 @@ def judge(sp):
     return out
 
 
-def run_one(seed):
+def run_one(seed, levels=(5.0, 100.0)):
     """One seed: clean and tilt runs; returns the record."""
     rng = np.random.default_rng(seed)
-    level = float(np.exp(rng.uniform(np.log(5), np.log(100))))
+    level = float(np.exp(rng.uniform(*np.log(levels))))
     coherence = float(rng.uniform(0.9, 0.995))
     azimuth = float(rng.uniform(0, 360))
     return {"seed": seed, "level": level, "coherence": coherence, "azimuth": azimuth,
@@ -78,12 +78,12 @@ def run_one(seed):
             "tilt": judge(pair_spectra(seed, coherence, azimuth, level))}
 
 
-def summarise(records):
+def summarise(records, bins=LEVEL_BINS):
     """Detection rates per level bin, false-alarm rates, alpha recovery."""
     rules = RULES
     both = lambda v: v["kept"] and sorted(v["channels"]) == [0, 1]     # noqa: E731
     rows = []
-    for lo, hi in zip(LEVEL_BINS[:-1], LEVEL_BINS[1:]):
+    for lo, hi in zip(bins[:-1], bins[1:]):
         sel = [r for r in records if lo <= r["level"] < hi]
         rows.append({"level": [lo, hi], "runs": len(sel),
                      **{rule: {"detected": sum(r["tilt"][rule]["kept"] for r in sel),
@@ -126,6 +126,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=40, help="number of seeds (each: clean + tilt)")
     ap.add_argument("--first-seed", type=int, default=5000)
+    ap.add_argument("--levels", type=float, nargs=2, default=(5.0, 100.0),
+                    help="tilt levels drawn log-uniform between these (5 100)")
     ap.add_argument("--out", default="reports/diagnose/tilt_power.json")
     args = ap.parse_args(argv)
     from bayescal.posterior import write_json
@@ -133,20 +135,23 @@ def main(argv=None):
     t0 = time.perf_counter()
     records = []
     for k in range(args.n):
-        rec = run_one(args.first_seed + k)
+        rec = run_one(args.first_seed + k, args.levels)
         records.append(rec)
         print(f"{k + 1:3d} seed {rec['seed']} level {rec['level']:5.1f} coh {rec['coherence']:.3f}"
               f" | clean dBIC {rec['clean']['psd']['delta_bic']:6.1f} | tilt dBIC "
               f"{rec['tilt']['psd']['delta_bic']:6.1f} ch {rec['tilt']['psd']['channels']} "
               f"old {rec['tilt']['old']['channels']}", file=sys.stderr, flush=True)
     seconds = time.perf_counter() - t0
-    s = summarise(records)
+    bins = (LEVEL_BINS if tuple(args.levels) == (5.0, 100.0)
+            else tuple(float(f"{x:.2g}") for x in np.geomspace(*args.levels, 5)))
+    s = summarise(records, bins)
     text = markdown(s, seconds)
     print(text)
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     write_json(args.out, {"runs": records, "summary": s, "markdown": text, "seconds": seconds,
                           "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
-                                       "level": "log-uniform 5-100",
+                                       "level": f"log-uniform {args.levels[0]:g}-"
+                                                f"{args.levels[1]:g}",
                                        "coherence": "uniform 0.9-0.995",
                                        "horizontal": HORIZONTAL.tolist()}})
     return 0

@@ -67,11 +67,11 @@ WEAK = [(301, 0.90, 10.0), (302, 0.93, 7.0), (303, 0.96, 12.0), (304, 0.92, 20.0
 
 def test_weak_tilt_missed_by_old_rule_is_found():
     """Levels 7-20 at coherence 0.90-0.96, where the old rule misses. The
-    benchmark (benchmarks/tilt_power.py) finds 36 of 40 runs at levels 5-10
-    and all 57 at 10-20; cases must be found on both
-    horizontals (at least 4 of 6 here: the hardest, levels 8-10 at coherence
-    0.90-0.91, sit at the edge), each with the simulated exponent inside its
-    interval."""
+    benchmark (benchmarks/tilt_power.py, 200 seeds) finds all 40 runs at
+    levels 5-10 and all 57 at 10-20, the old rule 7 and 12. Here at least 5
+    of 6 must be found on both horizontals, each with the simulated exponent
+    inside its interval (the weakest, level 8 at coherence 0.91, has delta
+    BIC 26)."""
     found = 0
     for seed, coherence, level in WEAK:
         sp = _spectra(seed, coherence, level, azimuth=seed * 3.0)
@@ -84,7 +84,7 @@ def test_weak_tilt_missed_by_old_rule_is_found():
         assert out["alpha"]["median"] > 0 and lo < 2.0 < hi    # simulated tilt power ~ f^-2
         assert "BH1, BH2" in out["explanation"]
         found += 1
-    assert found >= 4
+    assert found >= 5
 
 
 def test_strong_tilt_level_scales_with_the_simulated_level():
