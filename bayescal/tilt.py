@@ -227,9 +227,10 @@ class TiltModel:
         hi = np.r_[np.full(n_base, np.inf), np.full(len(self.hz), LEVEL_RANGE[1]), ALPHA_RANGE[1]]
         return lo, hi
 
-    def fit(self, base_theta, n_starts=3):
+    def fit(self, base_theta, n_starts=3, extra_starts=()):
         """Least squares started from the base fit and the best points of a
-        grid over ``alpha`` and a common level; returns scipy's result."""
+        grid over ``alpha`` and a common level (and ``extra_starts``);
+        returns scipy's result with the lowest cost."""
         lo, hi = self.bounds()
         nh = len(self.hz)
         cands = []
@@ -238,7 +239,8 @@ class TiltModel:
                 th = np.r_[base_theta, np.full(nh, lev), alpha]
                 cands.append((float(np.sum(self.resid(th) ** 2)), th))
         cands.sort(key=lambda c: c[0])
-        starts = [c[1] for c in cands[:n_starts]] + [np.r_[base_theta, np.full(nh, -10.0), 2.0]]
+        starts = ([c[1] for c in cands[:n_starts]] + [np.r_[base_theta, np.full(nh, -10.0), 2.0]]
+                  + list(extra_starts))
         best = None
         for th in starts:
             r = least_squares(self.resid, np.clip(th, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
@@ -335,9 +337,7 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
         if others:
             sub = TiltModel(sp, data, others, shape)
             th = np.r_[res.x[:n_base], np.delete(res.x[n_base:n_base + len(hz)], j), res.x[-1]]
-            lo, hi = sub.bounds()
-            r = least_squares(sub.resid, np.clip(th, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
-                              x_scale="jac", max_nfev=300)
+            r = sub.fit(theta0, extra_starts=[th])
             chi2_drop = max(2.0 * r.cost, chi2_tilt)
             own = (chi2_drop - chi2_tilt) / phi - np.log(n)     # one level (alpha shared)
         else:
