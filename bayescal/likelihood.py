@@ -255,7 +255,8 @@ class Model:
             if b.free == "gain":
                 ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
             elif b.free == "all":
-                ratio[:, k] = self._inverse[k](np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2]))
+                with np.errstate(all="ignore"):    # wild least-squares steps; the prior rejects them
+                    ratio[:, k] = self._inverse[k](np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2]))
         for e, sl in zip(self.effects, self.effect_slices):
             if not e.blocked:
                 ratio[:, e.rows] *= e.factor(self.nodes, theta[:, sl])
@@ -413,8 +414,16 @@ class Model:
             # An effect's factor can vary within a band (a delay's phase does):
             # the residuals of the time blocks, which keep every bin, carry it
             # exactly; a per-segment band residual would not.
+            # A misfit common to the blocks (R_g = D S_rr,g for one D per band)
+            # is removed first, so that what the model leaves does not pass
+            # for noise (with G blocks of K/G segments it would weigh K/G
+            # times more than in per-segment residuals); one block's worth of
+            # scatter goes with it, hence the G / (G - 1).
             r_k = self._exact_block_residuals(theta0)[0]                # (G, B, nu, nr)
+            common = r_k.sum(axis=0) @ b_inv                            # (B, nu, nr)
+            r_k = r_k - np.einsum("bij,gbjk->gbik", common, self._srr_blocks)
             adjacent = np.arange(r_k.shape[0] - 1)
+            dof = r_k.shape[0] / (r_k.shape[0] - 1.0)
         else:
             rho = rho_g[0]
             rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
@@ -422,11 +431,12 @@ class Model:
             r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
                 "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
             adjacent = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
+            dof = 1.0
         q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
         q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
                        r_k[adjacent].conj()).real
         p = nu * sp.n_r
-        raw = (q0 + 2.0 * q1) / p
+        raw = dof * (q0 + 2.0 * q1) / p
         pooled = raw.mean()
         wgt = r_k.shape[0] * p
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
