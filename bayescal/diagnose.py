@@ -16,9 +16,13 @@ Steps (see docs/diagnose.md):
    ``dBIC = 2 (logL_ext - logL_cur) - k ln n`` with ``n = 2 B n_u n_r`` real
    residual entries. The best effect with ``dBIC > BIC_KEEP`` is kept, and
    the search repeats from the extended model while it improves.
-   Orientation effects (reversed, swapped channels) are named by comparing
-   the free orientation fit with the metadata; tilt noise by its coherence
-   signature.
+   A clock drift is fitted with the per-time-block likelihood (its rate and
+   sign from the posterior). Orientation effects (reversed, swapped
+   channels) are screened by comparing the free orientation fit with the
+   metadata and scored by the BIC of the metadata's axes against the
+   axes with those channels reversed or exchanged. Tilt noise is a nested
+   extension of a model of the noise spectra (:mod:`bayescal.tilt`), scored
+   by its own BIC.
 3. **Show**: misfit per band before and after, score gains, effect
    parameters with credible intervals (MCMC on the final model, or its
    Laplace approximation), and how orientation and response moved.
@@ -31,7 +35,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import gamma
 
-from . import physics
+from . import physics, tilt
 from .fit import _bounds, diagnostics, least_squares_fit, sample
 from .geometry import Fixed, unit_vector
 from .likelihood import Model
@@ -93,20 +97,12 @@ def locate(model, theta):
     p = gamma.sf(nr * v, nr)
     flag = p < ALPHA / p.size
     ids = [b.channel_id for b in model.blocks]
-    runs, b = [], 0
-    while b < flag.shape[0]:
-        if not flag[b].any():
-            b += 1
-            continue
-        e = b
-        while e + 1 < flag.shape[0] and flag[e + 1].any():
-            e += 1
-        cells = flag[b:e + 1]
-        runs.append({"band_hz": [float(sp.band_edges[b]), float(sp.band_edges[e + 1])],
-                     "channels": [ids[i] for i in np.flatnonzero(cells.any(axis=0))],
-                     "p_value": float(p[b:e + 1].min()),
-                     "misfit_max": float(v[b:e + 1].max())})
-        b = e + 1
+    runs = []
+    for b, e in _runs(flag.any(axis=1)):
+        runs.append({"band_hz": [float(sp.band_edges[b]), float(sp.band_edges[e])],
+                     "channels": [ids[i] for i in np.flatnonzero(flag[b:e].any(axis=0))],
+                     "p_value": float(p[b:e].min()),
+                     "misfit_max": float(v[b:e].max())})
     return {"misfit": v, "p_value": p, "flag": flag, "mismatch": runs}
 
 
@@ -448,8 +444,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     common = _with(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
     before_common = locate(common, _refit(common, (th0,))[1])
-    final = posterior_of(model, th, cov, base.meta, base.not_estimable, free, seed=seed,
-                         mcmc=mcmc, progress=progress, **sample_kw)
+    if model.effects:
+        final = posterior_of(model, th, cov, base.meta, base.not_estimable, free, seed=seed,
+                             mcmc=mcmc, progress=progress, **sample_kw)
+    else:       # nothing to add to the response model: the final fit is the base fit
+        final = base
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
     for e, sl in zip(model.effects, model.effect_slices):
@@ -474,20 +473,29 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                             "score_gain": gain, "explanation": f["explanation"]
                             + "; the free orientation fit already models it"})
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
-        tilt = physics.tilt_signature(sp.band_centres, band_coherence(sp), horizontal)
-        if tilt["channels"]:
-            effects.append({"name": "tilt_noise", "channels": [ids[i] for i in tilt["channels"]],
-                            "parameters": {"coherence_deficit_ratio": tilt["score"]},
-                            "score_gain": None,
-                            "explanation": "long-period noise on the horizontals that the other "
-                                           "sensor does not see (tilt coupling of gravity): "
-                                           "named by its coherence signature; the per-band noise "
-                                           "model absorbs it, it is not modelled as a response "
-                                           "effect", "signature": tilt})
+        t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
+        sig["tilt_noise"] = {k: v for k, v in t.items() if not k.startswith("misfit")}
+        if t["applicable"] and t["kept"] and t["channels"]:
+            params = {"alpha": t["alpha"]}
+            for i in t["channels"]:
+                params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
+                    t["per_channel"][str(i)]["nsr_lowest_band"]
+            effects.append({"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
+                            "parameters": params, "score_gain": t["delta_bic"],
+                            "explanation": t["explanation"] + "; it is noise, not a response "
+                            "error: the per-band noise model carries it (those bands weigh "
+                            "less), so the orientation and response estimates do not move",
+                            "signature": sig["tilt_noise"]})
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
                      before_common=before_common,
                      steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
                      ratio_before=q, ratio_after=band_ratio(model, th))
+
+
+def _runs(mask):
+    """(first, end) band indices of each run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return list(zip(edges[::2], edges[1::2]))
 
 
 class Diagnosis:
@@ -527,18 +535,17 @@ class Diagnosis:
         edges = self.band_edges
         for e in self.effects:
             s = e["explanation"]
-            if e.get("score_gain") is not None:
+            if e.get("score_gain") is not None and "BIC" not in s:
                 s += f" (BIC gain {e['score_gain']:.0f})"
             out.append(s)
         fixed = self.before_common["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
         if fixed.any() and any(e.get("score_gain") for e in self.effects):
-            b = np.flatnonzero(fixed)
             before = self.before_common["misfit"][fixed].max()
             after = self.after["misfit"][fixed].max()
+            where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in _runs(fixed))
             out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
-                       f"misfit in {edges[b[0]]:.3g}-{edges[b[-1] + 1]:.3g} Hz (largest "
-                       f"standardised misfit there {before:.3g} -> {after:.3g}, both under the "
-                       "final model's noise model)")
+                       f"misfit in {where} Hz (largest standardised misfit there "
+                       f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]

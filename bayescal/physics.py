@@ -12,7 +12,8 @@ where the model fits; see :func:`bayescal.diagnose.band_ratio`):
 * ``timing_offset``: phase of ``q`` linear in frequency through the origin,
   flat amplitude (SUT late by tau: phase ``-2 pi f tau`` on every channel).
 * ``clock_drift``: the per-segment timing (phase slope) changes steadily
-  through the record.
+  through the record (a screen; the drift is fitted on the per-time-block
+  likelihood, :class:`ClockDrift`).
 * ``extra_pole``: amplitude rolls off (SUT has a pole its metadata lacks:
   ``|q|`` falls, phase lags) or rises (the reference lacks one: ``|q|``
   rises, phase leads) toward high frequency.
@@ -20,10 +21,11 @@ where the model fits; see :func:`bayescal.diagnose.band_ratio`):
 * ``polarity_reversal`` / ``channel_swap``: the base fit estimates
   orientation freely, so these show as a fitted axis opposite to the
   metadata axis, or two channels whose fitted axes match each other's
-  metadata axes (:func:`orientation_findings`).
-* ``tilt_noise``: coherence deficit on the horizontals only, growing toward
-  long periods (:func:`tilt_signature`); it is noise, not a response error,
-  and the per-band noise model already absorbs it: named, not modelled.
+  metadata axes (:func:`orientation_findings`, a screen; the score is
+  :func:`bayescal.diagnose.orientation_score`).
+* ``tilt_noise``: noise, not a response error, modelled in the noise
+  spectra by :mod:`bayescal.tilt`. :func:`tilt_signature` is the earlier
+  coherence-ratio rule, kept as the baseline of benchmarks/tilt_power.py.
 """
 from __future__ import annotations
 
@@ -155,9 +157,12 @@ class ExtraPole(Effect):
             return {"corner_hz": 1.0 / np.maximum(p[:, 0], 1e-12)}
 
     def explain(self, med):
-        who = "sensor under test" if self.which == "sut" else "reference"
+        who, other = (("sensor under test", "reference") if self.which == "sut"
+                      else ("reference", "sensor under test"))
         return (f"the {who}'s response has a pole near {med['corner_hz']:.3g} Hz that its "
-                "metadata lacks (its amplitude rolls off and its phase lags above that)")
+                "metadata lacks (its amplitude rolls off and its phase lags above that; a "
+                f"pair of recordings cannot tell this from a zero missing from the {other}'s "
+                "metadata)")
 
 
 class GainError(Effect):
