@@ -38,7 +38,7 @@ from scipy.stats import gamma
 from . import physics, tilt
 from .fit import _bounds, diagnostics, least_squares_fit, sample
 from .geometry import Fixed, unit_vector
-from .likelihood import Model
+from .likelihood import MIN_TIME_BLOCKS, Model
 from .posterior import Posterior, interval_summary
 
 SCHEMA = "bayescal.diagnose/1"
@@ -93,7 +93,7 @@ def locate(model, theta):
     ``{"band_hz", "channels", "p_value", "misfit_max"}``."""
     sp = model.spectra
     v = model.standardized_band_residuals(theta)
-    nr = sp.n_r * model.n_time_blocks
+    nr = sp.n_r
     p = gamma.sf(nr * v, nr)
     flag = p < ALPHA / p.size
     ids = [b.channel_id for b in model.blocks]
@@ -144,8 +144,7 @@ def _candidates(model, free, current, drift=None):
     if not any(e.name == "clock_drift" for e in current):
         out.append(("timing_offset", physics.TimingOffset(rows),
                     np.arange(-span, span + step, step)[:, None]))
-    if (drift is not None and abs(drift["t_stat"]) > DRIFT_T and sp.block_totals is not None
-            and sp.block_totals.shape[0] >= 4):
+    if _drift_candidate(model, drift):
         taus = np.arange(-span, span + step, step)
         out.append(("clock_drift", physics.ClockDrift(rows, sp),
                     np.column_stack([taus, np.full(taus.size, drift["ppm"])])))
@@ -163,6 +162,14 @@ def _candidates(model, free, current, drift=None):
             out.append((f"gain_error:{i}", physics.GainError(i, b.channel_id),
                         np.linspace(-0.6, 0.6, 61)[:, None]))
     return [c for c in out if c[0] not in have]
+
+
+def _drift_candidate(model, drift):
+    """Whether a clock drift is tried: the per-segment timing trend passes
+    the screen and the spectra have enough time blocks."""
+    bt = model.spectra.block_totals
+    return (drift is not None and abs(drift["t_stat"]) > DRIFT_T and bt is not None
+            and bt.shape[0] >= MIN_TIME_BLOCKS)
 
 
 def _key(effect):
@@ -317,7 +324,10 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
         for e, sl in zip(cur.effects, cur.effect_slices)])
     ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
-    n = ext_model.n_data
+    # one sample size for every comparison: the band-summed residual's
+    # entries (time blocks split the same data, they add none)
+    sp = cur_model.spectra
+    n = 2 * sp.n_bands * sp.n_u * sp.n_r
     k = ext_model.ndim - cur_model.ndim
     return {"delta_loglik": ll_ext - ll_cur, "delta_bic": 2 * (ll_ext - ll_cur) - k * np.log(n),
             "n_data": n, "n_extra_params": k}
@@ -434,8 +444,12 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     sig = physics.signatures(sp.band_centres, q, ratio_weights(sp))
     times, tau_k, w_k = segment_timing(model0, th0)
     sig["clock_drift"] = physics.drift_signature(times, tau_k, w_k)
-    model, th, cov, steps = search(_with(model0, []), th0, free, log=log,
-                                   drift=sig["clock_drift"])
+    # when a drift is a candidate, every model of the search is scored on the
+    # per-time-block likelihood (candidates ranked on the same data)
+    start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
+    if start.per_block:
+        start.estimate_noise(th0)
+    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"])
     if cov is None:
         model, th, cov = model0, th0, least_squares_fit(model0, th0)[1]
     after = locate(model, th)
@@ -474,7 +488,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                             + "; the free orientation fit already models it"})
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
         t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
-        sig["tilt_noise"] = {k: v for k, v in t.items() if not k.startswith("misfit")}
+        sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
         if t["applicable"] and t["kept"] and t["channels"]:
             params = {"alpha": t["alpha"]}
             for i in t["channels"]:

@@ -27,16 +27,18 @@ def write_page(diagnosis, stem):
     ax1 = fig.add_axes([0.1, 0.42, 0.85, 0.25])
     ax2 = fig.add_axes([0.1, 0.08, 0.85, 0.25])
     for i, cid in enumerate(d.ids):
-        line, = ax1.loglog(centres, d.before["misfit"][:, i], "o--", label=f"{cid} before")
+        line, = ax1.loglog(centres, d.before_common["misfit"][:, i], "o--",
+                           label=f"{cid} base model")
         ax1.loglog(centres, d.after["misfit"][:, i], "s-", color=line.get_color(),
-                   label=f"{cid} after")
+                   label=f"{cid} with the effects")
         ax2.semilogx(centres, np.degrees(np.angle(d.ratio_before[:, i])), "o--",
                      color=line.get_color(), label=f"{cid} phase before")
         ax2.semilogx(centres, 100 * (np.abs(d.ratio_before[:, i]) - 1), "^:",
                      color=line.get_color(), label=f"{cid} amplitude before (%)")
     ax1.axhline(1.0, color="k", lw=0.8)
     ax1.set_ylabel("standardised misfit per band (1 = fits)")
-    ax1.set_title("misfit before and after modelling the effects", fontsize=9)
+    ax1.set_title("misfit before and after modelling the effects (both under the final "
+                  "model's noise model)", fontsize=9)
     ax1.legend(fontsize=6, ncol=2)
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set_xlabel("frequency (Hz)")

@@ -351,12 +351,6 @@ class Model:
         """R_b(theta) summed over time blocks, shape (W, B, n_u, n_r)."""
         return self.residual_blocks(theta).sum(axis=1)
 
-    @property
-    def n_data(self):
-        """Number of real residual entries the likelihood uses."""
-        sp = self.spectra
-        return 2 * self.n_time_blocks * sp.n_bands * sp.n_u * sp.n_r
-
     def log_likelihood(self, theta):
         r = self.residual_blocks(theta)
         ar = np.einsum("bij,wgbjk->wgbik", self.noise.A, r)
@@ -422,8 +416,11 @@ class Model:
             r_k = self._exact_block_residuals(theta0)[0]                # (G, B, nu, nr)
             common = r_k.sum(axis=0) @ b_inv                            # (B, nu, nr)
             r_k = r_k - np.einsum("bij,gbjk->gbik", common, self._srr_blocks)
-            adjacent = np.arange(r_k.shape[0] - 1)
-            dof = r_k.shape[0] / (r_k.shape[0] - 1.0)
+            # blocks share one overlapping segment pair at most: no lag term
+            # (after the removal it would measure the removal, not overlap)
+            adjacent = np.zeros(0, int)
+            share = np.einsum("bij,gbji->gb", b_inv, self._srr_blocks).real / sp.n_r
+            dof = 1.0 / (1.0 - np.sum(share ** 2, axis=0))             # (B,)
         else:
             rho = rho_g[0]
             rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
@@ -459,8 +456,13 @@ class Model:
         """(B, n_u) chi-like misfit per band and SUT channel at ``theta``:
         the whitened residual energy of each row divided by its expectation
         (``n_r``); about 1 where the model fits."""
-        z = self._whiten(theta, self.noise.cholesky())              # (G, B, nu, nr)
-        return np.sum(np.abs(z) ** 2, axis=(0, 3)) / (self.n_time_blocks * self.spectra.n_r)
+        # the block-summed residual has covariance Sigma_b (x) S_rr,b^T in
+        # either layout: one scale for models with and without time blocks
+        la = np.linalg.cholesky(self.noise.A)
+        lb = np.linalg.cholesky(np.linalg.inv(self._srr))
+        r = self.residual(np.atleast_2d(theta))[0]
+        z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
+        return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
 
 
 def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):

@@ -74,9 +74,10 @@ class ClockDrift(Effect):
     ``tau(t) = seconds_mid + ppm * 1e-6 * (t - t_mid)`` (``t_mid`` the mean
     time of the used segments). A time-dependent effect (``blocked``): in
     time block ``g`` of the spectra (segment times with mean ``t_g`` and
-    variance ``v_g``) the SUT factor is the block average of
-    ``exp(2 pi i f tau(t))``, i.e. ``exp(2 pi i f tau(t_g))`` times the
-    decoherence within the block, ``exp(-(2 pi f ppm 1e-6)^2 v_g / 2)``
+    variance ``v_g``) the block's cross-spectra carry the block average of
+    ``exp(-2 pi i f tau(t))``, i.e. ``exp(-2 pi i f tau(t_g))`` times the
+    decoherence within the block, ``exp(-(2 pi f ppm 1e-6)^2 v_g / 2)``;
+    the SUT factor undoes both
     (second-order cumulant; the phase spread inside a 16th of an hour-long
     record at 100 ppm and 3 Hz is 0.4 rad, where the next term is below
     1e-3). The block-to-block phase progression carries the rate and its
@@ -103,8 +104,10 @@ class ClockDrift(Effect):
     def factor(self, f, p):
         tau = p[:, 0, None] + 1e-6 * p[:, 1, None] * self.dt[None, :]        # (W, G)
         w = 2 * np.pi * f[None, None, :]
-        spread = np.exp(-0.5 * (w * 1e-6 * p[:, 1, None, None]) ** 2 * self.var[None, :, None])
-        return (np.exp(1j * w * tau[:, :, None]) * spread)[:, :, None, :]    # (W, G, 1, F)
+        spread = np.maximum(np.exp(-0.5 * (w * 1e-6 * p[:, 1, None, None]) ** 2
+                                   * self.var[None, :, None]), 0.05)
+        # the block sum carries exp(-i w tau_g) * spread; the factor undoes both
+        return (np.exp(1j * w * tau[:, :, None]) / spread)[:, :, None, :]    # (W, G, 1, F)
 
     def log_prior(self, p):
         ok = (np.abs(p[:, 0]) < 30) & (np.abs(p[:, 1]) < self.limit_ppm)
@@ -117,7 +120,7 @@ class ClockDrift(Effect):
     @staticmethod
     def explain(med):
         s = med["ppm"]
-        return (f"the SUT's clock {'loses' if s > 0 else 'gains'} {abs(s):.3g} ppm against the "
+        return (f"the SUT's clock {'gains' if s > 0 else 'loses'} {abs(s):.3g} ppm against the "
                 f"reference's (its offset grows through the record; {med['seconds_mid']:.3g} s "
                 "at mid-record, + = SUT late)")
 

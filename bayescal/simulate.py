@@ -130,13 +130,15 @@ def _noise_like(rng, freqs, signal_psd, coherence):
 
 def _drifting(spectrum, n, fs, ppm, chunk_s=10.0):
     """Samples of ``spectrum`` (channels, n//2+1) delayed by ``ppm * 1e-6 * t``
-    (a clock that loses ``ppm``): each ``chunk_s`` stretch is cut from the
+    (a clock that gains ``ppm``: its time stamps run ahead, so the record
+    shows each arrival later and later): each ``chunk_s`` stretch is cut from the
     record delayed exactly (a Fourier phase) by the delay at its centre, so
     the delay is off by at most ``ppm * 1e-6 * chunk_s / 2`` (0.5 ms at
     100 ppm). Linear interpolation of the samples would low-pass the
     record as well (to 0.6 of the amplitude at 0.3 of the sampling rate
     for half-sample delays), a loss no real clock causes."""
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    chunk_s = max(chunk_s, n / fs / 400.0)       # at most 400 inverse FFTs of the record
     step = max(1, int(round(chunk_s * fs)))
     out = np.empty((spectrum.shape[0], n))
     for a in range(0, n, step):

@@ -23,10 +23,11 @@ segment, 1e-5 per run). Samples within two periods of the band's lower edge
 from a run's ends, where the inverse filter's transient lives, are left out.
 
 Segments stream through in chunks, so memory holds one chunk of segments plus
-the per-frequency totals (whole record and 16 time blocks) and the small
-per-segment band matrices; it does not
-grow with the record beyond ``K x B x n x n`` numbers (the deconvolution holds
-one run of one sensor at a time).
+the per-frequency totals (whole record, and 16 time blocks in single
+precision: 9 times the memory of the totals alone, F x n x n numbers each)
+and the small per-segment band matrices; it does not grow with the record
+beyond ``K x B x n x n`` numbers (the deconvolution holds one run of one
+sensor at a time).
 """
 from __future__ import annotations
 
@@ -59,8 +60,10 @@ class CrossSpectra:
         the raw material of the noise model and of the diagnostics.
     segment_starts : (K,) first sample of each used segment.
     block_totals : (G, F, n, n) ``total`` split into G consecutive time blocks
-        of equal length (``block_of`` (K,) gives each segment's block): what a
-        model of a clock that drifts through the record needs.
+        of equal length, those a gap left empty dropped (``block_of`` (K,)
+        gives each segment's block); single precision (16 blocks cost 8
+        times the memory of ``total``): what a model of a clock that drifts
+        through the record needs.
     n_u, n_r : numbers of SUT and reference channels.
     psd_scale : multiply ``total / K`` by this to get one-sided PSD, (m/s)^2/Hz.
     """
@@ -270,7 +273,7 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     total = np.zeros((freqs.size, n, n), dtype=complex)
     n_blocks = max(1, min(int(time_blocks), starts.size // 2))
     block_of_start = np.minimum((starts * n_blocks) // max(n_samples - nperseg + 1, 1), n_blocks - 1)
-    blocks = np.zeros((n_blocks,) + total.shape, dtype=complex)
+    blocks = np.zeros((n_blocks,) + total.shape, dtype=np.complex64)
     per_seg, used = [], []
     for c0 in range(0, starts.size, chunk):
         s = starts[c0:c0 + chunk]
@@ -292,6 +295,10 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         raise SpectraError("no segment without gaps: every window touches missing data")
     per_segment = np.concatenate(per_seg)
     segment_starts = np.concatenate(used)
+    # blocks that a gap left empty are dropped (numbered anew)
+    block_of = block_of_start[np.searchsorted(starts, segment_starts)]
+    filled = np.bincount(block_of, minlength=n_blocks) > 0
+    blocks, block_of = blocks[filled], (np.cumsum(filled) - 1)[block_of]
     if per_segment.shape[0] < 4:
         raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
                            " too little data for the band")
@@ -300,4 +307,4 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         total=total, per_segment=per_segment, segment_starts=segment_starts,
         n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),
         psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids),
-        block_totals=blocks, block_of=block_of_start[np.searchsorted(starts, segment_starts)])
+        block_totals=blocks, block_of=block_of)

@@ -66,3 +66,18 @@ def test_whole_run_deconvolution_is_exact_in_band():
     want = np.fft.irfft(np.fft.rfft(ground) * band_taper(f, (0.02, 2.0)), n=n)
     assert np.isnan(back[:1000]).all()
     assert np.max(np.abs(back[keep] - want[keep])) < 0.02 * np.std(want)
+
+
+def test_time_blocks_sum_to_the_totals_and_a_gap_drops_an_empty_block():
+    sut, ref = _data(n=80_000)
+    sp = cross_spectra(sut, ref, FS, None, None, (0.05, 2.0), nperseg=1024)
+    assert sp.block_totals.shape[0] == 16
+    assert np.allclose(sp.block_totals.sum(axis=0), sp.total, rtol=1e-5)
+    # a gap over the whole fourth block (samples 15000-20000 of 80000)
+    sut[0, 14_000:21_000] = np.nan
+    gapped = cross_spectra(sut, ref, FS, None, None, (0.05, 2.0), nperseg=1024)
+    assert gapped.block_totals.shape[0] == 15
+    assert np.bincount(gapped.block_of).min() > 0
+    assert np.allclose(gapped.block_totals.sum(axis=0), gapped.total, rtol=1e-5)
+    # block numbers follow time
+    assert np.all(np.diff(gapped.block_of) >= 0)
