@@ -560,6 +560,12 @@ class Diagnosis:
             out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
                        f"misfit in {where} Hz (largest standardised misfit there "
                        f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
+        if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
+            b, a = self.before_common["misfit"], self.after["misfit"]
+            out.append(f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised "
+                       f"misfit falls from median {np.median(b):.3g} (largest {b.max():.3g}) to "
+                       f"median {np.median(a):.3g} (largest {a.max():.3g}); 1 means a fit "
+                       "within the noise")
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]

@@ -35,6 +35,12 @@ def write_page(diagnosis, stem):
                      color=line.get_color(), label=f"{cid} phase before")
         ax2.semilogx(centres, 100 * (np.abs(d.ratio_before[:, i]) - 1), "^:",
                      color=line.get_color(), label=f"{cid} amplitude before (%)")
+        if d.final is not d.base:
+            ax2.semilogx(centres, np.degrees(np.angle(d.ratio_after[:, i])), "o-",
+                         color=line.get_color(), alpha=0.6, label=f"{cid} phase with the effects")
+            ax2.semilogx(centres, 100 * (np.abs(d.ratio_after[:, i]) - 1), "^-",
+                         color=line.get_color(), alpha=0.6,
+                         label=f"{cid} amplitude with the effects (%)")
     ax1.axhline(1.0, color="k", lw=0.8)
     ax1.set_ylabel("standardised misfit per band (1 = fits)")
     ax1.set_title("misfit before and after modelling the effects (both under the final "
@@ -43,7 +49,8 @@ def write_page(diagnosis, stem):
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set_xlabel("frequency (Hz)")
     ax2.set_ylabel("recorded / predicted: phase (deg), amplitude - 1 (%)")
-    ax2.set_title("ratio of the SUT's recording to the base model's prediction", fontsize=9)
+    ax2.set_title("ratio of the SUT's recording to the prediction of the base model and of "
+                  "the model with the effects", fontsize=9)
     ax2.legend(fontsize=6, ncol=2)
     paths = (f"{stem}.pdf", f"{stem}.png")
     fig.savefig(paths[0])

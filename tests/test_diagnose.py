@@ -15,8 +15,8 @@ from bayescal.simulate import simulate_pair
 AZ = (5.0, 95.0, 0.0)
 
 
-def _diagnose(band=(0.05, 3.0), seed=1, **effect):
-    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=0.99, sut_azimuth=AZ,
+def _diagnose(band=(0.05, 3.0), seed=1, coherence=0.99, **effect):
+    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=AZ,
                         nominal_azimuth=(3.0, 93.0, 0.0), **effect)
     post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
                               progress=False, min_ess=200, n_tau=20)
@@ -65,13 +65,15 @@ def test_gain_error_on_one_channel():
     _inside(e, "fraction", -0.05)
 
 
-def test_polarity_reversal_and_swap_named_from_orientation():
+def test_polarity_reversal_and_swap_named_and_scored():
     d = _diagnose(polarity_reversal=2)
     e = _only(d, "polarity_reversal")
     assert e["channels"] == ["XX.SIM.10.BHZ"]
+    assert e["score_gain"] > 1000
     d = _diagnose(channel_swap=(0, 1))
     e = _only(d, "channel_swap")
     assert sorted(e["channels"]) == ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
+    assert e["score_gain"] > 1000
 
 
 @pytest.mark.parametrize("ppm", [60.0, -8.0])
@@ -84,10 +86,16 @@ def test_clock_drift_rate_and_sign_from_the_posterior(ppm):
     _inside(e, "seconds_mid", ppm * 1e-6 * t_mid)
 
 
-def test_tilt_noise_named_on_horizontals():
-    d = _diagnose(band=(0.02, 3.0), tilt_noise=30.0)
+@pytest.mark.parametrize("level, coherence", [(30.0, 0.99), (10.0, 0.93)])
+def test_tilt_noise_modelled_on_horizontals(level, coherence):
+    """Strong tilt, and weak tilt at a coherence the earlier coherence-ratio
+    rule missed: named on both horizontals, the simulated f^-2 recovered."""
+    d = _diagnose(band=(0.02, 3.0), tilt_noise=level, coherence=coherence)
     e = _only(d, "tilt_noise")
     assert e["channels"] == ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
+    assert e["score_gain"] > 10
+    _inside(e, "alpha", 2.0)
+    assert d.final is d.base       # noise, not a response error: the estimates do not move
 
 
 def test_cli_end_to_end(tmp_path):
