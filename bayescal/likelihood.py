@@ -327,7 +327,7 @@ class Model:
         for j in self._free_rows:
             r[:, 0, :, j, :] = (np.ascontiguousarray(ratio[:, j]) @ self._cur_rows[j]).reshape(
                 w, nb, nr)
-        r -= np.einsum("wij,gbjk->wgbik", t, self._srr_g)          # (W, 1, B, nu, nr)
+        r -= _times_blocks(t, self._srr_g)                            # (W, 1, B, nu, nr)
         return r
 
     def _exact_block_residuals(self, theta):
@@ -337,14 +337,16 @@ class Model:
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv
+        g_n = self._cur_blocks.shape[0]
         r = np.broadcast_to(self._sur_blocks, (w,) + self._sur_blocks.shape).copy()
         bf = self.block_factors(theta)
         for j in self._free_rows:
-            for g in range(self._cur_blocks.shape[0]):
-                rg = ratio[:, j] if bf is None else ratio[:, j] * bf[:, g, j]
-                r[:, g, :, j, :] = (np.ascontiguousarray(rg) @ self._cur_blocks[g, j]).reshape(
-                    w, nb, nr)
-        r -= np.einsum("wij,gbjk->wgbik", t, self._srr_blocks)
+            # one batched product per row: (G, W, Q) @ (G, Q, B*nr)
+            rg = np.broadcast_to(ratio[None, :, j], (g_n, w, ratio.shape[2])) if bf is None \
+                else ratio[None, :, j] * bf[:, :, j].transpose(1, 0, 2)
+            row = np.matmul(np.ascontiguousarray(rg), self._cur_blocks[:, j])
+            r[:, :, :, j, :] = row.reshape(g_n, w, nb, nr).transpose(1, 0, 2, 3)
+        r -= _times_blocks(t, self._srr_blocks)                       # (W, G, B, nu, nr)
         return r
 
     def residual(self, theta):
@@ -353,6 +355,11 @@ class Model:
 
     def log_likelihood(self, theta):
         r = self.residual_blocks(theta)
+        if not self.per_block:
+            r = r[:, 0]
+            ar = np.einsum("bij,wbjk->wbik", self.noise.A, r)
+            arb = np.einsum("wbik,bkl->wbil", ar, self.noise.B[0])
+            return -np.sum((arb * r.conj()).real, axis=(1, 2, 3))
         ar = np.einsum("bij,wgbjk->wgbik", self.noise.A, r)
         arb = np.einsum("wgbik,gbkl->wgbil", ar, self.noise.B)
         return -np.sum((arb * r.conj()).real, axis=(1, 2, 3, 4))
@@ -463,6 +470,16 @@ class Model:
         r = self.residual(np.atleast_2d(theta))[0]
         z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
         return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
+
+
+def _times_blocks(t, s):
+    """``t @ s`` for every walker and block, (W, G, B, n_u, n_r), as one
+    BLAS product: ``t`` (W, n_u, n_r), ``s`` (G, B, n_r, n_r)."""
+    w, nu, nr = t.shape
+    g, b = s.shape[:2]
+    flat = s.transpose(2, 0, 1, 3).reshape(nr, g * b * nr)
+    out = np.ascontiguousarray(t).reshape(w * nu, nr) @ flat
+    return out.reshape(w, nu, g, b, nr).transpose(0, 2, 3, 1, 4)
 
 
 def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):
