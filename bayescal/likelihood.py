@@ -45,6 +45,14 @@ the record, ``R_b,g = S_ur,b,g(a) - T S_rr,b,g``, with covariance
 ``Sigma_b (x) S_rr,b,g^T``. Summed over blocks, a phase that changes
 linearly through the record cancels to first order (it only decoheres the
 sum, evenly in its rate); per block its progression, sign included, is seen.
+
+A model with effects measures ``c_b`` on the exact residuals of the time
+blocks (every bin kept), after removing the part common to all blocks,
+rather than on per-segment band residuals, which apply the response ratio at
+the band centre and so miss an effect's factor that turns within a band (a
+delay's phase). Records with fewer than ``MIN_TIME_BLOCKS`` blocks (under 8
+segments) fall back to the per-segment estimate, which overstates ``c_b``
+under a large delay.
 """
 from __future__ import annotations
 
