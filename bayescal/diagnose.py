@@ -235,11 +235,11 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
         if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
             continue
         # starts are compared under one noise model, the current model's
-        judge = _with(m, m.effects)
-        judge.adopt_noise(cur_model.noise)
-        fit_ll = float(judge.log_likelihood(theta)[0])
+        own = m.noise
+        m.adopt_noise(cur_model.noise)
+        fit_ll = float(m.log_likelihood(theta)[0])
         if best is None or fit_ll > best[0]:
-            best = (fit_ll, theta, cov, m.noise)
+            best = (fit_ll, theta, cov, own)
     if best is None:
         return None
     _, theta, cov, m.noise = best

@@ -14,12 +14,11 @@ AZI8's LH1 taken as north.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import sys
-import time
 from pathlib import Path
+
+from _real import parse_args, run_bayescal
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "real" / "asl_cowi_azimuth"
@@ -47,22 +46,10 @@ def rotation(channels):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", type=Path, default=DEFAULT_DATA)
-    p.add_argument("--out", default=str(ROOT / "reports" / "real" / "cowi"))
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
-    if not a.data.is_dir():
-        sys.exit(f"data folder {a.data} not found (see ../shared/data/README.md)")
-    from bayescal.cli import main as cli
+    a = parse_args(__doc__, DEFAULT_DATA, ROOT / "reports" / "real" / "cowi", argv)
 
     cmd = command(a.data, a.out, a.seed)
-    print("bayescal " + " ".join(cmd))
-    t0 = time.perf_counter()
-    rc = cli(cmd)
-    elapsed = time.perf_counter() - t0
-    if rc:
-        sys.exit(rc)
+    elapsed = run_bayescal(cmd)
     res = json.load(open(os.path.join(a.out, "result.json")))
     print(f"fitted in {elapsed:.1f} s; data used: {res['meta']['data_used']['segments']} segments")
     for cid, r in rotation(res["channels"]).items():

@@ -17,14 +17,12 @@ The fitted response is compared with ObsPy's ``rel_calib_stack`` over
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from _real import parse_args, run_bayescal
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "real" / "obspy_relcal"
@@ -79,26 +77,14 @@ def obspy_rel_calib(data, band=COMPARE_BAND, smooth=10):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", type=Path, default=DEFAULT_DATA)
-    p.add_argument("--out", default=str(ROOT / "reports" / "real" / "huddle"))
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
-    if not a.data.is_dir():
-        sys.exit(f"data folder {a.data} not found (see ../shared/data/README.md)")
-    from bayescal.cli import main as cli
+    a = parse_args(__doc__, DEFAULT_DATA, ROOT / "reports" / "real" / "huddle", argv)
 
     ref_xml, sut_xml = write_inputs(a.data, os.path.join(a.out, "inputs"))
     cmd = ["fit", "--ref", str(a.data / "ref_STS2"), "--ref-xml", ref_xml,
            "--sut", str(a.data / "ref_unknown"), "--sut-xml", sut_xml,
            "--out", os.path.join(a.out, "fit"), "--fit-response", "all",
            "--band", str(BAND[0]), str(BAND[1]), "--seed", str(a.seed), "--quiet", "--no-report"]
-    print("bayescal " + " ".join(cmd))
-    t0 = time.perf_counter()
-    rc = cli(cmd)
-    elapsed = time.perf_counter() - t0
-    if rc:
-        sys.exit(rc)
+    elapsed = run_bayescal(cmd)
     res = json.load(open(os.path.join(a.out, "fit", "result.json")))
     (cid, ch), = res["channels"].items()
     print(f"{cid}: fitted in {elapsed:.1f} s (band {BAND[0]}-{BAND[1]} Hz)")
