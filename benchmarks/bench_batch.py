@@ -30,9 +30,9 @@ import numpy as np
 def main():
     from distributed import LocalCluster
 
-    from bayescal.batch import read_log, run_batch
-    from bayescal.netsim import write_network
-    from bayescal.plan import default_options, sds_plan
+    from bayescal.network.batch import read_log, run_batch
+    from bayescal.simulate.network import write_network
+    from bayescal.network.plan import default_options, sds_plan
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])

@@ -22,7 +22,7 @@ import time
 
 def make_result(folder, response):
     import bayescal
-    from bayescal.simulate import simulate_pair
+    from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0),
                         sut_response=((28.0, 0.68, 780.0), (31.0, 0.72, 730.0),
@@ -41,7 +41,7 @@ def main(argv=None):
     p.add_argument("--folder", default=None)
     a = p.parse_args(argv)
     t0 = time.perf_counter()
-    from bayescal.report import write_report
+    from bayescal.report.fit import write_report
     import_s = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as tmp:
         folder = a.folder or make_result(os.path.join(tmp, "result"), a.response)

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from bayescal.coverage import coverage_checks, run_case, summarise
+from bayescal.simulate.coverage import coverage_checks, run_case, summarise
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -62,8 +62,8 @@ def draw(rng, p_clean):
 def run_one(seed, p_clean):
     """One concealed-effect run; returns its record."""
     import bayescal
-    from bayescal.diagnose import diagnose
-    from bayescal.simulate import simulate_pair
+    from bayescal.criticism.diagnose import diagnose
+    from bayescal.simulate.pair import simulate_pair
 
     rng = np.random.default_rng(seed)
     kind, kw, truth = draw(rng, p_clean)
@@ -130,7 +130,7 @@ def main(argv=None):
     for k in range(args.runs):
         rec = run_one(args.first_seed + k, args.p_clean)
         records.append(rec)
-        from bayescal.posterior import write_json
+        from bayescal.core.posterior import write_json
         write_json(args.out + ".partial", {"runs": records})
         print(f"{k + 1:3d} seed {rec['seed']} {rec['truth']:18s} -> {rec['outcome']:11s} "
               f"{rec['named']} {rec['seconds']:.1f} s", file=sys.stderr, flush=True)
@@ -159,7 +159,7 @@ def main(argv=None):
     text = "\n".join(lines)
     print(text)
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
-    from bayescal.posterior import write_json
+    from bayescal.core.posterior import write_json
     write_json(args.out, {"runs": records, "table": rows, "right_name_fraction": right,
                    "false_alarm_fraction": false, "markdown": text,
                    "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,

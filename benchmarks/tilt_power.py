@@ -1,5 +1,5 @@
-"""Power of the tilt-noise test (:func:`bayescal.tilt.tilt_test`) against the
-old coherence-ratio rule (:func:`bayescal.physics.tilt_signature`), on the
+"""Power of the tilt-noise test (:func:`bayescal.criticism.tilt.tilt_test`) against the
+old coherence-ratio rule (:func:`bayescal.effects.tilt_signature`), on the
 same simulated pairs.
 
 Each of ``--n`` seeds draws, as ``benchmarks/diagnose_harness.py`` does, a
@@ -39,9 +39,9 @@ def pair_spectra(seed, coherence, azimuth, level, band=BAND, **effects):
     ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
     the pipeline does; ``effects`` go to ``simulate_pair``. Also used by
     tests/test_tilt.py."""
-    from bayescal.io import align
-    from bayescal.simulate import simulate_pair
-    from bayescal.spectra import cross_spectra
+    from bayescal.io.read import align
+    from bayescal.simulate.pair import simulate_pair
+    from bayescal.core.spectra import cross_spectra
 
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence,
                         sut_azimuth=(azimuth, azimuth + 90, 0.0), tilt_noise=level, **effects)
@@ -52,16 +52,16 @@ def pair_spectra(seed, coherence, azimuth, level, band=BAND, **effects):
 
 def judge(sp):
     """Verdicts of the new test (both shapes) and of the old rule."""
-    from bayescal import physics
-    from bayescal.diagnose import band_coherence
-    from bayescal.tilt import tilt_test
+    from bayescal.criticism import effects
+    from bayescal.criticism.locate import band_coherence
+    from bayescal.criticism.tilt import tilt_test
 
     out = {}
     for name, kw in VARIANTS.items():
         t = tilt_test(sp, HORIZONTAL, **kw)
         out[name] = {"kept": t["kept"], "channels": t["channels"], "delta_bic": t["delta_bic"],
                       "alpha": t["alpha"], "phi": t["phi"]}
-    old = physics.tilt_signature(sp.band_centres, band_coherence(sp), HORIZONTAL)
+    old = effects.tilt_signature(sp.band_centres, band_coherence(sp), HORIZONTAL)
     out["old"] = {"kept": bool(old["channels"]), "channels": old["channels"],
                   "score": old["score"]}
     return out
@@ -130,7 +130,7 @@ def main(argv=None):
                     help="tilt levels drawn log-uniform between these (5 100)")
     ap.add_argument("--out", default="reports/diagnose/tilt_power.json")
     args = ap.parse_args(argv)
-    from bayescal.posterior import write_json
+    from bayescal.core.posterior import write_json
 
     t0 = time.perf_counter()
     records = []

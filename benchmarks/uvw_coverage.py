@@ -1,7 +1,7 @@
 """Coverage of the UVW element intervals over seeded simulations.
 
 For each seed: draw true element parameters around the STS-2 nominal, simulate
-coil-by-coil runs (bayescal.calsim), fit one element (cycling U, V, W) from
+coil-by-coil runs (bayescal.simulate.coil), fit one element (cycling U, V, W) from
 all outputs and from Z only, and record whether the truth lies in the 68, 90
 and 95 % intervals. Prints the covered fractions with Clopper-Pearson 95 %
 binomial intervals, recovery errors and the time per fit.
@@ -18,8 +18,8 @@ import time
 import numpy as np
 from scipy.stats import binomtest
 
-from bayescal import uvw
-from bayescal.calsim import STS2_NOMINAL, simulate_calibration
+from bayescal import coil
+from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
 
 LEVELS = ("ci68", "ci90", "ci95")
 
@@ -36,14 +36,14 @@ def one(seed, duration, band, modes, nperseg=None):
     rng = np.random.default_rng(1000 + seed)
     els = draw_elements(rng)
     sim = simulate_calibration(elements=els, seed=seed, duration=duration)
-    e = uvw.ELEMENTS[seed % 3]
-    run = uvw.read_run(e, sim.runs[e], sim.inventory, "BC0", f"sim{seed}:{e}")
-    truth = dict(zip(uvw.PARAMS, els[uvw.ELEMENTS.index(e)]))
+    e = coil.ELEMENTS[seed % 3]
+    run = coil.read_run(e, sim.runs[e], sim.inventory, "BC0", f"sim{seed}:{e}")
+    truth = dict(zip(coil.PARAMS, els[coil.ELEMENTS.index(e)]))
     out = {}
     for mode in modes:
         r = run.select(["Z"]) if mode == "z" else run
         t = time.perf_counter()
-        fit = uvw.fit_run(r, uvw.STS2_UVW, sim.truth["coil_constant"], band, nperseg=nperseg,
+        fit = coil.fit_run(r, coil.STS2_UVW, sim.truth["coil_constant"], band, nperseg=nperseg,
                           seed=seed)
         dt = time.perf_counter() - t
         s = fit.summary()
@@ -51,14 +51,14 @@ def one(seed, duration, band, modes, nperseg=None):
                      "samples": fit.samples,
                      **{p: {"truth": truth[p], "median": s[p]["median"], "sd": s[p]["sd"],
                             **{lv: bool(s[p][lv][0] <= truth[p] <= s[p][lv][1]) for lv in LEVELS}}
-                        for p in uvw.PARAMS}}
+                        for p in coil.PARAMS}}
     return out
 
 
 def _agreement_z(a, z, j):
     from types import SimpleNamespace
-    ag = uvw.agreement(SimpleNamespace(samples=a), SimpleNamespace(samples=z))
-    return ag[uvw.PARAMS[j]]["z"]
+    ag = coil.agreement(SimpleNamespace(samples=a), SimpleNamespace(samples=z))
+    return ag[coil.PARAMS[j]]["z"]
 
 
 def summarise(records, mode):
@@ -66,7 +66,7 @@ def summarise(records, mode):
     rec = [r[mode] for r in records]
     n = len(rec)
     cov = {}
-    for p in uvw.PARAMS:
+    for p in coil.PARAMS:
         cov[p] = {}
         for lv in LEVELS:
             k = sum(r[p][lv] for r in rec)
@@ -79,7 +79,7 @@ def summarise(records, mode):
                                         "mean_se": float(z.std() / np.sqrt(n))}
     times = np.array([r["time_s"] for r in rec])
     if mode == "all" and "z" in records[0]:
-        # Z-only vs all-output agreement statistic (uvw.agreement) under the
+        # Z-only vs all-output agreement statistic (coil.agreement) under the
         # true model: should be about standard normal
         zs = np.array([[_agreement_z(r["all"]["samples"], r["z"]["samples"], j)
                         for j in range(3)] for r in records])
@@ -98,7 +98,7 @@ def main():
     ap.add_argument("--band", nargs=2, type=float, default=(0.5 / 120, 25 / 120))
     ap.add_argument("--modes", default="all,z", help="all and/or z")
     ap.add_argument("--nperseg", type=int, default=None,
-                    help="segment length (samples); default: bayescal.uvw's choice")
+                    help="segment length (samples); default: bayescal.coil.uvw's choice")
     ap.add_argument("--out", default=None, help="write the summary JSON here")
     args = ap.parse_args()
     modes = args.modes.split(",")

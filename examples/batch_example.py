@@ -26,9 +26,9 @@ import tempfile
 
 
 def main():
-    from bayescal.batch import run_batch
-    from bayescal.netsim import write_network
-    from bayescal.plan import default_options, sds_plan
+    from bayescal.network.batch import run_batch
+    from bayescal.simulate.network import write_network
+    from bayescal.network.plan import default_options, sds_plan
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="reports/batch")

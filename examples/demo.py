@@ -22,7 +22,7 @@ import sys
 import time
 
 from bayescal.cli import main as bayescal_main
-from bayescal.simulate import simulate_pair
+from bayescal.simulate.pair import simulate_pair
 
 TRUTH_RESPONSE = ((28.5, 0.69, 761.0), (31.0, 0.72, 744.0), (30.0, 0.70, 752.0))
 
@@ -46,7 +46,7 @@ def run(out, seed=2026, quiet=False):
     elapsed = time.time() - t0
     shutil.copy(paths["truth.json"], os.path.join(fit_dir, "truth.json"))
     try:
-        from bayescal.report import write_report
+        from bayescal.report.fit import write_report
         written = write_report(fit_dir)
     except ImportError:
         written = []

@@ -70,9 +70,9 @@ def run_case(name, spec, data, out, seed=0, mcmc=False):
     from obspy import UTCDateTime
 
     import bayescal
-    from bayescal.diagnose import diagnose
-    from bayescal.diagnose_report import write_page
-    from bayescal.posterior import write_json
+    from bayescal.criticism.diagnose import diagnose
+    from bayescal.report.diagnosis import write_page
+    from bayescal.core.posterior import write_json
 
     folder = os.path.join(out, name)
     os.makedirs(folder, exist_ok=True)

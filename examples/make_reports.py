@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _simulated_fit(folder, sim_kw, fit_kw):
     """Simulate a pair, fit it, save result and truth into ``folder``."""
     import bayescal
-    from bayescal.simulate import simulate_pair
+    from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(**sim_kw)
     post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
@@ -103,7 +103,7 @@ def main(argv=None):
     p.add_argument("--only", nargs="*", choices=sorted(CASES), default=list(CASES))
     p.add_argument("--threshold", type=float, default=5.0, help="flag tolerance (deg)")
     a = p.parse_args(argv)
-    from bayescal.report import write_report
+    from bayescal.report.fit import write_report
 
     for name in a.only:
         t0 = time.perf_counter()

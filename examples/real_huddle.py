@@ -51,8 +51,8 @@ def fitted_amplitude(result_dir, sut_xml, band=COMPARE_BAND, n=200):
     """Median over ``band`` of the fitted |H_unknown(f)| (counts per m/s),
     per posterior sample; returns (median, 2.5 %, 97.5 %)."""
     from bayescal import Posterior
-    from bayescal.io import read_metadata
-    from bayescal.response import TwoPoleFamily, evaluate_velocity_response
+    from bayescal.io.read import read_metadata
+    from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
 
     post = Posterior.load(result_dir)
     resp = read_metadata(sut_xml)[0][0][0].response

@@ -21,8 +21,8 @@ import time
 import numpy as np
 from obspy import read
 
-from bayescal import cli, uvw
-from bayescal.calsim import simulate_calibration
+from bayescal import cli, coil
+from bayescal.simulate.coil import simulate_calibration
 
 ELEMENTS = ((118.0, 0.700, 1490.0),   # U: period (s), damping, gain (V per m/s)
             (121.5, 0.720, 1512.0),   # V
@@ -54,8 +54,8 @@ def main():
     with open(os.path.join(args.out, "uvw.json")) as fh:
         summary = json.load(fh)
     print("\nelement   parameter   truth      median     95 % interval        error")
-    for e, truth in zip(uvw.ELEMENTS, ELEMENTS):
-        for p, t in zip(uvw.PARAMS, truth):
+    for e, truth in zip(coil.ELEMENTS, ELEMENTS):
+        for p, t in zip(coil.PARAMS, truth):
             s = summary["elements"][e][p]
             print(f"{e:8s}  {p:10s}  {t:9.4f}  {s['median']:9.4f}  "
                   f"[{s['ci95'][0]:9.4f}, {s['ci95'][1]:9.4f}]  {100 * (s['median'] / t - 1):+.3f} %")
@@ -63,7 +63,7 @@ def main():
     # everyday use: rotate recorded XYZ to UVW. In the V run only V is driven,
     # so V carries the signal and U, W only their self-noise.
     st = read(paths["V"]).select(channel="LH?")
-    rot = uvw.xyz_to_uvw(st, uvw.STS2_UVW, source=paths["V"])
+    rot = coil.xyz_to_uvw(st, coil.STS2_UVW, source=paths["V"])
     print("\nV run rotated to UVW, rms (counts):",
           ", ".join(f"{tr.stats.channel}: {np.std(tr.data):.3g}" for tr in rot))
     print(f"\nreport: {os.path.join(args.out, 'uvw_report.pdf')}")

@@ -18,7 +18,7 @@ SIM_BAND = (0.03, 1.0)
 @pytest.fixture(scope="session")
 def sim_pair():
     """The simulated pair (ObsPy objects and truth)."""
-    from bayescal.simulate import simulate_pair
+    from bayescal.simulate.pair import simulate_pair
     return simulate_pair(**SIM_KW)
 
 

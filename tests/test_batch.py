@@ -14,11 +14,11 @@ import time
 import numpy as np
 import pytest
 
-from bayescal.batch import item_seed, read_log, run_batch
-from bayescal.batch_report import read_results
+from bayescal.network.batch import item_seed, read_log, run_batch
+from bayescal.report.batch import read_results
 from bayescal.cli import main
-from bayescal.netsim import sds_path, write_network
-from bayescal.plan import default_options, read_csv_plan, sds_plan
+from bayescal.simulate.network import sds_path, write_network
+from bayescal.network.plan import default_options, read_csv_plan, sds_plan
 
 SEED = 7
 THRESHOLD = 2.0
@@ -201,7 +201,7 @@ def _row(day, az, half, gain=None, gain_half=0.0, channel="XX.A.10.BH1"):
 
 
 def test_flag_rule_needs_threshold_and_uncertainty():
-    from bayescal.batch_report import find_flags
+    from bayescal.report.batch import find_flags
 
     def flags(rows):
         return {(f["quantity"], f["flag"], f["day"]) for f in find_flags(rows, 2.0, 2.0)}

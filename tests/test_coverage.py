@@ -5,7 +5,7 @@ must contain the truth at a rate consistent with 90 % (binomial tolerance).
 This is the small in-suite version of benchmarks/coverage_study.py (which runs
 100 pairs with the full 15-parameter joint posterior; its table and plot are in
 reports/coverage/)."""
-from bayescal.coverage import binomial_band, coverage_checks, run_case, summarise
+from bayescal.simulate.coverage import binomial_band, coverage_checks, run_case, summarise
 
 N_PAIRS = 24
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import bayescal
-from bayescal.diagnose import diagnose
-from bayescal.simulate import simulate_pair
+from bayescal.criticism.diagnose import diagnose
+from bayescal.simulate.pair import simulate_pair
 
 AZ = (5.0, 95.0, 0.0)
 

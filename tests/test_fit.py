@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import bayescal
-from bayescal.geometry import unwrap_azimuths
-from bayescal.simulate import simulate_pair
+from bayescal.core.geometry import unwrap_azimuths
+from bayescal.simulate.pair import simulate_pair
 
 
 @pytest.fixture(scope="module")

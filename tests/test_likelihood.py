@@ -3,10 +3,10 @@ form suffers at low coherence while bayescal's form does not."""
 import numpy as np
 import pytest
 
-from bayescal.fit import build_model, least_squares_fit
-from bayescal.io import align
-from bayescal.spectra import cross_spectra
-from bayescal.simulate import simulate_pair
+from bayescal.core.sampler import build_model, least_squares_fit
+from bayescal.io.read import align
+from bayescal.core.spectra import cross_spectra
+from bayescal.simulate.pair import simulate_pair
 
 
 def _spectra(seed, coherence, band=(0.03, 1.0), **kw):

@@ -74,7 +74,7 @@ def test_cowi_band_chosen_from_coherence(cowi_data):
     """Without --band: the chosen band covers the secondary microseism,
     leaves out the vertical (no vertical reference), and the azimuths still
     agree with ASL."""
-    from bayescal.pipeline import calibrate_files
+    from bayescal.io.pipeline import calibrate_files
 
     post = calibrate_files(cowi_data / "C100823215422_COWI.LHx", "flat",
                            [cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], "flat",

@@ -14,9 +14,9 @@ pypdf = pytest.importorskip("pypdf")
 
 import bayescal  # noqa: E402
 from bayescal.cli import main as cli_main  # noqa: E402
-from bayescal.io import InputError  # noqa: E402
-from bayescal.report import write_report  # noqa: E402
-from bayescal.simulate import simulate_pair  # noqa: E402
+from bayescal.io.read import InputError  # noqa: E402
+from bayescal.report.fit import write_report  # noqa: E402
+from bayescal.simulate.pair import simulate_pair  # noqa: E402
 
 BAND = (0.03, 1.0)
 # BH1 turned 12 deg from its nominal north (beyond the 5 deg tolerance), BH2
@@ -259,7 +259,7 @@ def test_renders_without_display(flagged, tmp_path):
 def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     """A result whose sampler did not converge says so on pages 1 and 5; a
     result without diagnostics.npz still renders, saying what is missing."""
-    from bayescal.posterior import Posterior
+    from bayescal.core.posterior import Posterior
 
     post = Posterior.load(flagged[0])
     post.convergence["converged"] = False

@@ -9,8 +9,8 @@ import obspy
 import pytest
 
 import bayescal
-from bayescal.response import TwoPoleFamily, evaluate_velocity_response
-from bayescal.stationxml import corrected_inventory, write_corrected
+from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
+from bayescal.io.stationxml import corrected_inventory, write_corrected
 from tests.conftest import SIM_BAND
 
 
@@ -73,7 +73,7 @@ def test_fitted_response_written_and_sensitivity_recalculated(tmp_path):
     """Joint fit of one simulated channel: the corrected StationXML holds the
     posterior median period, damping and gain, and a consistent sensitivity;
     the truth lies inside the written 95 % intervals."""
-    from bayescal.simulate import simulate_pair
+    from bayescal.simulate.pair import simulate_pair
 
     truth = (27.0, 0.68, 780.0)
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99,

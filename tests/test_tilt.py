@@ -1,5 +1,5 @@
 """Tilt noise as a nested extension of the noise-to-signal model
-(bayescal.tilt): no false alarm on clean pairs, weak tilt noise that the old
+(bayescal.criticism.tilt): no false alarm on clean pairs, weak tilt noise that the old
 coherence-ratio rule misses is found on both horizontals with the simulator's
 exponent (its tilt power falls as f^-2), its level scales with the simulated
 level, and the test declines when it cannot be done."""
@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayescal import physics
-from bayescal.diagnose import band_coherence
-from bayescal.tilt import nsr_data, tilt_test
+from bayescal.criticism import effects
+from bayescal.criticism.locate import band_coherence
+from bayescal.criticism.tilt import nsr_data, tilt_test
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from tilt_power import pair_spectra  # noqa: E402  (the benchmark's simulated spectra)
@@ -25,7 +25,7 @@ def _spectra(seed, coherence, level, azimuth=30.0, band=(0.02, 3.0), **effects):
 
 
 def _old_rule(sp):
-    return physics.tilt_signature(sp.band_centres, band_coherence(sp), HORIZONTAL)["channels"]
+    return effects.tilt_signature(sp.band_centres, band_coherence(sp), HORIZONTAL)["channels"]
 
 
 @pytest.mark.parametrize("seed,coherence", [(101, 0.9), (102, 0.9), (103, 0.995), (104, 0.995),
@@ -52,7 +52,7 @@ def test_noise_to_signal_errors_are_calibrated_on_clean_pairs():
     """chi2 of the base model over its degrees of freedom, pooled over clean
     pairs, is near 1 with both the noise and the signal fluctuation in the
     error (without the signal's share it would be about 2.8)."""
-    from bayescal.tilt import base_fit
+    from bayescal.criticism.tilt import base_fit
     chi2, dof = 0.0, 0
     for seed in (201, 202, 203, 204):
         d = nsr_data(_spectra(seed, 0.95, 0.0, azimuth=seed * 11.0))

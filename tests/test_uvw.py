@@ -11,12 +11,12 @@ import pytest
 from obspy import read
 from scipy.stats import binom
 
-from bayescal import cli, uvw
-from bayescal.calsim import STS2_NOMINAL, simulate_calibration
-from bayescal.geometry import STS2_UVW, TRILLIUM_UVW
-from bayescal.io import InputError
-from bayescal.response import paz_velocity_response
-from bayescal.simulate import NORM_FREQ
+from bayescal import cli, coil
+from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
+from bayescal.core.geometry import STS2_UVW, TRILLIUM_UVW
+from bayescal.io.read import InputError
+from bayescal.core.response import paz_velocity_response
+from bayescal.simulate.pair import NORM_FREQ
 
 TILT_DEG = 54.7356          # arccos(1/sqrt(3)), elements' angle from the vertical
 TRUE = ((118.0, 0.700, 1490.0), (121.5, 0.720, 1512.0), (119.0, 0.690, 1500.0))
@@ -41,7 +41,7 @@ def test_trillium_matrix_matches_rotation_construction():
     # Trillium manual: U in the X-Z plane leaning toward +X, V and W 120 degrees on
     m = axes_from_rotations([0.0, 120.0, 240.0])
     np.testing.assert_allclose(TRILLIUM_UVW, m, atol=1e-6)
-    np.testing.assert_allclose(uvw.sensor_matrix("trillium")[0], m, atol=1e-6)
+    np.testing.assert_allclose(coil.sensor_matrix("trillium")[0], m, atol=1e-6)
 
 
 def test_sts2_matrix_matches_rotation_construction():
@@ -60,8 +60,8 @@ def test_seed_formula_is_the_diagonal_of_the_response_matrix(m):
     rng = np.random.default_rng(3)
     k = rng.normal(1, 0.05, (3, 40)) * np.exp(1j * rng.normal(0, 0.05, (3, 40)))
     h3 = m[:, 2][:, None] * k           # Z output of the run driving each element
-    full = uvw.response_matrix(k, m)
-    np.testing.assert_allclose(uvw.seed_xyz_diagonal(h3, m), np.einsum("llf->lf", full),
+    full = coil.response_matrix(k, m)
+    np.testing.assert_allclose(coil.seed_xyz_diagonal(h3, m), np.einsum("llf->lf", full),
                                rtol=1e-12)
     # (M o M)^T k, the seed's matrix of squared values
     np.testing.assert_allclose(np.einsum("llf->lf", full), (m * m).T @ k, rtol=1e-12)
@@ -69,11 +69,11 @@ def test_seed_formula_is_the_diagonal_of_the_response_matrix(m):
 
 def test_equal_elements_give_no_cross_talk():
     k = np.ones((3, 5)) * (0.9 + 0.1j)
-    t = uvw.response_matrix(k, STS2_UVW)
+    t = coil.response_matrix(k, STS2_UVW)
     np.testing.assert_allclose(t, np.eye(3)[:, :, None] * k[0], atol=1e-12)
-    assert uvw.cross_talk(t)[0] < 1e-12
+    assert coil.cross_talk(t)[0] < 1e-12
     k[0] *= 1.01                        # 1 % gain difference in U
-    ct = uvw.cross_talk(uvw.response_matrix(k, STS2_UVW))[0]
+    ct = coil.cross_talk(coil.response_matrix(k, STS2_UVW))[0]
     # T_XZ = M_UX M_UZ dk = -sqrt(2)/3 * 0.01, over sqrt(T_XX T_ZZ) ~ 1
     assert abs(ct - np.sqrt(2) / 3 * 0.01) < 2e-4
 
@@ -82,29 +82,29 @@ def test_load_matrix(tmp_path):
     good = tmp_path / "m.txt"
     good.write_text("# rows U V W\n" + "\n".join(", ".join(f"{x:.12f}" for x in r)
                                                   for r in TRILLIUM_UVW))
-    np.testing.assert_allclose(uvw.load_matrix(str(good)), TRILLIUM_UVW, atol=1e-11)
+    np.testing.assert_allclose(coil.load_matrix(str(good)), TRILLIUM_UVW, atol=1e-11)
     bad = tmp_path / "bad.txt"
     bad.write_text("1 0 0\n0 1 0\n0 0 2\n")
     with pytest.raises(InputError, match="bad.txt.*orthonormal"):
-        uvw.load_matrix(str(bad))
+        coil.load_matrix(str(bad))
     short = tmp_path / "short.txt"
     short.write_text("1 0 0\n0 1 0\n")
     with pytest.raises(InputError, match="short.txt"):
-        uvw.load_matrix(str(short))
+        coil.load_matrix(str(short))
 
 
 def test_xyz_uvw_rotation_matches_sensor_in_uvw_mode():
     kw = dict(elements=TRUE, duration=3600.0, seed=5, digitizer_noise=0.0)
     xyz = simulate_calibration(outputs="xyz", **kw)
     uvw_mode = simulate_calibration(outputs="uvw", **kw)
-    for e in uvw.ELEMENTS:
-        rot = uvw.xyz_to_uvw(xyz.runs[e].select(channel="LH?"), STS2_UVW)
+    for e in coil.ELEMENTS:
+        rot = coil.xyz_to_uvw(xyz.runs[e].select(channel="LH?"), STS2_UVW)
         ref = uvw_mode.runs[e]
-        for ax in uvw.ELEMENTS:
+        for ax in coil.ELEMENTS:
             a = rot.select(channel=f"LH{ax}")[0].data
             b = ref.select(channel=f"LH{ax}")[0].data
             np.testing.assert_allclose(a, b, atol=1e-9 * np.abs(b).max())
-        back = uvw.uvw_to_xyz(rot, STS2_UVW)
+        back = coil.uvw_to_xyz(rot, STS2_UVW)
         for code in "12Z":
             np.testing.assert_allclose(back.select(channel=f"LH{code}")[0].data,
                                        xyz.runs[e].select(channel=f"LH{code}")[0].data,
@@ -114,10 +114,10 @@ def test_xyz_uvw_rotation_matches_sensor_in_uvw_mode():
 def test_run_model_ratio_is_the_two_pole_family():
     """The likelihood's split evaluation equals TwoPoleFamily.ratio of each output."""
     sim = simulate_calibration(elements=TRUE, seed=2, duration=3 * 3600.0)
-    run = uvw.read_run("W", sim.runs["W"], sim.inventory, "BC0", "cal_W")
-    sp = uvw.run_spectra(run, COIL, (0.005, 0.1), nperseg=2048)
+    run = coil.read_run("W", sim.runs["W"], sim.inventory, "BC0", "cal_W")
+    sp = coil.run_spectra(run, COIL, (0.005, 0.1), nperseg=2048)
     base = np.stack([f.ratio(sp.freqs, 119.0, 0.69, 1501.0)[0] for f in run.families])
-    model = uvw.RunModel(sp, run.coefficients(STS2_UVW), run.families, run.families[-1],
+    model = coil.RunModel(sp, run.coefficients(STS2_UVW), run.families, run.families[-1],
                          base=base)
     theta = np.array([[np.log(118.0), 0.70, np.log(1490.0)], [np.log(125.0), 0.6, np.log(1400.0)]])
     want = np.stack([f.ratio(sp.freqs, np.exp(theta[:, 0]), theta[:, 1], np.exp(theta[:, 2]))
@@ -130,8 +130,8 @@ def test_without_coil_constant_the_scale_is_removed():
     mean gain at nominal, so relative gains keep their meaning."""
     c_true = 3e-8
     sim = simulate_calibration(elements=TRUE, seed=4, duration=3 * 3600.0, coil_constant=c_true)
-    runs = {e: uvw.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in uvw.ELEMENTS}
-    c_eff = uvw._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
+    runs = {e: coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in coil.ELEMENTS}
+    c_eff = coil.coil._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
     gmean = np.exp(np.mean(np.log([el[2] for el in TRUE])))
     assert c_eff == pytest.approx(c_true * gmean / STS2_NOMINAL[2], rel=0.01)
 
@@ -139,8 +139,8 @@ def test_without_coil_constant_the_scale_is_removed():
 def test_relative_gain_summary():
     """Without a coil constant every gain (elements, Z-only, XYZ) is reported
     over the elements' geometric mean, sample by sample."""
-    from bayescal.response import TwoPoleFamily
-    from bayescal.simulate import velocity_response
+    from bayescal.core.response import TwoPoleFamily
+    from bayescal.simulate.pair import velocity_response
     fam = TwoPoleFamily.from_response(velocity_response(*STS2_NOMINAL, sample_rate=1.0))
     rng = np.random.default_rng(8)
     c_unknown = 0.37                     # gains as fitted carry an unknown scale
@@ -148,23 +148,23 @@ def test_relative_gain_summary():
     def fake_fit(e, el):
         smp = np.column_stack([rng.normal(el[0], 0.2, 4000), rng.normal(el[1], 0.002, 4000),
                                rng.normal(el[2] * c_unknown, 0.5, 4000)])
-        app = {"Z": {"estimate": STS2_UVW[uvw.ELEMENTS.index(e), 2],
-                     "expected": STS2_UVW[uvw.ELEMENTS.index(e), 2], "imag": 0.0}}
-        return uvw.ElementFit(e, ["Z"], smp, None, None, {}, {"Z": 1.0}, app, None, (0.004, 0.2))
+        app = {"Z": {"estimate": STS2_UVW[coil.ELEMENTS.index(e), 2],
+                     "expected": STS2_UVW[coil.ELEMENTS.index(e), 2], "imag": 0.0}}
+        return coil.ElementFit(e, ["Z"], smp, None, None, {}, {"Z": 1.0}, app, None, (0.004, 0.2))
 
-    fits = {e: fake_fit(e, el) for e, el in zip(uvw.ELEMENTS, TRUE)}
-    z_fits = {e: fake_fit(e, el) for e, el in zip(uvw.ELEMENTS, TRUE)}
-    joint = uvw._pair([fits[e] for e in uvw.ELEMENTS], 2000, rng)
+    fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}
+    z_fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}
+    joint = coil.coil._pair([fits[e] for e in coil.ELEMENTS], 2000, rng)
     freqs = np.geomspace(0.004, 0.2, 60)
-    res = uvw.UVWResult(STS2_UVW, "test", fits, z_fits, joint,
-                        uvw.derive_xyz(joint, STS2_UVW, fam, freqs), freqs, fam, True, "all-outputs")
+    res = coil.UVWResult(STS2_UVW, "test", fits, z_fits, joint,
+                        coil.derive_xyz(joint, STS2_UVW, fam, freqs), freqs, fam, True, "all-outputs")
     s = res.summary()
     g = np.array([el[2] for el in TRUE])
     rel = g / np.exp(np.mean(np.log(g)))
-    for j, e in enumerate(uvw.ELEMENTS):
+    for j, e in enumerate(coil.ELEMENTS):
         assert s["elements"][e]["gain"]["median"] == pytest.approx(rel[j], abs=1e-3)
         assert s["z_only"][e]["gain"]["median"] == pytest.approx(rel[j], abs=1e-3)
-    for i, ax in enumerate(uvw.XYZ):
+    for i, ax in enumerate(coil.XYZ):
         assert s["xyz"][ax]["gain"]["median"] == pytest.approx(((STS2_UVW ** 2).T @ rel)[i],
                                                                abs=2e-3)
     assert s["gain_units"].startswith("relative")
@@ -178,12 +178,12 @@ def test_wrong_sign_convention_is_reported():
     wrong sign, so the all-output fit disagrees with Z only and the apparent
     coefficient comes out with the opposite sign."""
     sim = simulate_calibration(elements=TRUE, seed=11, duration=6 * 3600.0)
-    run = uvw.read_run("V", sim.runs["V"], sim.inventory, "BC0", "cal_V")
+    run = coil.read_run("V", sim.runs["V"], sim.inventory, "BC0", "cal_V")
     band = (0.5 / 120, 0.1)
-    fit_all = uvw.fit_run(run, TRILLIUM_UVW, COIL, band, seed=1)
-    fit_z = uvw.fit_run(run.select(["Z"]), TRILLIUM_UVW, COIL, band, seed=2)
-    worst = max(abs(v["z"]) for v in uvw.agreement(fit_all, fit_z).values())
-    assert worst > uvw.AGREEMENT_Z
+    fit_all = coil.fit_run(run, TRILLIUM_UVW, COIL, band, seed=1)
+    fit_z = coil.fit_run(run.select(["Z"]), TRILLIUM_UVW, COIL, band, seed=2)
+    worst = max(abs(v["z"]) for v in coil.agreement(fit_all, fit_z).values())
+    assert worst > coil.AGREEMENT_Z
     x = fit_all.apparent["X"]
     assert x["expected"] == pytest.approx(-STS2_UVW[1, 0])
     assert x["estimate"] == pytest.approx(STS2_UVW[1, 0], abs=0.02)
@@ -229,8 +229,8 @@ def test_cli_writes_schema(cli_run):
 def test_elements_recovered(cli_run):
     s = cli_run["summary"]["elements"]
     inside95 = 0
-    for e, truth in zip(uvw.ELEMENTS, TRUE):
-        for p, t in zip(uvw.PARAMS, truth):
+    for e, truth in zip(coil.ELEMENTS, TRUE):
+        for p, t in zip(coil.PARAMS, truth):
             est = s[e][p]
             assert abs(est["median"] - t) < 3.5 * est["sd"], (e, p, est, t)
             inside95 += est["ci95"][0] <= t <= est["ci95"][1]
@@ -242,7 +242,7 @@ def test_elements_recovered(cli_run):
 def test_z_only_agrees_with_all_outputs(cli_run):
     s = cli_run["summary"]
     assert s["agreement"]["consistent"], s["agreement"]
-    for e in uvw.ELEMENTS:
+    for e in coil.ELEMENTS:
         for p in ("period_s", "gain"):
             assert abs(s["z_only"][e][p]["median"] / s["elements"][e][p]["median"] - 1) < 0.01
         # all outputs are at least as informative as Z alone
@@ -257,7 +257,7 @@ def test_xyz_gains_match_response_matrix(cli_run):
     k = np.array([paz_velocity_response([NORM_FREQ], *el, norm_freq=NORM_FREQ)[0]
                   for el in TRUE])
     t = m.T @ np.diag(k) @ m
-    for i, ax in enumerate(uvw.XYZ):
+    for i, ax in enumerate(coil.XYZ):
         est = s["xyz"][ax]["gain_at_norm_freq"]
         assert abs(est["median"] - abs(t[i, i])) < 3.5 * est["sd"], (ax, est, t[i, i])
         # the two-pole equivalent gain is the same diagonal, (M o M)^T G
@@ -267,7 +267,7 @@ def test_xyz_gains_match_response_matrix(cli_run):
     # cross-talk of the true elements over the same frequency grid
     freqs = np.load(cli_run["out"] / "uvw_samples.npz")["freqs"]
     kt = np.array([paz_velocity_response(freqs, *el) for el in TRUE])
-    ct_true = uvw.cross_talk(uvw.response_matrix(kt, m))[0]
+    ct_true = coil.cross_talk(coil.response_matrix(kt, m))[0]
     ct = s["cross_talk_max"]
     assert ct["ci95"][0] - 0.5 * ct["sd"] <= ct_true <= ct["ci95"][1] + 0.5 * ct["sd"]
 
@@ -300,19 +300,19 @@ def _coverage_run(seed):
     els = tuple((t0 * (1 + 0.03 * rng.standard_normal()), h0 + 0.02 * rng.standard_normal(),
                  g0 * (1 + 0.01 * rng.standard_normal())) for _ in range(3))
     sim = simulate_calibration(elements=els, seed=200 + seed, duration=6 * 3600.0)
-    e = uvw.ELEMENTS[seed % 3]
-    run = uvw.read_run(e, sim.runs[e], sim.inventory, "BC0", e)
-    fit = uvw.fit_run(run, STS2_UVW, COIL, (0.5 / 120, 0.1), seed=seed, n_walkers=16,
+    e = coil.ELEMENTS[seed % 3]
+    run = coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e)
+    fit = coil.fit_run(run, STS2_UVW, COIL, (0.5 / 120, 0.1), seed=seed, n_walkers=16,
                       min_ess=400)
     s = fit.summary()
-    truth = els[uvw.ELEMENTS.index(e)]
-    return [s[p]["ci90"][0] <= t <= s[p]["ci90"][1] for p, t in zip(uvw.PARAMS, truth)]
+    truth = els[coil.ELEMENTS.index(e)]
+    return [s[p]["ci90"][0] <= t <= s[p]["ci90"][1] for p, t in zip(coil.PARAMS, truth)]
 
 
 def test_coverage_of_90_percent_intervals():
     hits = np.array([_coverage_run(s) for s in range(N_COVERAGE)])      # (runs, 3 params)
     lo = binom.ppf(0.001, N_COVERAGE, 0.9)
-    for j, p in enumerate(uvw.PARAMS):
+    for j, p in enumerate(coil.PARAMS):
         assert hits[:, j].sum() >= lo, (p, hits[:, j].sum(), lo)
     # intervals grossly too wide would cover (nearly) always
     assert hits.sum() <= binom.isf(0.001, hits.size, 0.9), hits.sum()
@@ -321,7 +321,7 @@ def test_coverage_of_90_percent_intervals():
 def test_cli_too_short_record_names_the_file(tmp_path, capsys):
     paths = simulate_calibration(duration=3000.0, seed=3).write(str(tmp_path / "in"))
     out = tmp_path / "out"
-    rc = cli.main(["uvw"] + sum([["--cal", f"{e}={paths[e]}"] for e in uvw.ELEMENTS], [])
+    rc = cli.main(["uvw"] + sum([["--cal", f"{e}={paths[e]}"] for e in coil.ELEMENTS], [])
                   + ["--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out", str(out),
                      "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
@@ -339,7 +339,7 @@ def test_cli_rotate_matches_sensor_in_uvw_mode(tmp_path):
     assert cli.main(["uvw", "--rotate", str(rec), "--sensor", "sts2", "--out",
                      str(tmp_path / "out"), "--quiet"]) == 0
     got = read(str(tmp_path / "out" / "rec_uvw.mseed"))
-    for ax in uvw.ELEMENTS:
+    for ax in coil.ELEMENTS:
         want = uvw_mode.runs["W"].select(channel=f"LH{ax}")[0].data
         np.testing.assert_allclose(got.select(channel=f"LH{ax}")[0].data, want,
                                    atol=1e-9 * np.abs(want).max())

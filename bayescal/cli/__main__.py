@@ -1,0 +1,6 @@
+"""``python -m bayescal.cli``: the same as the ``bayescal`` command."""
+import sys
+
+from . import main
+
+sys.exit(main())

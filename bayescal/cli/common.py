@@ -1,0 +1,60 @@
+"""What several sub-commands share: the arguments of a sensor pair, messages
+on stderr, and publishing a finished output folder in one move."""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+
+
+def _time(text):
+    import argparse
+
+    from obspy import UTCDateTime
+    try:
+        return UTCDateTime(text)
+    except Exception:
+        raise argparse.ArgumentTypeError(f"not a time: {text!r} (use e.g. 2010-08-24T02:00:00)")
+
+
+def add_pair_arguments(parser):
+    """Arguments shared by ``bayescal fit`` and ``bayescal diagnose``: the two
+    sensors' files, the output folder, the band, the window and the options."""
+    g = parser.add_argument_group("inputs")
+    g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
+                   help="reference recording(s): miniSEED or any format ObsPy reads")
+    g.add_argument("--ref-xml", required=True, metavar="XML",
+                   help="reference StationXML (azimuth, dip, response), or 'flat'")
+    g.add_argument("--sut", nargs="+", required=True, metavar="FILE",
+                   help="recording(s) of the sensor under test")
+    g.add_argument("--sut-xml", required=True, metavar="XML",
+                   help="SUT StationXML with its nominal metadata, or 'flat'")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--fit-response", nargs="?", const="all", default="none",
+                        choices=["all", "gain"],
+                        help="also fit the SUT's response: 'all' (default when given: natural "
+                             "period, damping and gain per channel) or 'gain' only")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: chosen from the data where the "
+                             "sensors are coherent)")
+    parser.add_argument("--start", type=_time, metavar="T",
+                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
+    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+
+
+def say(args, text):
+    if not args.quiet:
+        print(text, file=sys.stderr)
+
+
+def publish(tmp, out):
+    """Move the finished files from ``tmp`` into ``out``."""
+    if not os.path.exists(out):
+        os.replace(tmp, out)
+        return
+    for name in os.listdir(tmp):
+        os.replace(os.path.join(tmp, name), os.path.join(out, name))
+    shutil.rmtree(tmp, ignore_errors=True)

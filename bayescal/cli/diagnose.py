@@ -1,0 +1,79 @@
+"""Model criticism: fit, locate the mismatch between model and recordings,
+name the physics left out, model it and show the fit improve.
+
+Same inputs as ``bayescal fit``. Writes into DIR:
+
+  diagnosis.json   schema bayescal.diagnose/1: where the base model misfits
+                   (bands, channels, p-values), the effects found with
+                   their parameters (95 % intervals) and BIC gains, the
+                   per-band misfit before and after, and the base and final
+                   fits (result.json contents)
+  result.json, samples.npz, diagnostics.npz
+                   the final fit (with the effects modelled)
+  diagnosis.pdf, diagnosis.png
+                   one page saying it in words (unless --no-report)
+
+Example:
+  bayescal diagnose --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed \\
+                    --sut-xml SUT.xml --out diag --band 0.02 3
+
+Exit codes: 0 success, 2 bad input (nothing written to DIR).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import tempfile
+
+from .common import add_pair_arguments, publish
+
+HELP = "locate model/recording mismatch, name and model the missing physics"
+
+
+def configure(parser):
+    """Arguments: those of ``bayescal fit`` (without ``--diagnose``)."""
+    add_pair_arguments(parser)
+
+
+def run(args):
+    """Run the diagnosis; returns the exit code."""
+    from ..criticism.diagnose import diagnose
+    from ..io.read import InputError
+    from ..io.pipeline import calibrate_files, write_results
+    from ..core.posterior import write_json
+
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"{args.out}: exists and is not a folder")
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr))
+    say("bayescal diagnose: base fit ...")
+    base = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+                           band=tuple(args.band) if args.band else None,
+                           fit_response=args.fit_response, seed=args.seed,
+                           start=args.start, end=args.end, progress=not args.quiet)
+    say("searching the catalogue of effects ...")
+    d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
+    final = d.final
+    final.sut_inventory = base.sut_inventory
+    parent = os.path.dirname(out) or "."
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
+    try:
+        write_results(final, tmp)
+        write_json(os.path.join(tmp, "diagnosis.json"), d.summary())
+        if not args.no_report:
+            from ..report.diagnosis import write_page
+            try:
+                write_page(d, os.path.join(tmp, "diagnosis"))
+            except Exception as exc:   # the findings matter more than the figure
+                print(f"bayescal: warning: the diagnosis page could not be written "
+                      f"({type(exc).__name__}: {exc})", file=sys.stderr)
+        publish(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    for s in d.sentences():
+        print(s)
+    say(f"wrote {out}")
+    return 0

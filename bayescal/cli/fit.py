@@ -1,0 +1,130 @@
+"""Calibrate a sensor under test (SUT) against a co-located reference.
+
+Reads both sensors' recordings (any format ObsPy reads; several files per
+side) and StationXML, estimates the SUT's channel orientations (and, with
+--fit-response, its response), and writes into DIR:
+
+  result.json        medians, 68/90/95 % credible intervals, convergence,
+                     the band and the amount of data used
+  samples.npz        posterior samples
+  diagnostics.npz    spectra, coherence and misfit per band (for reports)
+  sut_corrected.xml  the SUT's StationXML with azimuth, dip (and fitted
+                     response values) replaced by posterior medians, with
+                     plusError/minusError from the 68 % interval
+  report.pdf         figures of the fit (unless --no-report)
+
+Only segments in which every channel is continuous are used; the band used,
+how it was chosen and the amount of data used are printed and kept in
+result.json. Channels the reference cannot see (a SUT vertical beside a
+horizontal-only reference) are listed as not estimable.
+
+Example:
+  bayescal fit --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
+               --out result --band 0.05 1 --start 2024-01-01T00:00:00 --end 2024-01-01T06:00:00
+
+Sensors without StationXML that are flat (velocity) in the band: give
+--ref-xml flat / --sut-xml flat (orientation from the channel code: N or 1 =
+north, E or 2 = east, Z = vertical).
+
+Exit codes: 0 success, 2 bad input (one line naming the file and the problem;
+nothing is written to DIR).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import tempfile
+import time
+import warnings
+
+from .common import add_pair_arguments, publish, say
+
+HELP = "estimate the SUT's orientation (and response) from recordings beside a reference"
+
+
+def configure(parser):
+    """Arguments of ``bayescal fit``."""
+    add_pair_arguments(parser)
+    parser.add_argument("--diagnose", action="store_true",
+                        help="also locate any mismatch between model and recordings, name and "
+                             "model the missing physics (the same as `bayescal diagnose`)")
+
+
+def _fmt(entry):
+    if "ci95" in entry:
+        lo, hi = entry["ci95"]
+        return f"{entry['median']:.3f} [{lo:.3f}, {hi:.3f}]"
+    return f"{entry['median']:.3f} (fixed)"
+
+
+def print_summary(summary, stream=sys.stdout):
+    """A short table of the result: medians and 95 % intervals."""
+    print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
+    for cid, e in summary["channels"].items():
+        az = e["azimuth_deg"]
+        vertical = abs(e["dip_deg"]["median"]) > 89.999 and "ci95" not in az
+        az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
+        print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
+        for name, r in e.get("response", {}).items():
+            print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+    for cid, why in summary.get("not_estimable", {}).items():
+        print(f"{cid:22s}  not estimable: {why}", file=stream)
+    c = summary["convergence"]
+    print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
+          f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
+
+
+def run(args):
+    """Run the fit; returns the exit code."""
+    if getattr(args, "diagnose", False):
+        from .diagnose import run as run_diagnose
+        return run_diagnose(args)
+    from ..io.read import InputError, InputWarning
+    from ..io.pipeline import calibrate_files, write_results
+
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"{args.out}: exists and is not a folder")
+    t_start = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", InputWarning)
+        say(args, "bayescal fit: reading recordings and metadata ...")
+        post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+                               band=tuple(args.band) if args.band else None,
+                               fit_response=args.fit_response, seed=args.seed,
+                               start=args.start, end=args.end, progress=not args.quiet)
+    for w in caught:
+        if issubclass(w.category, InputWarning):
+            print(f"bayescal: warning: {w.message}", file=sys.stderr)
+    meta = post.meta
+    lo, hi = meta["band_hz"]
+    say(args, f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})")
+    used = meta["data_used"]
+    say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
+               f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
+    parent = os.path.dirname(out) or "."
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    try:
+        write_results(post, tmp)
+        if not args.no_report:
+            from ..report.fit import write_report
+            say(args, "writing the report ...")
+            try:
+                write_report(tmp)
+            except Exception as exc:  # the fit's results matter more than its figures
+                print(f"bayescal: warning: the report could not be written "
+                      f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
+        publish(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    elapsed = time.perf_counter() - t_start
+    if not args.quiet:
+        print_summary(post.summary())
+    say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
+    return 0

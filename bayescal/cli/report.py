@@ -1,0 +1,33 @@
+"""Render the calibration report of a saved result folder.
+
+Writes DIR/report.pdf (summary, angle intervals, corner plots, data and fit,
+convergence) and one PNG per figure (DIR/report_*.png). Truth markers are
+drawn when DIR/truth.json (simulate's format) is present.
+
+Example:
+    bayescal report out/ --threshold 3
+"""
+from __future__ import annotations
+
+HELP = "render report.pdf and report_*.png for a saved result folder"
+
+
+def configure(parser):
+    """Arguments of ``bayescal report``."""
+    parser.add_argument("folder", metavar="DIR", help="result folder (result.json, samples.npz)")
+    parser.add_argument("--threshold", type=float, default=5.0, metavar="DEG",
+                        help="flag angles off nominal by more than DEG degrees (default 5)")
+    parser.add_argument("--truth", metavar="JSON", default=None,
+                        help="simulation truth for truth markers (default DIR/truth.json)")
+
+
+def run(args):
+    """Render the report; returns the exit code."""
+    from ..io.read import InputError
+    from ..report.fit import write_report
+
+    if not args.threshold > 0:
+        raise InputError(f"--threshold must be a positive angle in degrees, got {args.threshold}")
+    paths = write_report(args.folder, nominal_tolerance_deg=args.threshold, truth=args.truth)
+    print(f"report: {paths[0]} ({len(paths) - 1} PNG figures)")
+    return 0

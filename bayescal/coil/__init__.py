@@ -1,0 +1,23 @@
+"""Calibration from coil signals.
+
+Holds the symmetric triaxial geometry (:mod:`.triaxial`), one calibration
+run read and turned into spectra (:mod:`.runs`), the likelihood and fit of
+one element from one run (:mod:`.element`), and the coil-by-coil calibration
+of UVW sensors with the derived XYZ responses (:mod:`.uvw`).
+
+May import :mod:`bayescal.core` and :mod:`bayescal.io`; nothing above them
+(no reports, no command line).
+"""
+from .element import ElementFit, RunModel, fit_run, least_squares_run, run_spectra
+from .runs import CalRun, read_run
+from .triaxial import (ELEMENTS, PARAMS, SENSORS, XYZ, cross_talk, load_matrix, output_axis,
+                       response_matrix, seed_xyz_diagonal, sensor_matrix, uvw_to_xyz, xyz_to_uvw)
+from .uvw import (AGREEMENT_Z, SCHEMA, UVWResult, agreement, calibrate_uvw, derive_xyz,
+                  element_ratios, equivalent_two_pole)
+from ..core.geometry import STS2_UVW, TRILLIUM_UVW
+
+__all__ = ["ElementFit", "RunModel", "fit_run", "least_squares_run", "CalRun", "read_run",
+           "run_spectra", "ELEMENTS", "PARAMS", "SENSORS", "XYZ", "cross_talk", "load_matrix",
+           "output_axis", "response_matrix", "seed_xyz_diagonal", "sensor_matrix", "uvw_to_xyz",
+           "xyz_to_uvw", "AGREEMENT_Z", "SCHEMA", "UVWResult", "agreement", "calibrate_uvw",
+           "derive_xyz", "element_ratios", "equivalent_two_pole", "STS2_UVW", "TRILLIUM_UVW"]

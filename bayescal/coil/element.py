@@ -1,0 +1,314 @@
+"""Likelihood and fit of one element from one calibration run: the model of a
+run (see :mod:`bayescal.coil.uvw`), its least-squares start and posterior.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..core.sampler import FitError, sample
+from ..io.read import InputError
+from ..core.likelihood import INFLATION_SHRINK, Priors
+from ..core.posterior import interval_summary
+from ..core.spectra import SpectraError, cross_spectra
+from .triaxial import PARAMS
+from .runs import BANDS_PER_DECADE, SEGMENT_CYCLES
+
+
+# --- likelihood of one run --------------------------------------------------
+
+def run_spectra(run, coil_constant, band, nperseg=None, base=None):
+    """Cross-spectra of a run's outputs (deconvolved by their nominal response
+    times ``base(freqs) -> (n_out, F)`` when given) and its input (as ground
+    velocity, ``A = C U / (2 pi i f)``). Too little data raises
+    :class:`InputError` naming the run's file."""
+    try:
+        return _run_spectra(run, coil_constant, band, nperseg, base)
+    except SpectraError as exc:
+        raise InputError(f"{run.source}: {exc}") from None
+
+
+def default_nperseg(fs, fmin):
+    """Segment length (samples) for calibration runs: ``SEGMENT_CYCLES``
+    periods of ``fmin`` rounded up to a power of two. Fixed here rather than
+    taken from :func:`bayescal.spectra.default_nperseg`, whose choice serves
+    ambient-noise records; the coverage benchmark was run with this one."""
+    return int(2 ** np.ceil(np.log2(SEGMENT_CYCLES * fs / fmin)))
+
+
+def _run_spectra(run, coil_constant, band, nperseg, base):
+    def out_resp(f):
+        h = run.nominal_response(np.asarray(f, float))
+        return h if base is None else h * base(f)
+
+    def in_resp(f):
+        return (2j * np.pi * np.asarray(f) / coil_constant)[None, :]
+
+    return cross_spectra(run.data, run.input[None, :], run.fs, out_resp, in_resp, band,
+                         nperseg=nperseg or default_nperseg(run.fs, band[0]), bands_per_decade=BANDS_PER_DECADE, min_bins=8,
+                         sut_ids=run.ids, ref_ids=["input"])
+
+
+class RunModel:
+    """Posterior of one element's ``theta = (ln T, h, ln G)`` from one run.
+
+    ``coef`` is ``m_c`` per output, ``families`` the outputs' parametric
+    responses, ``base`` (n_out, F) the response ratio the spectra were
+    deconvolved by (ones at first). Vectorised: ``log_prob(theta (W, 3))``.
+    """
+
+    names = ("log_period", "damping", "log_gain")
+    ndim = 3
+
+    def __init__(self, spectra, coef, families, nominal, priors=Priors(), base=None):
+        self.spectra = spectra
+        self.coef = np.asarray(coef, float)
+        self.families = families
+        self.nominal = nominal
+        self.priors = priors
+        no = spectra.n_u
+        f = spectra.freqs
+        self.base = np.ones((no, f.size), complex) if base is None else base
+        t = spectra.total
+        self._cya = t[:, :no, no]                                   # (F, no)
+        self._saa = t[:, no, no].real                               # (F,)
+        self._cyy = t[:, :no, :no]
+        self._onehot = np.eye(spectra.n_bands)[spectra.band_of]     # (F, B)
+        self._starts = np.r_[0, np.flatnonzero(np.diff(spectra.band_of)) + 1]
+        # TwoPoleFamily.ratio split into per-frequency constants and the one
+        # factor that depends on (T, h): 1 / D(s; T, h), shared by all outputs
+        self._s = 2j * np.pi * f
+        self._sn = 2j * np.pi * np.array([fam.norm_freq for fam in families])
+        d_nom = np.array([fam._d(self._s, 2 * np.pi / fam.period_s, fam.damping)
+                          for fam in families])                       # (no, F)
+        self._dn_norm = np.array([abs(fam._d(sn, 2 * np.pi / fam.period_s, fam.damping))
+                                  for fam, sn in zip(families, self._sn)])
+        self._g_nom = np.array([fam.gain for fam in families])
+        self._const = d_nom / self.base                               # (no, F)
+        self._kernel = self.coef[:, None] * self._const * self._saa[None]
+        self._cya_b = self._cya.T @ self._onehot                    # (no, B)
+        self._saa_b = self._saa @ self._onehot                      # (B,)
+        self.noise = None
+        self.sigma = None
+        self.inflation = None
+
+    def bounds(self):
+        pr, nom = self.priors, self.nominal
+        lo = np.array([np.log(nom.period_s / pr.period_factor), pr.damping_range[0],
+                       np.log(nom.gain / pr.gain_factor)])
+        hi = np.array([np.log(nom.period_s * pr.period_factor), pr.damping_range[1],
+                       np.log(nom.gain * pr.gain_factor)])
+        return lo, hi
+
+    def _factors(self, theta):
+        """(W, no) gain and normalisation factor and (W, F) ``1 / D(s; T, h)``."""
+        theta = np.atleast_2d(theta)
+        w0 = (2 * np.pi / np.exp(theta[:, 0]))[:, None]
+        h = theta[:, 1][:, None]
+        inv = 1.0 / (self._s * self._s + 2.0 * h * w0 * self._s + w0 * w0)
+        d_sn = np.abs(self._sn[None] ** 2 + 2.0 * h * w0 * self._sn[None] + w0 * w0)  # (W, no)
+        amp = np.exp(theta[:, 2])[:, None] / self._g_nom[None] * d_sn / self._dn_norm[None]
+        return amp, inv
+
+    def ratio(self, theta):
+        """Element response over each output's deconvolution response,
+        ``rho_c / base_c`` (``TwoPoleFamily.ratio`` of each output), shape
+        (W, n_out, F)."""
+        amp, inv = self._factors(theta)
+        return amp[:, :, None] * self._const[None] * inv[:, None, :]
+
+    def mu(self, theta):
+        """Model transfer ``m_c rho_c / base_c``, shape (W, n_out, F)."""
+        return self.coef[None, :, None] * self.ratio(theta)
+
+    def residual(self, theta):
+        """Band residuals ``R_b,c``, shape (W, B, n_out)."""
+        amp, inv = self._factors(theta)
+        model = np.add.reduceat(self._kernel[None] * inv[:, None, :], self._starts, axis=2)
+        r = self._cya_b[None] - amp[:, :, None] * model
+        return r.transpose(0, 2, 1)
+
+    def log_prior(self, theta):
+        theta = np.atleast_2d(theta)
+        lo, hi = self.bounds()
+        ok = np.all((theta > lo) & (theta < hi), axis=1)
+        return np.where(ok, 0.0, -np.inf)
+
+    def log_likelihood(self, theta):
+        r = self.residual(theta)
+        return -np.einsum("wbi,bij,wbj->w", r.conj(), self.noise, r).real
+
+    def log_prob(self, theta):
+        """Vectorised log posterior: theta (W, 3) -> (W,)."""
+        theta = np.atleast_2d(theta)
+        lp = self.log_prior(theta)
+        out = np.full(theta.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if ok.any():
+            out[ok] = lp[ok] + self.log_likelihood(theta[ok])
+        return out
+
+    def whitened_residual(self, theta, chol):
+        r = self.residual(theta)[0]                                  # (B, no)
+        z = np.einsum("bji,bj->bi", chol.conj(), r)
+        return np.concatenate([z.real.ravel(), z.imag.ravel()])
+
+    def estimate_noise(self, theta):
+        """Plug-in noise model at ``theta``: per-band ``Sigma_b`` and inflation
+        ``c_b`` (see module docstring); sets ``self.noise`` (B, no, no)."""
+        sp = self.spectra
+        no = sp.n_u
+        mu = self.mu(theta)[0].T                                     # (F, no)
+        cya, saa = self._cya, self._saa
+        e = (self._cyy - cya[:, :, None] * mu.conj()[:, None, :]
+             - mu[:, :, None] * cya.conj()[:, None, :]
+             + saa[:, None, None] * mu[:, :, None] * mu.conj()[:, None, :])
+        n_bins = sp.bins_per_band * sp.n_segments
+        sigma = np.einsum("fb,fij->bij", self._onehot, e) / n_bins[:, None, None]
+        sigma = 0.5 * (sigma + sigma.conj().transpose(0, 2, 1))
+        s_inv = np.linalg.inv(sigma)
+        mu_b = (mu * saa[:, None]).T @ self._onehot / self._saa_b       # (no, B)
+        seg = sp.per_segment                                          # (K, B, n, n)
+        r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
+        q0 = np.einsum("kbi,bij,kbj->b", r_k.conj(), s_inv, r_k).real
+        adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
+        q1 = np.einsum("kbi,bij,kbj->b", r_k[adj + 1].conj(), s_inv, r_k[adj]).real
+        raw = (q0 + 2.0 * q1) / (no * self._saa_b)
+        pooled = raw.mean()
+        wgt = sp.n_segments * no
+        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
+        c = np.maximum(c, 1e-3 * pooled)
+        self.sigma, self.inflation = sigma, c
+        self.noise = s_inv / (c * self._saa_b)[:, None, None]
+        return self.noise
+
+    def misfit(self, theta):
+        """Per output, the mean over bands of ``|R_b,c|^2`` over its expected
+        value: about 1 where the model (and the geometry) fits."""
+        r = self.residual(theta)[0]
+        var = np.einsum("bii->bi", self.sigma).real * (self.inflation * self._saa_b)[:, None]
+        return np.mean(np.abs(r) ** 2 / var, axis=0)
+
+    def apparent_coefficients(self, theta):
+        """Least-squares ``m_c`` per output given the element response at
+        ``theta``: equals the geometry's ``M[n, c]`` when the geometry is right."""
+        rho = self.ratio(theta)[0]
+        num = np.sum(rho.conj() * self._cya.T, axis=1)
+        den = np.sum(np.abs(rho) ** 2 * self._saa[None], axis=1)
+        return num / den
+
+
+def _start(model):
+    """Nominal period and damping, and the least-squares scale of the nominal
+    transfer to the data (its sign tells whether the geometry's polarity holds)."""
+    nom = model.nominal
+    theta = np.array([np.log(nom.period_s), nom.damping, np.log(nom.gain)])
+    mu = model.mu(theta)[0]
+    num = np.sum((mu.conj() * model._cya.T).real)
+    den = np.sum(np.abs(mu) ** 2 * model._saa[None])
+    return theta, num / den
+
+
+def least_squares_run(model, theta0):
+    """Weighted least squares with the noise model re-estimated twice; returns
+    ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.fit.least_squares_fit`."""
+    lo, hi = model.bounds()
+    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
+    for _ in range(3):
+        model.estimate_noise(theta)
+        chol = np.linalg.cholesky(model.noise)
+        res = least_squares(model.whitened_residual, theta, args=(chol,), bounds=(lo, hi),
+                            x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        theta = res.x
+    model.estimate_noise(theta)
+    chol = np.linalg.cholesky(model.noise)
+    res = least_squares(model.whitened_residual, theta, args=(chol,), bounds=(lo, hi),
+                        x_scale="jac", method="trf", max_nfev=1)
+    try:
+        cov = np.linalg.inv(2.0 * res.jac.T @ res.jac)
+    except np.linalg.LinAlgError as exc:
+        raise FitError("the least-squares point is degenerate (singular information)") from exc
+    return theta, 0.5 * (cov + cov.T)
+
+
+@dataclass
+class ElementFit:
+    """Posterior of one element from one run (possibly Z only)."""
+
+    element: str
+    outputs: list
+    samples: np.ndarray          # (N, 3) period_s, damping, gain
+    theta_ls: np.ndarray
+    cov: np.ndarray
+    convergence: dict
+    misfit: dict
+    apparent: dict
+    inflation: np.ndarray
+    band_hz: tuple
+    model: RunModel = field(repr=False, default=None)
+
+    def summary(self):
+        out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
+        out["outputs_used"] = self.outputs
+        out["misfit"] = self.misfit
+        out["apparent_coefficient"] = self.apparent
+        out["convergence"] = self.convergence
+        return out
+
+
+def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
+            priors=Priors(), **sample_kw):
+    """Posterior over one element's (period, damping, gain) from one run."""
+    coef = run.coefficients(m)
+    if np.all(np.abs(coef) < 1e-6):
+        raise InputError(f"{run.source}: the outputs {run.axes} do not see element "
+                         f"{run.element} in this geometry")
+    nominal = run.families[-1]
+    sp = run_spectra(run, coil_constant, band, nperseg)
+    model = RunModel(sp, coef, run.families, nominal, priors)
+    # start from the Z output when there is one: every element shows in Z with
+    # the same sign in the built-in geometries, so a wrong X/Y sign convention
+    # shows up as a misfit and a Z-only disagreement rather than a failed start
+    iz = run.axes.index("Z") if "Z" in run.axes else None
+    start_model = model if iz is None else RunModel(sp.select([iz]), coef[[iz]],
+                                                    [run.families[iz]], nominal, priors)
+    theta0, scale = _start(start_model)
+    if not scale > 0:
+        raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} with "
+                       "the opposite sign to the geometry: check the coil wiring, the output "
+                       "polarity or the sensor matrix")
+    theta0[2] += np.log(scale)
+    lo, hi = model.bounds()
+    if not lo[2] < theta0[2] < hi[2]:
+        raise FitError(f"{run.source}: element {run.element}'s gain comes out "
+                       f"{np.exp(theta0[2]):.4g}, more than {priors.gain_factor:g}x from "
+                       f"nominal {nominal.gain:.4g}: check --coil-constant")
+    theta, _ = least_squares_run(model, theta0)
+    # second pass: deconvolve by the fitted response (see module docstring)
+    t_ls = theta.copy()
+
+    def base(f):
+        return np.stack([fam.ratio(f, np.exp(t_ls[0]), t_ls[1], np.exp(t_ls[2]))[0]
+                         for fam in run.families])
+
+    sp = run_spectra(run, coil_constant, band, nperseg, base=base)
+    model = RunModel(sp, coef, run.families, nominal, priors, base=base(sp.freqs))
+    theta, cov = least_squares_run(model, theta)
+    chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    s = chain.samples
+    phys = np.column_stack([np.exp(s[:, 0]), s[:, 1], np.exp(s[:, 2])])
+    med = np.median(s, axis=0)
+    app = model.apparent_coefficients(med)
+    conv = {"tau_max": float(chain.tau.max()), "ess_min": float(chain.ess.min()),
+            "rhat_max": float(chain.rhat.max()), "n_steps": int(chain.n_steps),
+            "n_walkers": int(chain.n_walkers), "acceptance": float(chain.acceptance),
+            "converged": bool(chain.converged)}
+    return ElementFit(
+        element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
+        convergence=conv, misfit=dict(zip(run.axes, model.misfit(med).tolist())),
+        apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
+                  for a, v, c in zip(run.axes, app, coef)},
+        inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),
+        model=model)

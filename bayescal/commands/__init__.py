@@ -1,1 +1,0 @@
-"""One module per ``bayescal`` sub-command (see :mod:`bayescal.cli`)."""

@@ -1,0 +1,14 @@
+"""The inference core: plain numpy functions and small dataclasses, no file I/O.
+
+Modules, in the order data flows through them:
+
+* :mod:`.geometry`   angles <-> unit vectors (NED), SEED conventions, manifolds
+* :mod:`.response`   parametric two-pole responses, evaluation of ObsPy responses
+* :mod:`.spectra`    streamed Welch cross-spectra and per-band matrices
+* :mod:`.likelihood` the Frobenius residual, its noise model, vectorised log-prob
+* :mod:`.sampler`    closed-form start, least squares, emcee, convergence control
+* :mod:`.posterior`  samples, summaries, result.json / samples.npz
+
+May import only numpy, scipy, emcee, ObsPy's response evaluation and
+:mod:`bayescal.version`; never another bayescal subpackage.
+"""

@@ -1,0 +1,11 @@
+"""Model criticism: where the recordings and the model disagree, and why.
+
+* :mod:`.effects`   the catalogue of physical effects the base model leaves out,
+                    each a nested extension of the likelihood
+* :mod:`.locate`    where the misfit is: per band and channel, with p-values
+* :mod:`.search`    which effects to add: candidates, fits and BIC scores
+* :mod:`.diagnose`  the whole diagnosis and its summary
+* :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
+
+May import :mod:`bayescal.core`; never io, report, network or cli.
+"""

@@ -1,0 +1,262 @@
+"""Model criticism: locate the mismatch between the fitted model and the
+recordings, name the physics left out, model it, show the fit improve.
+
+Steps (see docs/diagnose.md):
+
+1. **Locate** (:func:`.locate.locate`): per band and SUT channel, the standardised
+   misfit ``v`` of the fitted model (whitened residual energy over its
+   expectation; ``n_r v ~ Gamma(n_r, 1)`` under the model) and its p-value;
+   cells below ``ALPHA / (B n_u)`` (Bonferroni) are a mismatch. Also the
+   per-band complex ratio recorded/predicted (:func:`band_ratio`) and
+   coherences, which the signatures in :mod:`.effects` read.
+2. **Name and model**: every applicable catalogue effect is fitted as an
+   extension of the current model (grid start over its parameter, then
+   least squares) and scored against it by the BIC difference computed with
+   *one* noise model (the extended model's, the base re-optimised under it):
+   ``dBIC = 2 (logL_ext - logL_cur) - k ln n`` with ``n = 2 B n_u n_r`` real
+   residual entries. The best effect with ``dBIC > BIC_KEEP`` is kept, and
+   the search repeats from the extended model while it improves.
+   A clock drift is fitted with the per-time-block likelihood (its rate and
+   sign from the posterior). Orientation effects (reversed, swapped
+   channels) are screened by comparing the free orientation fit with the
+   metadata and scored by the BIC of the metadata's axes against the
+   axes with those channels reversed or exchanged. Tilt noise is a nested
+   extension of a model of the noise spectra (:mod:`.tilt`), scored
+   by its own BIC.
+3. **Show**: misfit per band before and after, score gains, effect
+   parameters with credible intervals (MCMC on the final model, or its
+   Laplace approximation), and how orientation and response moved.
+
+"""
+from __future__ import annotations
+
+
+import numpy as np
+
+from . import effects as catalogue, tilt
+from ..core.sampler import diagnostics, least_squares_fit, sample
+from ..core.geometry import unit_vector
+from ..core.posterior import Posterior, interval_summary
+from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
+from .locate import ALPHA, _runs, band_ratio, locate, ratio_weights, segment_timing
+
+
+SCHEMA = "bayescal.diagnose/1"
+
+
+def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
+                 progress=False, n_laplace=4000, **sample_kw):
+    """A :class:`Posterior` of ``model`` (with effects) from MCMC
+    (:func:`bayescal.core.sampler.sample`) or, with ``mcmc=False``, from its Laplace
+    approximation (Gaussian at the least-squares point; stated in meta)."""
+    if mcmc:
+        chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+        samples, lp = chain.samples, chain.log_prob
+        conv = {"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
+                "acceptance": chain.acceptance, "n_steps": chain.n_steps,
+                "n_walkers": chain.n_walkers, "burn": chain.burn, "converged": chain.converged}
+        trace = chain.trace
+    else:
+        rng = np.random.default_rng(seed)
+        samples = rng.multivariate_normal(theta, cov, size=n_laplace)
+        lp = model.log_prob(samples)
+        samples, lp = samples[np.isfinite(lp)], lp[np.isfinite(lp)]
+        one = np.ones(model.ndim)
+        conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
+                "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}
+        trace = None
+        meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC")
+    vecs, _ = model.unpack(samples)
+    resp = model.response_values(samples) if free != "none" else {}
+    kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
+    post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
+                     response=resp, samples=samples, names=model.names, log_prob=lp,
+                     convergence=conv, meta=dict(meta, effects=[e.name for e in model.effects]),
+                     not_estimable=not_estimable, trace=trace,
+                     diagnostics=diagnostics(model, np.median(samples, axis=0)))
+    post.model = model
+    return post
+
+
+# --- the whole diagnosis -------------------------------------------------------
+
+def _nominal_vectors(meta, ids):
+    nom = meta.get("nominal", {})
+    return np.array([unit_vector(nom[c]["azimuth_deg"], nom[c]["dip_deg"]) for c in ids])
+
+
+def _effect_entry(model, effect, sl, samples, step_score):
+    phys = effect.physical(samples[:, sl])
+    params = {k: interval_summary(v) for k, v in phys.items()}
+    med = {k: v["median"] for k, v in params.items()}
+    ids = [model.blocks[r].channel_id for r in effect.rows]
+    if effect.name == "extra_pole":
+        params["which"] = effect.which
+    return {"name": effect.name, "channels": ids, "parameters": params,
+            "score_gain": step_score, "explanation": effect.explain(med)}
+
+
+def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
+    """Diagnose a base fit.
+
+    ``base`` is a :class:`Posterior` from :func:`bayescal.io.pipeline.calibrate`
+    (with ``.model`` and ``.theta_ls`` attached). Returns a
+    :class:`Diagnosis`.
+    """
+    model0 = base.model
+    free = base.meta.get("free_response", "none")
+    th0 = base.theta_ls
+    model0.estimate_noise(th0)
+    before = locate(model0, th0)
+    ids = [b.channel_id for b in model0.blocks]
+    sp = model0.spectra
+    q = band_ratio(model0, th0)
+    sig = catalogue.signatures(sp.band_centres, q, ratio_weights(sp))
+    times, tau_k, w_k = segment_timing(model0, th0)
+    sig["clock_drift"] = catalogue.drift_signature(times, tau_k, w_k)
+    # when a drift is a candidate, every model of the search is scored on the
+    # per-time-block likelihood (candidates ranked on the same data)
+    start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
+    if start.per_block:
+        start.estimate_noise(th0)
+    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"])
+    if cov is None:
+        model, th, cov = model0, th0, least_squares_fit(model0, th0)[1]
+    after = locate(model, th)
+    # the base model's misfit under the final noise model: the base's own
+    # noise estimate is inflated by the misfit it leaves (before/after on one scale)
+    common = _with(model0, [], per_block=model.per_block)
+    common.adopt_noise(model.noise)
+    before_common = locate(common, _refit(common, (th0,))[1])
+    if model.effects:
+        final = posterior_of(model, th, cov, base.meta, base.not_estimable, free, seed=seed,
+                             mcmc=mcmc, progress=progress, **sample_kw)
+    else:       # nothing to add to the response model: the final fit is the base fit
+        final = base
+    kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
+    effects = []
+    for e, sl in zip(model.effects, model.effect_slices):
+        entry = _effect_entry(model, e, sl, final.samples, kept.get(_key(e)))
+        entry["signature"] = sig.get(_key(e), {})
+        effects.append(entry)
+    # orientation effects: fitted axes against the metadata axes
+    fitted = np.median(base.vectors, axis=0)
+    fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
+    nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
+    if nominal is not None:
+        for f in catalogue.orientation_findings(fitted, nominal, ids):
+            gain = orientation_score(model0, th0, nominal, f)
+            sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
+            if gain <= BIC_KEEP:
+                continue
+            ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
+                base.vectors[:, r] @ nominal[r], -1, 1))))
+                for c, r in zip(f["channels"], f["rows"])}
+            effects.append({"name": f["name"], "channels": f["channels"],
+                            "parameters": {"angle_to_metadata_axis_deg": ang},
+                            "score_gain": gain, "explanation": f["explanation"]
+                            + "; the free orientation fit already models it"})
+        horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
+        t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
+        sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
+        if t["applicable"] and t["kept"] and t["channels"]:
+            params = {"alpha": t["alpha"]}
+            for i in t["channels"]:
+                params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
+                    t["per_channel"][str(i)]["nsr_lowest_band"]
+            effects.append({"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
+                            "parameters": params, "score_gain": t["delta_bic"],
+                            "explanation": t["explanation"] + "; it is noise, not a response "
+                            "error: the per-band noise model carries it (those bands weigh "
+                            "less), so the orientation and response estimates do not move",
+                            "signature": sig["tilt_noise"]})
+    return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
+                     before_common=before_common,
+                     steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
+                     ratio_before=q, ratio_after=band_ratio(model, th))
+
+
+class Diagnosis:
+    """Everything :func:`diagnose` found; ``summary()`` is diagnosis.json."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    @property
+    def names(self):
+        return [e["name"] for e in self.effects]
+
+    def unexplained(self):
+        """Sentences for mismatch that remains after the final model."""
+        return [f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz "
+                f"on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}, misfit up to "
+                f"{m['misfit_max']:.2g} times its expectation)" for m in self.after["mismatch"]]
+
+    def movements(self):
+        """How each channel's orientation (and response) moved from the
+        base fit to the final fit (median differences)."""
+        b, f = self.base.summary()["channels"], self.final.summary()["channels"]
+        out = {}
+        for cid in b:
+            d = {}
+            for key in ("azimuth_deg", "dip_deg"):
+                if "median" in b[cid][key] and not b[cid][key].get("undefined"):
+                    d[key] = f[cid][key]["median"] - b[cid][key]["median"]
+            for key, v in b[cid].get("response", {}).items():
+                d[key] = f[cid]["response"][key]["median"] - v["median"]
+            out[cid] = d
+        return out
+
+    def sentences(self):
+        """The finding in plain words."""
+        out = []
+        edges = self.band_edges
+        for e in self.effects:
+            s = e["explanation"]
+            if e.get("score_gain") is not None and "BIC" not in s:
+                s += f" (BIC gain {e['score_gain']:.0f})"
+            out.append(s)
+        fixed = self.before_common["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
+        if fixed.any() and any(e.get("score_gain") for e in self.effects):
+            before = self.before_common["misfit"][fixed].max()
+            after = self.after["misfit"][fixed].max()
+            where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in _runs(fixed))
+            out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
+                       f"misfit in {where} Hz (largest standardised misfit there "
+                       f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
+        if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
+            b, a = self.before_common["misfit"], self.after["misfit"]
+            out.append(f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised "
+                       f"misfit falls from median {np.median(b):.3g} (largest {b.max():.3g}) to "
+                       f"median {np.median(a):.3g} (largest {a.max():.3g}); 1 means a fit "
+                       "within the noise")
+        moves = self.movements()
+        big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
+               if k == "azimuth_deg" and abs(v) > 0.05]
+        if big and any(e.get("score_gain") for e in self.effects):
+            out.append("it moves " + ", ".join(f"{c}'s azimuth by {v:+.2f} degree"
+                                               for c, _, v in big))
+        if not self.effects and not self.after["mismatch"]:
+            out.append("no mismatch: the model describes the recordings within their noise")
+        out += self.unexplained()
+        return out
+
+    def summary(self):
+        def cells(loc):
+            return {"misfit": loc["misfit"], "p_value": loc["p_value"]}
+        steps = [[{k: v for k, v in t.items()} for t in step] for step in self.steps]
+        return {"schema": SCHEMA, "mismatch": self.before["mismatch"],
+                "effects": self.effects, "unexplained": self.after["mismatch"],
+                "summary": self.sentences(),
+                "per_band": {"band_edges_hz": self.band_edges, "channels": self.ids,
+                             "before": cells(self.before), "after": cells(self.after),
+                             "before_under_final_noise": cells(self.before_common),
+                             "ratio_amplitude_before": np.abs(self.ratio_before),
+                             "ratio_phase_deg_before": np.degrees(np.angle(self.ratio_before)),
+                             "ratio_amplitude_after": np.abs(self.ratio_after),
+                             "ratio_phase_deg_after": np.degrees(np.angle(self.ratio_after))},
+                "signatures": self.signatures, "search": steps,
+                "movements": self.movements(),
+                "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
+                             "score": "BIC difference under the extended model's noise model"},
+                "base": self.base.summary(), "final": self.final.summary()}

@@ -1,0 +1,315 @@
+"""A catalogue of physics that the base calibration model leaves out.
+
+Each entry is an :class:`bayescal.core.likelihood.Effect` (a factor on the SUT
+deconvolution that equals 1 at the effect's null value, so the extended model
+nests the base model), a *signature* test that scores how well the misfit
+located after the base fit looks like it, and a sentence in plain words.
+
+Signatures read the per-band complex ratio ``q[b, i]`` of what SUT channel
+``i`` recorded over what the fitted model predicts from the reference (1
+where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
+
+* ``timing_offset``: phase of ``q`` linear in frequency through the origin,
+  flat amplitude (SUT late by tau: phase ``-2 pi f tau`` on every channel).
+* ``clock_drift``: the per-segment timing (phase slope) changes steadily
+  through the record (a screen; the drift is fitted on the per-time-block
+  likelihood, :class:`ClockDrift`).
+* ``extra_pole``: amplitude rolls off (SUT has a pole its metadata lacks:
+  ``|q|`` falls, phase lags) or rises (the reference lacks one: ``|q|``
+  rises, phase leads) toward high frequency.
+* ``gain_error``: one channel's ``|q|`` flat and different from 1, phase 0.
+* ``polarity_reversal`` / ``channel_swap``: the base fit estimates
+  orientation freely, so these show as a fitted axis opposite to the
+  metadata axis, or two channels whose fitted axes match each other's
+  metadata axes (:func:`orientation_findings`, a screen; the score is
+  :func:`bayescal.criticism.diagnose.orientation_score`).
+* ``tilt_noise``: noise, not a response error, modelled in the noise
+  spectra by :mod:`bayescal.criticism.tilt`. :func:`tilt_signature` is the earlier
+  coherence-ratio rule, kept as the baseline of benchmarks/tilt_power.py.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.likelihood import Effect
+
+#: Angle (degrees) within which a fitted axis "matches" a metadata axis.
+MATCH_DEG = 30.0
+#: Horizontal/vertical coherence-deficit ratio (two lowest bands) naming tilt noise.
+TILT_RATIO = 4.0
+#: A missing pole is named only with its corner below this many times the band top.
+IDENTIFIABLE_RATIO = 3.0
+
+
+class TimingOffset(Effect):
+    """The SUT's clock is late by ``seconds`` relative to the reference's."""
+
+    name = "timing_offset"
+    param_names = ("seconds",)
+    multimodal = True
+
+    def __init__(self, rows, limit_s=30.0):
+        self.rows = list(rows)
+        self.limit_s = limit_s
+
+    def factor(self, f, p):
+        return np.exp(2j * np.pi * f[None, None, :] * p[:, :1, None])
+
+    def log_prior(self, p):
+        return np.where(np.abs(p[:, 0]) < self.limit_s, 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"seconds": p[:, 0]}
+
+    @staticmethod
+    def explain(med):
+        s = med["seconds"]
+        return (f"the SUT's clock is {abs(s):.3g} s {'late' if s > 0 else 'early'} relative to "
+                "the reference's (a timing offset between the digitizers)")
+
+
+class ClockDrift(Effect):
+    """The SUT's clock offset grows linearly through the record:
+    ``tau(t) = seconds_mid + ppm * 1e-6 * (t - t_mid)`` (``t_mid`` the mean
+    time of the used segments). A time-dependent effect (``blocked``): in
+    time block ``g`` of the spectra (segment times with mean ``t_g`` and
+    variance ``v_g``) the block's cross-spectra carry the block average of
+    ``exp(-2 pi i f tau(t))``, i.e. ``exp(-2 pi i f tau(t_g))`` times the
+    decoherence within the block, ``exp(-(2 pi f ppm 1e-6)^2 v_g / 2)``;
+    the SUT factor undoes both
+    (second-order cumulant; the phase spread inside a 16th of an hour-long
+    record at 100 ppm and 3 Hz is 0.4 rad, where the next term is below
+    1e-3). The block-to-block phase progression carries the rate and its
+    sign, so both parameters come from the posterior. ``ppm = 0`` is a
+    constant offset: the effect nests :class:`TimingOffset`."""
+
+    name = "clock_drift"
+    param_names = ("seconds_mid", "ppm")
+    blocked = True
+    multimodal = True
+
+    def __init__(self, rows, spectra, limit_ppm=1000.0):
+        self.rows = list(rows)
+        t = spectra.segment_times()
+        g = spectra.block_of
+        n_blocks = spectra.block_totals.shape[0]
+        count = np.maximum(np.bincount(g, minlength=n_blocks), 1)
+        self.t_mid = float(t.mean())
+        self.dt = np.bincount(g, t, n_blocks) / count - self.t_mid             # (G,)
+        self.var = np.maximum(np.bincount(g, t * t, n_blocks) / count
+                              - (self.dt + self.t_mid) ** 2, 0.0)
+        self.limit_ppm = limit_ppm
+
+    def factor(self, f, p):
+        tau = p[:, 0, None] + 1e-6 * p[:, 1, None] * self.dt[None, :]        # (W, G)
+        w = 2 * np.pi * f[None, None, :]
+        spread = np.maximum(np.exp(-0.5 * (w * 1e-6 * p[:, 1, None, None]) ** 2
+                                   * self.var[None, :, None]), 0.05)
+        # the block sum carries exp(-i w tau_g) * spread; the factor undoes both
+        return (np.exp(1j * w * tau[:, :, None]) / spread)[:, :, None, :]    # (W, G, 1, F)
+
+    def log_prior(self, p):
+        ok = (np.abs(p[:, 0]) < 30) & (np.abs(p[:, 1]) < self.limit_ppm)
+        return np.where(ok, 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"seconds_mid": p[:, 0], "ppm": p[:, 1]}
+
+    @staticmethod
+    def explain(med):
+        s = med["ppm"]
+        return (f"the SUT's clock {'gains' if s > 0 else 'loses'} {abs(s):.3g} ppm against the "
+                f"reference's (its offset grows through the record; {med['seconds_mid']:.3g} s "
+                "at mid-record, + = SUT late)")
+
+
+class ExtraPole(Effect):
+    """A real pole at ``corner_hz`` missing from the metadata of the SUT
+    (``which="sut"``) or of the reference (``which="ref"``), normalised like
+    the first stage (unit gain at ``norm_freq``). Parameter: ``1 / corner``
+    in seconds (0 = no pole; the prior keeps it positive)."""
+
+    name = "extra_pole"
+    param_names = ("inverse_corner_s",)
+
+    def __init__(self, rows, which, norm_freq=1.0, max_inverse_s=100.0):
+        self.rows = list(rows)
+        self.which = which
+        self.norm_freq = norm_freq
+        self.max_inverse_s = max_inverse_s
+
+    def factor(self, f, p):
+        x = p[:, :1, None]
+        undo = (1 + 1j * f[None, None, :] * x) / np.abs(1 + 1j * self.norm_freq * x)
+        return undo if self.which == "sut" else 1.0 / undo
+
+    def log_prior(self, p):
+        return np.where((p[:, 0] >= 0) & (p[:, 0] < self.max_inverse_s), 0.0, -np.inf)
+
+    @staticmethod
+    def identifiable(p, fmin, fmax):
+        """A corner far above the band only adds a near-linear phase and a
+        gain step (a delay and a gain): not identifiable as a pole there."""
+        return p[0] * fmax * IDENTIFIABLE_RATIO >= 1.0
+
+    @staticmethod
+    def physical(p):
+        with np.errstate(divide="ignore"):
+            return {"corner_hz": 1.0 / np.maximum(p[:, 0], 1e-12)}
+
+    def explain(self, med):
+        who, other = (("sensor under test", "reference") if self.which == "sut"
+                      else ("reference", "sensor under test"))
+        return (f"the {who}'s response has a pole near {med['corner_hz']:.3g} Hz that its "
+                "metadata lacks (its amplitude rolls off and its phase lags above that; a "
+                f"pair of recordings cannot tell this from a zero missing from the {other}'s "
+                "metadata)")
+
+
+class GainError(Effect):
+    """SUT channel ``row``'s sensitivity is ``1 + fraction`` times its
+    metadata value (only testable when gains are not fitted)."""
+
+    name = "gain_error"
+    param_names = ("fraction",)
+
+    def __init__(self, row, channel_id=""):
+        self.rows = [row]
+        self.channel_id = channel_id
+
+    def factor(self, f, p):
+        return (1.0 / (1.0 + p[:, :1, None])) * np.ones_like(f)[None, None, :]
+
+    def log_prior(self, p):
+        return np.where(np.abs(p[:, 0]) < 0.9, 0.0, -np.inf)
+
+    @staticmethod
+    def physical(p):
+        return {"fraction": p[:, 0]}
+
+    def explain(self, med):
+        return (f"{self.channel_id}'s sensitivity is {100 * med['fraction']:+.2g} % off its "
+                "metadata value")
+
+
+# --- signatures -------------------------------------------------------------
+
+def _wls_slope(x, y, w):
+    """Weighted least-squares slope through the origin and its R^2-like fit quality."""
+    slope = np.sum(w * x * y) / np.sum(w * x * x)
+    resid = np.sum(w * (y - slope * x) ** 2)
+    total = np.sum(w * y * y) + 1e-30
+    return slope, 1.0 - resid / total
+
+
+def signatures(freqs_b, q, weight):
+    """Score each response-side candidate from the per-band ratio ``q``
+    (B, n_u) and per-band weights (B, n_u) (inverse variance of log q).
+
+    Returns a dict name -> {"score": 0..1, "start": parameter guess, ...}.
+    The score is how well the pattern matches (fit quality of the
+    signature's shape); the likelihood comparison decides.
+    """
+    logq = np.log(np.where(np.abs(q) > 0, q, 1.0))
+    amp, phase = logq.real, np.unwrap(logq.imag, axis=0)
+    f = np.broadcast_to(freqs_b[:, None], q.shape)
+    out = {}
+    # timing: common phase slope on all channels
+    slope, fit = _wls_slope(f.ravel(), phase.ravel(), weight.ravel())
+    out["timing_offset"] = {"score": float(max(fit, 0)), "start": float(-slope / (2 * np.pi))}
+    # extra pole: log-amplitude change with f^2 at low f x, phase ~ -f x
+    mean_amp = np.average(amp, axis=1, weights=weight)
+    mean_ph = np.average(phase, axis=1, weights=weight)
+    wb = weight.sum(axis=1)
+    trend = np.polyfit(np.log(freqs_b), mean_amp, 1, w=np.sqrt(wb))[0]
+    pole_fit = float(max(_wls_slope(freqs_b, mean_ph, wb)[1], 0))
+    out["extra_pole:sut"] = {"score": pole_fit * float(trend < 0), "amplitude_trend": float(trend)}
+    out["extra_pole:ref"] = {"score": pole_fit * float(trend > 0), "amplitude_trend": float(trend)}
+    # gain: per channel, flat amplitude offset with little phase
+    for i in range(q.shape[1]):
+        a = np.average(amp[:, i], weights=weight[:, i])
+        spread = np.sqrt(np.average((amp[:, i] - a) ** 2, weights=weight[:, i]))
+        out[f"gain_error:{i}"] = {"score": float(abs(a) / (abs(a) + spread + 1e-12)),
+                                  "start": float(np.exp(a) - 1)}
+    return out
+
+
+def _drift_fit(t, tau, w):
+    a = np.average(tau, weights=w)
+    return np.sum(w * t * (tau - a)) / np.sum(w * t * t), a
+
+
+def drift_signature(times_s, tau_k, weight_k, blocks=10):
+    """Per-segment timing ``tau_k`` (s) against segment time: the weighted
+    regression slope in ppm, its standard error from a delete-one-block
+    jackknife over ``blocks`` contiguous blocks of segments (neighbouring
+    segments overlap and share slow noise, so the regression's own error
+    is too small), and the t-statistic (clock drift when large)."""
+    t = np.asarray(times_s, float) - np.mean(times_s)
+    tau = np.asarray(tau_k, float)
+    w = np.asarray(weight_k, float)
+    slope, a = _drift_fit(t, tau, w)
+    groups = np.array_split(np.arange(len(t)), min(blocks, len(t)))
+    loo = np.array([_drift_fit(np.delete(t, g), np.delete(tau, g), np.delete(w, g))[0]
+                    for g in groups])
+    g = len(groups)
+    se = np.sqrt((g - 1) / g * np.sum((loo - loo.mean()) ** 2))
+    return {"ppm": float(slope * 1e6), "sd_ppm": float(se * 1e6),
+            "t_stat": float(slope / se) if se > 0 else 0.0, "seconds_mid": float(a)}
+
+
+def tilt_signature(band_centres, coherence, horizontal):
+    """Coherence deficit ``1 - coherence`` (B, n_u) on the horizontals
+    against the verticals in the lowest third of the bands, and whether it
+    grows toward long periods. Returns dict with ``score`` (ratio of
+    deficits), ``rising`` and the channels concerned."""
+    horizontal = np.asarray(horizontal, bool)
+    deficit = np.clip(1.0 - coherence, 1e-6, 1)
+    nb = deficit.shape[0]
+    low, high = slice(0, min(2, nb)), slice(max(nb - 3, 0), None)
+    if not horizontal.any():
+        return {"score": 0.0, "rising": False, "channels": []}
+    hz = np.flatnonzero(horizontal)
+    h_low = deficit[low][:, hz].mean(axis=0)
+    ref_level = (deficit[low][:, ~horizontal].mean() if (~horizontal).any()
+                 else deficit[high][:, hz].mean())
+    ratio = h_low / ref_level
+    rising = h_low > TILT_RATIO * deficit[high][:, hz].mean(axis=0)
+    chans = [int(i) for i, r, up, d in zip(hz, ratio, rising, h_low)
+             if r > TILT_RATIO and up and d > 0.02]
+    return {"score": float(ratio.max()), "rising": bool(rising.any()), "channels": chans,
+            "deficit_low": h_low.tolist(), "reference_deficit": float(ref_level)}
+
+
+def _angle(a, b):
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1, 1))))
+
+
+def orientation_findings(fitted, nominal, ids):
+    """Compare fitted axes (n, 3) with metadata axes (n, 3): a channel whose
+    fitted axis is within :data:`MATCH_DEG` of minus its metadata axis is a
+    polarity reversal; two channels whose fitted axes match each other's
+    metadata axes are swapped. Returns a list of findings (dicts)."""
+    out = []
+    n = len(ids)
+    swapped = set()
+    for i in range(n):
+        for j in range(i + 1, n):
+            if (_angle(fitted[i], nominal[j]) < MATCH_DEG and _angle(fitted[j], nominal[i]) < MATCH_DEG
+                    and _angle(fitted[i], nominal[i]) > 60):
+                swapped |= {i, j}
+                out.append({"name": "channel_swap", "rows": [i, j], "channels": [ids[i], ids[j]],
+                            "explanation": f"{ids[i]} and {ids[j]} are exchanged: each one's "
+                                           "fitted axis is the other's metadata axis (wiring "
+                                           "or channel naming swapped)"})
+    for i in range(n):
+        if i in swapped:
+            continue
+        if _angle(fitted[i], -nominal[i]) < MATCH_DEG:
+            out.append({"name": "polarity_reversal", "rows": [i], "channels": [ids[i]],
+                        "explanation": f"{ids[i]} is wired backwards: its fitted axis points "
+                                       f"{_angle(fitted[i], nominal[i]):.0f} degrees from its "
+                                       "metadata axis (polarity reversed)"})
+    return out

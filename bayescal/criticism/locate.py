@@ -1,0 +1,95 @@
+"""Where the fitted model and the recordings disagree: the standardised misfit
+per band and SUT channel with its p-value, the recorded/predicted ratio per
+band, coherences and the per-segment timing trend (see :mod:`.diagnose`).
+"""
+from __future__ import annotations
+
+
+import numpy as np
+from scipy.stats import gamma
+
+
+#: Family-wise false-alarm level of the mismatch test (Bonferroni over cells).
+ALPHA = 0.01
+
+# --- locate -----------------------------------------------------------------
+
+
+def band_ratio(model, theta):
+    """(B, n_u) complex ratio of what each SUT channel recorded (deconvolved
+    by the model's response) over what the model predicts from the
+    reference, per band: ``(S_ur t_i) / (t_i S_rr t_i)``; 1 where it fits."""
+    vecs, _ = model.unpack(theta)
+    t = (vecs @ model.ref_pinv)[0]                                   # (nu, nr)
+    r = model.residual(np.atleast_2d(theta))[0]                      # (B, nu, nr)
+    srr = model._srr
+    sur = r + np.einsum("ij,bjk->bik", t, srr)
+    num = np.einsum("bij,ij->bi", sur, t)
+    den = np.einsum("ij,bjk,ik->bi", t, srr, t).real
+    return num / den
+
+
+def band_coherence(spectra):
+    """(B, n_u) mean multiple coherence of each SUT channel in each band."""
+    mc = spectra.multiple_coherence()                                 # (nu, F)
+    return np.stack([mc[:, spectra.band_of == b].mean(axis=1) for b in range(spectra.n_bands)])
+
+
+def ratio_weights(spectra):
+    """(B, n_u) inverse variance of ``log q`` per band (bins x segments x
+    signal-to-noise)."""
+    coh = np.clip(band_coherence(spectra), 1e-6, 1 - 1e-9)
+    n = spectra.bins_per_band[:, None] * spectra.n_segments
+    return n * coh / (1 - coh)
+
+
+def locate(model, theta):
+    """Where the model at ``theta`` (with its noise model set) misfits.
+
+    Returns dict with ``misfit`` (B, n_u), ``p_value`` (B, n_u), ``flag``
+    (B, n_u) booleans and ``mismatch``: contiguous runs of flagged bands as
+    ``{"band_hz", "channels", "p_value", "misfit_max"}``."""
+    sp = model.spectra
+    v = model.standardized_band_residuals(theta)
+    nr = sp.n_r
+    p = gamma.sf(nr * v, nr)
+    flag = p < ALPHA / p.size
+    ids = [b.channel_id for b in model.blocks]
+    runs = []
+    for b, e in _runs(flag.any(axis=1)):
+        runs.append({"band_hz": [float(sp.band_edges[b]), float(sp.band_edges[e])],
+                     "channels": [ids[i] for i in np.flatnonzero(flag[b:e].any(axis=0))],
+                     "p_value": float(p[b:e].min()),
+                     "misfit_max": float(v[b:e].max())})
+    return {"misfit": v, "p_value": p, "flag": flag, "mismatch": runs}
+
+
+def segment_timing(model, theta):
+    """Per-segment timing residual (s, relative to the record's mean) and a
+    weight, from the phase of each segment's band cross-spectra against the
+    model's prediction: the raw material of the clock-drift signature."""
+    sp = model.spectra
+    nu = sp.n_u
+    vecs, _ = model.unpack(theta)
+    t = (vecs @ model.ref_pinv)[0]
+    seg = sp.per_segment
+    c = np.einsum("kbij,ij->kb", seg[:, :, :nu, nu:], t)               # (K, B)
+    mean_phase = np.angle(c.sum(axis=0))
+    phase = np.angle(c * np.exp(-1j * mean_phase)[None])
+    w = ratio_weights(sp).sum(axis=1)
+    # effective frequency of each band's phase: bins weighted by the
+    # predicted cross-power (the geometric band centre would bias tau)
+    power = np.abs(np.einsum("fij,ij->f", sp.total[:, :nu, nu:], t))
+    f = np.bincount(sp.band_of, power * sp.freqs, sp.n_bands) / np.bincount(
+        sp.band_of, power, sp.n_bands)
+    tau = -np.sum(w * f * phase, axis=1) / (2 * np.pi * np.sum(w * f * f))
+    times = (sp.segment_starts + sp.nperseg / 2.0) / sp.fs
+    return times, tau, np.ones_like(tau)
+
+
+# --- candidates -------------------------------------------------------------
+
+def _runs(mask):
+    """(first, end) band indices of each run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return list(zip(edges[::2], edges[1::2]))

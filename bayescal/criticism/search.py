@@ -1,0 +1,270 @@
+"""Which effects to add: catalogue candidates for the current model, their fits
+(grid start, then least squares), and their BIC scores under one noise
+model (see :mod:`.diagnose`).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import effects as catalogue
+from ..core.sampler import _bounds, least_squares_fit
+from ..core.geometry import Fixed
+from ..core.likelihood import MIN_TIME_BLOCKS, Model
+
+
+#: An effect is kept when it improves the BIC by more than this ("very
+#: strong" evidence on the Kass & Raftery scale).
+BIC_KEEP = 10.0
+MAX_EFFECTS = 3
+#: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
+N_STARTS = 3
+#: |t| of the per-segment timing trend above which clock drift is a candidate
+#: (a cheap screen; the BIC decides).
+DRIFT_T = 3.0
+
+
+def _candidates(model, free, current, drift=None):
+    """(key, effect, grid of starting parameters) for every applicable
+    catalogue entry not already in ``current`` (list of effects)."""
+    sp = model.spectra
+    rows = list(range(sp.n_u))
+    fmin, fmax = float(sp.band_edges[0]), float(sp.band_edges[-1])
+    have = {_key(e) for e in current}
+    out = []
+    span = min(5.0, 0.5 / fmin)
+    step = 0.05 / fmax
+    if not any(e.name == "clock_drift" for e in current):
+        out.append(("timing_offset", catalogue.TimingOffset(rows),
+                    np.arange(-span, span + step, step)[:, None]))
+    if _drift_candidate(model, drift):
+        taus = np.arange(-span, span + step, step)
+        out.append(("clock_drift", catalogue.ClockDrift(rows, sp),
+                    np.column_stack([taus, np.full(taus.size, drift["ppm"])])))
+    norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
+    x = np.r_[np.geomspace(0.03 / fmax, 3.0 / fmin, 60)]
+    for which in ("sut", "ref"):
+        n = sum(1 for e in current if e.name == "extra_pole" and e.which == which)
+        e = catalogue.ExtraPole(rows, which, norm)
+        e.index = n + 1
+        if n:   # unique parameter names for a second pole on the same sensor
+            e.param_names = (f"inverse_corner_s_{n + 1}",)
+        out.append((_key(e), e, x[:, None]))
+    if free == "none":
+        for i, b in enumerate(model.blocks):
+            out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
+                        np.linspace(-0.6, 0.6, 61)[:, None]))
+    return [c for c in out if c[0] not in have]
+
+
+def _drift_candidate(model, drift):
+    """Whether a clock drift is tried: the per-segment timing trend passes
+    the screen and the spectra have enough time blocks."""
+    bt = model.spectra.block_totals
+    return (drift is not None and abs(drift["t_stat"]) > DRIFT_T and bt is not None
+            and bt.shape[0] >= MIN_TIME_BLOCKS)
+
+
+def _key(effect):
+    if effect.name == "extra_pole":
+        k = getattr(effect, "index", 1)
+        return f"extra_pole:{effect.which}" + (f"#{k}" if k > 1 else "")
+    if effect.name == "gain_error":
+        return f"gain_error:{effect.rows[0]}"
+    return effect.name
+
+
+def _with(model, effects, per_block=False):
+    """``model`` with ``effects`` and its noise model. Once a time-dependent
+    effect is in, the likelihood is per time block (and stays so, so that the
+    models a search compares use the same data)."""
+    m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
+              per_block=per_block or model.per_block)
+    if model.noise is not None:
+        m.adopt_noise(model.noise)
+    return m
+
+
+def _theta_base(model, theta):
+    """The channel-block part of ``theta`` (effects stripped)."""
+    n = sum(b.n_params for b in model.blocks)
+    return np.asarray(theta)[:n]
+
+
+def _effect_params(model, theta):
+    return {_key(e): np.asarray(theta)[sl] for e, sl in zip(model.effects, model.effect_slices)}
+
+
+def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
+    """Least-squares fit of ``cur_model`` extended by ``effects`` (the new
+    effect at ``new_index`` starts at the best point of ``grid`` under the
+    current noise model). Returns (model, theta, cov) or None when the fit
+    leaves the effect's prior support."""
+    m = _with(cur_model, effects)
+    old = _effect_params(cur_model, cur_theta)
+    base = list(_theta_base(cur_model, cur_theta))
+    pieces, new_slice, i = [], None, len(base)
+    for k, e in enumerate(effects):
+        if k == new_index:
+            pieces.append(np.zeros(e.n_params))
+            new_slice = slice(i, i + e.n_params)
+        else:
+            pieces.append(old.get(_key(e), np.zeros(e.n_params)))
+        i += e.n_params
+    theta0 = np.concatenate([base] + pieces)
+    trial = np.repeat(theta0[None], len(grid), axis=0)
+    trial[:, new_slice] = grid
+    lp = m.log_prior(trial)
+    ok = np.isfinite(lp)
+    ll = np.full(len(grid), -np.inf)
+    ll[ok] = m.log_likelihood(trial[ok])
+    new = effects[new_index]
+    best = None
+    for theta0 in _starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1):
+        try:
+            theta, cov = least_squares_fit(m, theta0)
+        except Exception:
+            continue
+        if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
+            continue
+        # starts are compared under one noise model, the current model's
+        own = m.noise
+        m.adopt_noise(cur_model.noise)
+        fit_ll = float(m.log_likelihood(theta)[0])
+        if best is None or fit_ll > best[0]:
+            best = (fit_ll, theta, cov, own)
+    if best is None:
+        return None
+    _, theta, cov, m.noise = best
+    sp = m.spectra
+    if hasattr(new, "identifiable") and not new.identifiable(theta[new_slice], sp.band_edges[0],
+                                                             sp.band_edges[-1]):
+        return None
+    return m, theta, cov
+
+
+def _starts(trial, ll, n):
+    """The ``n`` best local maxima of ``ll`` along the grid ``trial`` (a
+    delay's likelihood is multimodal: one least-squares run from the grid's
+    best point can end in a neighbouring mode)."""
+    inner = np.r_[True, ll[1:] >= ll[:-1]] & np.r_[ll[:-1] >= ll[1:], True] & np.isfinite(ll)
+    idx = np.flatnonzero(inner)
+    idx = idx[np.argsort(ll[idx])[::-1]][:n]
+    return [trial[i] for i in idx] or [trial[int(np.argmax(ll))]]
+
+
+def _best_loglik(model, starts):
+    """Largest log-likelihood of ``model`` under its (fixed) noise model,
+    maximised by least squares from each of ``starts``."""
+    return _refit(model, starts)[0]
+
+
+def _refit(model, starts):
+    """(log-likelihood, theta) of the best least-squares refit of ``model``
+    from ``starts`` under its fixed noise model."""
+    if model.ndim == 0:
+        return float(model.log_likelihood(np.zeros((1, 0)))[0]), np.zeros(0)
+    fac = model.noise.cholesky()
+    lo, hi = _bounds(model)
+    bounded = bool(np.isfinite(lo).any())
+    best = (-np.inf, None)
+    for start in starts:
+        res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
+                            args=(fac,), method="trf" if bounded else "lm",
+                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        ll = float(model.log_likelihood(res.x)[0])
+        if ll > best[0]:
+            best = (ll, res.x)
+    return best
+
+
+def held_orientation_loglik(model, theta, axes):
+    """Log-likelihood with every SUT axis held at ``axes`` (n_u, 3) and the
+    response parameters re-fitted, under ``model``'s noise model."""
+    blocks = [replace(b, manifold=Fixed(np.asarray(a, float))) for b, a in zip(model.blocks, axes)]
+    held = Model(model.spectra, model.ref_vectors, blocks, model.priors)
+    held.adopt_noise(model.noise)
+    start = np.concatenate([np.asarray(theta)[sr] for _, sr in model.slices])
+    return _best_loglik(held, (start,))
+
+
+def orientation_score(model, theta, nominal, finding):
+    """BIC difference between the metadata's axes and the metadata's axes
+    with ``finding``'s channels reversed or exchanged, both held fixed (no
+    extra parameter: ``2 (logL_alt - logL_metadata)``) under the base
+    model's noise model."""
+    alt = np.array(nominal, float)
+    rows = finding["rows"]
+    if finding["name"] == "channel_swap":
+        alt[rows] = nominal[rows[::-1]]
+    else:
+        alt[rows] = -nominal[rows]
+    return 2.0 * (held_orientation_loglik(model, theta, alt)
+                  - held_orientation_loglik(model, theta, nominal))
+
+
+def score(cur_model, cur_theta, ext_model, ext_theta):
+    """BIC gain of ``ext_model`` over ``cur_model`` under the extended
+    model's noise model (the current model re-optimised under it)."""
+    cur = _with(cur_model, cur_model.effects, per_block=ext_model.per_block)
+    cur.adopt_noise(ext_model.noise)
+    # start from the current optimum and from the extended optimum's shared
+    # parameters (the plug-in noise moves the optimum), keep the better
+    ext_params = _effect_params(ext_model, ext_theta)
+    shared = np.concatenate([_theta_base(ext_model, ext_theta)] + [
+        ext_params.get(_key(e), np.asarray(cur_theta)[sl])
+        for e, sl in zip(cur.effects, cur.effect_slices)])
+    ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
+    ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
+    # one sample size for every comparison: the band-summed residual's
+    # entries (time blocks split the same data, they add none)
+    sp = cur_model.spectra
+    n = 2 * sp.n_bands * sp.n_u * sp.n_r
+    k = ext_model.ndim - cur_model.ndim
+    return {"delta_loglik": ll_ext - ll_cur, "delta_bic": 2 * (ll_ext - ll_cur) - k * np.log(n),
+            "n_data": n, "n_extra_params": k}
+
+
+def search(model, theta, free, log=None, drift=None):
+    """Greedy search: add the best-scoring catalogue effect while its BIC
+    gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps)."""
+    cur, th, cov = model, theta, None
+    steps = []
+    while len(cur.effects) < MAX_EFFECTS:
+        tried = []
+        for key, effect, grid in _candidates(cur, free, cur.effects, drift):
+            effects = list(cur.effects)
+            if key == "clock_drift":      # nests timing_offset: replaces it
+                effects = [e for e in effects if e.name != "timing_offset"]
+            effects.append(effect)
+            fit = fit_candidate(cur, th, effects, grid, len(effects) - 1)
+            if fit is None:
+                tried.append({"effect": key, "delta_bic": None,
+                          "note": "left the prior support or not identifiable in the band"})
+                continue
+            s = score(cur, th, fit[0], fit[1])
+            tried.append({"effect": key, **s, "fit": fit})
+            if log:
+                log(f"  {key:18s} dBIC {s['delta_bic']:10.1f}")
+        good = [t for t in tried if t.get("delta_bic") is not None]
+        best = max(good, key=lambda t: t["delta_bic"], default=None)
+        steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
+        if best is None or best["delta_bic"] <= BIC_KEEP:
+            break
+        timing = next((t for t in good if t["effect"] == "timing_offset"), None)
+        if best["effect"] == "clock_drift" and timing is not None:
+            # clock drift nests a constant offset: it must beat it, not only the current model
+            s = score(timing["fit"][0], timing["fit"][1], best["fit"][0], best["fit"][1])
+            if log:
+                log(f"  clock_drift over timing_offset dBIC {s['delta_bic']:10.1f}")
+            if s["delta_bic"] <= BIC_KEEP and timing["delta_bic"] > BIC_KEEP:
+                best = timing
+        cur, th, cov = best["fit"]
+        steps[-1].append({"kept": best["effect"], "delta_bic": best["delta_bic"]})
+    return cur, th, cov, steps
+
+
+# --- posterior of the final model --------------------------------------------

@@ -1,0 +1,15 @@
+"""Recordings and metadata in, corrected metadata out.
+
+* :mod:`.read`        waveforms and metadata (StationXML, GSE2 poles and zeros),
+                      alignment of the two sensors' recordings, ``InputError``
+* :mod:`.band`        choice of the band where the sensors are coherent
+* :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
+* :mod:`.stationxml`  the SUT's StationXML with the posterior's values
+
+May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
+"""
+from .read import (InputError, InputWarning, align, flat_inventory, paz_inventory, read_gse2_paz,
+                   read_metadata, read_waveforms, two_pole_inventory)
+
+__all__ = ["InputError", "InputWarning", "align", "flat_inventory", "paz_inventory",
+           "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]

@@ -1,0 +1,143 @@
+"""The whole chain in one call: recordings -> spectra -> posterior.
+
+From files (any waveform format ObsPy reads, StationXML), the same as
+``bayescal fit``::
+
+    >>> from bayescal.io.pipeline import calibrate_files, write_results
+    >>> post = calibrate_files("sut.mseed", "sut.xml", "ref.mseed", "ref.xml", band=(0.05, 1))
+    >>> write_results(post, "out")   # result.json, samples.npz, diagnostics.npz, sut_corrected.xml
+
+From ObsPy objects::
+
+    >>> post = bayescal.calibrate(sut_stream, sut_inventory, ref_stream, ref_inventory,
+    ...                           band=(0.05, 1.0), fit_response="gain")
+"""
+from __future__ import annotations
+
+from ..core.sampler import fit_spectra
+from .read import InputError, align, flat_inventory, read_metadata, read_waveforms
+from ..core.likelihood import Priors
+from ..core.spectra import SpectraError, cross_spectra
+
+
+def _describe_files(side):
+    files = sorted(set(side.sources)) or [side.source]
+    return ", ".join(files)
+
+
+def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="none", seed=0,
+              priors=Priors(), nperseg=None, start=None, end=None, progress=True,
+              sut_source="SUT", ref_source="reference", **sample_kw):
+    """Posterior over the SUT's orientation (and response) from co-located
+    recordings.
+
+    Parameters
+    ----------
+    sut, ref : ObsPy ``Stream`` of the sensor under test and of the reference.
+    sut_inventory, ref_inventory : ObsPy ``Inventory`` with both sensors'
+        channels (azimuth, dip, response).
+    band : (fmin, fmax) in Hz; None chooses it from the data where the two
+        sensors are coherent (:func:`bayescal.io.band.choose_band`); the band
+        used is in ``posterior.meta["band_hz"]`` and how it was chosen in
+        ``posterior.meta["band_choice"]``.
+    fit_response : "none" (angles only), "gain", or "all" (period, damping,
+        gain per channel).
+    seed : random seed (results are reproducible).
+    start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
+    """
+    fit_response = {None: "none", False: "none", True: "all"}.get(fit_response, fit_response)
+    s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
+                         start, end)
+    files = f"{_describe_files(s)} vs {_describe_files(r)}: "
+    try:
+        if band is None:
+            from .band import choose_band
+            choice = choose_band(s, r, fs, source=files)
+            band, band_note = choice.band, choice.describe()
+        else:
+            band_note = "band given by the user"
+        spectra = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band,
+                                nperseg=nperseg, sut_ids=s.ids, ref_ids=r.ids)
+    except SpectraError as exc:
+        raise InputError(f"{files}{exc}") from None
+    families = s.families()
+    nominal = {cid: {"azimuth_deg": az, "dip_deg": dip,
+                     **({} if fam is None else {"period_s": fam.period_s, "damping": fam.damping,
+                                                "gain": fam.gain, "gain_units": fam.gain_units})}
+               for cid, az, dip, fam in zip(s.ids, s.azimuths, s.dips, families)}
+    used_s = (spectra.n_segments * spectra.step + spectra.nperseg - spectra.step) / fs
+    meta = {"nominal": nominal, "reference": {cid: {"azimuth_deg": az, "dip_deg": dip}
+                                              for cid, az, dip in zip(r.ids, r.azimuths, r.dips)},
+            "starttime": str(t0), "sampling_rate": fs,
+            "duration_s": s.data.shape[1] / fs,
+            "data_used": {"segments": spectra.n_segments,
+                          "segments_possible": spectra.n_segments_possible,
+                          "fraction": spectra.fraction_used,
+                          "approx_seconds": min(used_s, s.data.shape[1] / fs),
+                          "note": "segments touching a gap, an overlap with conflicting data "
+                                  "or a clipped sample are dropped, and so are those within two "
+                                  "periods of the band's lower edge from the ends of the record "
+                                  "or of a gap (the deconvolution's transient)"},
+            "band_choice": band_note,
+            "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
+    post = fit_spectra(spectra, r.vectors, s.vectors, families, free=fit_response, priors=priors,
+                       seed=seed, progress=progress, meta=meta, **sample_kw)
+    post.spectra = spectra
+    post.sut_inventory = sut_inventory
+    return post
+
+
+def load_inventory(spec, stream, side="StationXML"):
+    """An Inventory from ``spec``: an ObsPy Inventory, a StationXML path, or
+    the word ``"flat"`` (flat velocity response, orientations from the
+    channel codes: N/1 north, E/2 east, Z/3 vertical; see
+    :func:`bayescal.io.flat_inventory`)."""
+    if spec is None:
+        raise InputError(f"no {side} given")
+    if hasattr(spec, "networks"):
+        return spec
+    if str(spec).lower() == "flat":
+        return flat_inventory(stream)
+    return read_metadata(spec, side)
+
+
+def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="none",
+                    seed=0, start=None, end=None, progress=True, **kw):
+    """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path
+    or a list (any waveform format ObsPy reads); ``sut_xml``/``ref_xml`` a
+    StationXML path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
+    ``start``/``end`` may be ISO strings. Returns the Posterior (with
+    ``posterior.sut_inventory`` attached, for the corrected StationXML)."""
+    from obspy import UTCDateTime
+
+    sut = read_waveforms(sut_files, "SUT waveform")
+    ref = read_waveforms(ref_files, "reference waveform")
+    sut_inv = load_inventory(sut_xml, sut, "SUT StationXML")
+    ref_inv = load_inventory(ref_xml, ref, "reference StationXML")
+    start = UTCDateTime(start) if start is not None else None
+    end = UTCDateTime(end) if end is not None else None
+    sut_name = sut_xml if isinstance(sut_xml, str) else "SUT StationXML"
+    ref_name = ref_xml if isinstance(ref_xml, str) else "reference StationXML"
+    return calibrate(sut, sut_inv, ref, ref_inv, band=band, fit_response=fit_response,
+                     seed=seed, start=start, end=end, progress=progress,
+                     sut_source=str(sut_name), ref_source=str(ref_name), **kw)
+
+
+def write_results(posterior, folder):
+    """Write everything ``bayescal fit`` writes (without the report) into
+    ``folder``: ``result.json``, ``samples.npz``, ``diagnostics.npz`` and,
+    when the posterior came from :func:`calibrate_files` (or has a
+    ``sut_inventory`` attribute), ``sut_corrected.xml``. Each file is written
+    atomically. Returns the list of paths written."""
+    import os
+
+    from .stationxml import write_corrected
+
+    posterior.save(folder)
+    names = ["result.json", "samples.npz"] + (["diagnostics.npz"] if posterior.diagnostics
+                                              else [])
+    inv = getattr(posterior, "sut_inventory", None)
+    if inv is not None:
+        write_corrected(inv, posterior, os.path.join(folder, "sut_corrected.xml"))
+        names.append("sut_corrected.xml")
+    return [os.path.join(folder, n) for n in names]

@@ -1,0 +1,133 @@
+"""Corrected metadata out: the SUT's StationXML with the fitted values in.
+
+For every fitted SUT channel, :func:`corrected_inventory` replaces
+
+* ``Azimuth`` and ``Dip`` by the posterior medians, with ``plusError`` /
+  ``minusError`` from the 68 % interval (``ci68``); a value held fixed
+  (the dip of a channel fitted against a two-channel reference, the azimuth
+  of a near-vertical channel) is left as it was;
+* when the response was fitted (``--fit-response``), the two long-period
+  poles of stage 1 by those of the median period and damping, with errors
+  from the 68 % interval of the pole samples, stage 1's gain by the median
+  gain, the stage's normalization factor so that the gain keeps its meaning
+  at the normalization frequency, and the overall sensitivity recalculated.
+
+Everything else in the file is left untouched.
+"""
+from __future__ import annotations
+
+import copy
+import os
+
+import numpy as np
+from obspy.core.inventory.util import Azimuth, Dip
+from obspy.core.util.obspy_types import ComplexWithUncertainties
+
+from .read import InputError
+
+
+def _errors(entry):
+    lo, hi = entry["ci68"]
+    med = entry["median"]
+    return med, max(med - lo, 0.0), max(hi - med, 0.0)
+
+
+def _find_channel(inventory, cid, time):
+    """The channel object (inside ``inventory``) of SEED id ``cid`` active at
+    ``time``."""
+    net, sta, loc, cha = cid.split(".")
+    for n in inventory:
+        for s in n:
+            for c in s:
+                if (n.code, s.code, c.location_code, c.code) == (net, sta, loc, cha) and \
+                        (time is None or c.is_active(time=time)):
+                    return c
+    raise InputError(f"channel {cid} is not in the SUT StationXML")
+
+
+def _pendulum_poles(period_s, damping):
+    """(W,) period and damping -> (W, 2) pole pair, rad/s (conjugate first
+    with positive imaginary part; two real poles when overdamped)."""
+    w0 = 2 * np.pi / np.asarray(period_s, float)
+    h = np.asarray(damping, float)
+    disc = np.sqrt((h ** 2 - 1).astype(complex))
+    return np.stack([-w0 * (h - disc), -w0 * (h + disc)], axis=-1)
+
+
+def _pole_with_errors(samples):
+    """ComplexWithUncertainties from complex pole samples (median and 68 %)."""
+    re = np.percentile(samples.real, [16, 50, 84])
+    im = np.percentile(samples.imag, [16, 50, 84])
+    return ComplexWithUncertainties(complex(re[1], im[1]),
+                                    lower_uncertainty=complex(re[1] - re[0], im[1] - im[0]),
+                                    upper_uncertainty=complex(re[2] - re[1], im[2] - im[1]))
+
+
+def _update_response(channel, samples, free, summary):
+    """Write fitted period, damping, gain into the channel's response."""
+    from ..core.response import TwoPoleFamily
+
+    resp = channel.response
+    stage = resp.response_stages[0]
+    fam = TwoPoleFamily.from_response(resp)
+    hertz = "HERTZ" in str(stage.pz_transfer_function_type).upper()
+    scale = 1.0 / (2 * np.pi) if hertz else 1.0
+    gain = summary["gain"]["median"]
+    if free == "all":
+        period, damping = summary["period_s"]["median"], summary["damping"]["median"]
+        new = _pendulum_poles([period], [damping])[0]
+        pole_samples = _pendulum_poles(samples[:, 0], samples[:, 1])
+        current = [complex(p) / scale for p in stage.poles]
+        pair = sorted(np.argsort(np.abs(current))[:2], key=lambda i: -current[i].imag)
+        for k, idx in enumerate(pair):
+            err = _pole_with_errors(pole_samples[:, k])
+            stage.poles[idx] = ComplexWithUncertainties(
+                new[k] * scale, lower_uncertainty=err.lower_uncertainty * scale,
+                upper_uncertainty=err.upper_uncertainty * scale)
+        sn = 2j * np.pi * fam.norm_freq
+        w0n, hn = 2 * np.pi / fam.period_s, fam.damping
+        w0, h = 2 * np.pi / period, damping
+        a0_ratio = abs(sn * sn + 2 * h * w0 * sn + w0 * w0) / abs(sn * sn + 2 * hn * w0n * sn
+                                                                  + w0n * w0n)
+        stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
+    stage.stage_gain = float(gain)
+    sens = resp.instrument_sensitivity
+    freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
+    try:
+        resp.recalculate_overall_sensitivity(freq)
+    except Exception as exc:   # ObsPy/evalresp cannot evaluate this response
+        raise InputError(f"cannot recalculate the overall sensitivity of {channel.code}: "
+                         f"{exc}") from None
+
+
+def corrected_inventory(inventory, posterior):
+    """A copy of ``inventory`` with the posterior's fitted values written in
+    (see the module docstring)."""
+    from obspy import UTCDateTime
+
+    inv = copy.deepcopy(inventory)
+    summary = posterior.summary()
+    time = UTCDateTime(posterior.meta["starttime"]) if posterior.meta.get("starttime") else None
+    free = posterior.meta.get("free_response", "none")
+    for cid, entry in summary["channels"].items():
+        ch = _find_channel(inv, cid, time)
+        az, dip = entry["azimuth_deg"], entry["dip_deg"]
+        if "ci68" in az and not az.get("undefined"):
+            med, lo, hi = _errors(az)
+            ch.azimuth = Azimuth(med % 360.0, lower_uncertainty=lo, upper_uncertainty=hi)
+        if "ci68" in dip:
+            med, lo, hi = _errors(dip)
+            ch.dip = Dip(med, lower_uncertainty=lo, upper_uncertainty=hi)
+        if "response" in entry and cid in posterior.response:
+            _update_response(ch, posterior.response[cid], free, entry["response"])
+    return inv
+
+
+def write_corrected(inventory, posterior, path):
+    """Write :func:`corrected_inventory` as StationXML to ``path``
+    (atomically: temporary name, then rename). Returns ``path``."""
+    inv = corrected_inventory(inventory, posterior)
+    tmp = os.fspath(path) + ".tmp"
+    inv.write(tmp, format="STATIONXML", validate=False)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,11 @@
+"""PDF/PNG reports, one module per kind, figures beside them.
+
+* :mod:`.tables`     rows of the fit report (intervals, nominal, deviations)
+* :mod:`.fit`        the fit report from a result folder
+* :mod:`.fit_pages`  its pages
+* :mod:`.diagnosis`  the diagnosis page
+* :mod:`.uvw`        the UVW calibration report
+* :mod:`.batch`      the network tables and report
+
+May import core, io, criticism and coil; never network or cli.
+"""

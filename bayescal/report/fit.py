@@ -1,0 +1,114 @@
+"""Calibration reports: a multi-page PDF plus one PNG per figure, rendered
+from a saved result folder (``result.json``, ``samples.npz``,
+``diagnostics.npz``).
+
+    >>> from bayescal.report import write_report
+    >>> write_report("out")          # out/report.pdf, out/report_*.png
+
+Pages: (1) summary table with flags, (2) angle credible intervals against
+nominal, (3) corner plots of the angles (and of the response parameters when
+fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
+(5) convergence (traces, tau, ESS, R-hat, acceptance). The numbers on the
+pages are real PDF text, so they can be searched and extracted.
+
+This module holds the file handling; the numbers are in :mod:`.tables`, the
+figures in :mod:`.fit_pages` and :mod:`.corner_pages`.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+
+from ..io.read import InputError
+from .tables import load_truth
+
+
+#: Figures, in page order.
+PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "convergence")
+
+
+def _builder(name, *modules):
+    """The function drawing page ``name`` (``page_<name>`` of one of ``modules``)."""
+    return next(getattr(m, f"page_{name}") for m in modules if hasattr(m, f"page_{name}"))
+
+
+def _check_folder(folder):
+    if not os.path.isdir(folder):
+        raise InputError(f"{folder}: no such result folder")
+    for name in ("result.json", "samples.npz"):
+        if not os.path.exists(os.path.join(folder, name)):
+            raise InputError(f"{folder}: not a bayescal result folder ({name} is missing)")
+
+
+def load_result(folder):
+    """Load a saved :class:`~bayescal.core.posterior.Posterior`, turning any
+    reading problem into an :class:`InputError` naming the folder."""
+    from ..core.posterior import Posterior
+    _check_folder(folder)
+    try:
+        return Posterior.load(folder)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
+
+
+def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
+    """Render the calibration report of the result saved in ``folder``.
+
+    Writes ``folder/report.pdf`` (or ``out_pdf``) and one PNG per figure
+    next to it (``report_<figure>.png``). All files are drawn in a temporary
+    folder first and moved into place at the end, so a failure leaves
+    nothing half-written. PNGs of an earlier report that no longer apply
+    (e.g. a response corner plot) are removed.
+
+    Parameters
+    ----------
+    folder : result folder written by :meth:`Posterior.save`.
+    out_pdf : path of the PDF (default ``folder/report.pdf``).
+    nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
+        which a channel is flagged.
+    truth : simulation truth (dict or JSON path) for truth markers; default
+        ``meta["truth"]`` or ``folder/truth.json`` when present.
+
+    Returns the list of written paths (PDF first).
+    """
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ..version import __version__
+    from . import corner_pages, fit_pages, layout
+
+    folder = os.fspath(folder)
+    post = load_result(folder)
+    truth = load_truth(folder, post.meta, truth)
+    summary = post.summary()
+    out_pdf = os.fspath(out_pdf) if out_pdf else os.path.join(folder, "report.pdf")
+    out_dir = os.path.dirname(os.path.abspath(out_pdf))
+    stem = os.path.splitext(os.path.basename(out_pdf))[0]
+    ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
+                           tolerance_deg=float(nominal_tolerance_deg))
+    tmp = tempfile.mkdtemp(prefix=".report-", dir=out_dir)
+    written = []
+    try:
+        with layout.style():
+            figures = [(name, _builder(name, fit_pages, corner_pages)(ctx)) for name in PAGES]
+            figures = [(n, f) for n, f in figures if f is not None]
+            meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
+                    "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",
+                    "Keywords": "seismometer calibration; orientation; Bayesian"}
+            with PdfPages(os.path.join(tmp, "report.pdf"), metadata=meta) as pdf:
+                for name, fig in figures:
+                    pdf.savefig(fig)
+                    layout.save_png(fig, os.path.join(tmp, f"{name}.png"))
+        os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
+        written.append(out_pdf)
+        for name, _ in figures:
+            dest = os.path.join(out_dir, f"{stem}_{name}.png")
+            os.replace(os.path.join(tmp, f"{name}.png"), dest)
+            written.append(dest)
+        for name in PAGES:
+            stale = os.path.join(out_dir, f"{stem}_{name}.png")
+            if stale not in written and os.path.exists(stale):
+                os.remove(stale)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return written

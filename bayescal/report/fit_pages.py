@@ -1,0 +1,292 @@
+"""Figures of the calibration report, one function per page (the corner plots are in :mod:`.corner_pages`).
+
+Each ``page_<name>(ctx)`` returns a :class:`matplotlib.figure.Figure` (or
+None when the page does not apply). Figures are built without pyplot, so
+rendering never needs a display. Conventions: angles in degrees (SEED),
+frequencies in Hz on log axes, black-and-white friendly (line styles and
+markers carry the distinctions, not colour alone), numbers written as text.
+
+"""
+from __future__ import annotations
+
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from scipy import stats
+
+from ..core.geometry import tilt_from_vertical
+from .tables import angle_rows, response_rows, truth_values, wrap180
+from .layout import A4, LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
+
+
+def page_summary(ctx):
+    """Page 1: what was measured, the table of angles (and responses), flags."""
+    post = ctx.post
+    conv = ctx.summary["convergence"]
+    fig = Figure(figsize=A4)
+    fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
+    lines = _header_lines(ctx)
+    fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
+    top = 0.945 - 0.0143 * len(lines) - 0.02
+    rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
+    resp = response_rows(ctx.summary, ctx.truth)
+    y = _table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
+               " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
+    if resp:
+        y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
+                   " of nominal)", bool(ctx.truth))
+    text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
+    for cid in post.channel_ids:
+        for msg in flags.get(cid, []):
+            text.append(f"  {cid}: {msg}")
+    if len(text) == 1:
+        text.append("  none: every estimated angle lies within tolerance of its nominal value")
+    if not conv["converged"]:
+        text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see page 5)")
+    text.append("")
+    text.append("Not estimable:" + ("" if post.not_estimable else " none"))
+    for cid, reason in post.not_estimable.items():
+        text.append(f"  {cid}: {reason}")
+    text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
+             "\nazimuth intervals crossing north stay contiguous.",
+             "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
+             " instead, with the azimuth it leans toward."]
+    if resp:
+        text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
+                    " StationXML's stage-1 output units (e.g. V) per m/s.")
+    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
+    return fig
+
+
+def _channel_panels(ctx, k):
+    """Per channel: list of (label, samples - nominal offset, nominal, truth) panels."""
+    post = ctx.post
+    cid, kind = post.channel_ids[k], post.kinds[k]
+    ch = ctx.summary["channels"][cid]
+    nom = ch.get("nominal") or {}
+    tru = truth_values(ctx.truth, cid)
+    az, dip = post.azimuth_dip
+    panels = []
+    if "tilt_deg" in ch:
+        tilt, _ = tilt_from_vertical(post.vectors[:, k])
+        ntilt = 90.0 - abs(nom["dip_deg"]) if "dip_deg" in nom else None
+        ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
+        panels.append(("tilt from vertical (deg)", tilt, ntilt, ttilt))
+    elif kind != "fixed":
+        naz = nom.get("azimuth_deg")
+        med = float(np.median(az[:, k]))
+        t = tru.get("azimuth_deg")
+        panels.append(("azimuth (deg)", az[:, k],
+                       None if naz is None else med - float(wrap180(med - naz)),
+                       None if t is None else med - float(wrap180(med - t))))
+    if kind == "sphere":
+        panels.append(("dip (deg)", dip[:, k], nom.get("dip_deg"), tru.get("dip_deg")))
+    return panels
+
+
+def _interval_panel(ax, label, x, nominal, truth, tol):
+    lo95, lo68, med, hi68, hi95 = np.percentile(x, [2.5, 16, 50, 84, 97.5])
+    ax.plot([lo95, hi95], [0, 0], color="k", lw=1.0, solid_capstyle="butt")
+    ax.plot([lo95, lo95], [-0.15, 0.15], color="k", lw=1.0)
+    ax.plot([hi95, hi95], [-0.15, 0.15], color="k", lw=1.0)
+    ax.plot([lo68, hi68], [0, 0], color="k", lw=5.0, solid_capstyle="butt")
+    ax.plot([med], [0], "o", mfc="white", mec="k", ms=6, zorder=5)
+    pts = [lo95, hi95]
+    if nominal is not None:
+        ax.axvline(nominal, color="0.3", ls="--", lw=1.0)
+        for a, b in ((nominal - tol - 1e3, nominal - tol), (nominal + tol, nominal + tol + 1e3)):
+            ax.axvspan(a, b, facecolor="none", edgecolor="0.7", hatch="////", lw=0, zorder=0)
+        pts.append(nominal)
+    if truth is not None:
+        ax.plot([truth], [0.45], "v", color="k", ms=7)
+        pts.append(truth)
+    span = max(pts) - min(pts)
+    pad = 0.15 * span if span > 0 else 0.1
+    ax.set_xlim(min(pts) - pad, max(pts) + pad)
+    ax.set_ylim(-1, 1)
+    ax.set_yticks([])
+    ax.set_xlabel(label)
+    ax.ticklabel_format(axis="x", useOffset=False)
+    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}]"
+    if nominal is not None:
+        txt += f", nominal {nominal:.2f}"
+    ax.text(0.01, 0.93, txt, transform=ax.transAxes, va="top", fontsize=6.5,
+            bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.0})
+
+
+def page_intervals(ctx):
+    """Page 2: per channel, the credible intervals of each angle against the
+    nominal value and the tolerance band."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    post = ctx.post
+    n = len(post.channel_ids)
+    fig = Figure(figsize=(A4[0], min(A4[1], 1.5 + 1.6 * n)))
+    gs = fig.add_gridspec(n, 2, left=0.06, right=0.97, top=1 - 1.0 / fig.get_figheight(),
+                          bottom=0.5 / fig.get_figheight(), hspace=0.9, wspace=0.12)
+    for k, cid in enumerate(post.channel_ids):
+        panels = _channel_panels(ctx, k)
+        for j in range(2):
+            ax = fig.add_subplot(gs[k, j])
+            if j < len(panels):
+                _interval_panel(ax, *panels[j], ctx.tolerance_deg)
+            else:
+                ax.axis("off")
+                msg = ("dip not estimated: the channel is held in the reference's plane"
+                       if post.kinds[k] == "circle" else
+                       "direction held along the reference axis: not estimated" if j == 0 else "")
+                ax.text(0.5, 0.5, msg, ha="center", va="center", transform=ax.transAxes)
+            if j == 0:
+                ax.set_title(cid, loc="left", fontweight="bold")
+    handles = [Line2D([], [], marker="o", mfc="white", mec="k", ls="none", label="median"),
+               Line2D([], [], color="k", lw=5, label="68 % interval"),
+               Line2D([], [], color="k", lw=1, label="95 % interval"),
+               Line2D([], [], color="0.3", ls="--", label="nominal (StationXML)"),
+               Patch(facecolor="none", edgecolor="0.6", hatch="////",
+                     label=f"beyond nominal +/- {ctx.tolerance_deg:g} deg (flagged)")]
+    if ctx.truth:
+        handles.append(Line2D([], [], marker="v", color="k", ls="none", label="simulation truth"))
+    fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False,
+               bbox_to_anchor=(0.5, 1 - 0.05 / fig.get_figheight()))
+    fig.text(0.5, 1 - 0.45 / fig.get_figheight(), "Angle credible intervals against nominal",
+             ha="center", fontsize=11, fontweight="bold")
+    return fig
+
+
+def misfit_range(n_r, p=0.95):
+    """Central ``p`` range of a band misfit for a model that fits: the mean of
+    ``n_r`` unit-variance complex Gaussian energies, Gamma(n_r, 1/n_r)."""
+    lo, hi = stats.gamma.ppf([(1 - p) / 2, (1 + p) / 2], a=n_r, scale=1.0 / n_r)
+    return float(lo), float(hi)
+
+
+def page_data_fit(ctx):
+    """Page 4: PSDs of both sensors, multiple coherence, per-band misfit."""
+    d = ctx.post.diagnostics
+    if not d:
+        fig = Figure(figsize=A4)
+        fig.text(0.1, 0.9, "Data and fit: no diagnostics.npz in the result folder", fontsize=11)
+        return fig
+    f = d["freqs"]
+    sut = [str(s) for s in d["sut_ids"]]
+    ref = [str(s) for s in d["ref_ids"]]
+    fig = Figure(figsize=A4)
+    gs = fig.add_gridspec(3, 1, left=0.11, right=0.96, top=0.93, bottom=0.06, hspace=0.35)
+    fig.text(0.5, 0.965, "Data and fit", ha="center", fontsize=11, fontweight="bold")
+    ax = fig.add_subplot(gs[0])
+    psd = d["psd"]
+    for i, cid in enumerate(sut + ref):
+        is_ref = i >= len(sut)
+        j = i - len(sut) if is_ref else i
+        ax.loglog(f, psd[i], color="0.55" if is_ref else "k", lw=0.9,
+                  ls=LINESTYLES[j % len(LINESTYLES)], label=f"{'REF' if is_ref else 'SUT'} {cid}")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("PSD ((m/s)$^2$/Hz)")
+    ax.set_title("Power spectra, ground velocity (nominal responses removed); "
+                 "SUT black, reference grey", loc="left")
+    ax.legend(ncol=2, loc="best")
+    ax = fig.add_subplot(gs[1])
+    incoherent = np.clip(1.0 - d["multiple_coherence"], 1e-8, 1.0)
+    for i, cid in enumerate(sut):
+        ax.loglog(f, incoherent[i], color="k", lw=0.8, ls=LINESTYLES[i % len(LINESTYLES)],
+                  label=f"{cid} (median coherence {np.median(d['multiple_coherence'][i]):.4f})")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("1 - squared multiple coherence (-)")
+    ax.set_title("Incoherent fraction of each SUT channel's power, against all reference channels"
+                 " (0.01 = coherence 0.99)", loc="left")
+    ax.legend(loc="best")
+    _misfit_panel(fig.add_subplot(gs[2]), d, sut, len(ref))
+    return fig
+
+
+def _misfit_panel(ax, d, sut, n_r):
+    edges = d["band_edges"]
+    centres = np.sqrt(edges[:-1] * edges[1:])
+    mis = d["band_misfit"]
+    lo, hi = misfit_range(n_r)
+    ax.axhspan(lo, hi, facecolor="none", edgecolor="0.75", hatch="////", lw=0,
+               label=f"95 % range if the model fits ({lo:.2f}-{hi:.2f})")
+    ax.axhline(1.0, color="0.4", ls="--", lw=1, label="expectation (1)")
+    for i, cid in enumerate(sut):
+        ax.semilogx(centres, mis[:, i], color="k", lw=0.8, ls=LINESTYLES[i % len(LINESTYLES)],
+                    marker=MARKERS[i % len(MARKERS)], mfc="white", ms=5,
+                    label=f"{cid} (median {np.median(mis[:, i]):.2f})")
+    for e in edges:
+        ax.axvline(e, color="0.85", lw=0.5, zorder=0)
+    ax.set_xlabel("frequency (Hz), band centres; thin lines: band edges")
+    ax.set_ylabel("standardised misfit (-)")
+    ax.set_title("Per-band residual energy over its noise model, per SUT channel",
+                 loc="left")
+    top = float(np.nanmax(mis))
+    if top > 10 * hi:                    # far off: a log axis keeps the expected range visible
+        ax.set_yscale("log")
+        ax.set_ylim(min(lo, float(np.nanmin(mis))) / 1.5, top * 2)
+    else:
+        ax.set_ylim(0, max(hi * 1.3, top * 1.15))
+    ax.legend(loc="upper left", ncol=2)
+
+
+def page_convergence(ctx):
+    """Page 5: trace plots and the convergence table."""
+    post = ctx.post
+    conv = ctx.summary["convergence"]
+    names = post.names
+    nd = len(names)
+    fig = Figure(figsize=A4)
+    fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
+    n_rows = int(np.ceil(nd / 2))
+    trace_h = min(0.55, 0.16 * n_rows + 0.03)
+    table_h = 0.0135 * (nd + 1)
+    table_top = 0.93 - trace_h - 0.085
+    if post.trace is not None:
+        gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
+                              bottom=0.93 - trace_h, hspace=0.15, wspace=0.3)
+        tr = post.trace
+        step = max(1, tr.shape[0] // 200)
+        x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
+        walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
+        burn = post.convergence.get("burn")
+        for p, name in enumerate(names):
+            ax = fig.add_subplot(gs[p // 2, p % 2])
+            segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)),
+                             tr[::step, walkers, p].T], axis=-1)
+            ax.add_collection(LineCollection(segs, colors="k", linewidths=0.4, alpha=0.6))
+            ax.autoscale_view()
+            ax.margins(y=0.35)
+            if burn is not None:
+                ax.axvline(float(burn), color="k", ls="--", lw=0.8)
+            ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
+                    bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
+            ax.set_ylabel(PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
+            ax.tick_params(labelsize=6)
+            if p >= nd - 2:
+                ax.set_xlabel("step")
+            else:
+                ax.tick_params(labelbottom=False)
+        fig.text(0.1, 0.93 - trace_h - 0.05,
+                 f"Traces of {len(walkers)} of {tr.shape[1]} walkers in model coordinates;"
+                 " dashed line: end of burn-in (samples after it are kept).", fontsize=7)
+    ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
+    ax.axis("off")
+    per = conv["per_parameter"]
+    cells = [[n, f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}", f"{per[n]['rhat']:.4f}"]
+             for n in names]
+    ax.set_title(
+        f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
+        f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; ESS min {conv['ess_min']:.0f};"
+        f" R-hat max {conv['rhat_max']:.4f}; converged: {'yes' if conv['converged'] else 'NO'}",
+        loc="left", fontsize=7.5)
+    tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
+                   loc="upper left", cellLoc="left", colLoc="left", edges="horizontal",
+                   bbox=[0, 0, 1, 1])
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(7)
+    tab.auto_set_column_width([0, 1, 2, 3])
+    fig.text(0.06, 0.015, "Default convergence rule of bayescal.core.sampler.sample: kept chain >= 50 tau,"
+             " ESS >= 1000 for every parameter, split R-hat (chain halves) < 1.01.", fontsize=7)
+    return fig
+
+
+__all__ = ["page_summary", "page_intervals", "page_data_fit", "page_convergence"]

@@ -1,0 +1,187 @@
+"""Shared layout of report pages: the page context, style, PNG output,
+number formatting, tables and page headers.
+"""
+from __future__ import annotations
+
+import contextlib
+import textwrap
+from dataclasses import dataclass
+from datetime import datetime, timezone
+
+import matplotlib
+
+from ..version import __version__
+
+
+A4 = (8.27, 11.69)
+PNG_DPI = 90
+#: 2-D contour levels of the corner plots: fractions of posterior mass enclosed.
+CORNER_LEVELS = (0.68, 0.95)
+#: 1-D quantiles marked by dashed lines in the corner plots.
+CORNER_QUANTILES = (0.16, 0.5, 0.84)
+LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
+MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
+GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
+QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "period_s": "s",
+                  "damping": "-", "gain": "stage-1 units per m/s"}
+QUANTITY_NAMES = {"period_s": "period"}
+PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
+               "azimuth_rad": "rad", "log_period": "ln s", "damping": "dimensionless",
+               "log_gain": "ln of gain"}
+
+
+@dataclass
+class ReportContext:
+    """Everything the pages draw from."""
+
+    folder: str
+    post: object
+    summary: dict
+    truth: dict | None
+    tolerance_deg: float
+
+
+@contextlib.contextmanager
+def style():
+    """Report style: TrueType fonts in the PDF (extractable text), ASCII
+    minus signs, thin grid, small fonts that stay inside the page."""
+    with matplotlib.rc_context({"pdf.fonttype": 42, "axes.unicode_minus": False,
+                                "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
+                                "xtick.labelsize": 7, "ytick.labelsize": 7,
+                                "legend.fontsize": 7, "axes.grid": True, "grid.color": "0.85",
+                                "grid.linewidth": 0.5, "savefig.facecolor": "white"}):
+        yield
+
+
+def save_png(fig, path, dpi=PNG_DPI):
+    """Write ``fig`` as an 8-bit greyscale PNG (the report draws in greys
+    only, so nothing is lost and the file is about half the size). The Agg
+    pixel buffer goes straight to Pillow, without an intermediate PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    old_dpi = fig.dpi
+    fig.dpi = dpi
+    try:
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        rgba = canvas.buffer_rgba()
+        Image.frombuffer("RGBA", (rgba.shape[1], rgba.shape[0]), rgba, "raw", "RGBA", 0, 1) \
+            .convert("L").save(path)
+    finally:
+        fig.dpi = old_dpi
+
+
+def subject_line(ctx):
+    """One line for the PDF Subject: channels, band, window."""
+    m = ctx.post.meta
+    band = m.get("band_hz") or [None, None]
+    return (f"Orientation{' and response' if m.get('free_response', 'none') != 'none' else ''}"
+            f" of {', '.join(ctx.post.channel_ids)}; band {_g(band[0], '{:.4g}')}-"
+            f"{_g(band[1], '{:.4g}')} Hz;"
+            f" start {m.get('starttime', '?')}, {_g(m.get('duration_s'))} s")
+
+
+def _g(x, fmt="{:g}"):
+    return "?" if x is None else fmt.format(x)
+
+
+def fmt_value(quantity, x):
+    """Printed precision of a table value: angles to 0.01 deg, responses to
+    four significant figures."""
+    if x is None:
+        return "-"
+    if quantity in ("azimuth", "dip", "tilt"):
+        return f"{x:.2f}"
+    return f"{x:.4g}"
+
+
+def _fmt_ci(quantity, ci):
+    return "-" if not ci else f"[{fmt_value(quantity, ci[0])}, {fmt_value(quantity, ci[1])}]"
+
+
+def _fmt_dev(row):
+    if row.deviation is None:
+        return "-"
+    if row.quantity in ("azimuth", "dip", "tilt"):
+        return f"{row.deviation:+.2f}"
+    return f"{row.deviation:+.2f} %"
+
+
+#: Height of one table row as a fraction of an A4 page (6.5 pt text).
+ROW_H = 0.0150
+
+
+def _table(fig, top, rows, title, with_truth):
+    """Draw a summary table whose top edge is at figure fraction ``top``;
+    returns the figure fraction just below it."""
+    labels = ["channel", "quantity", "median", "68 % interval", "95 % interval", "nominal",
+              "deviation"] + (["truth"] if with_truth else []) + ["note"]
+    cells = []
+    for r in rows:
+        c = [r.channel, f"{QUANTITY_NAMES.get(r.quantity, r.quantity)}"
+             f" ({QUANTITY_UNITS.get(r.quantity, '')})",
+             fmt_value(r.quantity, r.median), _fmt_ci(r.quantity, r.ci68),
+             _fmt_ci(r.quantity, r.ci95), fmt_value(r.quantity, r.nominal), _fmt_dev(r)]
+        cells.append(c + ([fmt_value(r.quantity, r.truth)] if with_truth else []) + [r.note])
+    fig.text(0.05, top, title, fontweight="bold", va="top")
+    height = ROW_H * (len(rows) + 1)
+    ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
+    ax.axis("off")
+    tab = ax.table(cellText=cells, colLabels=labels, loc="upper left", cellLoc="left",
+                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(6.5)
+    tab.auto_set_column_width(list(range(len(labels))))
+    return top - 0.02 - height - 0.025
+
+
+def _files_line(label, files, width=110):
+    text = ", ".join(str(f) for f in files)
+    return textwrap.shorten(f"{label}: {text}", width, placeholder=" ...")
+
+
+def _header_lines(ctx):
+    """Page-1 header: what was measured, with which data, how."""
+    post, m = ctx.post, ctx.post.meta
+    conv = ctx.summary["convergence"]
+    stations = sorted({".".join(c.split(".")[:2]) for c in post.channel_ids})
+    n_used, n_poss = m.get("n_segments"), m.get("n_segments_possible")
+    seg = m.get("segment_s")
+    dropped = None if n_used is None or n_poss is None else n_poss - n_used
+    band = m.get("band_hz") or [None, None]
+    used = m.get("data_used") or {}
+    lines = [
+        f"Result: {ctx.summary.get('schema', '?')}, rendered"
+        f" {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by bayescal {__version__}",
+        f"Station(s): {', '.join(stations)}",
+        f"Sensor under test: {', '.join(post.channel_ids)}",
+        f"Reference: {', '.join(sorted(m.get('reference', {})))}"]
+    for label, key in (("SUT files", "sut"), ("Reference files", "reference")):
+        files = [f for f in (m.get("files") or {}).get(key, [])
+                 if f not in ("SUT", "reference", "stream")]      # in-memory stream names
+        if files:
+            lines.append(_files_line(label, files))
+    lines += [
+        f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
+        f" sampling {_g(m.get('sampling_rate'))} Hz",
+        f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each)"
+        + (f", about {used['approx_seconds']:.0f} s of data" if used.get("approx_seconds") else "")
+        + f"; dropped: {_g(dropped)}"
+        + ("" if not dropped else f" ({used.get('note', 'gaps or bad data')})"),
+        f"Band: {_g(band[0], '{:.4g}')} - {_g(band[1], '{:.4g}')} Hz in"
+        f" {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
+        f" sub-bands; response fitted: {m.get('free_response', 'none')}"]
+    if m.get("band_choice"):
+        lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
+    lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
+                 f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"
+                 f" converged: {'yes' if conv['converged'] else 'NO'}")
+    return lines
+
+
+def _header(fig, title, note, width):
+    height = fig.get_figheight()
+    note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
+    fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")
+    fig.text(0.02, 1 - 0.45 / height, note, fontsize=7, va="top")

@@ -1,0 +1,15 @@
+"""Synthetic recordings with known truth.
+
+* :mod:`.pair`      a co-located pair (with concealed effects on request)
+* :mod:`.coil`      coil calibration runs of a triaxial sensor
+* :mod:`.network`   an SDS archive of pairs over stations and days
+* :mod:`.coverage`  the uncertainty check: simulate, fit, count the truths inside
+
+The generators import only :mod:`bayescal.core`; :mod:`.coverage` also runs
+:mod:`bayescal.io.pipeline` on what it simulates (it is not imported here).
+"""
+from .coil import simulate_calibration
+from .network import write_network
+from .pair import simulate_pair
+
+__all__ = ["simulate_calibration", "simulate_pair", "write_network"]

@@ -1,0 +1,246 @@
+"""Synthetic co-located recordings with known truth.
+
+Ground motion is a stationary Gaussian field built in the frequency domain: a
+microseism-shaped velocity spectrum carried by Rayleigh and Love plane waves
+from several directions plus a weaker diffuse part (so the 3x3 ground
+cross-spectrum has full rank). Each channel sees ``v . g`` through its *true*
+response plus its own noise, referred to the ground and scaled to a chosen
+coherence; the *metadata* (StationXML) hold the nominal values. Everything is
+periodic (made with the inverse FFT), so responses apply exactly, with no
+edge effects.
+
+Switches reproduce the effects a calibration model can leave out (see the
+model-criticism issue): ``timing_offset_s``, ``clock_drift_ppm``,
+``extra_pole`` (sensor, corner Hz), ``polarity_reversal`` (channel index),
+``channel_swap`` (two indices), ``tilt_noise`` (relative level).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from obspy import Inventory, Stream, Trace, UTCDateTime
+from obspy.core.inventory import Channel, Network, Site, Station
+from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
+                                           PolesZerosResponseStage, Response)
+
+from ..core.geometry import unit_vector
+from ..core.response import paz_velocity_response
+
+DIGITIZER_GAIN = 4.0e5   # counts per volt
+NORM_FREQ = 1.0          # Hz
+
+
+def band_code(fs):
+    """SEED band code for a broadband sensor at sampling rate ``fs``."""
+    return "H" if fs >= 80 else "B" if fs >= 10 else "L" if fs >= 1 else "V"
+
+
+def ground_spectrum(f):
+    """Velocity PSD shape (arbitrary units): primary and secondary microseism
+    peaks over a background; zero at f = 0."""
+    f = np.asarray(f, float)
+    with np.errstate(divide="ignore"):
+        lf = np.log(np.where(f > 0, f, 1.0))
+        s = (np.exp(-((lf - np.log(0.18)) / 0.35) ** 2)
+             + 0.3 * np.exp(-((lf - np.log(0.07)) / 0.3) ** 2)
+             + 0.02 * 0.1 / np.where(f > 0, f, 1.0) + 0.01)
+    return np.where(f > 0, s, 0.0)
+
+
+def velocity_response(period_s, damping, gain, norm_freq=NORM_FREQ, digitizer_gain=DIGITIZER_GAIN,
+                      sample_rate=20.0, input_units="M/S"):
+    """ObsPy ``Response`` of a broadband: two pendulum poles, two zeros at 0,
+    gain ``gain`` (V per m/s) at ``norm_freq``, a flat digitizer."""
+    w0 = 2 * np.pi / period_s
+    p = -damping * w0 + 1j * w0 * np.sqrt(complex(1 - damping ** 2))
+    poles = [p, np.conj(p)] if damping < 1 else [p.real + p.imag * 1j, p.real - p.imag * 1j]
+    s = 2j * np.pi * norm_freq
+    a0 = 1.0 / abs(s * s / ((s - poles[0]) * (s - poles[1])))
+    st1 = PolesZerosResponseStage(
+        stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
+        input_units=input_units, output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
+        normalization_frequency=norm_freq, zeros=[0j, 0j], poles=poles, normalization_factor=a0)
+    st2 = CoefficientsTypeResponseStage(
+        stage_sequence_number=2, stage_gain=digitizer_gain, stage_gain_frequency=norm_freq,
+        input_units="V", output_units="COUNTS", cf_transfer_function_type="DIGITAL",
+        numerator=[1.0], denominator=[], decimation_input_sample_rate=sample_rate,
+        decimation_factor=1, decimation_offset=0, decimation_delay=0.0, decimation_correction=0.0)
+    sens = InstrumentSensitivity(value=gain * digitizer_gain, frequency=norm_freq,
+                                 input_units=input_units, output_units="COUNTS")
+    return Response(instrument_sensitivity=sens, response_stages=[st1, st2])
+
+
+@dataclass
+class SimulatedPair:
+    """A simulated recording pair and its truth."""
+
+    sut: Stream
+    ref: Stream
+    sut_inventory: Inventory
+    ref_inventory: Inventory
+    truth: dict = field(default_factory=dict)
+
+    def write(self, folder):
+        """Write ``sut.mseed``, ``ref.mseed``, ``sut.xml``, ``ref.xml`` and
+        ``truth.json`` into ``folder``; returns the paths."""
+        import json
+        import os
+        os.makedirs(folder, exist_ok=True)
+        paths = {k: os.path.join(folder, k) for k in
+                 ("sut.mseed", "ref.mseed", "sut.xml", "ref.xml", "truth.json")}
+        self.sut.write(paths["sut.mseed"], format="MSEED", encoding="FLOAT64")
+        self.ref.write(paths["ref.mseed"], format="MSEED", encoding="FLOAT64")
+        self.sut_inventory.write(paths["sut.xml"], format="STATIONXML")
+        self.ref_inventory.write(paths["ref.xml"], format="STATIONXML")
+        with open(paths["truth.json"], "w") as fh:
+            json.dump(self.truth, fh, indent=2)
+        return paths
+
+
+def _plane_waves(rng, freqs, n_waves, diffuse):
+    """(3, F) complex ground-velocity spectrum (NED) and its expected
+    cross-spectral matrix (F, 3, 3) up to the common PSD scale."""
+    amp = np.sqrt(ground_spectrum(freqs) / 2.0)
+    g = np.zeros((3, freqs.size), complex)
+    expected = np.zeros((freqs.size, 3, 3), complex)
+    for _ in range(n_waves):
+        phi = rng.uniform(0, 2 * np.pi)
+        w = rng.uniform(0.4, 1.0)
+        c = w * amp * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size))
+        radial = np.array([np.cos(phi), np.sin(phi), 0.0])
+        if rng.uniform() < 0.7:   # Rayleigh: vertical (up) 90 degrees from radial
+            pol = radial + np.array([0, 0, -1.0]) * 0.8j
+        else:                      # Love: transverse
+            pol = np.array([-np.sin(phi), np.cos(phi), 0.0]).astype(complex)
+        g += pol[:, None] * c[None, :]
+        expected += (2 * w * w * amp ** 2)[:, None, None] * np.outer(pol, pol.conj())[None]
+    for k in range(3):
+        c = diffuse * amp * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size))
+        g[k] += c
+        expected[:, k, k] += 2 * diffuse ** 2 * amp ** 2
+    return g, expected
+
+
+def _noise_like(rng, freqs, signal_psd, coherence):
+    """Complex noise with PSD ``signal_psd * (1 - coh) / coh``."""
+    level = np.sqrt(signal_psd * (1.0 - coherence) / coherence / 2.0)
+    return level * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size))
+
+
+def _drifting(spectrum, n, fs, ppm, chunk_s=10.0):
+    """Samples of ``spectrum`` (channels, n//2+1) delayed by ``ppm * 1e-6 * t``
+    (a clock that gains ``ppm``: its time stamps run ahead, so the record
+    shows each arrival later and later): each ``chunk_s`` stretch is cut from the
+    record delayed exactly (a Fourier phase) by the delay at its centre, so
+    the delay is off by at most ``ppm * 1e-6 * chunk_s / 2`` (0.5 ms at
+    100 ppm). Linear interpolation of the samples would low-pass the
+    record as well (to 0.6 of the amplitude at 0.3 of the sampling rate
+    for half-sample delays), a loss no real clock causes."""
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    chunk_s = max(chunk_s, n / fs / 400.0)       # at most 400 inverse FFTs of the record
+    step = max(1, int(round(chunk_s * fs)))
+    out = np.empty((spectrum.shape[0], n))
+    for a in range(0, n, step):
+        tau = ppm * 1e-6 * (a + min(step, n - a) / 2.0) / fs
+        y = np.fft.irfft(spectrum * np.exp(-2j * np.pi * freqs * tau)[None, :], n=n, axis=1)
+        out[:, a:a + step] = y[:, a:a + step]
+    return out
+
+
+def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherence=0.9999,
+                  sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
+                  nominal_azimuth=(0.0, 90.0, 0.0), nominal_dip=(0.0, 0.0, -90.0),
+                  sut_response=((30.0, 0.707, 750.0),) * 3, nominal_response=(30.0, 0.707, 750.0),
+                  ref_response=(120.0, 0.707, 1500.0), n_waves=6, diffuse=0.3,
+                  timing_offset_s=0.0, clock_drift_ppm=0.0, extra_pole=None,
+                  polarity_reversal=None, channel_swap=None, tilt_noise=0.0,
+                  network="XX", station="SIM", start=UTCDateTime(2026, 1, 1)):
+    """Simulate a SUT/reference pair; see the module docstring.
+
+    Angles in SEED degrees, responses as (period_s, damping, gain in V per
+    m/s); ``sut_response`` per SUT channel is the truth, ``nominal_response``
+    what the StationXML says. ``coherence`` is the squared coherence of each
+    SUT channel with the true ground motion (its self-noise), likewise
+    ``ref_coherence`` for the reference channels.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    g, expected = _plane_waves(rng, freqs, n_waves, diffuse)
+    bc = band_code(fs)
+    v_sut = unit_vector(sut_azimuth, sut_dip)
+    ref_az, ref_dip = (0.0, 90.0, 0.0), (0.0, 0.0, -90.0)
+    v_ref = unit_vector(ref_az, ref_dip)
+
+    def record(vectors, responses, coh, extra=None):
+        out = []
+        for k, v in enumerate(vectors):
+            sig = v @ g
+            psd = np.real(np.einsum("i,fij,j->f", v, expected, v))
+            ground = sig + _noise_like(rng, freqs, psd, coh)
+            t0, h, gain = responses[k]
+            poles = () if extra is None else (extra,)
+            resp = paz_velocity_response(freqs, t0, h, gain, extra_poles=poles,
+                                         digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
+            out.append(ground * resp)
+        return np.array(out)
+
+    pole_sut = pole_ref = None
+    if extra_pole is not None:
+        which, fc = extra_pole
+        p = -2 * np.pi * float(fc)
+        pole_sut, pole_ref = (p, None) if which == "sut" else (None, p)
+    xs = record(v_sut, sut_response, coherence, pole_sut)
+    xr = record(v_ref, [ref_response] * 3, ref_coherence, pole_ref)
+    if tilt_noise:
+        red = np.where(freqs > 0, (0.02 / np.maximum(freqs, 1e-9)) ** 2, 0.0)
+        for k in range(2):
+            psd = np.real(np.einsum("i,fij,j->f", v_sut[k], expected, v_sut[k]))
+            lvl = np.sqrt(tilt_noise * red * np.median(psd) / 2)
+            xs[k] += lvl * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size)) \
+                * paz_velocity_response(freqs, *sut_response[k], digitizer_gain=DIGITIZER_GAIN)
+    if timing_offset_s:
+        xs = xs * np.exp(-2j * np.pi * freqs * timing_offset_s)[None, :]
+    sut_t = np.fft.irfft(xs, n=n, axis=1)
+    ref_t = np.fft.irfft(xr, n=n, axis=1)
+    if clock_drift_ppm:
+        sut_t = _drifting(xs, n, fs, clock_drift_ppm)
+    if polarity_reversal is not None:
+        sut_t[polarity_reversal] *= -1
+    if channel_swap is not None:
+        i, j = channel_swap
+        sut_t[[i, j]] = sut_t[[j, i]]
+
+    sut_codes = [f"{bc}H1", f"{bc}H2", f"{bc}HZ"]
+    ref_codes = [f"{bc}HN", f"{bc}HE", f"{bc}HZ"]
+
+    def stream(data, loc, codes):
+        return Stream([Trace(data=np.ascontiguousarray(x), header={
+            "network": network, "station": station, "location": loc, "channel": c,
+            "sampling_rate": fs, "starttime": start}) for x, c in zip(data, codes)])
+
+    def inventory(loc, codes, az, dip, resp):
+        chans = [Channel(code=c, location_code=loc, latitude=0.0, longitude=0.0, elevation=0.0,
+                         depth=0.0, azimuth=float(a) % 360.0, dip=float(d), sample_rate=fs,
+                         start_date=start - 86400,
+                         response=velocity_response(*resp, sample_rate=fs))
+                 for c, a, d in zip(codes, az, dip)]
+        sta = Station(code=station, latitude=0.0, longitude=0.0, elevation=0.0, channels=chans,
+                      site=Site(name="bayescal simulation"), start_date=start - 86400)
+        return Inventory(networks=[Network(code=network, stations=[sta])], source="bayescal.simulate")
+
+    truth = {"channels": {
+        f"{network}.{station}.10.{c}": {"azimuth_deg": float(a) % 360.0, "dip_deg": float(d),
+                                          "period_s": r[0], "damping": r[1], "gain": r[2]}
+        for c, a, d, r in zip(sut_codes, sut_azimuth, sut_dip, sut_response)},
+        "coherence": coherence, "ref_coherence": ref_coherence, "seed": seed,
+        "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
+                    "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
+                    "channel_swap": channel_swap, "tilt_noise": tilt_noise}}
+    return SimulatedPair(
+        sut=stream(sut_t, "10", sut_codes), ref=stream(ref_t, "00", ref_codes),
+        sut_inventory=inventory("10", sut_codes, nominal_azimuth, nominal_dip,
+                                nominal_response),
+        ref_inventory=inventory("00", ref_codes, ref_az, ref_dip, ref_response),
+        truth=truth)

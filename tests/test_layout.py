@@ -1,0 +1,113 @@
+"""The package layout: imports point only down the layers named in
+``bayescal/__init__.py``, there is no import cycle, and modules stay small."""
+from __future__ import annotations
+
+import ast
+import pathlib
+
+PKG = pathlib.Path(__file__).resolve().parents[1] / "bayescal"
+
+#: What each subpackage may import (besides itself and bayescal.version).
+ALLOWED = {
+    "core": set(),
+    "io": {"core"},
+    "simulate": {"core", "io"},
+    "criticism": {"core"},
+    "coil": {"core", "io"},
+    "report": {"core", "io", "criticism", "coil"},
+    "network": {"core", "io", "criticism", "report"},
+    "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate"},
+}
+MAX_LINES = 520
+
+
+def _module_name(path):
+    rel = path.relative_to(PKG.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path):
+    """Every bayescal module imported by ``path`` (lazy imports included)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if mod.split(".")[0] != "bayescal":
+                continue
+            for alias in node.names:   # "from . import effects" imports a module
+                sub = f"{mod}.{alias.name}"
+                out.add(sub if _exists(sub) else mod)
+        elif isinstance(node, ast.Import):
+            out |= {a.name for a in node.names if a.name.split(".")[0] == "bayescal"}
+    return out
+
+
+def _exists(module):
+    p = PKG.parent.joinpath(*module.split("."))
+    return p.with_suffix(".py").exists() or (p / "__init__.py").exists()
+
+
+def _graph():
+    return {_module_name(p): _imports(p) for p in PKG.rglob("*.py")}
+
+
+def test_imports_point_down_the_layers():
+    bad = []
+    for mod, deps in _graph().items():
+        parts = mod.split(".")
+        if len(parts) < 2 or parts[1] not in ALLOWED:
+            continue
+        layer = parts[1]
+        for dep in deps:
+            dparts = dep.split(".")
+            target = dparts[1] if len(dparts) > 1 else "bayescal"
+            if target in (layer, "version") or target in ALLOWED[layer]:
+                continue
+            bad.append(f"{mod} imports {dep}")
+    assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
+
+
+def test_no_import_cycle():
+    graph = _graph()
+    state, cycles = {}, []
+
+    def visit(node, stack):
+        state[node] = 1
+        for dep in graph.get(node, ()):
+            if dep == node or dep not in graph:
+                continue
+            if state.get(dep) == 1 and not node.startswith(dep + "."):
+                cycles.append(" -> ".join(stack[stack.index(dep):] + [dep]))
+            elif not state.get(dep):
+                visit(dep, stack + [dep])
+        state[node] = 2
+
+    for mod in graph:
+        # a package's __init__ re-exporting its own modules is not a cycle
+        if not state.get(mod):
+            visit(mod, [mod])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
+
+
+def test_modules_stay_small():
+    big = {_module_name(p): n for p in PKG.rglob("*.py")
+           if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert not big, f"modules over {MAX_LINES} lines: {big}"
+
+
+def test_public_api_as_the_readme_shows():
+    import bayescal
+    for name in ("calibrate", "calibrate_files", "write_results", "Posterior", "simulate_pair"):
+        assert callable(getattr(bayescal, name))
+    from bayescal import io
+    for name in ("paz_inventory", "two_pole_inventory", "flat_inventory", "InputError"):
+        assert hasattr(io, name)
