@@ -8,8 +8,10 @@
 
 May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
 """
-from .read import (InputError, InputWarning, align, flat_inventory, paz_inventory, read_gse2_paz,
-                   read_metadata, read_waveforms, two_pole_inventory)
+from .read import (CODE_ORIENTATION, InputError, InputWarning, align, flat_inventory,
+                   orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
+                   read_waveforms, two_pole_inventory)
 
-__all__ = ["InputError", "InputWarning", "align", "flat_inventory", "paz_inventory",
-           "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]
+__all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "flat_inventory",
+           "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
+           "read_waveforms", "two_pole_inventory"]

@@ -9,3 +9,6 @@
 
 May import core, io, criticism and coil; never network or cli.
 """
+from .fit import load_result, write_report
+
+__all__ = ["load_result", "write_report"]
