@@ -29,6 +29,11 @@ def add_pair_arguments(parser):
                    help="recording(s) of the sensor under test")
     g.add_argument("--sut-xml", required=True, metavar="XML",
                    help="SUT StationXML with its nominal metadata, or 'flat'")
+    g.add_argument("--sut-id", nargs="+", metavar="PATTERN",
+                   help="SEED ids of the SUT's channels, wildcards allowed (e.g. "
+                        "'XX.SIM.10.BH?'): needed when a file holds both sensors")
+    g.add_argument("--ref-id", nargs="+", metavar="PATTERN",
+                   help="SEED ids of the reference's channels (e.g. 'XX.SIM.00.BH?')")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--fit-response", nargs="?", const="all", default="none",
                         choices=["all", "gain"],

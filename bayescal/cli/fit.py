@@ -93,7 +93,8 @@ def run(args):
         post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
                                band=tuple(args.band) if args.band else None,
                                fit_response=args.fit_response, seed=args.seed,
-                               start=args.start, end=args.end, progress=not args.quiet)
+                               start=args.start, end=args.end, progress=not args.quiet,
+                               sut_id=args.sut_id, ref_id=args.ref_id)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)

@@ -232,6 +232,15 @@ def _channel_meta(inventory, tr, source):
                               location=tr.stats.location, channel=tr.stats.channel,
                               time=tr.stats.starttime)[0][0][0]
     except IndexError:
+        epochs = [c for n in inventory.select(network=tr.stats.network, station=tr.stats.station,
+                                               location=tr.stats.location,
+                                               channel=tr.stats.channel)
+                  for s in n for c in s]
+        if epochs:
+            spans = "; ".join(f"{c.start_date} - {c.end_date or 'open'}" for c in epochs)
+            raise InputError(f"{source}: channel {tr.id} is in the StationXML, but no epoch "
+                             f"covers the data starting {tr.stats.starttime} (epochs: {spans})"
+                             ) from None
         raise InputError(f"{source}: channel {tr.id} is not in the StationXML") from None
     az, dip = ch.azimuth, ch.dip
     if az is None or dip is None:
@@ -378,6 +387,11 @@ def _grid_stream(stream, fs, t0, n):
     return {tid: (g, t) for tid, (g, c, t) in out.items()}
 
 
+def _stream_files(stream, default):
+    files = sorted({getattr(tr.stats, "bayescal_source", "") for tr in stream} - {""})
+    return ", ".join(files) if files else default
+
+
 def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
           start=None, end=None, fs=None):
     """Bring both streams onto one time grid and read their metadata.
@@ -397,16 +411,22 @@ def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="
         last = min(max(tr.stats.endtime for tr in st if tr.id == i) for i in ids)
         return first, last
 
+    if start is not None and end is not None and start >= end:
+        raise InputError(f"--start {start} is not before --end {end}")
     (s0, s1), (r0, r1) = span(sut), span(ref)
     t0, t1 = max(s0, r0), min(s1, r1)
+    sut_files, ref_files = _stream_files(sut, sut_source), _stream_files(ref, ref_source)
+    if t1 <= t0:
+        raise InputError(f"{sut_files} ({s0} - {s1}) and {ref_files} ({r0} - {r1}) do not "
+                         "overlap in time")
     if start is not None:
         t0 = max(t0, start)
     if end is not None:
         t1 = min(t1, end)
     if t1 <= t0:
-        raise InputError(
-            f"{sut_source} ({s0} - {s1}) and {ref_source} ({r0} - {r1}) do not overlap in time"
-            + ("" if start is None and end is None else " within the --start/--end window"))
+        raise InputError(f"the window --start {start or '-'} --end {end or '-'} lies outside "
+                         f"the common time of the recordings ({max(s0, r0)} - {min(s1, r1)}; "
+                         f"{sut_files} and {ref_files})")
     n = int(np.floor((t1 - t0) * fs + 1e-6)) + 1
     sides = []
     for st, inv, source in ((sut, sut_inventory, sut_source), (ref, ref_inventory, ref_source)):
