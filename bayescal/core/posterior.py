@@ -79,7 +79,14 @@ class Posterior:
         az, dip = self.azimuth_dip
         med_dip = float(np.median(dip[:, k]))
         entry = {"kind": self.kinds[k]}
-        if self.kinds[k] == "fixed":
+        if self.kinds[k] == "fixed" and abs(med_dip) > NEAR_VERTICAL_DIP_DEG:
+            # a vertical fixed to a vertical reference: its azimuth means nothing
+            nominal_az = self.meta.get("nominal", {}).get(cid, {}).get("azimuth_deg", 0.0)
+            entry["azimuth_deg"] = {**fixed_summary(nominal_az), "undefined": True,
+                                    "note": "vertical channel fixed to the reference's axis: "
+                                            "azimuth undefined (nominal value shown)"}
+            entry["dip_deg"] = fixed_summary(med_dip)
+        elif self.kinds[k] == "fixed":
             entry["azimuth_deg"] = fixed_summary(np.median(az[:, k]))
             entry["dip_deg"] = fixed_summary(med_dip)
         elif self.kinds[k] == "circle":
