@@ -161,18 +161,26 @@ def orientation_from_code(channel_code):
     return CODE_ORIENTATION[comp]
 
 
+#: Comment on every channel bayescal invents (coordinates and dates unknown).
+PLACEHOLDER_NOTE = ("placeholder metadata written by bayescal, not measured: latitude, "
+                    "longitude, elevation and depth (0) and start date (1970-01-01) are "
+                    "unknown; orientation is nominal from the channel code")
+
+
 def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientations=None,
-                  normalize=True, input_units="M/S"):
+                  normalize=True, input_units="M/S", note=None):
     """An Inventory for every channel of ``stream`` with one poles-and-zeros
     stage (rad/s; ``gain`` counts per ``input_units`` at ``norm_freq``).
 
     ``orientations`` maps channel codes to (azimuth, dip); channels not in it
     get :func:`orientation_from_code`. With no poles and zeros this is a flat
     velocity response: the way to run sensors that are flat in the band and
-    have no StationXML (see docs/real_data.md).
+    have no StationXML (see docs/real_data.md). Every channel carries a
+    Comment (:data:`PLACEHOLDER_NOTE`, then ``note``) marking what is invented.
     """
     from obspy import UTCDateTime
     from obspy.core.inventory import Channel, Inventory, Network, Response, Station
+    from obspy.core.inventory.util import Comment
 
     zeros, poles = list(zeros), list(poles)
     s = 2j * np.pi * norm_freq
@@ -195,7 +203,10 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
         sta.append(Channel(code=code, location_code=st.location, latitude=0.0, longitude=0.0,
                            elevation=0.0, depth=0.0, azimuth=float(az), dip=float(dip),
                            sample_rate=st.sampling_rate, response=resp,
-                           start_date=UTCDateTime(1970, 1, 1)))
+                           start_date=UTCDateTime(1970, 1, 1),
+                           comments=[Comment(value=PLACEHOLDER_NOTE + (f"; {note}" if note
+                                                                       else ""),
+                                             subject="bayescal placeholder")]))
     networks = [Network(code=n, stations=[Station(code=s, latitude=0.0, longitude=0.0,
                                                   elevation=0.0, channels=chans)
                                           for s, chans in stas.items()])
@@ -206,7 +217,9 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
 def flat_inventory(stream, orientations=None, gain=1.0):
     """Flat velocity response (``gain`` counts per m/s) and nominal
     orientations for every channel of ``stream`` (see :func:`paz_inventory`)."""
-    return paz_inventory(stream, gain=gain, orientations=orientations)
+    return paz_inventory(stream, gain=gain, orientations=orientations,
+                         note=f"the response is an assumed flat {gain:g} counts per m/s "
+                              "('flat' given for the StationXML), not a measured one")
 
 
 def two_pole_inventory(stream, period_s, damping, gain, norm_freq=1.0, orientations=None):
