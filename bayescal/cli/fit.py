@@ -68,6 +68,9 @@ def print_summary(summary, stream=sys.stdout):
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         for name, r in e.get("response", {}).items():
             print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+    for pair, e in summary.get("orthogonality_deg", {}).items():
+        print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
+              file=stream)
     if summary.get("meta", {}).get("assumption"):
         print(f"assumed: {summary['meta']['assumption']}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
