@@ -46,7 +46,8 @@ def add_pair_arguments(parser):
                         help="start of the analysis window, e.g. 2010-08-24T02:00:00")
     parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument("--quiet", action="store_true", help="no progress display (the band used and the results table are "
+                             "still printed)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
 
 

@@ -105,7 +105,7 @@ def run(args):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)
     meta = post.meta
     lo, hi = meta["band_hz"]
-    say(args, f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})")
+    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})", file=sys.stderr)
     used = meta["data_used"]
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
                f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
@@ -130,7 +130,6 @@ def run(args):
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     elapsed = time.perf_counter() - t_start
-    if not args.quiet:
-        print_summary(post.summary())
+    print_summary(post.summary())   # --quiet removes the progress display only
     say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
     return 0
