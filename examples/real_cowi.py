@@ -10,7 +10,7 @@ and nominal orientations from the channel codes (LH1 = 0, LH2 = 90,
 LHN = 0, LHE = 90, LHZ vertical). The SUT azimuths are therefore relative to
 AZI8's LH1 taken as north.
 
-    python examples/real_cowi.py [--data DIR] [--out reports/real/cowi]
+    python examples/real_cowi.py [--data DIR] [--out reports/cowi]
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def rotation(channels):
 
 
 def main(argv=None):
-    a = parse_args(__doc__, DEFAULT_DATA, ROOT / "reports" / "real" / "cowi", argv)
+    a = parse_args(__doc__, DEFAULT_DATA, ROOT / "reports" / "cowi", argv)
 
     cmd = command(a.data, a.out, a.seed)
     elapsed = run_bayescal(cmd)

@@ -123,7 +123,7 @@ def test_no_time_overlap(sim_files, tmp_path):
     st.write(str(late), format="MSEED")
     out = tmp_path / "o"
     assert_user_error(run_fit(*base_args(sim_files, **{"--ref": late}), out=out), out,
-                      "ref.xml", "do not overlap")
+                      "late.mseed", "do not overlap")
 
 
 def _inventory_variant(sim_files, tmp_path, change):

@@ -130,3 +130,15 @@ def test_cli_bad_input_writes_nothing(tmp_path, capsys):
                  "--sut-xml", "flat", "--out", str(out), "--quiet"])
     assert code == 2
     assert not out.exists()
+
+
+def test_misfit_sentence_says_rises_when_it_rose():
+    """Issue 14 item 13: median 8.55e3 -> 1.46e4 was reported as 'falls'."""
+    import numpy as np
+
+    from bayescal.criticism.diagnose import misfit_change
+
+    edges = np.array([0.02, 0.1, 3.0])
+    up = misfit_change(edges, np.array([8.55e3, 8.55e3]), np.array([1.46e4, 1.46e4]))
+    assert "rises from median 8.55e+03" in up and "to median 1.46e+04" in up
+    assert "falls" in misfit_change(edges, np.array([9.0, 9.0]), np.array([1.1, 1.1]))

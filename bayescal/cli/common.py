@@ -29,6 +29,11 @@ def add_pair_arguments(parser):
                    help="recording(s) of the sensor under test")
     g.add_argument("--sut-xml", required=True, metavar="XML",
                    help="SUT StationXML with its nominal metadata, or 'flat'")
+    g.add_argument("--sut-id", nargs="+", metavar="PATTERN",
+                   help="SEED ids of the SUT's channels, wildcards allowed (e.g. "
+                        "'XX.SIM.10.BH?'): needed when a file holds both sensors")
+    g.add_argument("--ref-id", nargs="+", metavar="PATTERN",
+                   help="SEED ids of the reference's channels (e.g. 'XX.SIM.00.BH?')")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--fit-response", nargs="?", const="all", default="none",
                         choices=["all", "gain"],
@@ -41,7 +46,8 @@ def add_pair_arguments(parser):
                         help="start of the analysis window, e.g. 2010-08-24T02:00:00")
     parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    parser.add_argument("--quiet", action="store_true", help="no progress display (the band used and the results table are "
+                             "still printed)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
 
 

@@ -51,7 +51,8 @@ def run(args):
     base = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
                            band=tuple(args.band) if args.band else None,
                            fit_response=args.fit_response, seed=args.seed,
-                           start=args.start, end=args.end, progress=not args.quiet)
+                           start=args.start, end=args.end, progress=not args.quiet,
+                               sut_id=args.sut_id, ref_id=args.ref_id)
     say("searching the catalogue of effects ...")
     d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
     final = d.final

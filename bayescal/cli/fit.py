@@ -68,6 +68,11 @@ def print_summary(summary, stream=sys.stdout):
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         for name, r in e.get("response", {}).items():
             print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+    for pair, e in summary.get("orthogonality_deg", {}).items():
+        print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
+              file=stream)
+    if summary.get("meta", {}).get("assumption"):
+        print(f"assumed: {summary['meta']['assumption']}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
         print(f"{cid:22s}  not estimable: {why}", file=stream)
     c = summary["convergence"]
@@ -93,13 +98,14 @@ def run(args):
         post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
                                band=tuple(args.band) if args.band else None,
                                fit_response=args.fit_response, seed=args.seed,
-                               start=args.start, end=args.end, progress=not args.quiet)
+                               start=args.start, end=args.end, progress=not args.quiet,
+                               sut_id=args.sut_id, ref_id=args.ref_id)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)
     meta = post.meta
     lo, hi = meta["band_hz"]
-    say(args, f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})")
+    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})", file=sys.stderr)
     used = meta["data_used"]
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
                f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
@@ -124,7 +130,6 @@ def run(args):
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     elapsed = time.perf_counter() - t_start
-    if not args.quiet:
-        print_summary(post.summary())
+    print_summary(post.summary())   # --quiet removes the progress display only
     say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
     return 0

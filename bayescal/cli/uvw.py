@@ -7,7 +7,7 @@ result is a posterior over each element's natural period, damping and gain,
 the XYZ responses M^T diag(k) M they imply (with credible bands) and the
 largest cross-talk between X, Y and Z over the band. By default every
 recorded output is used and each element is also fitted from Z alone (the
-seed's procedure); the two must agree, and a disagreement is reported as
+classic Z-only procedure); the two must agree, and a disagreement is reported as
 evidence against the geometry.
 
 Example:
@@ -57,7 +57,7 @@ def configure(parser):
                         help="StationXML with the nominal responses of the outputs")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--z-only", action="store_true",
-                        help="use only the Z output of each run (the seed's procedure)")
+                        help="use only the Z output of each run (the classic Z-only procedure)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default 0.5/T0 to min(25/T0, fs/4))")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

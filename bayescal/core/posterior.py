@@ -79,7 +79,14 @@ class Posterior:
         az, dip = self.azimuth_dip
         med_dip = float(np.median(dip[:, k]))
         entry = {"kind": self.kinds[k]}
-        if self.kinds[k] == "fixed":
+        if self.kinds[k] == "fixed" and abs(med_dip) > NEAR_VERTICAL_DIP_DEG:
+            # a vertical fixed to a vertical reference: its azimuth means nothing
+            nominal_az = self.meta.get("nominal", {}).get(cid, {}).get("azimuth_deg", 0.0)
+            entry["azimuth_deg"] = {**fixed_summary(nominal_az), "undefined": True,
+                                    "note": "vertical channel fixed to the reference's axis: "
+                                            "azimuth undefined (nominal value shown)"}
+            entry["dip_deg"] = fixed_summary(med_dip)
+        elif self.kinds[k] == "fixed":
             entry["azimuth_deg"] = fixed_summary(np.median(az[:, k]))
             entry["dip_deg"] = fixed_summary(med_dip)
         elif self.kinds[k] == "circle":
@@ -109,6 +116,24 @@ class Posterior:
             entry["nominal"] = nominal
         return entry
 
+    def orthogonality(self):
+        """Angle (degrees) between the axes of the SUT's two fitted
+        horizontals, with intervals, keyed ``"A/B"``: ASL's orthogonality
+        figure (90 for a perfect sensor). Fixed and flagged ``assumed`` when
+        the fit assumed it (one reference channel); empty without two
+        horizontals."""
+        az, dip = self.azimuth_dip
+        horiz = [k for k in range(len(self.channel_ids))
+                 if self.kinds[k] != "fixed" and abs(np.median(dip[:, k])) < 45.0]
+        if len(horiz) != 2:
+            return {}
+        i, j = horiz
+        key = f"{self.channel_ids[i]}/{self.channel_ids[j]}"
+        cosine = np.clip(np.einsum("nk,nk->n", self.vectors[:, i], self.vectors[:, j]), -1, 1)
+        if self.meta.get("assumption"):
+            return {key: {**fixed_summary(90.0), "assumed": True}}
+        return {key: interval_summary(np.degrees(np.arccos(cosine)))}
+
     def summary(self):
         """The ``result.json`` content (schema ``bayescal.fit/1``)."""
         conv = self.convergence
@@ -116,6 +141,7 @@ class Posterior:
             "schema": SCHEMA,
             "channels": {cid: self.channel_summary(k) for k, cid in enumerate(self.channel_ids)},
             "not_estimable": self.not_estimable,
+            "orthogonality_deg": self.orthogonality(),
             "convergence": {"ess_min": float(np.min(conv["ess"])),
                             "tau_max": float(np.max(conv["tau"])),
                             "rhat_max": float(np.max(conv["rhat"])),

@@ -302,9 +302,17 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     returned object as ``posterior.model`` (not saved to disk).
     """
     from .posterior import Posterior
+    from .rotation import fit_rotation, orthogonal_pair
 
+    pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free == "none" else None
+    if pair is not None:   # one horizontal reference channel: ASL's orthogonal rotation
+        return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors)
     model = setup.model
+    if model.ndim == 0:
+        raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
+                       "fixed to the reference's (one channel each), so only its response can "
+                       "be estimated: add --fit-response")
     with single_threaded_blas():
         theta_ls, cov = least_squares_fit(model, setup.theta0)
         chain = sample(model, theta_ls, cov, seed=seed, progress=progress, **sample_kw)

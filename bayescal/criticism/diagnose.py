@@ -225,11 +225,8 @@ class Diagnosis:
                        f"misfit in {where} Hz (largest standardised misfit there "
                        f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
         if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
-            b, a = self.before_common["misfit"], self.after["misfit"]
-            out.append(f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised "
-                       f"misfit falls from median {np.median(b):.3g} (largest {b.max():.3g}) to "
-                       f"median {np.median(a):.3g} (largest {a.max():.3g}); 1 means a fit "
-                       "within the noise")
+            out.append(misfit_change(edges, self.before_common["misfit"],
+                                     self.after["misfit"]))
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]
@@ -260,3 +257,13 @@ class Diagnosis:
                 "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
                              "score": "BIC difference under the extended model's noise model"},
                 "base": self.base.summary(), "final": self.final.summary()}
+
+
+def misfit_change(edges, before, after):
+    """One sentence on how the standardised misfit over the whole band moved
+    (median and largest), with the verb the numbers call for."""
+    mb, ma = float(np.median(before)), float(np.median(after))
+    verb = "falls" if ma < mb else "rises" if ma > mb else "stays"
+    return (f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised misfit "
+            f"{verb} from median {mb:.3g} (largest {np.max(before):.3g}) to median {ma:.3g} "
+            f"(largest {np.max(after):.3g}); 1 means a fit within the noise")

@@ -15,6 +15,7 @@ From ObsPy objects::
 from __future__ import annotations
 
 from ..core.sampler import fit_spectra
+from .channels import check_distinct, select_channels
 from .read import InputError, align, flat_inventory, read_metadata, read_waveforms
 from ..core.likelihood import Priors
 from ..core.spectra import SpectraError, cross_spectra
@@ -46,6 +47,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
     fit_response = {None: "none", False: "none", True: "all"}.get(fit_response, fit_response)
+    check_distinct(sut, ref)
     s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
                          start, end)
     files = f"{_describe_files(s)} vs {_describe_files(r)}: "
@@ -102,16 +104,20 @@ def load_inventory(spec, stream, side="StationXML"):
 
 
 def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="none",
-                    seed=0, start=None, end=None, progress=True, **kw):
+                    seed=0, start=None, end=None, progress=True, sut_id=None, ref_id=None,
+                    **kw):
     """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path
     or a list (any waveform format ObsPy reads); ``sut_xml``/``ref_xml`` a
     StationXML path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
-    ``start``/``end`` may be ISO strings. Returns the Posterior (with
+    ``start``/``end`` may be ISO strings; ``sut_id``/``ref_id`` SEED-id
+    patterns (``"XX.SIM.10.BH?"``, one or a list) choose each sensor's channels
+    from files holding several (see :func:`bayescal.io.channels.select_channels`).
+    Returns the Posterior (with
     ``posterior.sut_inventory`` attached, for the corrected StationXML)."""
     from obspy import UTCDateTime
 
-    sut = read_waveforms(sut_files, "SUT waveform")
-    ref = read_waveforms(ref_files, "reference waveform")
+    sut = select_channels(read_waveforms(sut_files, "SUT waveform"), sut_id, "SUT")
+    ref = select_channels(read_waveforms(ref_files, "reference waveform"), ref_id, "reference")
     sut_inv = load_inventory(sut_xml, sut, "SUT StationXML")
     ref_inv = load_inventory(ref_xml, ref, "reference StationXML")
     start = UTCDateTime(start) if start is not None else None

@@ -161,18 +161,26 @@ def orientation_from_code(channel_code):
     return CODE_ORIENTATION[comp]
 
 
+#: Comment on every channel bayescal invents (coordinates and dates unknown).
+PLACEHOLDER_NOTE = ("placeholder metadata written by bayescal, not measured: latitude, "
+                    "longitude, elevation and depth (0) and start date (1970-01-01) are "
+                    "unknown; orientation is nominal from the channel code")
+
+
 def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientations=None,
-                  normalize=True, input_units="M/S"):
+                  normalize=True, input_units="M/S", note=None):
     """An Inventory for every channel of ``stream`` with one poles-and-zeros
     stage (rad/s; ``gain`` counts per ``input_units`` at ``norm_freq``).
 
     ``orientations`` maps channel codes to (azimuth, dip); channels not in it
     get :func:`orientation_from_code`. With no poles and zeros this is a flat
     velocity response: the way to run sensors that are flat in the band and
-    have no StationXML (see docs/real_data.md).
+    have no StationXML (see docs/real_data.md). Every channel carries a
+    Comment (:data:`PLACEHOLDER_NOTE`, then ``note``) marking what is invented.
     """
     from obspy import UTCDateTime
     from obspy.core.inventory import Channel, Inventory, Network, Response, Station
+    from obspy.core.inventory.util import Comment
 
     zeros, poles = list(zeros), list(poles)
     s = 2j * np.pi * norm_freq
@@ -195,7 +203,10 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
         sta.append(Channel(code=code, location_code=st.location, latitude=0.0, longitude=0.0,
                            elevation=0.0, depth=0.0, azimuth=float(az), dip=float(dip),
                            sample_rate=st.sampling_rate, response=resp,
-                           start_date=UTCDateTime(1970, 1, 1)))
+                           start_date=UTCDateTime(1970, 1, 1),
+                           comments=[Comment(value=PLACEHOLDER_NOTE + (f"; {note}" if note
+                                                                       else ""),
+                                             subject="bayescal placeholder")]))
     networks = [Network(code=n, stations=[Station(code=s, latitude=0.0, longitude=0.0,
                                                   elevation=0.0, channels=chans)
                                           for s, chans in stas.items()])
@@ -206,7 +217,9 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
 def flat_inventory(stream, orientations=None, gain=1.0):
     """Flat velocity response (``gain`` counts per m/s) and nominal
     orientations for every channel of ``stream`` (see :func:`paz_inventory`)."""
-    return paz_inventory(stream, gain=gain, orientations=orientations)
+    return paz_inventory(stream, gain=gain, orientations=orientations,
+                         note=f"the response is an assumed flat {gain:g} counts per m/s "
+                              "('flat' given for the StationXML), not a measured one")
 
 
 def two_pole_inventory(stream, period_s, damping, gain, norm_freq=1.0, orientations=None):
@@ -232,6 +245,15 @@ def _channel_meta(inventory, tr, source):
                               location=tr.stats.location, channel=tr.stats.channel,
                               time=tr.stats.starttime)[0][0][0]
     except IndexError:
+        epochs = [c for n in inventory.select(network=tr.stats.network, station=tr.stats.station,
+                                               location=tr.stats.location,
+                                               channel=tr.stats.channel)
+                  for s in n for c in s]
+        if epochs:
+            spans = "; ".join(f"{c.start_date} - {c.end_date or 'open'}" for c in epochs)
+            raise InputError(f"{source}: channel {tr.id} is in the StationXML, but no epoch "
+                             f"covers the data starting {tr.stats.starttime} (epochs: {spans})"
+                             ) from None
         raise InputError(f"{source}: channel {tr.id} is not in the StationXML") from None
     az, dip = ch.azimuth, ch.dip
     if az is None or dip is None:
@@ -378,6 +400,11 @@ def _grid_stream(stream, fs, t0, n):
     return {tid: (g, t) for tid, (g, c, t) in out.items()}
 
 
+def _stream_files(stream, default):
+    files = sorted({getattr(tr.stats, "bayescal_source", "") for tr in stream} - {""})
+    return ", ".join(files) if files else default
+
+
 def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
           start=None, end=None, fs=None):
     """Bring both streams onto one time grid and read their metadata.
@@ -397,16 +424,22 @@ def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="
         last = min(max(tr.stats.endtime for tr in st if tr.id == i) for i in ids)
         return first, last
 
+    if start is not None and end is not None and start >= end:
+        raise InputError(f"--start {start} is not before --end {end}")
     (s0, s1), (r0, r1) = span(sut), span(ref)
     t0, t1 = max(s0, r0), min(s1, r1)
+    sut_files, ref_files = _stream_files(sut, sut_source), _stream_files(ref, ref_source)
+    if t1 <= t0:
+        raise InputError(f"{sut_files} ({s0} - {s1}) and {ref_files} ({r0} - {r1}) do not "
+                         "overlap in time")
     if start is not None:
         t0 = max(t0, start)
     if end is not None:
         t1 = min(t1, end)
     if t1 <= t0:
-        raise InputError(
-            f"{sut_source} ({s0} - {s1}) and {ref_source} ({r0} - {r1}) do not overlap in time"
-            + ("" if start is None and end is None else " within the --start/--end window"))
+        raise InputError(f"the window --start {start or '-'} --end {end or '-'} lies outside "
+                         f"the common time of the recordings ({max(s0, r0)} - {min(s1, r1)}; "
+                         f"{sut_files} and {ref_files})")
     n = int(np.floor((t1 - t0) * fs + 1e-6)) + 1
     sides = []
     for st, inv, source in ((sut, sut_inventory, sut_source), (ref, ref_inventory, ref_source)):

@@ -4,13 +4,18 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
 
 * ``Azimuth`` and ``Dip`` by the posterior medians, with ``plusError`` /
   ``minusError`` from the 68 % interval (``ci68``); a value held fixed
-  (the dip of a channel fitted against a two-channel reference, the azimuth
-  of a near-vertical channel) is left as it was;
+  (the dip of a channel fitted against a two-channel reference) is left as
+  it was;
 * when the response was fitted (``--fit-response``), the two long-period
   poles of stage 1 by those of the median period and damping, with errors
   from the 68 % interval of the pole samples, stage 1's gain by the median
   gain, the stage's normalization factor so that the gain keeps its meaning
-  at the normalization frequency, and the overall sensitivity recalculated.
+  at the normalization frequency, and the overall sensitivity recalculated;
+  the gain's 68 % interval goes into stage 1's Description and the channel's
+  comment (StationXML's Gain has no error fields);
+* a tilted vertical's azimuth by the azimuth its axis leans toward;
+* and adds to every changed channel a Comment saying where the values come
+  from (:func:`provenance_comment`).
 
 Everything else in the file is left untouched.
 """
@@ -91,6 +96,10 @@ def _update_response(channel, samples, free, summary):
                                                                   + w0n * w0n)
         stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
     stage.stage_gain = float(gain)
+    g_lo, g_hi = summary["gain"]["ci68"]
+    stage.description = (f"stage gain fitted by bayescal: {gain:.6g}, 68 % interval "
+                         f"[{g_lo:.6g}, {g_hi:.6g}] (StationXML has no field for a gain's "
+                         "uncertainty; see also the channel's bayescal comment)")
     sens = resp.instrument_sensitivity
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
     try:
@@ -115,12 +124,57 @@ def corrected_inventory(inventory, posterior):
         if "ci68" in az and not az.get("undefined"):
             med, lo, hi = _errors(az)
             ch.azimuth = Azimuth(med % 360.0, lower_uncertainty=lo, upper_uncertainty=hi)
+        elif "tilt_deg" in entry:   # a tilted vertical: the azimuth its axis leans toward
+            med, lo, hi = _errors(_lean_azimuth(posterior, cid))
+            ch.azimuth = Azimuth(med % 360.0, lower_uncertainty=lo, upper_uncertainty=hi)
         if "ci68" in dip:
             med, lo, hi = _errors(dip)
             ch.dip = Dip(med, lower_uncertainty=lo, upper_uncertainty=hi)
         if "response" in entry and cid in posterior.response:
             _update_response(ch, posterior.response[cid], free, entry["response"])
+        ch.comments.append(provenance_comment(posterior, entry))
     return inv
+
+
+def _lean_azimuth(posterior, cid):
+    """Interval summary of the SEED azimuth of a near-vertical channel's axis
+    (the direction of its horizontal part), unwrapped around its mean."""
+    from ..core.geometry import azimuth_dip, unwrap_azimuths
+    from ..core.posterior import interval_summary
+
+    az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
+    return interval_summary(unwrap_azimuths(az))
+
+
+def provenance_comment(posterior, entry):
+    """A StationXML Comment saying where the changed values come from:
+    reference, band, data window, date, bayescal version, the meaning of the
+    errors, and the fitted gain with its interval (StationXML has no place
+    for a gain's uncertainty)."""
+    from obspy import UTCDateTime
+    from obspy.core.inventory.util import Comment
+
+    from ..version import __version__
+
+    meta = posterior.meta
+    ref = ", ".join(meta.get("reference", {})) or "unknown reference"
+    lo, hi = meta.get("band_hz", [np.nan, np.nan])
+    start = meta.get("starttime", "?")
+    dur = meta.get("duration_s")
+    end = str(UTCDateTime(start) + dur) if dur and start != "?" else "?"
+    text = (f"Azimuth/dip{' and response' if 'response' in entry else ''} fitted by bayescal "
+            f"{__version__} on {UTCDateTime.now().strftime('%Y-%m-%d')} against {ref}, band "
+            f"{lo:.4g}-{hi:.4g} Hz, data {start} - {end}; plusError/minusError are 68 % "
+            "credible intervals (16-84 % quantiles).")
+    if meta.get("assumption"):
+        text += f" Assumed: {meta['assumption']}."
+    gain = entry.get("response", {}).get("gain")
+    if gain:
+        g_lo, g_hi = gain["ci68"]
+        text += (f" Stage 1 gain and instrument sensitivity carry the median gain "
+                 f"{gain['median']:.6g}, 68 % interval [{g_lo:.6g}, {g_hi:.6g}] "
+                 f"(95 % [{gain['ci95'][0]:.6g}, {gain['ci95'][1]:.6g}]).")
+    return Comment(value=text, subject="bayescal provenance")
 
 
 def write_corrected(inventory, posterior, path):

@@ -77,7 +77,8 @@ def run_item(item, out):
     try:
         if item["kind"] == "files":
             post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
-                                   start=item.get("start"), end=item.get("end"), **opts)
+                                   start=item.get("start"), end=item.get("end"),
+                                   sut_id=item.get("sut_id"), ref_id=item.get("ref_id"), **opts)
             sut_inv = post.sut_inventory
         else:
             sut, ref, inv, sut_src, ref_src = read_sds_item(item)

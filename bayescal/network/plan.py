@@ -6,7 +6,9 @@ Two ways to make a plan:
 
 * :func:`read_csv_plan` -- a CSV table with at least the columns
   ``label,ref,ref_xml,sut,sut_xml`` (several waveform files separated by
-  ``;``), optional ``band_min,band_max,fit_response,seed,start,end``;
+  ``;``), optional ``band_min,band_max,fit_response,seed,start,end,sut_id,ref_id``
+  (the last two SEED-id patterns such as ``XX.SIM.10.BH?``, several separated
+  by ``;``, choosing each sensor's channels in files holding both);
 * :func:`sds_plan` -- an SDS archive and its StationXML with the rule "at
   every station, location ``sut_location`` against ``ref_location``, one item
   per day".
@@ -27,7 +29,7 @@ from obspy import Inventory, UTCDateTime
 from ..io.read import InputError, read_metadata
 
 REQUIRED = ("label", "ref", "ref_xml", "sut", "sut_xml")
-OPTIONAL = ("band_min", "band_max", "fit_response", "seed", "start", "end")
+OPTIONAL = ("band_min", "band_max", "fit_response", "seed", "start", "end", "sut_id", "ref_id")
 FIT_RESPONSE = ("none", "gain", "all")
 #: SEED band codes from the highest sampling rate to the lowest.
 BAND_ORDER = "FGDCESHBMLVUWRPTQ"
@@ -68,6 +70,10 @@ def _options(row, source, defaults):
                 opts[key] = str(UTCDateTime(row[key].strip()))
             except Exception:
                 raise InputError(f"{source}: {key} {row[key]!r} is not a time") from None
+    for key in ("sut_id", "ref_id"):   # SEED-id patterns, several separated by ';'
+        pats = [p.strip() for p in (row.get(key) or "").split(";") if p.strip()]
+        if pats:
+            opts[key] = pats
     return opts
 
 

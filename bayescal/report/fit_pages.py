@@ -202,6 +202,11 @@ def page_data_fit(ctx):
 
 
 def _misfit_panel(ax, d, sut, n_r):
+    if "band_misfit" not in d:   # the one-angle grid posterior profiles each band's noise out
+        ax.axis("off")
+        ax.text(0.0, 0.5, "No per-band misfit: one reference channel, the SUT's horizontals "
+                "rotated together (orthogonality assumed).", transform=ax.transAxes)
+        return
     edges = d["band_edges"]
     centres = np.sqrt(edges[:-1] * edges[1:])
     mis = d["band_misfit"]

@@ -22,7 +22,8 @@ CORNER_QUANTILES = (0.16, 0.5, 0.84)
 LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)))
 MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
 GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
-QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "period_s": "s",
+QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "orthogonality": "deg",
+                  "period_s": "s",
                   "damping": "-", "gain": "stage-1 units per m/s"}
 QUANTITY_NAMES = {"period_s": "period"}
 PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
@@ -91,7 +92,7 @@ def fmt_value(quantity, x):
     four significant figures."""
     if x is None:
         return "-"
-    if quantity in ("azimuth", "dip", "tilt"):
+    if quantity in ("azimuth", "dip", "tilt", "orthogonality"):
         return f"{x:.2f}"
     return f"{x:.4g}"
 
@@ -103,7 +104,7 @@ def _fmt_ci(quantity, ci):
 def _fmt_dev(row):
     if row.deviation is None:
         return "-"
-    if row.quantity in ("azimuth", "dip", "tilt"):
+    if row.quantity in ("azimuth", "dip", "tilt", "orthogonality"):
         return f"{row.deviation:+.2f}"
     return f"{row.deviation:+.2f} %"
 
@@ -165,18 +166,25 @@ def _header_lines(ctx):
     lines += [
         f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
         f" sampling {_g(m.get('sampling_rate'))} Hz",
-        f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each)"
-        + (f", about {used['approx_seconds']:.0f} s of data" if used.get("approx_seconds") else "")
-        + f"; dropped: {_g(dropped)}"
-        + ("" if not dropped else f" ({used.get('note', 'gaps or bad data')})"),
+        *textwrap.wrap(
+            f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each)"
+            + (f", about {used['approx_seconds']:.0f} s of data" if used.get("approx_seconds")
+               else "")
+            + f"; dropped: {_g(dropped)}"
+            + ("" if not dropped else f" ({used.get('note', 'gaps or bad data')})"), 120),
         f"Band: {_g(band[0], '{:.4g}')} - {_g(band[1], '{:.4g}')} Hz in"
         f" {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
         f" sub-bands; response fitted: {m.get('free_response', 'none')}"]
     if m.get("band_choice"):
         lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
-    lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
-                 f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"
-                 f" converged: {'yes' if conv['converged'] else 'NO'}")
+    if m.get("assumption"):
+        lines += textwrap.wrap(f"Assumed: {m['assumption']}", 120)
+    if m.get("method"):
+        lines.append(f"Posterior: {m['method']}, {conv['ess_min']:.0f} independent draws")
+    else:
+        lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
+                     f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"
+                     f" converged: {'yes' if conv['converged'] else 'NO'}")
     return lines
 
 

@@ -122,6 +122,9 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
                 msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         if msgs:
             flags[cid] = msgs
+    for pair, e in summary.get("orthogonality_deg", {}).items():   # ASL's orthogonality
+        note = "assumed (one reference channel)" if e.get("assumed") else "angle between axes"
+        rows.append(_interval_row(pair, "orthogonality", e, 90.0, e["median"] - 90.0, note))
     return rows, flags
 
 
