@@ -14,10 +14,33 @@ import only the layers listed before it:
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """
+import importlib
+
 from .version import __version__
-from .core.posterior import Posterior
-from .io.pipeline import calibrate, calibrate_files, write_results
-from .simulate import simulate_calibration, simulate_pair, write_network
+
+#: Public name -> module defining it. Imported on first use (PEP 562), so that
+#: ``bayescal --help`` or a sub-command pays only for what it uses.
+_LAZY = {"Posterior": "bayescal.core.posterior", "calibrate": "bayescal.io.pipeline",
+         "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
+         "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
+         "write_network": "bayescal.simulate"}
 
 __all__ = ["calibrate", "calibrate_files", "write_results", "Posterior", "simulate_pair",
            "simulate_calibration", "write_network", "__version__"]
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    try:                              # subpackages: bayescal.io, bayescal.core, ...
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -4,7 +4,7 @@ refinement, emcee sampling run until converged.
 Convergence rule (all must hold, checked every chunk of steps):
 
 * at least ``n_tau`` (50) integrated autocorrelation times of kept chain for
-  the slowest parameter (tau from :func:`emcee.autocorr.integrated_time`,
+  the slowest parameter (tau as :func:`emcee.autocorr.integrated_time`,
   averaged over walkers);
 * at least ``min_ess`` (1000) effective samples for every parameter;
 * split R-hat below ``rhat_max`` (1.01), computed between the two halves of
@@ -16,10 +16,10 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
-import emcee
 import numpy as np
 from scipy.optimize import least_squares
 
+from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
 from .likelihood import ChannelBlock, Model, Priors
 
@@ -229,21 +229,20 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         if not bad.any():
             break
         p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
-    sampler = emcee.EnsembleSampler(
-        n_walkers, ndim, model.log_prob, vectorize=True,
-        moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)])
-    sampler.random_state = np.random.RandomState(seed).get_state()
+    # emcee's DEMove (0.8) / DESnookerMove (0.2) mixture, step for step
+    # (bayescal.core.ensemble: the same chain as emcee.EnsembleSampler)
+    sampler = Ensemble(model.log_prob, p0, np.random.RandomState(seed).get_state())
     bar = _progress(progress)
-    state, steps, chunk, converged = p0, 0, 1000, False
+    steps, chunk, converged = 0, 1000, False
     while True:
-        state = sampler.run_mcmc(state, chunk, progress=False)
+        sampler.run(chunk)
         steps += chunk
         bar.update(chunk)
         full = sampler.get_chain()
-        tau_all = emcee.autocorr.integrated_time(full[steps // 2:], tol=0)
+        tau_all = integrated_time(full[steps // 2:])
         burn = int(min(steps // 2, max(100, 5 * np.max(tau_all))))
         kept = full[burn:]
-        tau = emcee.autocorr.integrated_time(kept, tol=0)
+        tau = integrated_time(kept)
         ess = kept.shape[0] * n_walkers / tau
         rhat = split_rhat(kept, ess)
         bar.set_postfix(tau=f"{tau.max():.0f}", ess=f"{ess.min():.0f}", rhat=f"{rhat.max():.3f}")
@@ -258,7 +257,7 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         chunk = int(min(max(200, 1.1 * need - steps), max_steps - steps))
     bar.close()
     thin = max(1, int(tau.min() / 4))
-    kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
+    kept_lp = sampler.get_chain(discard=burn, thin=thin, log_prob=True)
     return Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
                  log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
                  acceptance=float(np.mean(sampler.acceptance_fraction)), n_steps=steps,

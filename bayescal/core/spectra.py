@@ -34,13 +34,38 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy import linalg
 from scipy.fft import next_fast_len
-from scipy.signal import detrend
-from scipy.signal.windows import hann
 
 
 #: Time blocks kept of the per-frequency totals (see ``CrossSpectra.block_totals``).
 TIME_BLOCKS = 16
+
+
+def hann(m, sym=False):
+    """Periodic Hann window of ``m`` samples, the same numbers as
+    ``scipy.signal.windows.hann(m, sym=False)`` (importing scipy.signal would
+    cost a command about a second of start-up: it imports scipy.stats)."""
+    assert not sym
+    fac = np.linspace(-np.pi, np.pi, m + 1)
+    w = np.zeros(m + 1)
+    for k, a in enumerate((0.5, 0.5)):
+        w += a * np.cos(k * fac)
+    return w[:-1]
+
+
+def detrend(x, axis=-1, type="linear"):
+    """Least-squares line removed along the last axis, the same numbers as
+    ``scipy.signal.detrend(x, axis=-1, type="linear")`` (same design matrix,
+    same LAPACK solver); see :func:`hann` for why it is not imported."""
+    assert axis in (-1, x.ndim - 1) and type == "linear"
+    n = x.shape[-1]
+    a = np.ones((n, 2))
+    a[:, 0] = np.arange(1, n + 1, dtype=float) / n
+    moved = np.moveaxis(np.asarray(x, dtype=float), -1, 0)
+    flat = moved.reshape(n, -1).copy()
+    flat = flat - a @ linalg.lstsq(a, flat)[0]
+    return np.moveaxis(flat.reshape(moved.shape), 0, -1)
 
 
 class SpectraError(ValueError):
