@@ -131,7 +131,7 @@ def test_without_coil_constant_the_scale_is_removed():
     c_true = 3e-8
     sim = simulate_calibration(elements=TRUE, seed=4, duration=3 * 3600.0, coil_constant=c_true)
     runs = {e: coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in coil.ELEMENTS}
-    c_eff = coil.coil._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
+    c_eff = coil.uvw._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
     gmean = np.exp(np.mean(np.log([el[2] for el in TRUE])))
     assert c_eff == pytest.approx(c_true * gmean / STS2_NOMINAL[2], rel=0.01)
 
