@@ -131,7 +131,7 @@ def test_without_coil_constant_the_scale_is_removed():
     c_true = 3e-8
     sim = simulate_calibration(elements=TRUE, seed=4, duration=3 * 3600.0, coil_constant=c_true)
     runs = {e: coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in coil.ELEMENTS}
-    c_eff = coil._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
+    c_eff = coil.uvw._relative_coil_constant(runs, STS2_UVW, (0.005, 0.1), None, runs["U"].families[-1])
     gmean = np.exp(np.mean(np.log([el[2] for el in TRUE])))
     assert c_eff == pytest.approx(c_true * gmean / STS2_NOMINAL[2], rel=0.01)
 
@@ -154,7 +154,7 @@ def test_relative_gain_summary():
 
     fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}
     z_fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}
-    joint = coil._pair([fits[e] for e in coil.ELEMENTS], 2000, rng)
+    joint = coil.uvw._pair([fits[e] for e in coil.ELEMENTS], 2000, rng)
     freqs = np.geomspace(0.004, 0.2, 60)
     res = coil.UVWResult(STS2_UVW, "test", fits, z_fits, joint,
                         coil.derive_xyz(joint, STS2_UVW, fam, freqs), freqs, fam, True, "all-outputs")
@@ -319,7 +319,8 @@ def test_coverage_of_90_percent_intervals():
 
 
 def test_cli_too_short_record_names_the_file(tmp_path, capsys):
-    paths = simulate_calibration(duration=3000.0, seed=3).write(str(tmp_path / "in"))
+    # (the default band follows the record, so only a very short one is refused)
+    paths = simulate_calibration(duration=150.0, seed=3).write(str(tmp_path / "in"))
     out = tmp_path / "out"
     rc = cli.main(["uvw"] + sum([["--cal", f"{e}={paths[e]}"] for e in coil.ELEMENTS], [])
                   + ["--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out", str(out),

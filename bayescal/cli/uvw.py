@@ -48,8 +48,9 @@ def configure(parser):
     parser.add_argument("--sensor", default="sts2", choices=["sts2", "trillium"],
                         help="built-in UVW geometry (default sts2)")
     parser.add_argument("--matrix", metavar="FILE",
-                        help="UVW matrix file (3 rows U, V, W of 3 numbers X, Y, Z); "
-                             "overrides --sensor")
+                        help="UVW matrix file (3 rows U, V, W of 3 numbers X, Y, Z), or "
+                             "'identity' for an ordinary XYZ sensor (runs U=X, V=Y, W=Z; "
+                             "--cal X=... etc. also accepted); overrides --sensor")
     parser.add_argument("--rotate", metavar="FILE",
                         help="only rotate FILE's X, Y, Z channels to U, V, W (or back) and "
                              "write it to DIR; no calibration")
@@ -59,16 +60,19 @@ def configure(parser):
     parser.add_argument("--z-only", action="store_true",
                         help="use only the Z output of each run (the classic Z-only procedure)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
-                        help="analysis band in Hz (default 0.5/T0 to min(25/T0, fs/4))")
+                        help="analysis band in Hz (default 0.5/T0 to min(25/T0, fs/4), the lower edge "
+                             "raised when the record is short)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
 
 
-def _parse_cal(items):
+def _parse_cal(items, identity=False):
     runs = {}
     for item in items:
         name, sep, path = item.partition("=")
         name = name.strip().upper()
+        if identity and name in ("X", "Y", "Z"):
+            name = "UVW"["XYZ".index(name)]
         if not sep or name not in ("U", "V", "W") or not path:
             raise InputError(f"--cal {item!r}: expected ELEMENT=FILE with ELEMENT one of U, V, W")
         if name in runs:
@@ -88,12 +92,15 @@ def load_inputs(args):
 
     from .. import coil
 
-    paths = _parse_cal(args.cal)
+    identity = (args.matrix or "").lower() == "identity"
+    paths = _parse_cal(args.cal, identity)
     if args.coil_constant is not None and not args.coil_constant > 0:
         raise InputError(f"--coil-constant must be positive, not {args.coil_constant}")
     if args.band is not None and not 0 < args.band[0] < args.band[1]:
         raise InputError(f"--band {args.band[0]} {args.band[1]}: not a positive interval")
-    if args.matrix:
+    if identity:
+        m, source = np.eye(3), "--matrix identity (ordinary XYZ sensor: U=X, V=Y, W=Z)"
+    elif args.matrix:
         m, source = coil.load_matrix(args.matrix), f"--matrix {args.matrix}"
     else:
         m, source = coil.sensor_matrix(args.sensor)
@@ -161,6 +168,8 @@ def rotate_file(args):
 
     from .. import coil
 
+    if (args.matrix or "").lower() == "identity":
+        raise InputError("--rotate with --matrix identity would change nothing")
     m = coil.load_matrix(args.matrix) if args.matrix else coil.sensor_matrix(args.sensor)[0]
     try:
         st = read(args.rotate)

@@ -14,7 +14,7 @@ from ..core.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import SpectraError, cross_spectra
 from .triaxial import PARAMS
-from .runs import BANDS_PER_DECADE, SEGMENT_CYCLES
+from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
 
 
 # --- likelihood of one run --------------------------------------------------
@@ -30,14 +30,6 @@ def run_spectra(run, coil_constant, band, nperseg=None, base=None):
         raise InputError(f"{run.source}: {exc}") from None
 
 
-def default_nperseg(fs, fmin):
-    """Segment length (samples) for calibration runs: ``SEGMENT_CYCLES``
-    periods of ``fmin`` rounded up to a power of two. Fixed here rather than
-    taken from :func:`bayescal.spectra.default_nperseg`, whose choice serves
-    ambient-noise records; the coverage benchmark was run with this one."""
-    return int(2 ** np.ceil(np.log2(SEGMENT_CYCLES * fs / fmin)))
-
-
 def _run_spectra(run, coil_constant, band, nperseg, base):
     def out_resp(f):
         h = run.nominal_response(np.asarray(f, float))
@@ -47,8 +39,28 @@ def _run_spectra(run, coil_constant, band, nperseg, base):
         return (2j * np.pi * np.asarray(f) / coil_constant)[None, :]
 
     return cross_spectra(run.data, run.input[None, :], run.fs, out_resp, in_resp, band,
-                         nperseg=nperseg or default_nperseg(run.fs, band[0]), bands_per_decade=BANDS_PER_DECADE, min_bins=8,
-                         sut_ids=run.ids, ref_ids=["input"])
+                         nperseg=nperseg or calibration_nperseg(run.fs, band[0], run.data.shape[1]),
+                         bands_per_decade=BANDS_PER_DECADE, min_bins=8, sut_ids=run.ids,
+                         ref_ids=["input"], edge_periods=EDGE_PERIODS)
+
+
+#: Eigenvalues of a band's noise covariance are floored at this fraction of
+#: its largest one, and every variance at ``SIGNAL_FLOOR`` of the output's
+#: power: noise of rank below the number of outputs (one noise source seen
+#: through the geometry, or a noise-free simulation) and round-off at very
+#: high signal-to-noise otherwise leave it singular or indefinite.
+EIGEN_FLOOR = 1e-4
+SIGNAL_FLOOR = 1e-12
+
+
+def regularise(sigma, power):
+    """Hermitian ``sigma`` (B, n, n) made positive definite: eigenvalues
+    floored at ``EIGEN_FLOOR`` of the largest and at ``SIGNAL_FLOOR`` of the
+    band's mean output power ``power`` (B, n)."""
+    w, v = np.linalg.eigh(sigma)
+    floor = np.maximum(EIGEN_FLOOR * w[:, -1:], SIGNAL_FLOOR * power.max(axis=1, keepdims=True))
+    w = np.maximum(w, np.maximum(floor, np.finfo(float).tiny))
+    return np.einsum("bij,bj,bkj->bik", v, w, v.conj())
 
 
 class RunModel:
@@ -167,7 +179,8 @@ class RunModel:
              + saa[:, None, None] * mu[:, :, None] * mu.conj()[:, None, :])
         n_bins = sp.bins_per_band * sp.n_segments
         sigma = np.einsum("fb,fij->bij", self._onehot, e) / n_bins[:, None, None]
-        sigma = 0.5 * (sigma + sigma.conj().transpose(0, 2, 1))
+        sigma = regularise(0.5 * (sigma + sigma.conj().transpose(0, 2, 1)),
+                           np.einsum("fb,fii->bi", self._onehot, self._cyy).real / n_bins[:, None])
         s_inv = np.linalg.inv(sigma)
         mu_b = (mu * saa[:, None]).T @ self._onehot / self._saa_b       # (no, B)
         seg = sp.per_segment                                          # (K, B, n, n)
@@ -179,7 +192,7 @@ class RunModel:
         pooled = raw.mean()
         wgt = sp.n_segments * no
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * pooled)
+        c = np.maximum(c, 1e-3 * max(pooled, 1e-12))
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self._saa_b)[:, None, None]
         return self.noise
@@ -271,7 +284,11 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     # start from the Z output when there is one: every element shows in Z with
     # the same sign in the built-in geometries, so a wrong X/Y sign convention
     # shows up as a misfit and a Z-only disagreement rather than a failed start
+    # (an output that barely sees the element, e.g. Z in an identity geometry,
+    # cannot give a start: then the output that sees it most does)
     iz = run.axes.index("Z") if "Z" in run.axes else None
+    if iz is None or abs(coef[iz]) < 0.1 * np.abs(coef).max():
+        iz = None if len(run.axes) == 1 else int(np.argmax(np.abs(coef)))
     start_model = model if iz is None else RunModel(sp.select([iz]), coef[[iz]],
                                                     [run.families[iz]], nominal, priors)
     theta0, scale = _start(start_model)

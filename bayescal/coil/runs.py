@@ -15,10 +15,40 @@ from .triaxial import ELEMENTS, XYZ, output_axis
 
 #: Narrow bands: the response ratio barely changes within one.
 BANDS_PER_DECADE = 20
-#: Segments hold this many periods of the band's lower edge (power of two):
-#: long enough that window leakage does not bias the element's period.
+#: Segments hold at most this many periods of the band's lower edge (power
+#: of two). With a recorded input they need not hold more than one: outputs
+#: are deconvolved over the whole record before segmenting (and, in the
+#: second pass, by the fitted response), so what a segment's window smooths
+#: is the nearly flat ratio of true to assumed response, not the response.
 SEGMENT_CYCLES = 10
-#: |z| above which Z-only and all-output estimates are called inconsistent.
+#: Segments are shortened (by halving) until the record gives at least this
+#: many half-overlapping ones: the noise model is measured from their scatter.
+MIN_SEGMENTS = 12
+#: Periods of the band's lower edge cut at each end of a gap-free run (the
+#: deconvolution's transient).
+EDGE_PERIODS = 2.0
+
+
+def calibration_nperseg(fs, fmin, n_samples):
+    """Segment length (samples, a power of two) for a calibration run of
+    ``n_samples``: ``SEGMENT_CYCLES`` periods of ``fmin``, halved while the
+    record (less its edges) gives fewer than ``MIN_SEGMENTS`` half-overlapping
+    segments, but never below 64 samples."""
+    usable = max(n_samples - 2 * int(EDGE_PERIODS * fs / fmin), 0)
+    want = int(2 ** np.ceil(np.log2(SEGMENT_CYCLES * fs / fmin)))
+    while want > 64 and 2 * usable / want - 1 < MIN_SEGMENTS:
+        want //= 2
+    return want
+
+
+def default_band(fs, duration_s, period_s, fmax_cycles=25.0):
+    """Default analysis band of a calibration run: from half the natural
+    frequency (raised to where a segment of the record still holds a period)
+    to ``fmax_cycles`` times it, below ``fs / 4``."""
+    fmin = 0.5 / period_s
+    seg = calibration_nperseg(fs, fmin, int(duration_s * fs)) / fs
+    fmin = max(fmin, 1.0 / seg)
+    return fmin, max(min(fmax_cycles / period_s, fs / 4), 4 * fmin)
 
 # --- reading one calibration run --------------------------------------------
 

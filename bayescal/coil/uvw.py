@@ -59,6 +59,7 @@ from ..core.posterior import interval_summary
 from ..core.response import TwoPoleFamily
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix
 from .element import RunModel, _start, fit_run, run_spectra
+from .runs import default_band
 
 
 SCHEMA = "bayescal.uvw/1"
@@ -244,7 +245,7 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
     fam = runs["U"].families[-1]
     if band is None:
         fs = min(r.fs for r in runs.values())
-        band = (0.5 / fam.period_s, min(25.0 / fam.period_s, fs / 4))
+        band = default_band(fs, min(r.data.shape[1] / r.fs for r in runs.values()), fam.period_s)
     has_z = all("Z" in r.axes for r in runs.values())
     if z_only and not has_z:
         src = next(r.source for r in runs.values() if "Z" not in r.axes)
@@ -258,7 +259,8 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
         run = runs[e].select(["Z"]) if z_only else runs[e]
         fits[e] = fit_run(run, m, c_eff, band, nperseg, seed=seed + i, progress=progress,
                           **sample_kw)
-        if not z_only and has_z and len(runs[e].axes) > 1:
+        sees_z = abs(m[ELEMENTS.index(e), 2]) > 1e-6
+        if not z_only and has_z and len(runs[e].axes) > 1 and sees_z:
             z_fits[e] = fit_run(runs[e].select(["Z"]), m, c_eff, band, nperseg,
                                 seed=seed + 10 + i, progress=progress, **sample_kw)
     rng = np.random.default_rng(seed)

@@ -1,0 +1,156 @@
+"""Calibrate an ordinary sensor's channel from a coil calibration run: the
+input (coil drive, counts) recorded beside the output. Posterior over the
+long-period pair (period, damping) and the generator gain (--fit lp), the
+gain and the high-frequency poles and zeros of the nominal response that the
+band reaches (--fit hf), or both (--fit all).
+
+Example:
+  bayescal cal --cal RUN.mseed --input-channel BC0 --output-channel BHZ \\
+               --sut-xml SUT.xml --coil-constant 1e-9 --out DIR --fit lp
+Writes DIR/cal.json (schema bayescal.cal/1), DIR/cal_samples.npz,
+DIR/sut_corrected.xml (the StationXML with the fitted values and their 68 %
+errors) and the report (DIR/cal_report.pdf and PNG pages). With several
+--output-channel, one sub-folder DIR/<SEED id>/ per channel and one
+sut_corrected.xml holding them all.
+
+--kind random (default) is the only kind implemented: step and sine runs are
+refused with a message.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+
+import numpy as np
+
+from ..io.read import InputError
+
+HELP = "calibration of a channel from a coil calibration run (random; posterior)"
+KINDS = ("random", "step", "sine")
+
+
+def configure(parser):
+    """Arguments of ``bayescal cal``."""
+    parser.add_argument("--cal", required=True, metavar="RUN.mseed",
+                        help="the calibration run: input and output channels")
+    parser.add_argument("--input-channel", default="BC0",
+                        help="channel code (or SEED id) of the coil input (default BC0)")
+    parser.add_argument("--output-channel", action="append", required=True, metavar="CHA",
+                        help="channel code (or SEED id) of an output to calibrate; repeat for "
+                             "several")
+    parser.add_argument("--sut-xml", required=True, metavar="SUT.xml",
+                        help="StationXML with the outputs' nominal responses")
+    parser.add_argument("--coil-constant", required=True, type=float, metavar="K",
+                        help="equivalent ground acceleration per input count (m/s^2 per count)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--kind", default="random", choices=KINDS,
+                        help="calibration signal (default random; step and sine not yet)")
+    parser.add_argument("--fit", default="lp", choices=("lp", "hf", "all"),
+                        help="lp: period, damping, gain; hf: gain and the high-frequency "
+                             "poles/zeros the band reaches; all: both (default lp)")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: lp 0.5/T0 to min(25/T0, fs/4), "
+                             "raised when the record is short; hf 10/T0 to 0.4 fs)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+
+
+def load_runs(args):
+    """Read the run and the StationXML; one single-output CalRun per channel."""
+    from obspy import read, read_inventory
+
+    from .. import coil
+
+    if not args.coil_constant > 0:
+        raise InputError(f"--coil-constant must be positive, not {args.coil_constant}")
+    if args.band is not None and not 0 < args.band[0] < args.band[1]:
+        raise InputError(f"--band {args.band[0]} {args.band[1]}: not a positive interval")
+    if not os.path.isfile(args.cal):
+        raise InputError(f"{args.cal}: no such file")
+    try:
+        inv = read_inventory(args.sut_xml)
+    except Exception as exc:  # ObsPy raises many types for unreadable files
+        raise InputError(f"{args.sut_xml}: not a readable StationXML ({exc})") from None
+    try:
+        st = read(args.cal)
+    except Exception as exc:
+        raise InputError(f"{args.cal}: not a readable waveform file ({exc})") from None
+    runs = []
+    for cha in args.output_channel:
+        sel = [tr for tr in st if cha in (tr.stats.channel, tr.id)
+               or args.input_channel in (tr.stats.channel, tr.id)]
+        if not any(cha in (tr.stats.channel, tr.id) for tr in sel):
+            raise InputError(f"{args.cal}: no output channel {cha} (channels: "
+                             f"{', '.join(tr.id for tr in st) or 'none'})")
+        if not coil.output_axis(cha[-3:]):
+            raise InputError(f"{args.cal}: output channel {cha}: code must end in N/E/Z/1/2 "
+                             "or U/V/W")
+        sub = st.__class__(sel)
+        runs.append(coil.read_run("U", sub, inv, args.input_channel, args.cal))
+    return runs, inv
+
+
+def write_outputs(fits, inventory, out):
+    """Write everything into a temporary folder, then move it into ``out``."""
+    from ..coil.calxml import write_corrected_cal
+    from ..core.posterior import write_json
+    from ..report.cal import write_report
+
+    parent = os.path.dirname(os.path.abspath(out)) or "."
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=".cal-", dir=parent)
+    try:
+        summaries = []
+        for fit in fits:
+            folder = tmp if len(fits) == 1 else os.path.join(tmp, fit.channel)
+            os.makedirs(folder, exist_ok=True)
+            summary = fit.summary()
+            write_json(os.path.join(folder, "cal.json"), summary)
+            np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
+                     names=np.array(fit.spec.names))
+            write_report(fit, folder)
+            summaries.append(summary)
+        write_corrected_cal(inventory, fits, os.path.join(tmp, "sut_corrected.xml"))
+        os.makedirs(out, exist_ok=True)
+        for name in sorted(os.listdir(tmp)):
+            dest = os.path.join(out, name)
+            if os.path.isdir(dest):
+                shutil.rmtree(dest)
+            os.replace(os.path.join(tmp, name), dest)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return summaries
+
+
+def _print_summary(summary):
+    p = summary["parameters"]
+    parts = [f"{k} {v['median']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]"
+             for k, v in p.items() if isinstance(v, dict)]
+    print(f"{summary['channel']} ({summary['kind']}, fit {summary['fit']}): " + "; ".join(parts))
+    for kind in ("hf_poles", "hf_zeros"):
+        for e in p[kind]:
+            im = e["imag"].get("median", 0.0)
+            print(f"  {kind[3:-1]} near {e['frequency_hz']:.4g} Hz: {e['real']['median']:.5g} "
+                  f"+ {im:.5g}i rad/s (nominal {e['nominal'][0]:.5g} + {e['nominal'][1]:.5g}i)")
+    print(f"  adequacy: misfit {summary['adequacy']['misfit']:.3g}, p {summary['adequacy']['p_value']:.3g};"
+          f" converged {summary['convergence']['converged']}")
+
+
+def run(args):
+    """Entry point of ``bayescal cal``."""
+    from ..coil.random import fit_random
+
+    if args.kind != "random":
+        raise InputError(f"--kind {args.kind}: not implemented yet (only random); see "
+                         "docs/cal.md")
+    runs, inv = load_runs(args)
+    band = tuple(args.band) if args.band else None
+    fits = [fit_random(r, args.coil_constant, fit=args.fit, band=band, seed=args.seed + i,
+                       progress=not args.quiet) for i, r in enumerate(runs)]
+    summaries = write_outputs(fits, inv, args.out)
+    if not args.quiet:
+        for s in summaries:
+            _print_summary(s)
+        print(f"written to {args.out}")
+    return 0

@@ -1,0 +1,61 @@
+"""Corrected StationXML from a coil calibration: the channel's stage-1 gain,
+long-period pair (``--fit lp``/``all``) and free high-frequency poles and
+zeros (``hf``/``all``) replaced by posterior medians with ``plusError`` /
+``minusError`` from the 68 % interval; the normalization factor rescaled so
+the gain keeps its meaning at the normalization frequency; the overall
+sensitivity recalculated. Everything else is left untouched."""
+from __future__ import annotations
+
+import copy
+import os
+
+import numpy as np
+from obspy.core.util.obspy_types import ComplexWithUncertainties
+
+from ..io.stationxml import _find_channel, _pole_with_errors, _update_response
+
+
+def _replace_hf(stage, spec, roots):
+    """Write the free poles/zeros (samples ``roots`` (N, K) rad/s) into ``stage``."""
+    scale = 1.0 / (2 * np.pi) if "HERTZ" in str(stage.pz_transfer_function_type).upper() else 1.0
+    med = np.median(roots.real, axis=0) + 1j * np.median(roots.imag, axis=0)
+    sn = np.array([2j * np.pi * spec.family.norm_freq])
+    phi = spec._phi(sn, med[None])[0, 0]
+    for k, it in enumerate(spec.items):
+        target = stage.poles if it.kind == "pole" else stage.zeros
+        err = _pole_with_errors(roots[:, k])
+        for idx, sign in ((it.index, 1), (it.conj_index, -1)):
+            if idx < 0:
+                continue
+            v = complex(med[k].real, sign * med[k].imag)
+            lo, up = err.lower_uncertainty, err.upper_uncertainty
+            target[idx] = ComplexWithUncertainties(v * scale, lower_uncertainty=lo * scale,
+                                                   upper_uncertainty=up * scale)
+    # A0 = 1 / |PZ(s_n)|: the free factors multiply PZ(s_n) by 1 / phi(s_n)
+    stage.normalization_factor = float(stage.normalization_factor * abs(phi))
+
+
+def corrected_cal_inventory(inventory, fits):
+    """A copy of ``inventory`` with each :class:`CalFit` in ``fits`` written in."""
+    inv = copy.deepcopy(inventory)
+    for fit in fits:
+        ch = _find_channel(inv, fit.channel, None)
+        phys = fit.physical()
+        summary = fit.summary()["parameters"]
+        if fit.spec.items:
+            _replace_hf(ch.response.response_stages[0], fit.spec, phys["hf"])
+        if fit.spec.has_lp:
+            samples = np.column_stack([phys["period_s"], phys["damping"], phys["gain"]])
+            _update_response(ch, samples, "all", summary)
+        else:
+            _update_response(ch, None, "gain", summary)
+    return inv
+
+
+def write_corrected_cal(inventory, fits, path):
+    """Write :func:`corrected_cal_inventory` to ``path`` atomically."""
+    inv = corrected_cal_inventory(inventory, fits)
+    tmp = os.fspath(path) + ".tmp"
+    inv.write(tmp, format="STATIONXML", validate=False)
+    os.replace(tmp, path)
+    return path

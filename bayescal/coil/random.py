@@ -1,0 +1,117 @@
+"""Random (broadband, e.g. pseudo-random binary) calibration of one output
+channel: the transfer function from the input-output cross-spectra, with the
+noise model measured from their scatter across segments (the likelihood of
+:class:`bayescal.coil.element.RunModel`, one output with coefficient 1), and
+the response parametrised by :class:`bayescal.coil.hf.PZSpec` (``--fit lp``,
+``hf`` or ``all``).
+
+As in the UVW fit, the least-squares point of a first pass (outputs
+deconvolved by the nominal response) is used to deconvolve the outputs again
+(second pass), so that what the segment windows smooth is the nearly flat
+ratio of true to fitted response; the posterior is sampled on the second pass.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.sampler import FitError, sample
+from ..io.read import InputError
+from .element import RunModel, least_squares_run, run_spectra
+from .hf import PZSpec
+from .result import CalFit
+from .runs import default_band
+
+#: Default lower band edge of ``--fit hf`` in natural frequencies: far enough
+#: above the corner that a few per cent error of the (fixed) long-period pair
+#: changes the response by well under 0.1 %.
+HF_FMIN_CYCLES = 10.0
+#: Default upper band edge as a fraction of the sampling rate for hf/all fits.
+HF_FMAX_FRACTION = 0.4
+
+
+class PZModel(RunModel):
+    """:class:`RunModel` of one output with the response of a :class:`PZSpec`."""
+
+    def __init__(self, spectra, spec, base=None):
+        super().__init__(spectra, [1.0], [spec.family], spec.family, spec.priors, base=base)
+        self.spec = spec
+        self.names = spec.names
+        self.ndim = spec.ndim
+        self._lo, self._hi = spec.bounds()
+
+    def bounds(self):
+        return self._lo, self._hi
+
+    def ratio(self, theta):
+        return self.spec.ratio(self.spectra.freqs, theta)[:, None, :] / self.base[None]
+
+    def residual(self, theta):
+        model = np.add.reduceat(self.mu(theta) * self._saa[None, None], self._starts, axis=2)
+        return (self._cya_b[None] - model).transpose(0, 2, 1)
+
+    def measured(self):
+        """Per band: the measured transfer over ``nominal * base`` and its sd."""
+        t = self._cya_b[0] / self._saa_b
+        sd = np.sqrt(self.sigma[:, 0, 0].real * self.inflation / self._saa_b)
+        return t, sd
+
+
+def default_cal_band(run, fit):
+    """Band of a random run: :func:`default_band` for ``lp``; for ``hf``
+    from ``HF_FMIN_CYCLES`` natural frequencies to ``HF_FMAX_FRACTION fs``;
+    for ``all`` from the lp band's lower edge to the same top."""
+    fam = run.families[0]
+    dur = run.data.shape[1] / run.fs
+    lp = default_band(run.fs, dur, fam.period_s)
+    top = HF_FMAX_FRACTION * run.fs
+    if fit == "lp":
+        return lp
+    if fit == "hf":
+        seg_min = 16.0 / dur                                 # at least ~16 periods recorded
+        return max(HF_FMIN_CYCLES / fam.period_s, seg_min), top
+    return lp[0], top
+
+
+def _scale_start(model, theta):
+    """Least-squares scale of the transfer at ``theta`` to the data."""
+    mu = model.mu(theta)[0]
+    num = np.sum((mu.conj() * model._cya.T).real)
+    den = np.sum(np.abs(mu) ** 2 * model._saa[None])
+    return num / den
+
+
+def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, nperseg=None,
+               **sample_kw):
+    """Posterior of one output channel's response from a random calibration
+    run (``run`` restricted to that output). Returns a :class:`CalFit`."""
+    if len(run.axes) != 1:
+        raise ValueError("fit_random takes a run with one output (CalRun.select)")
+    band = tuple(band) if band is not None else default_cal_band(run, fit)
+    if band[1] > run.fs / 2:
+        raise InputError(f"{run.source}: band top {band[1]:g} Hz is above Nyquist "
+                         f"({run.fs / 2:g} Hz)")
+    spec = PZSpec.from_response(run.responses[0], fit, band[1], source=run.source)
+    sp = run_spectra(run, coil_constant, band, nperseg)
+    model = PZModel(sp, spec)
+    theta0 = spec.nominal_theta()
+    scale = _scale_start(model, theta0)
+    if not scale > 0:
+        raise FitError(f"{run.source}: {run.ids[0]} responds to the coil with the opposite sign "
+                       "to its nominal response: check the coil wiring or the output polarity")
+    theta0[spec.i_gain] += np.log(scale)
+    lo, hi = spec.bounds()
+    if not lo[spec.i_gain] < theta0[spec.i_gain] < hi[spec.i_gain]:
+        raise FitError(f"{run.source}: the gain comes out {np.exp(theta0[spec.i_gain]):.4g}, "
+                       f"more than {spec.priors.gain_factor:g}x from nominal "
+                       f"{spec.family.gain:.4g}: check --coil-constant")
+    theta, _ = least_squares_run(model, theta0)
+    t_ls = theta.copy()
+
+    def base(f):
+        return spec.ratio(f, t_ls)
+
+    sp = run_spectra(run, coil_constant, band, nperseg, base=base)
+    model = PZModel(sp, spec, base=base(sp.freqs))
+    theta, cov = least_squares_run(model, theta)
+    chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    return CalFit.from_chain("random", run, spec, model, chain, coil_constant, band)

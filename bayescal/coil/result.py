@@ -1,0 +1,104 @@
+"""The result of one coil calibration of one output channel (any kind), and
+its ``cal.json`` content (schema ``bayescal.cal/1``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from ..core.posterior import interval_summary
+from ..core.response import evaluate_velocity_response
+
+SCHEMA = "bayescal.cal/1"
+
+
+def convergence_summary(chain):
+    """The convergence entry of a chain from :func:`bayescal.core.sampler.sample`."""
+    return {"tau_max": float(chain.tau.max()), "ess_min": float(chain.ess.min()),
+            "rhat_max": float(chain.rhat.max()), "n_steps": int(chain.n_steps),
+            "n_walkers": int(chain.n_walkers), "acceptance": float(chain.acceptance),
+            "converged": bool(chain.converged)}
+
+
+def adequacy_summary(model, theta):
+    """Band residuals at ``theta`` against their noise model: the mean of
+    ``|R_b|^2 / E|R_b|^2`` (about 1 when the model fits) and the chi-square
+    p-value of their sum (2 degrees of freedom per band and output)."""
+    r = model.residual(theta)[0]
+    var = np.einsum("bii->bi", model.sigma).real * (model.inflation * model._saa_b)[:, None]
+    q = np.abs(r) ** 2 / var
+    dof = 2 * q.size
+    return {"misfit": float(q.mean()), "n_bands": int(q.shape[0]),
+            "p_value": float(chi2.sf(2 * q.sum(), dof))}
+
+
+@dataclass
+class CalFit:
+    """Posterior of one output channel from one calibration run."""
+
+    kind: str                    # random, step or sine
+    channel: str
+    spec: object                 # PZSpec
+    theta: np.ndarray            # (N, ndim) samples
+    convergence: dict
+    adequacy: dict
+    band_hz: tuple
+    response: object             # the channel's nominal ObsPy Response
+    meta: dict = field(default_factory=dict)
+    model: object = field(default=None, repr=False)
+
+    @classmethod
+    def from_chain(cls, kind, run, spec, model, chain, coil_constant, band):
+        med = np.median(chain.samples, axis=0)
+        model.estimate_noise(med)
+        adequacy = adequacy_summary(model, med)
+        meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
+                "duration_s": run.data.shape[1] / run.fs}
+        return cls(kind, run.ids[0], spec, chain.samples, convergence_summary(chain), adequacy,
+                   (float(band[0]), float(band[1])), run.responses[0], meta, model)
+
+    def physical(self):
+        return self.spec.physical(self.theta)
+
+    def summary(self):
+        """The ``cal.json`` content."""
+        phys = self.physical()
+        fam = self.spec.family
+        params = {}
+        for p in ("period_s", "damping", "gain"):
+            if p in phys:
+                params[p] = interval_summary(phys[p])
+        for kind in ("pole", "zero"):
+            entries = []
+            for k, it in enumerate(self.spec.items):
+                if it.kind != kind:
+                    continue
+                q = phys["hf"][:, k]
+                entries.append({"nominal": [it.nominal.real, it.nominal.imag],
+                                "frequency_hz": it.freq_hz, "real": interval_summary(q.real),
+                                "imag": (interval_summary(q.imag) if it.complex_pair
+                                         else {"fixed": 0.0}),
+                                "conjugate_pair": it.complex_pair})
+            params[f"hf_{kind}s"] = entries
+        fixed = {p: getattr(fam, p) for p in ("period_s", "damping") if p not in phys}
+        return {"schema": SCHEMA, "kind": self.kind, "channel": self.channel, "fit": self.spec.fit,
+                "parameters": params, "fixed_at_nominal": fixed,
+                "nominal": {"period_s": fam.period_s, "damping": fam.damping, "gain": fam.gain},
+                "units": {"gain": f"{fam.gain_units} (first stage) at {fam.norm_freq:g} Hz",
+                          "hf_poles": "rad/s"},
+                "band_hz": list(self.band_hz), "convergence": self.convergence,
+                "adequacy": self.adequacy, "meta": self.meta}
+
+    def curves(self, n_freqs=150, n_samples=400, seed=0):
+        """Response curves for the report: ``freqs``, ``nominal`` (counts per
+        m/s), the fitted ratio's median and 95 % band of amplitude and phase
+        (degrees) over the nominal."""
+        f = np.geomspace(self.band_hz[0], self.band_hz[1], n_freqs)
+        rng = np.random.default_rng(seed)
+        idx = rng.choice(self.theta.shape[0], min(n_samples, self.theta.shape[0]), replace=False)
+        r = self.spec.ratio(f, self.theta[idx])
+        amp, ph = np.abs(r), np.degrees(np.angle(r))
+        q = [2.5, 50, 97.5]
+        return {"freqs": f, "nominal": evaluate_velocity_response(self.response, f),
+                "amp": np.percentile(amp, q, axis=0), "phase": np.percentile(ph, q, axis=0)}

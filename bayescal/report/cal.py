@@ -1,0 +1,163 @@
+"""Report of a coil calibration of one channel (:class:`bayescal.coil.result.CalFit`).
+
+Three pages, each a PNG and a page of ``cal_report.pdf``:
+
+* ``cal_response.png``: amplitude (counts per m/s) and phase of the measured
+  response (per band, with 2-sigma error bars from the noise model), the
+  fitted response (posterior median and pointwise equal-tailed 95 % band) and
+  the nominal; below, the same as ratios to the nominal, where differences of
+  a few per cent show;
+* ``cal_residuals.png``: standardised band residuals (real and imaginary part)
+  at the posterior median, and the convergence and adequacy numbers;
+* ``cal_corner.png``: corner plot of the fitted parameters (2-D contours hold
+  68 % and 95 % of the mass; 1-D lines at the 16, 50 and 84 % quantiles).
+"""
+from __future__ import annotations
+
+import os
+
+import corner
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
+
+from .layout import CORNER_LEVELS, CORNER_QUANTILES  # noqa: E402
+
+
+def _measured(fit):
+    """Band centres, measured complex response and its sd, from the model."""
+    m = fit.model
+    t, sd = m.measured()
+    sp = m.spectra
+    w = m._saa[:, None] * m._onehot                                  # (F, B) weights
+    fc = (sp.freqs @ w) / w.sum(axis=0)
+    rel = (m.base[0] * m._saa) @ m._onehot / m._saa_b                 # base at band centre
+    return fc, t * rel, sd * np.abs(rel)
+
+
+def response_page(fit, summary):
+    """Measured, fitted and nominal response; ratios to the nominal."""
+    from ..core.response import evaluate_velocity_response
+
+    c = fit.curves()
+    f, nom = c["freqs"], c["nominal"]
+    fc, ratio_m, sd_m = _measured(fit)
+    nom_c = evaluate_velocity_response(fit.response, fc)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.5), sharex=True)
+    (a_amp, a_ph), (r_amp, r_ph) = axes
+    a_amp.loglog(f, np.abs(nom), "k--", lw=1, label="nominal")
+    a_amp.fill_between(f, np.abs(nom) * c["amp"][0], np.abs(nom) * c["amp"][2], color="tab:blue",
+                       alpha=0.3, lw=0)
+    a_amp.plot(f, np.abs(nom) * c["amp"][1], color="tab:blue", label="fitted (95 % band)")
+    a_amp.errorbar(fc, np.abs(nom_c * ratio_m), yerr=2 * np.abs(nom_c) * sd_m, fmt=".",
+                   color="tab:red", ms=3, label="measured (2 sigma)")
+    a_amp.set_ylabel("amplitude (counts per m/s)")
+    ph_nom = np.degrees(np.unwrap(np.angle(nom)))
+    a_ph.plot(f, ph_nom, "k--", lw=1)
+    a_ph.fill_between(f, ph_nom + c["phase"][0], ph_nom + c["phase"][2], color="tab:blue",
+                      alpha=0.3, lw=0)
+    a_ph.plot(f, ph_nom + c["phase"][1], color="tab:blue")
+    a_ph.plot(fc, np.interp(np.log(fc), np.log(f), ph_nom) + np.degrees(np.angle(ratio_m)), ".",
+              color="tab:red", ms=3)
+    a_ph.set_ylabel("phase (deg)")
+    r_amp.fill_between(f, c["amp"][0], c["amp"][2], color="tab:blue", alpha=0.3, lw=0)
+    r_amp.plot(f, c["amp"][1], color="tab:blue")
+    r_amp.errorbar(fc, np.abs(ratio_m), yerr=2 * sd_m, fmt=".", color="tab:red", ms=3)
+    r_amp.axhline(1.0, color="k", ls="--", lw=1)
+    r_amp.set_ylabel("amplitude / nominal")
+    r_ph.fill_between(f, c["phase"][0], c["phase"][2], color="tab:blue", alpha=0.3, lw=0)
+    r_ph.plot(f, c["phase"][1], color="tab:blue")
+    r_ph.errorbar(fc, np.degrees(np.angle(ratio_m)), yerr=np.degrees(2 * sd_m), fmt=".",
+                  color="tab:red", ms=3)
+    r_ph.axhline(0.0, color="k", ls="--", lw=1)
+    r_ph.set_ylabel("phase - nominal (deg)")
+    for a in axes.ravel():
+        a.set_xscale("log")
+        a.grid(True, which="both", alpha=0.3)
+    for a in axes[1]:
+        a.set_xlabel("frequency (Hz)")
+    a_amp.legend(fontsize=8)
+    fig.suptitle(f"{summary['channel']}: {summary['kind']} calibration, fit {summary['fit']}")
+    return fig
+
+
+def residuals_page(fit, summary):
+    """Standardised band residuals at the median, convergence and adequacy."""
+    m = fit.model
+    med = np.median(fit.theta, axis=0)
+    r = m.residual(med)[0][:, 0]
+    var = m.sigma[:, 0, 0].real * m.inflation * m._saa_b
+    z = r / np.sqrt(var / 2)
+    fc = m.spectra.band_centres
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 8.5), gridspec_kw={"height_ratios": [2, 1]})
+    a1.semilogx(fc, z.real, "o", ms=4, label="real")
+    a1.semilogx(fc, z.imag, "s", ms=4, label="imaginary")
+    for y in (-2, 2):
+        a1.axhline(y, color="k", ls=":", lw=1)
+    a1.set_xlabel("frequency (Hz)")
+    a1.set_ylabel("standardised band residual")
+    a1.legend(fontsize=8)
+    a1.grid(True, which="both", alpha=0.3)
+    a2.axis("off")
+    lines = ["Convergence: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                         for k, v in summary["convergence"].items()),
+             "Adequacy: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                      for k, v in summary["adequacy"].items()),
+             f"Band {summary['band_hz'][0]:.4g}-{summary['band_hz'][1]:.4g} Hz; "
+             f"fixed at nominal: {summary['fixed_at_nominal'] or 'nothing'}"]
+    for k, (p, e) in enumerate((k, v) for k, v in summary["parameters"].items()
+                               if isinstance(v, dict)):
+        lines.append(f"{p}: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, {e['ci95'][1]:.6g}]"
+                     f"  (nominal {summary['nominal'].get(p, float('nan')):.6g})")
+    for kind in ("hf_poles", "hf_zeros"):
+        for e in summary["parameters"][kind]:
+            lines.append(f"{kind[3:-1]} at {e['frequency_hz']:.4g} Hz: "
+                         f"{e['real']['median']:.5g} + "
+                         f"{e['imag'].get('median', 0.0):.5g}i rad/s "
+                         f"(nominal {e['nominal'][0]:.5g} + {e['nominal'][1]:.5g}i)")
+    a2.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=8, wrap=True)
+    fig.suptitle(f"{summary['channel']}: residuals, convergence, adequacy")
+    return fig
+
+
+def corner_page(fit, summary):
+    """Corner plot of the fitted parameters in physical units."""
+    phys = fit.physical()
+    cols, labels = [], []
+    for p, lab in (("period_s", "period (s)"), ("damping", "damping"), ("gain", "gain")):
+        if p in phys:
+            cols.append(phys[p])
+            labels.append(lab)
+    for k, it in enumerate(fit.spec.items):
+        cols.append(phys["hf"][:, k].real)
+        labels.append(f"{it.kind} {it.freq_hz:.3g} Hz re")
+        if it.complex_pair:
+            cols.append(phys["hf"][:, k].imag)
+            labels.append(f"{it.kind} {it.freq_hz:.3g} Hz im")
+    data = np.column_stack(cols)
+    fig = plt.figure(figsize=(11, 11))
+    corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
+                  plot_datapoints=False, label_kwargs={"fontsize": 8})
+    fig.suptitle(f"{summary['channel']}: posterior (2-D contours: 68 % and 95 % of the mass)")
+    return fig
+
+
+def write_report(fit, folder):
+    """Write the three PNG pages and ``cal_report.pdf`` into ``folder``."""
+    summary = fit.summary()
+    pages = [("cal_response.png", response_page), ("cal_residuals.png", residuals_page),
+             ("cal_corner.png", corner_page)]
+    paths = []
+    pdf_path = os.path.join(folder, "cal_report.pdf")
+    with PdfPages(pdf_path) as pdf:
+        for name, make in pages:
+            fig = make(fit, summary)
+            path = os.path.join(folder, name)
+            fig.savefig(path, dpi=100)
+            pdf.savefig(fig)
+            plt.close(fig)
+            paths.append(path)
+    return paths + [pdf_path]

@@ -1,0 +1,114 @@
+"""Simulator: a random (PRBS) coil calibration run of one ordinary channel,
+with known long-period pair, gain and high-frequency poles.
+
+The coil makes an equivalent ground acceleration ``C u(t)`` (``u`` the PRBS
+recorded on the input channel, counts). The sensor adds its own white
+equivalent-acceleration self-noise (``noise_ratio`` of the calibration
+signal's rms), and the digitizer white noise in counts:
+
+    X(f) = H(f) (C U(f) + N(f)) / (2 pi i f) + digitizer noise,
+
+with ``H`` the *true* velocity response built by
+:func:`bayescal.core.response.paz_velocity_response` (pendulum pair, two zeros
+at the origin, the high-frequency poles), applied exactly through the FFT of a
+periodic record. The StationXML holds the *nominal* response, the same form
+with nominal values (:func:`paz_response`), built independently via ObsPy.
+"""
+from __future__ import annotations
+
+import numpy as np
+from obspy import Inventory, Stream, Trace, UTCDateTime
+from obspy.core.inventory import Channel, Network, Site, Station
+from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
+                                           PolesZerosResponseStage, Response)
+
+from ..core.response import paz_velocity_response
+from .coil import CalibrationSimulation, _white, prbs
+from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
+
+#: Nominal STS-2-like channel: period (s), damping, gain (V per m/s).
+LP_NOMINAL = (120.0, 0.707, 1500.0)
+#: Nominal high-frequency poles (rad/s): a pair at 50 Hz (damping 0.6) and a
+#: real pole at 70 Hz, within a 200 Hz record's band.
+HF_NOMINAL = (2 * np.pi * 50.0 * (-0.6 + 0.8j), -2 * np.pi * 70.0)
+
+
+def _expand(poles):
+    """Poles with Im >= 0 and their conjugates (real ones once)."""
+    out = []
+    for p in poles:
+        p = complex(p)
+        out += [p, p.conjugate()] if abs(p.imag) > 0 else [p]
+    return out
+
+
+def _pendulum(period_s, damping):
+    w0 = 2 * np.pi / period_s
+    p = -damping * w0 + 1j * w0 * np.sqrt(complex(1 - damping ** 2))
+    return [p, np.conj(p)] if damping < 1 else [p.real + p.imag * 1j, p.real - p.imag * 1j]
+
+
+def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_freq=NORM_FREQ):
+    """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
+    conjugates added), gain at ``norm_freq``, a flat digitizer."""
+    poles = _pendulum(period_s, damping) + _expand(hf_poles)
+    s = 2j * np.pi * norm_freq
+    pz = s * s / np.prod([s - p for p in poles])
+    st1 = PolesZerosResponseStage(
+        stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
+        input_units="M/S", output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
+        normalization_frequency=norm_freq, zeros=[0j, 0j], poles=poles,
+        normalization_factor=1.0 / abs(pz))
+    st2 = CoefficientsTypeResponseStage(
+        stage_sequence_number=2, stage_gain=DIGITIZER_GAIN, stage_gain_frequency=norm_freq,
+        input_units="V", output_units="COUNTS", cf_transfer_function_type="DIGITAL",
+        numerator=[1.0], denominator=[], decimation_input_sample_rate=sample_rate,
+        decimation_factor=1, decimation_offset=0, decimation_delay=0.0, decimation_correction=0.0)
+    sens = InstrumentSensitivity(value=gain * DIGITIZER_GAIN, frequency=norm_freq,
+                                 input_units="M/S", output_units="COUNTS")
+    return Response(instrument_sensitivity=sens, response_stages=[st1, st2])
+
+
+def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
+                        duration=3 * 3600.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
+                        clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, seed=0,
+                        input_channel="BC0", network="XX", station="CAL", location="00",
+                        start=UTCDateTime(2026, 1, 1)):
+    """One random calibration run of a vertical channel (see module docstring).
+
+    ``truth``/``nominal``: (period_s, damping, gain V per m/s); ``hf_true`` /
+    ``hf_nominal``: high-frequency poles (rad/s, Im >= 0), same count and order.
+    Returns a :class:`CalibrationSimulation` with ``runs["cal"]``.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    iw = 2j * np.pi * freqs
+    iw[0] = np.inf
+    k = paz_velocity_response(freqs, *truth, extra_poles=_expand(hf_true),
+                              digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
+    u = amplitude * prbs(n, clock_samples, seed=int(rng.integers(1 << 30)))
+    a_f = np.fft.rfft(coil_constant * u)
+    noise = _white(rng, freqs.size, noise_ratio * coil_constant * amplitude, n)
+    x = np.fft.irfft(k * (a_f + noise) / iw, n=n) + digitizer_noise * rng.standard_normal(n)
+    code = f"{band_code(fs)}HZ"
+    hdr = dict(network=network, station=station, location=location, sampling_rate=fs,
+               starttime=start)
+    st = Stream([Trace(data=u.astype(np.float64), header=dict(hdr, channel=input_channel)),
+                 Trace(data=np.ascontiguousarray(x), header=dict(hdr, channel=code))])
+    ch = Channel(code=code, location_code=location, latitude=0.0, longitude=0.0, elevation=0.0,
+                 depth=0.0, azimuth=0.0, dip=-90.0, sample_rate=fs, start_date=start - 86400,
+                 response=paz_response(*nominal, hf_poles=hf_nominal, sample_rate=fs))
+    sta = Station(code=station, latitude=0.0, longitude=0.0, elevation=0.0, channels=[ch],
+                  site=Site(name="bayescal random calibration simulation"),
+                  start_date=start - 86400)
+    inv = Inventory(networks=[Network(code=network, stations=[sta])],
+                    source="bayescal.simulate.cal")
+    truth_d = {"period_s": truth[0], "damping": truth[1], "gain": truth[2],
+               "hf_poles": [[complex(p).real, complex(p).imag] for p in hf_true],
+               "nominal": {"period_s": nominal[0], "damping": nominal[1], "gain": nominal[2],
+                           "hf_poles": [[complex(p).real, complex(p).imag] for p in hf_nominal]},
+               "coil_constant": coil_constant, "noise_ratio": noise_ratio, "duration_s": duration,
+               "sampling_rate": fs, "seed": seed, "channel": f"{network}.{station}.{location}.{code}",
+               "input_channel": input_channel, "kind": "random"}
+    return CalibrationSimulation(runs={"cal": st}, inventory=inv, truth=truth_d)

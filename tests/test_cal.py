@@ -1,0 +1,203 @@
+"""Coil calibration of an ordinary channel (``bayescal cal``): the response
+parametrisation against ObsPy, recovery of simulated truths (long-period pair
+and gain; high-frequency poles), interval coverage, the command end to end,
+and the uvw failures of issue 15 (identity geometry, short and long runs)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from obspy import read_inventory
+from scipy.stats import binom
+
+from bayescal import cli, coil
+from bayescal.coil.hf import PZSpec, hf_items
+from bayescal.coil.random import fit_random
+from bayescal.core.geometry import STS2_UVW
+from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
+from bayescal.simulate.cal import HF_NOMINAL, LP_NOMINAL, paz_response, simulate_random_cal
+from bayescal.simulate.coil import simulate_calibration
+
+COIL = 1e-9
+TRUE_LP = (122.0, 0.69, 1510.0)
+TRUE_HF = (HF_NOMINAL[0] * (1.03 + 0.02j), HF_NOMINAL[1] * 0.97)
+
+
+def _run(sim):
+    return coil.read_run("U", sim.runs["cal"], sim.inventory, "BC0", "sim")
+
+
+# --- parametrisation --------------------------------------------------------------
+
+def test_hf_items_are_those_the_band_reaches():
+    resp = paz_response(*LP_NOMINAL, hf_poles=HF_NOMINAL, sample_rate=200.0)
+    assert [round(it.freq_hz) for it in hf_items(resp, 80.0)] == [50, 70]
+    assert [round(it.freq_hz) for it in hf_items(resp, 20.0)] == [50]     # 70 > 3 x 20
+    assert hf_items(resp, 10.0) == []
+    assert hf_items(resp, 80.0)[0].complex_pair and not hf_items(resp, 80.0)[1].complex_pair
+
+
+def test_ratio_matches_obspy_responses():
+    """PZSpec.ratio at shifted parameters equals the ratio of two responses
+    built and evaluated by ObsPy (gain meaning kept at the normalisation
+    frequency)."""
+    nom = paz_response(*LP_NOMINAL, hf_poles=HF_NOMINAL, sample_rate=200.0)
+    true = paz_response(*TRUE_LP, hf_poles=TRUE_HF, sample_rate=200.0)
+    spec = PZSpec.from_response(nom, "all", 80.0)
+    theta = np.r_[np.log(TRUE_LP[0]), TRUE_LP[1], np.log(TRUE_LP[2]),
+                  [v / abs(n) for t, n in zip(TRUE_HF, HF_NOMINAL)
+                   for v in ((t.real, t.imag) if np.imag(n) else (t.real,))]]
+    f = np.geomspace(0.002, 90.0, 200)
+    want = evaluate_velocity_response(true, f) / evaluate_velocity_response(nom, f)
+    np.testing.assert_allclose(spec.ratio(f, theta)[0], want, rtol=1e-9)
+    np.testing.assert_allclose(spec.ratio(f, spec.nominal_theta())[0], 1.0, rtol=1e-12)
+
+
+# --- recovery ----------------------------------------------------------------------
+
+def test_lp_recovers_period_damping_gain_within_half_a_percent():
+    sim = simulate_random_cal(truth=TRUE_LP, duration=3 * 3600.0, fs=20.0, seed=11)
+    s = fit_random(_run(sim), COIL, fit="lp", n_walkers=16, min_ess=400).summary()
+    for p, t in zip(("period_s", "damping", "gain"), TRUE_LP):
+        e = s["parameters"][p]
+        assert e["ci95"][0] <= t <= e["ci95"][1], (p, e, t)
+        assert abs(e["median"] / t - 1) < 0.005, (p, e["median"], t)
+    assert s["convergence"]["converged"] and 0.5 < s["adequacy"]["misfit"] < 1.5
+
+
+def test_hf_recovers_high_frequency_poles():
+    sim = simulate_random_cal(truth=TRUE_LP, hf_true=TRUE_HF, hf_nominal=HF_NOMINAL,
+                              duration=300.0, fs=200.0, seed=12)
+    s = fit_random(_run(sim), COIL, fit="hf", n_walkers=16, min_ess=400).summary()
+    poles = s["parameters"]["hf_poles"]
+    assert len(poles) == 2 and "period_s" not in s["parameters"]
+    for e, t in zip(poles, TRUE_HF):
+        assert e["real"]["ci95"][0] <= t.real <= e["real"]["ci95"][1], (e, t)
+        assert abs(e["real"]["median"] / t.real - 1) < 0.01
+        if e["conjugate_pair"]:
+            assert e["imag"]["ci95"][0] <= t.imag <= e["imag"]["ci95"][1], (e, t)
+    g = s["parameters"]["gain"]
+    assert g["ci95"][0] <= TRUE_LP[2] <= g["ci95"][1]
+
+
+N_COVERAGE = 14
+
+
+def _coverage_run(seed):
+    rng = np.random.default_rng(900 + seed)
+    t0, h0, g0 = LP_NOMINAL
+    truth = (t0 * (1 + 0.03 * rng.standard_normal()), h0 + 0.02 * rng.standard_normal(),
+             g0 * (1 + 0.01 * rng.standard_normal()))
+    sim = simulate_random_cal(truth=truth, duration=2 * 3600.0, fs=4.0, seed=300 + seed,
+                              noise_ratio=0.1)
+    s = fit_random(_run(sim), COIL, fit="lp", seed=seed, n_walkers=16,
+                   min_ess=300).summary()["parameters"]
+    return [s[p]["ci90"][0] <= t <= s[p]["ci90"][1]
+            for p, t in zip(("period_s", "damping", "gain"), truth)]
+
+
+def test_coverage_of_90_percent_intervals():
+    hits = np.array([_coverage_run(s) for s in range(N_COVERAGE)])
+    assert hits.sum() >= binom.ppf(0.001, hits.size, 0.9), hits.sum(axis=0)
+    assert hits.sum() <= binom.isf(0.001, hits.size, 0.9), hits.sum(axis=0)
+
+
+# --- the command ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cli_lp(tmp_path_factory):
+    root = tmp_path_factory.mktemp("cal")
+    sim = simulate_random_cal(truth=TRUE_LP, duration=2 * 3600.0, fs=20.0, seed=13)
+    paths = sim.write(str(root / "in"))
+    out = root / "out"
+    rc = cli.main(["cal", "--cal", paths["cal"], "--input-channel", "BC0", "--output-channel",
+                   "BHZ", "--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out",
+                   str(out), "--fit", "lp", "--seed", "2", "--quiet"])
+    with open(out / "cal.json") as fh:
+        return {"rc": rc, "summary": json.load(fh), "out": out, "paths": paths}
+
+
+def test_cli_writes_schema_and_corrected_xml(cli_lp):
+    s = cli_lp["summary"]
+    assert cli_lp["rc"] == 0
+    assert s["schema"] == "bayescal.cal/1" and s["kind"] == "random"
+    assert s["channel"] == "XX.CAL.00.BHZ"
+    assert set(s["parameters"]) == {"period_s", "damping", "gain", "hf_poles", "hf_zeros"}
+    for p in ("period_s", "damping", "gain"):
+        e = s["parameters"][p]
+        assert e["ci95"][0] < e["ci68"][0] < e["median"] < e["ci68"][1] < e["ci95"][1]
+    for name in ("cal_report.pdf", "cal_response.png", "cal_corner.png", "cal_samples.npz"):
+        assert (cli_lp["out"] / name).exists()
+    inv = read_inventory(str(cli_lp["out"] / "sut_corrected.xml"))
+    fam = TwoPoleFamily.from_response(inv[0][0][0].response)
+    assert fam.period_s == pytest.approx(s["parameters"]["period_s"]["median"], rel=1e-9)
+    assert fam.damping == pytest.approx(s["parameters"]["damping"]["median"], rel=1e-9)
+    assert fam.gain == pytest.approx(s["parameters"]["gain"]["median"], rel=1e-9)
+    pole = inv[0][0][0].response.response_stages[0].poles[0]
+    assert pole.upper_uncertainty is not None
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--output-channel", "BHN"], "no output channel BHN"),
+    (["--kind", "step"], "not implemented"),
+    (["--fit", "hf", "--band", "0.01", "1"], "reaches no high-frequency pole"),
+])
+def test_cli_bad_input_exit_2_nothing_written(tmp_path, cli_lp, capsys, extra, words):
+    p = cli_lp["paths"]
+    out = tmp_path / "out"
+    args = ["cal", "--cal", p["cal"], "--sut-xml", p["xml"], "--coil-constant", str(COIL),
+            "--out", str(out), "--quiet"]
+    if "--output-channel" not in extra:
+        args += ["--output-channel", "BHZ"]
+    rc = cli.main(args + extra)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and words in err[0], err
+    assert not out.exists()
+
+
+# --- uvw failures of issue 15 -----------------------------------------------------------
+
+def test_uvw_identity_geometry_per_axis_runs():
+    """An ordinary XYZ sensor, one run per axis: no 0/0 from the Z coefficient."""
+    els = ((118.0, 0.70, 1490.0), (121.5, 0.72, 1512.0), (119.0, 0.69, 1500.0))
+    sim = simulate_calibration(elements=els, matrix=np.eye(3), duration=3 * 3600.0, fs=2.0,
+                               seed=21)
+    runs = {e: coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in coil.ELEMENTS}
+    res = coil.calibrate_uvw(runs, np.eye(3), coil_constant=COIL, n_walkers=16, min_ess=300)
+    s = res.summary()
+    for e, el in zip(coil.ELEMENTS, els):          # 9 parameters: |z| < 4 each
+        for p, t in zip(coil.PARAMS, el):
+            entry = s["elements"][e][p]
+            assert abs(entry["median"] - t) < 4 * entry["sd"], (e, p, entry, t)
+            assert abs(entry["median"] / t - 1) < 0.02
+    assert "z_only" not in s                  # Z sees only W: no Z-only check
+
+
+@pytest.mark.parametrize("duration, fs", [(2400.0, 40.0), (4 * 3600.0, 20.0)])
+def test_uvw_short_and_long_runs(duration, fs):
+    """A 40-minute run at 40 Hz is not refused (the band follows the record);
+    several hours at 20 Hz fit; both recover the element."""
+    el = (121.0, 0.70, 1505.0)
+    sim = simulate_calibration(elements=(el,) * 3, duration=duration, fs=fs, seed=22)
+    run = coil.read_run("U", sim.runs["U"], sim.inventory, "BC0", "U")
+    band = coil.runs.default_band(fs, duration, 120.0)
+    fit = coil.fit_run(run, STS2_UVW, COIL, band, n_walkers=16, min_ess=300)
+    for p, t in zip(coil.PARAMS, el):
+        ci = fit.summary()[p]["ci95"]
+        assert ci[0] <= t <= ci[1], (p, ci, t)
+
+
+def test_uvw_rank_one_noise_no_linalg_error():
+    """Noise from one source seen through the geometry (rank 1 across X, Y, Z)
+    and no other noise: the noise covariance is regularised, not singular."""
+    sim = simulate_calibration(duration=4 * 3600.0, fs=20.0, seed=23, noise_ratio=0.0,
+                               digitizer_noise=0.0)
+    st = sim.runs["U"]
+    n = np.random.default_rng(0).standard_normal(st[1].stats.npts) * 1000.0
+    for tr, c in zip(st[1:], STS2_UVW[0]):
+        tr.data = tr.data + c * n
+    run = coil.read_run("U", st, sim.inventory, "BC0", "U")
+    fit = coil.fit_run(run, STS2_UVW, COIL, coil.runs.default_band(20.0, 4 * 3600.0, 120.0),
+                       n_walkers=16, min_ess=300)
+    assert fit.summary()["period_s"]["median"] == pytest.approx(120.0, rel=1e-3)
