@@ -87,6 +87,23 @@ def test_effective_dof_exact_without_overlap():
     assert 10 < over < 19
 
 
+def test_effective_dof_matches_brute_force():
+    # 40 half-overlapping Hann segments of white noise, bands of 4 bins:
+    # the variance of the band-averaged power over 1500 records
+    from scipy.signal.windows import hann
+
+    n, w = 256, hann(256, sym=False)
+    starts = np.arange(40) * 128
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((1500, starts[-1] + n))
+    seg = x[:, starts[:, None] + np.arange(n)] * w
+    p = np.mean(np.abs(np.fft.rfft(seg, axis=-1)[:, :, 40:44]) ** 2, axis=(1, 2))
+    empirical = p.mean() ** 2 / p.var()
+    predicted = sn.effective_dof(w, starts, [4])[0]
+    assert 40 * 4 / 2 < predicted < 40 * 4                # overlap and leakage cost dof
+    assert empirical == pytest.approx(predicted, rel=0.12)
+
+
 def test_complex_wishart_mean_is_sigma():
     rng = np.random.default_rng(0)
     C, _ = _matrices(rng, 3, bands=1)
@@ -219,3 +236,10 @@ def test_bad_input_exits_2_with_one_line(sim_files, tmp_path, capsys):
     _fails(capsys, base + ["--data", data[0], data[1], data[1], "--xml", xml[0], xml[1], xml[1]],
            out, data[1], "same samples")
     _fails(capsys, base + ["--data", *data, "--xml", *xml, "--band", "nan", "1"], out, "--band")
+
+
+def test_help_lists_the_command(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    assert "noise" in capsys.readouterr().out

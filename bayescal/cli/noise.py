@@ -31,7 +31,7 @@ import warnings
 
 from .common import _time, say, staging
 
-HELP = "self-noise of three or more co-located sensors, with 90 % intervals"
+HELP = "self-noise of three or more co-located sensors, with 90-percent intervals"
 
 
 def configure(parser):
