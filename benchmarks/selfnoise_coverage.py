@@ -91,8 +91,8 @@ def main(argv=None):
         for name in variants:
             r = summarise(hits[name], widths[name], np.array(snrs), periods)
             out[name] = r
-            print(f"  {name:18s}: coverage {r['covered']}/{r['n']} = {r['rate']:.3f} (binomial 95 % "
-                  f"range for 0.90: {r['binom95'][0]:.3f}-{r['binom95'][1]:.3f}); median width "
+            print(f"  {name:18s}: coverage {r['covered']}/{r['n']} = {r['rate']:.3f} "
+                  f"(binomial 95 % range for 0.90: {r['binom95'][0]:.3f}-{r['binom95'][1]:.3f}); median width "
                   f"{r['median_width_db']:.2f} dB; per sensor "
                   + ", ".join(f"{v:.3f}" for v in r["per_sensor"]) + "; by ambient/noise "
                   + "; ".join(f"{k}: {v['rate']:.3f} (n={v['n']})"

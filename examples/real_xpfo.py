@@ -26,14 +26,10 @@ import numpy as np
 
 from _real import parse_args, run_bayescal
 
+from bayescal.simulate.selfnoise import DIGITIZER, STS1, T240  # the nominal XPFO responses
+
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "real" / "xpfo_selfnoise"
-DIGITIZER = 2 ** 26 / 40.0          # Q330HR, counts per V
-STS1 = dict(zeros=[0j, 0j], poles=[-0.01234 + 0.01234j, -0.01234 - 0.01234j,
-                                     -39.18 + 49.12j, -39.18 - 49.12j], generator=2200.0)
-T240 = dict(zeros=[0j, 0j, -108 + 0j, -161 + 0j],
-            poles=[-0.0182 + 0.018j, -0.0182 - 0.018j, -196 + 231j, -196 - 231j,
-                   -732 + 1450j, -732 - 1450j, -173 + 0j], generator=1200.0)
 SENSORS = {"00": ("bhz00_2hrs_new.seed", STS1), "10": ("bhz10_2hrs_new.seed", T240),
            "60": ("bhz60_2hrs_new.seed", STS1)}
 #: Published at periods 1-5 s (read off the figure, +-3 dB).
@@ -67,6 +63,10 @@ def command(data_paths, xml_paths, out, seed=0):
             "--out", str(out), "--seed", str(seed), "--quiet"]
 
 
+def _fmt(x, none):
+    return none if x is None else f"{x:.1f}"
+
+
 def mean_1_5(entry):
     """Power mean (dB) over the bands at periods 1-5 s where the estimate
     exists (is positive), and the number of such bands out of all."""
@@ -89,9 +89,8 @@ def main(argv=None):
         cells = []
         for e in sensors.values():
             b = int(np.argmin(np.abs(np.log(np.array(e["period_s"]) / p))))
-            v, lo, hi = e["psd_db"][b], e["ci90_db"][0][b], e["ci90_db"][1][b]
-            cells.append(f"{'<= 0' if v is None else f'{v:.1f}'} [{'-inf' if lo is None else f'{lo:.1f}'}"
-                         f", {'inf' if hi is None else f'{hi:.1f}'}]")
+            v, lo, hi = (e["psd_db"][b], e["ci90_db"][0][b], e["ci90_db"][1][b])
+            cells.append(f"{_fmt(v, '<= 0')} [{_fmt(lo, '-inf')}, {_fmt(hi, 'inf')}]")
         per = list(sensors.values())[0]["period_s"][b]
         print(f"{per:9.3g} " + " ".join(f"{c:>26}" for c in cells))
     print("periods 1-5 s, power mean of the bands with an estimate, against the published value:")

@@ -64,7 +64,8 @@ def test_band_sums_for_the_pair_fit():
     h = np.array([1.0, 0.9 * np.exp(0.2j), 1.1 * np.exp(-0.3j)])    # relative responses
     S = rng.uniform(1, 10, bins)
     N = rng.uniform(0.1, 1, (bins, 3))
-    per_bin = (S[:, None, None] * np.outer(h, h.conj())[None] + np.einsum("fi,ij->fij", N, np.eye(3)))
+    per_bin = (S[:, None, None] * np.outer(h, h.conj())[None]
+               + np.einsum("fi,ij->fij", N, np.eye(3)))
     band = per_bin.sum(axis=0)
     for ref in range(3):
         assert sn.self_noise_band_sums(band, sensor=ref) == pytest.approx(N[:, ref].sum(), rel=1e-9)

@@ -40,8 +40,9 @@ segments and neighbouring bins (:func:`effective_dof`, moment matching).
 decomposition), recomputes the estimator and forms a *basic* bootstrap
 interval on the linear power scale, ``[N - q_hi, N - q_lo]`` of
 ``d* = N* - N`` (which removes the estimator's bias to first order; see
-:func:`_basic_interval` for why linear). :func:`block_bootstrap_interval` resamples blocks of segments instead
-(no Gaussian or stationarity assumption, coarser with few segments).
+:func:`_basic_interval` for why linear). :func:`block_bootstrap_interval`
+resamples blocks of segments instead (no Gaussian or stationarity
+assumption, coarser with few segments; it under-covers, docs/selfnoise.md).
 """
 from __future__ import annotations
 
