@@ -17,6 +17,9 @@ Cases (each written to ``reports/<name>/``: ``result.json``, ``samples.npz``,
 * ``uvw`` and ``batch``: the other issues' galleries, through
   ``examples/uvw_example.py`` and ``examples/batch_example.py`` (they write
   their own reports).
+* ``xpfo_noise``: ``bayescal noise`` on the three II.XPFO verticals through
+  ``examples/real_xpfo.py`` (noise.json, noise.pdf, noise_Z.png; skipped
+  when ``../shared/data`` is absent).
 
     python examples/make_reports.py [--out reports] [--only simulated ...]
 """
@@ -93,6 +96,7 @@ REAL = ROOT.parent / "shared" / "data" / "real"
 CASES = {"simulated": simulated, "simulated_response": simulated_response,
          "huddle": _script("huddle", "real_huddle.py", REAL / "obspy_relcal"),
          "cowi": _script("cowi", "real_cowi.py", REAL / "asl_cowi_azimuth"),
+         "xpfo_noise": _script("xpfo_noise", "real_xpfo.py", REAL / "xpfo_selfnoise"),
          "uvw": _script("uvw", "uvw_example.py"),
          "batch": _script("batch", "batch_example.py")}
 

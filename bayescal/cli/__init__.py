@@ -16,7 +16,7 @@ import sys
 from ..version import __version__
 
 #: The sub-commands, in the order ``bayescal --help`` lists them.
-COMMANDS = ("fit", "report", "diagnose", "uvw", "cal", "batch")
+COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
 
 def _user_errors():

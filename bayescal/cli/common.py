@@ -2,9 +2,11 @@
 on stderr, and publishing a finished output folder in one move."""
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import sys
+import tempfile
 
 
 def _time(text):
@@ -64,3 +66,22 @@ def publish(tmp, out):
     for name in os.listdir(tmp):
         os.replace(os.path.join(tmp, name), os.path.join(out, name))
     shutil.rmtree(tmp, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def staging(out):
+    """A hidden temporary folder beside ``out`` (with the usual permissions)
+    to write into; on success its files are published into ``out`` in one
+    move (:func:`publish`), on any error it is removed and ``out`` untouched."""
+    parent = os.path.dirname(out) or "."
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    try:
+        yield tmp
+        publish(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -32,13 +32,11 @@ nothing is written to DIR).
 from __future__ import annotations
 
 import os
-import shutil
 import sys
-import tempfile
 import time
 import warnings
 
-from .common import add_pair_arguments, publish, say
+from .common import add_pair_arguments, say, staging
 
 HELP = "estimate the SUT's orientation (and response) from recordings beside a reference"
 
@@ -109,13 +107,7 @@ def run(args):
     used = meta["data_used"]
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
                f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
-    parent = os.path.dirname(out) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    try:
+    with staging(out) as tmp:
         write_results(post, tmp)
         if not args.no_report:
             from ..report.fit import write_report
@@ -125,10 +117,6 @@ def run(args):
             except Exception as exc:  # the fit's results matter more than its figures
                 print(f"bayescal: warning: the report could not be written "
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
-        publish(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     elapsed = time.perf_counter() - t_start
     print_summary(post.summary())   # --quiet removes the progress display only
     say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")

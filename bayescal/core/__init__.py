@@ -8,6 +8,8 @@ Modules, in the order data flows through them:
 * :mod:`.likelihood` the Frobenius residual, its noise model, vectorised log-prob
 * :mod:`.sampler`    closed-form start, least squares, emcee, convergence control
 * :mod:`.posterior`  samples, summaries, result.json / samples.npz
+* :mod:`.selfnoise`  self-noise of three or more co-located sensors (Sleeman),
+                     its Wishart-bootstrap interval
 
 May import only numpy, scipy, emcee, ObsPy's response evaluation and
 :mod:`bayescal.version`; never another bayescal subpackage.

@@ -1,17 +1,20 @@
 """Recordings and metadata in, corrected metadata out.
 
 * :mod:`.read`        waveforms and metadata (StationXML, GSE2 poles and zeros),
-                      alignment of the two sensors' recordings, ``InputError``
+                      alignment of two or more sensors' recordings, ``InputError``
 * :mod:`.band`        choice of the band where the sensors are coherent
 * :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
+* :mod:`.noise`       files -> aligned sensors -> spectra -> self-noise estimates
+                      of three or more co-located sensors, noise.json
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
 
 May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
 """
-from .read import (CODE_ORIENTATION, InputError, InputWarning, align, flat_inventory,
-                   orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
-                   read_waveforms, two_pole_inventory)
+from .read import (CODE_ORIENTATION, InputError, InputWarning, align, align_sensors,
+                   flat_inventory, orientation_from_code, paz_inventory, read_gse2_paz,
+                   read_metadata, read_waveforms, two_pole_inventory)
 
-__all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "flat_inventory",
+__all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "align_sensors",
+           "flat_inventory",
            "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
            "read_waveforms", "two_pole_inventory"]

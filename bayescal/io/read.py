@@ -405,18 +405,25 @@ def _stream_files(stream, default):
     return ", ".join(files) if files else default
 
 
-def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
-          start=None, end=None, fs=None):
-    """Bring both streams onto one time grid and read their metadata.
+def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=None):
+    """Bring the streams of n sensors onto one time grid and read their metadata.
 
-    The common rate is the lowest sampling rate of all channels (or ``fs``);
-    the grid starts at the latest channel start (or ``start``) and ends at the
-    earliest channel end (or ``end``). Returns ``(sut_side, ref_side, fs,
-    starttime)`` with NaN wherever a channel has no valid sample.
+    ``streams``, ``inventories``: one ObsPy Stream and Inventory per sensor;
+    ``sources`` names them in messages. The common rate is the lowest sampling
+    rate of all channels (or ``fs``); the grid starts at the latest channel
+    start (or ``start``) and ends at the earliest channel end (or ``end``).
+    Returns ``(sides, fs, starttime)``, one :class:`Side` per sensor, with NaN
+    wherever a channel has no valid sample.
     """
-    if len(sut) == 0 or len(ref) == 0:
-        raise InputError(f"{sut_source if len(sut) == 0 else ref_source}: no traces")
-    fs = float(fs or min(tr.stats.sampling_rate for st in (sut, ref) for tr in st))
+    streams, inventories = list(streams), list(inventories)
+    if len(streams) != len(inventories):
+        raise InputError(f"{len(streams)} waveform inputs but {len(inventories)} metadata inputs")
+    sources = list(sources) if sources is not None else \
+        [f"sensor {i + 1}" for i in range(len(streams))]
+    for st, source in zip(streams, sources):
+        if len(st) == 0:
+            raise InputError(f"{source}: no traces")
+    fs = float(fs or min(tr.stats.sampling_rate for st in streams for tr in st))
 
     def span(st):
         ids = {tr.id for tr in st}
@@ -426,23 +433,23 @@ def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="
 
     if start is not None and end is not None and start >= end:
         raise InputError(f"--start {start} is not before --end {end}")
-    (s0, s1), (r0, r1) = span(sut), span(ref)
-    t0, t1 = max(s0, r0), min(s1, r1)
-    sut_files, ref_files = _stream_files(sut, sut_source), _stream_files(ref, ref_source)
+    spans = [span(st) for st in streams]
+    files = [_stream_files(st, src) for st, src in zip(streams, sources)]
+    t0, t1 = max(s[0] for s in spans), min(s[1] for s in spans)
     if t1 <= t0:
-        raise InputError(f"{sut_files} ({s0} - {s1}) and {ref_files} ({r0} - {r1}) do not "
-                         "overlap in time")
+        named = [f"{f} ({a} - {b})" for f, (a, b) in zip(files, spans)]
+        raise InputError(f"{', '.join(named[:-1])} and {named[-1]} do not overlap in time")
     if start is not None:
         t0 = max(t0, start)
     if end is not None:
         t1 = min(t1, end)
     if t1 <= t0:
         raise InputError(f"the window --start {start or '-'} --end {end or '-'} lies outside "
-                         f"the common time of the recordings ({max(s0, r0)} - {min(s1, r1)}; "
-                         f"{sut_files} and {ref_files})")
+                         f"the common time of the recordings ({max(s[0] for s in spans)} - "
+                         f"{min(s[1] for s in spans)}; {' and '.join(files)})")
     n = int(np.floor((t1 - t0) * fs + 1e-6)) + 1
     sides = []
-    for st, inv, source in ((sut, sut_inventory, sut_source), (ref, ref_inventory, ref_source)):
+    for st, inv, source in zip(streams, inventories, sources):
         gridded = _grid_stream(st, fs, t0, n)
         ids, data, vecs, resps, azs, dips, srcs = [], [], [], [], [], [], []
         for tid, (x, tr) in gridded.items():
@@ -458,4 +465,17 @@ def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="
             srcs.append(file)
         sides.append(Side(ids=ids, data=np.array(data), vectors=np.array(vecs), responses=resps,
                           azimuths=azs, dips=dips, source=source, sources=srcs))
-    return sides[0], sides[1], fs, t0
+    return sides, fs, t0
+
+
+def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
+          start=None, end=None, fs=None):
+    """Bring both streams onto one time grid and read their metadata
+    (:func:`align_sensors` for a SUT and a reference).
+
+    Returns ``(sut_side, ref_side, fs, starttime)`` with NaN wherever a
+    channel has no valid sample.
+    """
+    (s, r), fs, t0 = align_sensors([sut, ref], [sut_inventory, ref_inventory],
+                                   [sut_source, ref_source], start, end, fs)
+    return s, r, fs, t0

@@ -6,6 +6,7 @@
 * :mod:`.diagnosis`  the diagnosis page
 * :mod:`.uvw`        the UVW calibration report
 * :mod:`.batch`      the network tables and report
+* :mod:`.noise`      the self-noise pages (against the NLNM and NHNM)
 
 May import core, io, criticism and coil; never network or cli.
 """

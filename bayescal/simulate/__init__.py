@@ -4,9 +4,11 @@
 * :mod:`.coil`      coil calibration runs of a triaxial sensor
 * :mod:`.cal`       a random coil calibration run of one channel (with HF poles)
 * :mod:`.network`   an SDS archive of pairs over stations and days
+* :mod:`.selfnoise` three co-located sensors with known self-noise
 * :mod:`.coverage`  the uncertainty check: simulate, fit, count the truths inside
 
-The generators import only :mod:`bayescal.core`; :mod:`.coverage` also runs
+The generators import only :mod:`bayescal.core` (:mod:`.selfnoise` builds
+its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` also runs
 :mod:`bayescal.io.pipeline` on what it simulates (it is not imported here).
 """
 from .coil import simulate_calibration

@@ -1,0 +1,109 @@
+"""Self-noise of three or more co-located sensors (Sleeman et al. 2006).
+
+Reads one recording and one StationXML per sensor (same order; sampling
+rates may differ; one to three channels per sensor), removes the responses,
+and for every component (Z, N, E) recorded by three or more sensors estimates
+each sensor's self-noise with a 90 % interval. Writes into DIR:
+
+  noise.json   {"schema": "bayescal.noise/1", "sensors": {SEED id: {"period_s",
+               "psd_db", "ci90_db": [lower, upper], ...}}, "meta": {...}};
+               PSD in dB re 1 (m/s^2)^2/Hz, null where not estimable
+  noise.pdf    one A4 page per component, against Peterson's NLNM and NHNM
+  noise_Z.png  (and _N, _E) the same pages as PNG
+
+With more than three sensors each sensor's estimate is the median over all
+pairs of the others. Horizontal sensors must be aligned with each other. The
+interval allows by default for 1 mrad rms differences between the sensors'
+sensitive axes (--axis-mismatch; see docs/selfnoise.md).
+
+Example:
+  bayescal noise --data A.mseed B.mseed C.mseed --xml A.xml B.xml C.xml --out DIR
+
+Exit codes: 0 success, 2 bad input (one line naming the file and the problem;
+nothing is written to DIR).
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+import warnings
+
+from .common import _time, say, staging
+
+HELP = "self-noise of three or more co-located sensors, with 90-percent intervals"
+
+
+def configure(parser):
+    """Arguments of ``bayescal noise``."""
+    parser.add_argument("--data", nargs="+", required=True, metavar="FILE",
+                        help="one recording per sensor (miniSEED or any format ObsPy reads)")
+    parser.add_argument("--xml", nargs="+", required=True, metavar="XML",
+                        help="one StationXML per sensor, in the same order as --data")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="frequency band in Hz (default: periods up to 100 s or a 40th "
+                             "of the record, up to 0.8 of Nyquist)")
+    parser.add_argument("--start", type=_time, metavar="T", help="start of the analysis window")
+    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--interval", choices=["wishart", "block"], default="wishart",
+                        help="interval: parametric complex-Wishart bootstrap (default) or block "
+                             "bootstrap over time segments (under-covers; see docs)")
+    parser.add_argument("--axis-mismatch", type=float, default=None, metavar="RAD",
+                        help="allowance for differences between the sensors' sensitive axes, "
+                             "rad rms per sensor and direction (default 1e-3; 0 = sampling "
+                             "error only)")
+    parser.add_argument("--n-boot", type=int, default=1000, help="bootstrap replicates "
+                                                                 "(default 1000)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--no-report", action="store_true", help="no PDF/PNG figures")
+    parser.add_argument("--quiet", action="store_true", help="no progress messages")
+
+
+def _check_options(args):
+    from ..io.read import InputError
+
+    if args.n_boot < 20:
+        raise InputError(f"--n-boot {args.n_boot}: give at least 20 replicates")
+    am = args.axis_mismatch
+    if am is not None and not (am >= 0 and am < 0.1):
+        raise InputError(f"--axis-mismatch {am}: give a value in radians in [0, 0.1)")
+    if args.band and not (0 < args.band[0] < args.band[1]):
+        raise InputError(f"--band {args.band[0]} {args.band[1]}: not a positive interval")
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"{args.out}: exists and is not a folder")
+    return out
+
+
+def run(args):
+    """Estimate, write noise.json (and the figures) atomically; returns the exit code."""
+    from ..io.noise import AXIS_MISMATCH, self_noise_files, write_json
+    from ..io.read import InputWarning
+
+    out = _check_options(args)
+    t_start = time.perf_counter()
+    kw = dict(band=tuple(args.band) if args.band else None, start=args.start, end=args.end,
+              method=args.interval, n_boot=args.n_boot, seed=args.seed,
+              axis_mismatch=AXIS_MISMATCH if args.axis_mismatch is None else args.axis_mismatch,
+              progress=None if args.quiet else (lambda m: say(args, m)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", InputWarning)
+        say(args, "bayescal noise: reading recordings and metadata ...")
+        result = self_noise_files(args.data, args.xml, **kw)
+    for w in caught:
+        if issubclass(w.category, InputWarning):
+            print(f"bayescal: warning: {w.message}", file=sys.stderr)
+    with staging(out) as tmp:
+        write_json(result, tmp)
+        if not args.no_report:
+            from ..report.noise import write_figures
+            say(args, "drawing the figures ...")
+            try:
+                write_figures(result, tmp)
+            except Exception as exc:  # the numbers matter more than the figures
+                print(f"bayescal: warning: the figures could not be drawn "
+                      f"({type(exc).__name__}: {exc}); noise.json is complete", file=sys.stderr)
+    say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in "
+              f"{time.perf_counter() - t_start:.1f} s")
+    return 0

@@ -1,0 +1,120 @@
+"""Self-noise report (:class:`bayescal.io.noise.NoiseResult`): one A4 page per
+component (Z, N, E), in ``noise.pdf`` and as ``noise_<component>.png``.
+
+Each page shows every sensor's self-noise estimate with its interval band,
+each channel's recorded PSD (ambient signal plus self-noise, dotted), and
+Peterson's NLNM and NHNM (ObsPy ``get_nlnm``/``get_nhnm``), in dB re
+1 (m/s^2)^2/Hz against period; below, a table of the estimates at a few
+periods. Where an estimate is not positive no point is drawn and the band
+runs from the bottom of the axes to the upper bound (an upper bound only).
+Drawn with matplotlib's object API (no display, no pyplot state).
+"""
+from __future__ import annotations
+
+import os
+import textwrap
+
+import numpy as np
+
+from ..core.selfnoise import db
+from .layout import A4, LINESTYLES, MARKERS, style
+
+COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
+#: Periods (s) of the table under the figure (nearest band; outside the band left out).
+TABLE_PERIODS = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 30.0, 100.0)
+PNG_DPI = 90
+
+
+def _cell(value, lo, hi):
+    def f(x):
+        return "-inf" if x == -np.inf else ("nan" if not np.isfinite(x) else f"{x:.1f}")
+    head = "  (<= 0)" if not np.isfinite(value) else f"{value:7.1f}"
+    return f"{head} [{f(lo)}, {f(hi)}]"
+
+
+def _table_lines(comp):
+    e = comp.estimate
+    ci = e.ci_db()
+    psd = e.psd_db()
+    lines = [f"{'period s':>9}  " + "  ".join(f"{cid:>28}" for cid in comp.ids)]
+    pmin, pmax = e.period_s.min(), e.period_s.max()
+    for p in TABLE_PERIODS:
+        if not pmin / 1.2 <= p <= pmax * 1.2:
+            continue
+        b = int(np.argmin(np.abs(np.log(e.period_s / p))))
+        cells = [_cell(psd[i, b], ci[0, i, b], ci[1, i, b]) for i in range(len(comp.ids))]
+        lines.append(f"{e.period_s[b]:9.3g}  " + "  ".join(f"{c:>28}" for c in cells))
+    return lines
+
+
+def figure_component(comp, result=None):
+    """The A4 page (a matplotlib ``Figure``) of one
+    :class:`bayescal.io.noise.ComponentNoise`."""
+    from matplotlib.figure import Figure
+    from obspy.signal.spectral_estimation import get_nhnm, get_nlnm
+
+    e = comp.estimate
+    order = np.argsort(e.period_s)
+    per = e.period_s[order]
+    fig = Figure(figsize=A4)
+    ax = fig.add_axes([0.1, 0.42, 0.86, 0.48])
+    pl, nl = get_nlnm()
+    ph, nh = get_nhnm()
+    ax.semilogx(pl, nl, color="0.25", lw=1.6, label="NLNM")
+    ax.semilogx(ph, nh, color="0.6", lw=1.6, label="NHNM")
+    lo_db, hi_db = db(e.lo), db(e.hi)
+    finite_lo = lo_db[np.isfinite(lo_db)]
+    bottom = max((finite_lo.min() if finite_lo.size else -220.0) - 5, -240.0)
+    top = max(np.nanmax(db(e.signal)) + 10, -90.0)
+    for i, cid in enumerate(comp.ids):
+        c, ls = COLOURS[i % len(COLOURS)], LINESTYLES[i % len(LINESTYLES)]
+        ax.semilogx(per, db(e.signal[i, order]), color=c, lw=0.7, ls=":", label=f"{cid} recorded")
+        lo = np.where(np.isfinite(lo_db[i, order]), lo_db[i, order], bottom)
+        hi = np.where(np.isfinite(hi_db[i, order]), hi_db[i, order], top)
+        ax.fill_between(per, lo, hi, color=c, alpha=0.22, lw=0)
+        ax.semilogx(per, db(e.psd[i, order]), color=c, ls=ls, lw=1.3,
+                    marker=MARKERS[i % len(MARKERS)], ms=2.5,
+                    label=f"{cid} self-noise, {round(100 * e.level)} % band")
+    ax.set_xlim(per.min() * 0.9, per.max() * 1.1)
+    ax.set_ylim(bottom, top)
+    ax.set_xlabel("period (s)")
+    ax.set_ylabel("PSD, dB re 1 (m/s$^2$)$^2$/Hz")
+    ax.grid(True, which="major", lw=0.4)
+    ax.legend(fontsize=6.5, loc="upper left", ncol=2)
+    how = "median over pairs of the other sensors" if len(comp.ids) > 3 else "three sensors"
+    fig.text(0.04, 0.975, f"Self-noise, component {comp.component}", fontsize=12,
+             fontweight="bold", va="top")
+    sub = [f"Sleeman et al. (2006), {how}; {comp.n_segments} Hann segments of {comp.nperseg} "
+           f"samples ({100 * comp.fraction_used:.0f} % of the record used); band "
+           f"{comp.band_hz[0]:.4g}-{comp.band_hz[1]:.4g} Hz."]
+    if result is not None:
+        m = result.meta
+        allowance = m.get("axis_mismatch_rad")
+        sub.append(f"Window {result.starttime} - {result.endtime}, {result.fs:g} Hz. "
+                   f"Interval: {m.get('method')} bootstrap, {m.get('n_boot')} replicates"
+                   + ("" if allowance is None else
+                      f", axis-mismatch allowance {allowance:g} rad rms") + ".")
+    fig.text(0.04, 0.945, "\n".join(textwrap.fill(t, 125) for t in sub), fontsize=7.5,
+             va="top")
+    lines = ["Self-noise, dB re 1 (m/s^2)^2/Hz, [90 % interval] at the band nearest each "
+             "period; (<= 0): the estimate is not positive, only an upper bound.", ""]
+    lines += _table_lines(comp)
+    fig.text(0.04, 0.34, "\n".join(lines), family="monospace", fontsize=6.5, va="top")
+    return fig
+
+
+def write_figures(result, folder, dpi=PNG_DPI):
+    """``noise.pdf`` (one page per component) and ``noise_<component>.png``
+    into ``folder``; returns the paths written."""
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    pdf_path = os.path.join(folder, "noise.pdf")
+    paths = [pdf_path]
+    with style(), PdfPages(pdf_path) as pdf:
+        for comp in result.components:
+            fig = figure_component(comp, result)
+            fig.savefig(pdf, format="pdf")
+            png = os.path.join(folder, f"noise_{comp.component}.png")
+            fig.savefig(png, dpi=dpi)
+            paths.append(png)
+    return paths
