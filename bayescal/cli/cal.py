@@ -24,7 +24,7 @@ import tempfile
 
 import numpy as np
 
-from ..io.read import InputError
+from ..io.read import InputError, read_metadata
 
 HELP = "calibration of a channel from a coil calibration run (random; posterior)"
 KINDS = ("random", "step", "sine")
@@ -40,7 +40,7 @@ def configure(parser):
                         help="channel code (or SEED id) of an output to calibrate; repeat for "
                              "several")
     parser.add_argument("--sut-xml", required=True, metavar="SUT.xml",
-                        help="StationXML with the outputs' nominal responses")
+                        help="StationXML (or RESP, or GSE2 .cal) with the outputs' nominal responses")
     parser.add_argument("--coil-constant", required=True, type=float, metavar="K",
                         help="equivalent ground acceleration per input count (m/s^2 per count)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -58,7 +58,7 @@ def configure(parser):
 
 def load_runs(args):
     """Read the run and the StationXML; one single-output CalRun per channel."""
-    from obspy import read, read_inventory
+    from obspy import read
 
     from .. import coil
 
@@ -69,13 +69,10 @@ def load_runs(args):
     if not os.path.isfile(args.cal):
         raise InputError(f"{args.cal}: no such file")
     try:
-        inv = read_inventory(args.sut_xml)
-    except Exception as exc:  # ObsPy raises many types for unreadable files
-        raise InputError(f"{args.sut_xml}: not a readable StationXML ({exc})") from None
-    try:
         st = read(args.cal)
     except Exception as exc:
         raise InputError(f"{args.cal}: not a readable waveform file ({exc})") from None
+    inv = read_metadata(args.sut_xml, "SUT StationXML", stream=st)
     runs = []
     for cha in args.output_channel:
         sel = [tr for tr in st if cha in (tr.stats.channel, tr.id)

@@ -24,11 +24,12 @@ def add_pair_arguments(parser):
     g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
                    help="reference recording(s): miniSEED or any format ObsPy reads")
     g.add_argument("--ref-xml", required=True, metavar="XML",
-                   help="reference StationXML (azimuth, dip, response), or 'flat'")
+                   help="reference metadata: StationXML (azimuth, dip, response), a RESP file, "
+                        "a GSE2 .cal poles-and-zeros file, or 'flat'")
     g.add_argument("--sut", nargs="+", required=True, metavar="FILE",
                    help="recording(s) of the sensor under test")
     g.add_argument("--sut-xml", required=True, metavar="XML",
-                   help="SUT StationXML with its nominal metadata, or 'flat'")
+                   help="SUT nominal metadata: StationXML, RESP, GSE2 .cal, or 'flat'")
     g.add_argument("--sut-id", nargs="+", metavar="PATTERN",
                    help="SEED ids of the SUT's channels, wildcards allowed (e.g. "
                         "'XX.SIM.10.BH?'): needed when a file holds both sensors")

@@ -30,7 +30,7 @@ import tempfile
 
 import numpy as np
 
-from ..io.read import InputError
+from ..io.read import InputError, read_metadata
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -55,7 +55,7 @@ def configure(parser):
                         help="only rotate FILE's X, Y, Z channels to U, V, W (or back) and "
                              "write it to DIR; no calibration")
     parser.add_argument("--sut-xml", metavar="SUT.xml",
-                        help="StationXML with the nominal responses of the outputs")
+                        help="StationXML (or RESP, or GSE2 .cal) with the nominal responses of the outputs")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--z-only", action="store_true",
                         help="use only the Z output of each run (the classic Z-only procedure)")
@@ -88,7 +88,7 @@ def _parse_cal(items, identity=False):
 
 def load_inputs(args):
     """Read and check every input file; returns ``(runs, matrix, source)``."""
-    from obspy import read, read_inventory
+    from obspy import Stream, read
 
     from .. import coil
 
@@ -104,16 +104,17 @@ def load_inputs(args):
         m, source = coil.load_matrix(args.matrix), f"--matrix {args.matrix}"
     else:
         m, source = coil.sensor_matrix(args.sensor)
-    try:
-        inv = read_inventory(args.sut_xml)
-    except Exception as exc:  # ObsPy raises many types for unreadable files
-        raise InputError(f"{args.sut_xml}: not a readable StationXML ({exc})") from None
-    runs = {}
+    streams = {}
     for element, path in paths.items():
         try:
-            st = read(path)
+            streams[element] = read(path)
         except Exception as exc:
             raise InputError(f"{path}: not a readable waveform file ({exc})") from None
+    inv = read_metadata(args.sut_xml, "SUT StationXML",
+                        stream=sum(streams.values(), Stream()))
+    runs = {}
+    for element, path in paths.items():
+        st = streams[element]
         runs[element] = coil.read_run(element, st, inv, args.input_channel, path)
     return runs, m, source
 
