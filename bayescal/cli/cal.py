@@ -25,6 +25,7 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
+from .common import add_paper_argument
 
 HELP = "calibration of a channel from a coil calibration run (random; posterior)"
 KINDS = ("random", "step", "sine")
@@ -54,6 +55,7 @@ def configure(parser):
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_paper_argument(parser)
 
 
 def load_runs(args):
@@ -88,7 +90,7 @@ def load_runs(args):
     return runs, inv
 
 
-def write_outputs(fits, inventory, out):
+def write_outputs(fits, inventory, out, paper="a4"):
     """Write everything into a temporary folder, then move it into ``out``."""
     from ..coil.calxml import write_corrected_cal
     from ..core.posterior import write_json
@@ -106,7 +108,7 @@ def write_outputs(fits, inventory, out):
             write_json(os.path.join(folder, "cal.json"), summary)
             np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
                      names=np.array(fit.spec.names))
-            write_report(fit, folder)
+            write_report(fit, folder, paper=paper)
             summaries.append(summary)
         write_corrected_cal(inventory, fits, os.path.join(tmp, "sut_corrected.xml"))
         os.makedirs(out, exist_ok=True)
@@ -145,7 +147,7 @@ def run(args):
     band = tuple(args.band) if args.band else None
     fits = [fit_random(r, args.coil_constant, fit=args.fit, band=band, seed=args.seed + i,
                        progress=not args.quiet) for i, r in enumerate(runs)]
-    summaries = write_outputs(fits, inv, args.out)
+    summaries = write_outputs(fits, inv, args.out, paper=args.paper)
     if not args.quiet:
         for s in summaries:
             _print_summary(s)

@@ -31,6 +31,7 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
+from .common import add_paper_argument
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -64,6 +65,7 @@ def configure(parser):
                              "raised when the record is short)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_paper_argument(parser)
 
 
 def _parse_cal(items, identity=False):
@@ -119,7 +121,7 @@ def load_inputs(args):
     return runs, m, source
 
 
-def write_outputs(result, out, quiet=True):
+def write_outputs(result, out, quiet=True, paper="a4"):
     """Write ``uvw.json``, ``uvw_samples.npz`` and the report into ``out``:
     everything goes to a temporary folder first and is moved in at the end,
     so a failure leaves nothing half-written."""
@@ -135,7 +137,7 @@ def write_outputs(result, out, quiet=True):
         arrays = {"joint": result.joint, "freqs": result.freqs,
                   **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()}}
         np.savez(os.path.join(tmp, "uvw_samples.npz"), **arrays)
-        write_report(result, tmp)
+        write_report(result, tmp, paper=paper)
         os.makedirs(out, exist_ok=True)
         for name in sorted(os.listdir(tmp)):
             os.replace(os.path.join(tmp, name), os.path.join(out, name))
@@ -206,7 +208,7 @@ def run(args):
     result = coil.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
                                z_only=args.z_only, seed=args.seed, progress=not args.quiet,
                                matrix_source=source)
-    summary = write_outputs(result, args.out)
+    summary = write_outputs(result, args.out, paper=args.paper)
     if not args.quiet:
         _print_summary(summary, args.out)
     return 0
