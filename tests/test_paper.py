@@ -93,3 +93,24 @@ def test_batch_report_one_page_size(tmp_path):
     out = write_report(str(path), str(tmp_path))
     boxes = mediaboxes(out["pdf"])
     assert len(boxes) == 3 and set(boxes) == {A4_PT}, boxes
+
+
+def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
+    """Issue 14 item 12: a vertical against a vertical (response fitted, no
+    angle estimated) gets no 'Angle credible intervals' page."""
+    import bayescal
+    from bayescal.report.fit import write_report
+    from bayescal.simulate.pair import simulate_pair
+
+    sim = simulate_pair(duration=1800, fs=10, seed=7, coherence=0.99)
+    post = bayescal.calibrate(sim.sut.select(channel="BHZ"), sim.sut_inventory,
+                              sim.ref.select(channel="BHZ"), sim.ref_inventory,
+                              band=(0.03, 1.0), progress=False, fit_response="gain")
+    folder = tmp_path / "z"
+    post.save(str(folder))
+    paths = write_report(str(folder))
+    texts = [p.extract_text() for p in pypdf.PdfReader(paths[0]).pages]
+    assert not any("Angle credible intervals" in t for t in texts)
+    assert not (folder / "report_intervals.png").exists()
+    # summary, response corner, data and fit, convergence; all one size
+    assert len(texts) == 4 and set(mediaboxes(paths[0])) == {A4_PT}

@@ -117,12 +117,14 @@ def _interval_panel(ax, label, x, nominal, truth, tol):
 
 def page_intervals(ctx):
     """Page 2: per channel, the credible intervals of each angle against the
-    nominal value and the tolerance band."""
+    nominal value and the tolerance band; None when no angle was estimated."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     post = ctx.post
     n = len(post.channel_ids)
+    if not any(_channel_panels(ctx, k) for k in range(n)):
+        return None   # no angle estimated (e.g. a vertical fixed to a vertical): no empty page
     fig = Figure(figsize=(ctx.page[0], min(ctx.page[1], 1.5 + 1.6 * n)))
     gs = fig.add_gridspec(n, 2, left=0.06, right=0.97, top=1 - 1.0 / fig.get_figheight(),
                           bottom=0.5 / fig.get_figheight(), hspace=0.9, wspace=0.12)
