@@ -163,7 +163,7 @@ def test_csv_plan_bad_pairs_recorded_others_done(net, tmp_path, capsys):
             if not r["channel"].endswith("BHZ")}
     assert "/nonexistent/sut.mseed" in rows["missing"]["error"]
     assert "file not found" in rows["missing"]["error"]
-    assert "do not overlap" in rows["no_overlap"]["error"]
+    assert "lies outside the common time" in rows["no_overlap"]["error"]   # item 4 wording
     assert rows["good"]["error"] == "" and rows["good"]["azimuth"] is not None
     assert json.loads((out / "missing" / "error.json").read_text())["label"] == "missing"
     good = json.loads((out / "good" / "result.json").read_text())

@@ -129,6 +129,11 @@ def test_cli_writes_schema_and_corrected_xml(cli_lp):
         assert e["ci95"][0] < e["ci68"][0] < e["median"] < e["ci68"][1] < e["ci95"][1]
     for name in ("cal_report.pdf", "cal_response.png", "cal_corner.png", "cal_samples.npz"):
         assert (cli_lp["out"] / name).exists()
+    from pypdf import PdfReader
+    pages = PdfReader(str(cli_lp["out"] / "cal_report.pdf")).pages
+    # one page size throughout (the corner page was 11 x 11 in): A4 landscape
+    assert len(pages) == 3 and {(round(float(p.mediabox.width)), round(float(p.mediabox.height)))
+                                for p in pages} == {(842, 595)}
     inv = read_inventory(str(cli_lp["out"] / "sut_corrected.xml"))
     fam = TwoPoleFamily.from_response(inv[0][0][0].response)
     assert fam.period_s == pytest.approx(s["parameters"]["period_s"]["median"], rel=1e-9)

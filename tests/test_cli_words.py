@@ -34,3 +34,8 @@ def test_quiet_keeps_results_table_and_band(sim_files, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "band used: 0.03 - 1 Hz" in proc.stderr
     assert "XX.SIM.10.BH1" in proc.stdout and "azimuth deg [95%]" in proc.stdout
+
+
+def test_no_internal_seed_names_in_docs():
+    for md in sorted((ROOT / "docs").glob("*.md")):
+        assert not INTERNAL.findall(md.read_text()), (md.name, INTERNAL.findall(md.read_text()))

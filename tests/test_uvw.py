@@ -223,7 +223,11 @@ def test_cli_writes_schema(cli_run):
                  "uvw_samples.npz"):
         assert (cli_run["out"] / name).stat().st_size > 1000
     from pypdf import PdfReader
-    assert len(PdfReader(str(cli_run["out"] / "uvw_report.pdf")).pages) == 3
+    pages = PdfReader(str(cli_run["out"] / "uvw_report.pdf")).pages
+    assert len(pages) == 3
+    # one page size throughout: A4 landscape (842 x 595 pt)
+    assert {(round(float(p.mediabox.width)), round(float(p.mediabox.height)))
+            for p in pages} == {(842, 595)}
 
 
 def test_elements_recovered(cli_run):

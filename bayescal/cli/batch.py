@@ -27,6 +27,7 @@ Examples:
 from __future__ import annotations
 
 from ..io.read import InputError
+from .common import add_paper_argument
 
 HELP = "calibrate many pairs (CSV plan or SDS archive) on Dask, resumable, with a network report"
 
@@ -58,6 +59,7 @@ def configure(parser):
     parser.add_argument("--gain-threshold", type=float, default=2.0, metavar="PCT",
                         help="flag gain changes / offsets above this (default 2 %%)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_paper_argument(parser)
 
 
 def make_plan(args):
@@ -85,7 +87,7 @@ def run(args):
         raise InputError("--workers must be at least 1")
     s = run_batch(items, args.out, seed=args.seed, scheduler=args.scheduler,
                   workers=args.workers, quiet=args.quiet, threshold_deg=args.threshold,
-                  gain_threshold_pct=args.gain_threshold)
+                  gain_threshold_pct=args.gain_threshold, paper=args.paper)
     flagged = sorted({f["station"] for f in s["flag_list"]})
     print(f"{len(items)} items: {s['computed']} calibrated, {s['skipped']} already done, "
           f"{s['failed']} failed; flagged stations: {', '.join(flagged) or 'none'}")

@@ -24,7 +24,8 @@ import tempfile
 
 import numpy as np
 
-from ..io.read import InputError
+from ..io.read import InputError, read_metadata
+from .common import add_paper_argument
 
 HELP = "calibration of a channel from a coil calibration run (random; posterior)"
 KINDS = ("random", "step", "sine")
@@ -40,7 +41,7 @@ def configure(parser):
                         help="channel code (or SEED id) of an output to calibrate; repeat for "
                              "several")
     parser.add_argument("--sut-xml", required=True, metavar="SUT.xml",
-                        help="StationXML with the outputs' nominal responses")
+                        help="StationXML (or RESP, or GSE2 .cal) with the outputs' nominal responses")
     parser.add_argument("--coil-constant", required=True, type=float, metavar="K",
                         help="equivalent ground acceleration per input count (m/s^2 per count)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -54,11 +55,12 @@ def configure(parser):
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_paper_argument(parser)
 
 
 def load_runs(args):
     """Read the run and the StationXML; one single-output CalRun per channel."""
-    from obspy import read, read_inventory
+    from obspy import read
 
     from .. import coil
 
@@ -69,13 +71,10 @@ def load_runs(args):
     if not os.path.isfile(args.cal):
         raise InputError(f"{args.cal}: no such file")
     try:
-        inv = read_inventory(args.sut_xml)
-    except Exception as exc:  # ObsPy raises many types for unreadable files
-        raise InputError(f"{args.sut_xml}: not a readable StationXML ({exc})") from None
-    try:
         st = read(args.cal)
     except Exception as exc:
         raise InputError(f"{args.cal}: not a readable waveform file ({exc})") from None
+    inv = read_metadata(args.sut_xml, "SUT StationXML", stream=st)
     runs = []
     for cha in args.output_channel:
         sel = [tr for tr in st if cha in (tr.stats.channel, tr.id)
@@ -91,7 +90,7 @@ def load_runs(args):
     return runs, inv
 
 
-def write_outputs(fits, inventory, out):
+def write_outputs(fits, inventory, out, paper="a4"):
     """Write everything into a temporary folder, then move it into ``out``."""
     from ..coil.calxml import write_corrected_cal
     from ..core.posterior import write_json
@@ -109,7 +108,7 @@ def write_outputs(fits, inventory, out):
             write_json(os.path.join(folder, "cal.json"), summary)
             np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
                      names=np.array(fit.spec.names))
-            write_report(fit, folder)
+            write_report(fit, folder, paper=paper)
             summaries.append(summary)
         write_corrected_cal(inventory, fits, os.path.join(tmp, "sut_corrected.xml"))
         os.makedirs(out, exist_ok=True)
@@ -148,7 +147,7 @@ def run(args):
     band = tuple(args.band) if args.band else None
     fits = [fit_random(r, args.coil_constant, fit=args.fit, band=band, seed=args.seed + i,
                        progress=not args.quiet) for i, r in enumerate(runs)]
-    summaries = write_outputs(fits, inv, args.out)
+    summaries = write_outputs(fits, inv, args.out, paper=args.paper)
     if not args.quiet:
         for s in summaries:
             _print_summary(s)

@@ -1,4 +1,4 @@
-"""What several sub-commands share: the arguments of a sensor pair, messages
+"""What several sub-commands share: the arguments of a sensor pair, the page size, messages
 on stderr, and publishing a finished output folder in one move."""
 from __future__ import annotations
 
@@ -26,11 +26,12 @@ def add_pair_arguments(parser):
     g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
                    help="reference recording(s): miniSEED or any format ObsPy reads")
     g.add_argument("--ref-xml", required=True, metavar="XML",
-                   help="reference StationXML (azimuth, dip, response), or 'flat'")
+                   help="reference metadata: StationXML (azimuth, dip, response), a RESP file, "
+                        "a GSE2 .cal poles-and-zeros file, or 'flat'")
     g.add_argument("--sut", nargs="+", required=True, metavar="FILE",
                    help="recording(s) of the sensor under test")
     g.add_argument("--sut-xml", required=True, metavar="XML",
-                   help="SUT StationXML with its nominal metadata, or 'flat'")
+                   help="SUT nominal metadata: StationXML, RESP, GSE2 .cal, or 'flat'")
     g.add_argument("--sut-id", nargs="+", metavar="PATTERN",
                    help="SEED ids of the SUT's channels, wildcards allowed (e.g. "
                         "'XX.SIM.10.BH?'): needed when a file holds both sensors")
@@ -48,9 +49,17 @@ def add_pair_arguments(parser):
                         help="start of the analysis window, e.g. 2010-08-24T02:00:00")
     parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress display (the band used and the results table are "
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress display (the band used and the results table are "
                              "still printed)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    add_paper_argument(parser)
+
+
+def add_paper_argument(parser):
+    """``--paper a4|letter``: the size of every page of the PDF reports."""
+    parser.add_argument("--paper", choices=["a4", "letter"], default="a4",
+                        help="page size of every page of the PDF report (default a4)")
 
 
 def say(args, text):

@@ -52,7 +52,7 @@ def run(args):
                            band=tuple(args.band) if args.band else None,
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,
-                               sut_id=args.sut_id, ref_id=args.ref_id)
+                           sut_id=args.sut_id, ref_id=args.ref_id)
     say("searching the catalogue of effects ...")
     d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
     final = d.final
@@ -66,7 +66,7 @@ def run(args):
         if not args.no_report:
             from ..report.diagnosis import write_page
             try:
-                write_page(d, os.path.join(tmp, "diagnosis"))
+                write_page(d, os.path.join(tmp, "diagnosis"), paper=args.paper)
             except Exception as exc:   # the findings matter more than the figure
                 print(f"bayescal: warning: the diagnosis page could not be written "
                       f"({type(exc).__name__}: {exc})", file=sys.stderr)

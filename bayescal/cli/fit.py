@@ -113,7 +113,7 @@ def run(args):
             from ..report.fit import write_report
             say(args, "writing the report ...")
             try:
-                write_report(tmp)
+                write_report(tmp, paper=args.paper)
             except Exception as exc:  # the fit's results matter more than its figures
                 print(f"bayescal: warning: the report could not be written "
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)

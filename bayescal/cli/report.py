@@ -9,6 +9,8 @@ Example:
 """
 from __future__ import annotations
 
+from .common import add_paper_argument
+
 HELP = "render report.pdf and report_*.png for a saved result folder"
 
 
@@ -19,6 +21,7 @@ def configure(parser):
                         help="flag angles off nominal by more than DEG degrees (default 5)")
     parser.add_argument("--truth", metavar="JSON", default=None,
                         help="simulation truth for truth markers (default DIR/truth.json)")
+    add_paper_argument(parser)
 
 
 def run(args):
@@ -28,6 +31,7 @@ def run(args):
 
     if not args.threshold > 0:
         raise InputError(f"--threshold must be a positive angle in degrees, got {args.threshold}")
-    paths = write_report(args.folder, nominal_tolerance_deg=args.threshold, truth=args.truth)
+    paths = write_report(args.folder, nominal_tolerance_deg=args.threshold, truth=args.truth,
+                         paper=args.paper)
     print(f"report: {paths[0]} ({len(paths) - 1} PNG figures)")
     return 0

@@ -30,7 +30,8 @@ import tempfile
 
 import numpy as np
 
-from ..io.read import InputError
+from ..io.read import InputError, read_metadata
+from .common import add_paper_argument
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -55,7 +56,7 @@ def configure(parser):
                         help="only rotate FILE's X, Y, Z channels to U, V, W (or back) and "
                              "write it to DIR; no calibration")
     parser.add_argument("--sut-xml", metavar="SUT.xml",
-                        help="StationXML with the nominal responses of the outputs")
+                        help="StationXML (or RESP, or GSE2 .cal) with the nominal responses of the outputs")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--z-only", action="store_true",
                         help="use only the Z output of each run (the classic Z-only procedure)")
@@ -64,6 +65,7 @@ def configure(parser):
                              "raised when the record is short)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_paper_argument(parser)
 
 
 def _parse_cal(items, identity=False):
@@ -88,7 +90,7 @@ def _parse_cal(items, identity=False):
 
 def load_inputs(args):
     """Read and check every input file; returns ``(runs, matrix, source)``."""
-    from obspy import read, read_inventory
+    from obspy import Stream, read
 
     from .. import coil
 
@@ -104,21 +106,22 @@ def load_inputs(args):
         m, source = coil.load_matrix(args.matrix), f"--matrix {args.matrix}"
     else:
         m, source = coil.sensor_matrix(args.sensor)
-    try:
-        inv = read_inventory(args.sut_xml)
-    except Exception as exc:  # ObsPy raises many types for unreadable files
-        raise InputError(f"{args.sut_xml}: not a readable StationXML ({exc})") from None
-    runs = {}
+    streams = {}
     for element, path in paths.items():
         try:
-            st = read(path)
+            streams[element] = read(path)
         except Exception as exc:
             raise InputError(f"{path}: not a readable waveform file ({exc})") from None
+    inv = read_metadata(args.sut_xml, "SUT StationXML",
+                        stream=sum(streams.values(), Stream()))
+    runs = {}
+    for element, path in paths.items():
+        st = streams[element]
         runs[element] = coil.read_run(element, st, inv, args.input_channel, path)
     return runs, m, source
 
 
-def write_outputs(result, out, quiet=True):
+def write_outputs(result, out, quiet=True, paper="a4"):
     """Write ``uvw.json``, ``uvw_samples.npz`` and the report into ``out``:
     everything goes to a temporary folder first and is moved in at the end,
     so a failure leaves nothing half-written."""
@@ -134,7 +137,7 @@ def write_outputs(result, out, quiet=True):
         arrays = {"joint": result.joint, "freqs": result.freqs,
                   **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()}}
         np.savez(os.path.join(tmp, "uvw_samples.npz"), **arrays)
-        write_report(result, tmp)
+        write_report(result, tmp, paper=paper)
         os.makedirs(out, exist_ok=True)
         for name in sorted(os.listdir(tmp)):
             os.replace(os.path.join(tmp, name), os.path.join(out, name))
@@ -205,7 +208,7 @@ def run(args):
     result = coil.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
                                z_only=args.z_only, seed=args.seed, progress=not args.quiet,
                                matrix_source=source)
-    summary = write_outputs(result, args.out)
+    summary = write_outputs(result, args.out, paper=args.paper)
     if not args.quiet:
         _print_summary(summary, args.out)
     return 0

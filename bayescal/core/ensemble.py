@@ -120,12 +120,15 @@ class Ensemble:
         self.accepted += accepted
 
     def run(self, n_steps, on_step=None):
-        """Advance ``n_steps`` steps, storing every one."""
+        """Advance ``n_steps`` steps, storing every one; ``on_step()`` (if
+        given) is called after each, e.g. to move a progress bar."""
         chain = np.empty((n_steps, self.n_walkers, self.ndim))
         lps = np.empty((n_steps, self.n_walkers))
         for t in range(n_steps):
             self.step()
             chain[t], lps[t] = self.coords, self.log_prob
+            if on_step is not None:
+                on_step()
         self.chain = np.concatenate([self.chain, chain])
         self.chain_log_prob = np.concatenate([self.chain_log_prob, lps])
         self.iteration += n_steps

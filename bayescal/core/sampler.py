@@ -232,12 +232,11 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
     # emcee's DEMove (0.8) / DESnookerMove (0.2) mixture, step for step
     # (bayescal.core.ensemble: the same chain as emcee.EnsembleSampler)
     sampler = Ensemble(model.log_prob, p0, np.random.RandomState(seed).get_state())
-    bar = _progress(progress)
     steps, chunk, converged = 0, 1000, False
+    bar = _progress(progress, chunk, n_tau, min_ess, rhat_max)
     while True:
-        sampler.run(chunk)
+        sampler.run(chunk, on_step=bar.step)
         steps += chunk
-        bar.update(chunk)
         full = sampler.get_chain()
         tau_all = integrated_time(full[steps // 2:])
         burn = int(min(steps // 2, max(100, 5 * np.max(tau_all))))
@@ -245,16 +244,17 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         tau = integrated_time(kept)
         ess = kept.shape[0] * n_walkers / tau
         rhat = split_rhat(kept, ess)
-        bar.set_postfix(tau=f"{tau.max():.0f}", ess=f"{ess.min():.0f}", rhat=f"{rhat.max():.3f}")
+        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
         if kept.shape[0] >= n_tau * tau.max() and ess.min() >= min_ess and rhat.max() < rhat_max:
             converged = True
+            bar.goal(steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
             break
+        chunk = int(min(max(200, 1.1 * need - steps), max_steps - steps))
+        bar.goal(steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
         if steps >= max_steps:
             warnings.warn(f"sampler stopped at {steps} steps without meeting the convergence rule "
                           f"(tau {tau.max():.0f}, ESS {ess.min():.0f}, R-hat {rhat.max():.3f})")
             break
-        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
-        chunk = int(min(max(200, 1.1 * need - steps), max_steps - steps))
     bar.close()
     thin = max(1, int(tau.min() / 4))
     kept_lp = sampler.get_chain(discard=burn, thin=thin, log_prob=True)
@@ -275,21 +275,47 @@ def single_threaded_blas():
 
 
 class _NoBar:
-    def update(self, n):
-        pass
+    step = None
 
-    def set_postfix(self, **kw):
+    def goal(self, *args):
         pass
 
     def close(self):
         pass
 
 
-def _progress(enabled):
-    if not enabled:
-        return _NoBar()
-    from tqdm.auto import tqdm
-    return tqdm(total=None, unit="step", desc="sampling", leave=False)
+class _GoalBar:
+    """Progress toward the convergence rule: the bar's total is the current
+    estimate of the steps the rule needs (re-estimated at every check, so
+    the time left is tqdm's estimate toward it), the postfix each target:
+    kept chain in autocorrelation times, smallest ESS and largest R-hat
+    against their goals."""
+
+    def __init__(self, first, n_tau, min_ess, rhat_max):
+        from tqdm.auto import tqdm
+        self.goals = (n_tau, min_ess, rhat_max)
+        self.bar = tqdm(total=first, unit="step", desc="sampling to convergence", leave=False,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} steps "
+                                   "[{elapsed}<{remaining}]{postfix}")
+        self.bar.set_postfix_str(f"goals: {n_tau} tau, ESS {min_ess}, R-hat < {rhat_max}")
+
+    def step(self):
+        self.bar.update(1)
+
+    def goal(self, need_steps, kept_tau, ess, rhat):
+        """New estimate of the steps needed (the next check of the rule),
+        and where each target stands."""
+        n_tau, min_ess, rhat_max = self.goals
+        self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
+        self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
+                                 f"R-hat {rhat:.3f} (< {rhat_max})")
+
+    def close(self):
+        self.bar.close()
+
+
+def _progress(enabled, first, n_tau, min_ess, rhat_max):
+    return _GoalBar(first, n_tau, min_ess, rhat_max) if enabled else _NoBar()
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",

@@ -1,6 +1,6 @@
 """Recordings and metadata in, corrected metadata out.
 
-* :mod:`.read`        waveforms and metadata (StationXML, GSE2 poles and zeros),
+* :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros),
                       alignment of two or more sensors' recordings, ``InputError``
 * :mod:`.band`        choice of the band where the sensors are coherent
 * :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
@@ -11,10 +11,9 @@
 May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
 """
 from .read import (CODE_ORIENTATION, InputError, InputWarning, align, align_sensors,
-                   flat_inventory, orientation_from_code, paz_inventory, read_gse2_paz,
-                   read_metadata, read_waveforms, two_pole_inventory)
+                   flat_inventory, metadata_format, orientation_from_code, paz_inventory,
+                   read_gse2_paz, read_metadata, read_waveforms, two_pole_inventory)
 
 __all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "align_sensors",
-           "flat_inventory",
-           "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
-           "read_waveforms", "two_pole_inventory"]
+           "flat_inventory", "metadata_format", "orientation_from_code", "paz_inventory",
+           "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]

@@ -90,7 +90,9 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
 
 
 def load_inventory(spec, stream, side="StationXML"):
-    """An Inventory from ``spec``: an ObsPy Inventory, a StationXML path, or
+    """An Inventory from ``spec``: an ObsPy Inventory, a metadata file
+    (StationXML, RESP, or GSE2 poles and zeros applied to every channel of
+    ``stream``; see :func:`bayescal.io.read_metadata`), or
     the word ``"flat"`` (flat velocity response, orientations from the
     channel codes: N/1 north, E/2 east, Z/3 vertical; see
     :func:`bayescal.io.flat_inventory`)."""
@@ -100,7 +102,7 @@ def load_inventory(spec, stream, side="StationXML"):
         return spec
     if str(spec).lower() == "flat":
         return flat_inventory(stream)
-    return read_metadata(spec, side)
+    return read_metadata(spec, side, stream=stream)
 
 
 def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="none",
@@ -108,7 +110,7 @@ def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_respo
                     **kw):
     """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path
     or a list (any waveform format ObsPy reads); ``sut_xml``/``ref_xml`` a
-    StationXML path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
+    StationXML, RESP or GSE2 poles-and-zeros path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
     ``start``/``end`` may be ISO strings; ``sut_id``/``ref_id`` SEED-id
     patterns (``"XX.SIM.10.BH?"``, one or a list) choose each sensor's channels
     from files holding several (see :func:`bayescal.io.channels.select_channels`).

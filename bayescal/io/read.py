@@ -4,7 +4,8 @@ channel axes and responses.
 What real recordings need, and what this module does about it:
 
 * any waveform format ObsPy reads, several files per side
-  (:func:`read_waveforms`); StationXML through ObsPy (:func:`read_metadata`);
+  (:func:`read_waveforms`); StationXML, RESP or GSE2 poles and zeros, recognised
+  by content (:func:`read_metadata`);
 * gaps and overlaps: every trace is placed on one common time grid; missing
   samples, and overlaps whose data disagree, become NaN, so the spectra drop
   every segment that touches them;
@@ -25,6 +26,7 @@ and the problem; the command line turns them into a message and exit code 2.
 from __future__ import annotations
 
 import os
+import re
 import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -124,17 +126,67 @@ def read_waveforms(paths, side="waveform"):
     return out
 
 
-def read_metadata(path, side="StationXML"):
-    """Read a StationXML (or any inventory format ObsPy reads)."""
+def metadata_format(path):
+    """What kind of metadata file ``path`` is, from its first lines:
+    ``"GSE2"`` (a ``CAL1 ... PAZ`` poles-and-zeros file), ``"RESP"`` (SEED
+    RESP text, blockettes 050-062) or ``None`` (left to ObsPy: StationXML,
+    dataless SEED, SC3ML, ...)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(20000).decode("latin-1")
+    except OSError:
+        return None
+    lines = [ln for ln in head.splitlines() if ln.strip()]
+    if lines and lines[0].startswith("CAL1") and lines[0][31:34] == "PAZ":
+        return "GSE2"
+    if re.search(r"^B0(5[0-9]|6[0-2])F\d\d", head, re.MULTILINE):
+        return "RESP"
+    return None
+
+
+def read_metadata(path, side="StationXML", stream=None):
+    """An ObsPy Inventory from a metadata file, recognised by its content:
+
+    * StationXML (or any other inventory format ObsPy reads);
+    * SEED RESP text (through ``obspy.read_inventory(format="RESP")``; RESP
+      holds no orientation, so the channel codes give it: N/1 north, E/2
+      east, Z/3 vertical);
+    * a GSE2 ``CAL1 ... PAZ`` poles-and-zeros file (:func:`read_gse2_paz`),
+      which names no channel: it is applied to every channel of ``stream``
+      (required then) as :func:`paz_inventory` does, read the way ObsPy's
+      ``rel_calib_stack`` reads it (a velocity response whose gain, counts
+      per m/s, is a plain factor: A0 = 1), orientations from the channel codes,
+      and marked as placeholder metadata.
+    """
     import obspy
 
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(f"{path}: {side} file not found")
+    kind = metadata_format(path)
+    if kind == "GSE2":
+        if stream is None or len(stream) == 0:
+            raise InputError(f"{path}: a GSE2 poles-and-zeros file names no channel; it can "
+                             "only be used beside the recordings it describes")
+        poles, zeros, gain = read_gse2_paz(path)
+        unknown = {}   # codes that say no orientation (coil inputs, U/V/W): none written
+        for tr in stream:
+            try:
+                orientation_from_code(tr.stats.channel)
+            except InputError:
+                unknown[tr.stats.channel] = (None, None)
+        return paz_inventory(stream, zeros=zeros, poles=poles, gain=gain, normalize=False,
+                             orientations=unknown,
+                             note=f"the response is the GSE2 poles and zeros of {path} (read "
+                                  "as ObsPy's rel_calib_stack reads them: velocity, gain "
+                                  f"{gain:g} counts per m/s, A0 = 1), applied to every channel")
     try:
+        if kind == "RESP":
+            return obspy.read_inventory(path, format="RESP")
         return obspy.read_inventory(path)
     except Exception as exc:
-        raise InputError(f"{path}: not a StationXML file ObsPy can read "
+        what = "RESP" if kind == "RESP" else "StationXML (or other metadata)"
+        raise InputError(f"{path}: not a {what} file ObsPy can read "
                          f"({type(exc).__name__})") from None
 
 
@@ -201,7 +253,9 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
         if any(c.location_code == st.location and c.code == code for c in sta):
             continue
         sta.append(Channel(code=code, location_code=st.location, latitude=0.0, longitude=0.0,
-                           elevation=0.0, depth=0.0, azimuth=float(az), dip=float(dip),
+                           elevation=0.0, depth=0.0,
+                           azimuth=None if az is None else float(az),
+                           dip=None if dip is None else float(dip),
                            sample_rate=st.sampling_rate, response=resp,
                            start_date=UTCDateTime(1970, 1, 1),
                            comments=[Comment(value=PLACEHOLDER_NOTE + (f"; {note}" if note

@@ -139,7 +139,7 @@ def _client(scheduler, workers, processes):
 
 
 def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, quiet=False,
-              threshold_deg=2.0, gain_threshold_pct=2.0, report=True):
+              threshold_deg=2.0, gain_threshold_pct=2.0, report=True, paper="a4"):
     """Run every unfinished item of a plan on Dask and write the tables and report.
 
     Parameters
@@ -153,6 +153,7 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
     processes : local workers as processes (True) or threads of this process.
     quiet : no progress bar.
     threshold_deg, gain_threshold_pct : flagging thresholds of the report.
+    paper : page size of the report, "a4" or "letter".
 
     Returns a dict: counts of ``computed``, ``skipped``, ``failed`` items and
     the paths of ``results.csv`` and the report.
@@ -204,7 +205,7 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
     summary = {**counts, "results": table}
     if report:
         summary.update(write_report(table, out, threshold_deg=threshold_deg,
-                                    gain_threshold_pct=gain_threshold_pct))
+                                    gain_threshold_pct=gain_threshold_pct, paper=paper))
     return summary
 
 

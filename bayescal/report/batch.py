@@ -25,6 +25,8 @@ import os
 
 import numpy as np
 
+from .layout import page_size, save_pdf_page
+
 COLUMNS = ("label", "station", "day", "channel", "kind",
            "azimuth", "azimuth_lo95", "azimuth_hi95", "nominal_azimuth",
            "dip", "dip_lo95", "dip_hi95", "nominal_dip",
@@ -159,15 +161,14 @@ def _date(day):
     return datetime.date.fromisoformat(day)
 
 
-def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct):
+def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
-    fig, axes = plt.subplots(len(stations), len(quantities),
-                             figsize=(5.5 * len(quantities), 2.4 * len(stations) + 0.8),
-                             squeeze=False, sharex=True)
+    fig, axes = plt.subplots(len(stations), len(quantities), figsize=page, squeeze=False,
+                             sharex=True)
     flagged = {(f["channel"], f["quantity"], f["day"]) for f in flags}
     for row, sta in zip(axes, stations):
         for ax, quantity in zip(row, quantities):
@@ -200,15 +201,15 @@ def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct):
         ax.xaxis.set_major_locator(mdates.AutoDateLocator(minticks=2, maxticks=10))
         ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
     fig.autofmt_xdate()
-    fig.suptitle("Orientation (and gain) against time (median, 95 % credible band; red x: flagged, "
-                 "red dashed: changed from the day before; "
+    fig.suptitle("Orientation (and gain) against time (median, 95 % credible band;\nred x: "
+                 "flagged, red dashed: changed from the day before; "
                  f"dotted: thresholds +-{threshold_deg:g} deg, +-{gain_threshold_pct:g} %)",
-                 fontsize=10)
+                 fontsize=9)
     fig.tight_layout()
     return fig
 
 
-def _text_page(rows, flags, threshold_deg, gain_threshold_pct):
+def _text_page(rows, flags, threshold_deg, gain_threshold_pct, page):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -234,15 +235,16 @@ def _text_page(rows, flags, threshold_deg, gain_threshold_pct):
     lines += ["", "Failed items:"] + [f"  {lb}: {err}"[:110] for lb, err in errors[:30]]
     if not errors:
         lines.append("  none")
-    fig = plt.figure(figsize=(11, 8.5))
-    fig.text(0.04, 0.96, "\n".join(lines), va="top", family="monospace", fontsize=8)
+    fig = plt.figure(figsize=page)
+    fig.text(0.04, 0.96, "\n".join(lines), va="top", family="monospace", fontsize=7)
     return fig
 
 
-def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, per_page=6):
-    """``flags.csv``, ``report.pdf`` (summary page + orientation pages) and
-    ``report.png`` (first orientation page) in ``out``; returns their paths
-    and the flags."""
+def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, per_page=6,
+                 paper="a4"):
+    """``flags.csv``, ``report.pdf`` (summary page + orientation pages, every
+    page of ``paper``, "a4" or "letter") and ``report.png`` (first
+    orientation page) in ``out``; returns their paths and the flags."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -255,13 +257,14 @@ def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, pe
     _write_csv(paths["flags"], FLAG_COLUMNS, flags)
     stations = sorted({r["station"] for r in rows if r.get("station") and not r.get("error")})
     pages = [stations[k:k + per_page] for k in range(0, len(stations), per_page)]
+    page = page_size(paper)
     with PdfPages(paths["pdf"] + ".tmp.pdf") as pdf:
-        fig = _text_page(rows, flags, threshold_deg, gain_threshold_pct)
-        pdf.savefig(fig)
+        fig = _text_page(rows, flags, threshold_deg, gain_threshold_pct, page)
+        save_pdf_page(pdf, fig, page)
         plt.close(fig)
-        for k, page in enumerate(pages):
-            fig = _figure(rows, flags, page, threshold_deg, gain_threshold_pct)
-            pdf.savefig(fig)
+        for k, stas in enumerate(pages):
+            fig = _figure(rows, flags, stas, threshold_deg, gain_threshold_pct, page)
+            save_pdf_page(pdf, fig, page)
             if k == 0:
                 fig.savefig(paths["png"] + ".tmp.png", dpi=90)
                 os.replace(paths["png"] + ".tmp.png", paths["png"])

@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
-from .layout import CORNER_LEVELS, CORNER_QUANTILES  # noqa: E402
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, save_pdf_page  # noqa: E402
 
 
 def _measured(fit):
@@ -38,7 +38,7 @@ def _measured(fit):
     return fc, t * rel, sd * np.abs(rel)
 
 
-def response_page(fit, summary):
+def response_page(fit, summary, paper="a4"):
     """Measured, fitted and nominal response; ratios to the nominal."""
     from ..core.response import evaluate_velocity_response
 
@@ -46,7 +46,7 @@ def response_page(fit, summary):
     f, nom = c["freqs"], c["nominal"]
     fc, ratio_m, sd_m = _measured(fit)
     nom_c = evaluate_velocity_response(fit.response, fc)
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8.5), sharex=True)
+    fig, axes = plt.subplots(2, 2, figsize=page_size(paper, landscape=True), sharex=True)
     (a_amp, a_ph), (r_amp, r_ph) = axes
     a_amp.loglog(f, np.abs(nom), "k--", lw=1, label="nominal")
     a_amp.fill_between(f, np.abs(nom) * c["amp"][0], np.abs(nom) * c["amp"][2], color="tab:blue",
@@ -84,7 +84,7 @@ def response_page(fit, summary):
     return fig
 
 
-def residuals_page(fit, summary):
+def residuals_page(fit, summary, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
     m = fit.model
     med = np.median(fit.theta, axis=0)
@@ -92,7 +92,8 @@ def residuals_page(fit, summary):
     var = m.sigma[:, 0, 0].real * m.inflation * m._saa_b
     z = r / np.sqrt(var / 2)
     fc = m.spectra.band_centres
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 8.5), gridspec_kw={"height_ratios": [2, 1]})
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=page_size(paper, landscape=True),
+                                 gridspec_kw={"height_ratios": [2, 1]})
     a1.semilogx(fc, z.real, "o", ms=4, label="real")
     a1.semilogx(fc, z.imag, "s", ms=4, label="imaginary")
     for y in (-2, 2):
@@ -123,7 +124,7 @@ def residuals_page(fit, summary):
     return fig
 
 
-def corner_page(fit, summary):
+def corner_page(fit, summary, paper="a4"):
     """Corner plot of the fitted parameters in physical units."""
     phys = fit.physical()
     cols, labels = [], []
@@ -138,15 +139,16 @@ def corner_page(fit, summary):
             cols.append(phys["hf"][:, k].imag)
             labels.append(f"{it.kind} {it.freq_hz:.3g} Hz im")
     data = np.column_stack(cols)
-    fig = plt.figure(figsize=(11, 11))
+    fig = plt.figure(figsize=page_size(paper, landscape=True))
     corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
                   plot_datapoints=False, label_kwargs={"fontsize": 8})
     fig.suptitle(f"{summary['channel']}: posterior (2-D contours: 68 % and 95 % of the mass)")
     return fig
 
 
-def write_report(fit, folder):
-    """Write the three PNG pages and ``cal_report.pdf`` into ``folder``."""
+def write_report(fit, folder, paper="a4"):
+    """Write the three PNG pages and ``cal_report.pdf`` (landscape pages of
+    ``paper``, "a4" or "letter") into ``folder``."""
     summary = fit.summary()
     pages = [("cal_response.png", response_page), ("cal_residuals.png", residuals_page),
              ("cal_corner.png", corner_page)]
@@ -154,10 +156,10 @@ def write_report(fit, folder):
     pdf_path = os.path.join(folder, "cal_report.pdf")
     with PdfPages(pdf_path) as pdf:
         for name, make in pages:
-            fig = make(fit, summary)
+            fig = make(fit, summary, paper)
             path = os.path.join(folder, name)
             fig.savefig(path, dpi=100)
-            pdf.savefig(fig)
+            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
             plt.close(fig)
             paths.append(path)
     return paths + [pdf_path]

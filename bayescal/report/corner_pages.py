@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 
 from ..core.geometry import unit_vector
 from .tables import truth_values, wrap180
-from .layout import A4, CORNER_LEVELS, CORNER_QUANTILES, _header
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, _header
 
 
 def _truth_or_nan(value):
@@ -122,7 +122,7 @@ def page_corner_angles(ctx):
     if data.size == 0:
         return None
     k = data.shape[1]
-    width = min(A4[0], max(6.0, 1.45 * k + 1.2))
+    width = min(ctx.page[0], max(6.0, 1.45 * k + 1.2))
     box = (0.95, 0.95, 0.15, 1.3) if k > 4 else (0.8, 0.75, 0.15, 1.3)
     fig = Figure(figsize=(width, width + box[3] - box[1]))
     drawn = _corner(fig, data, labels, truths if ctx.truth else None, width,
@@ -140,9 +140,9 @@ def page_corner_response(ctx):
     n = len(blocks)
     ncol = 1 if n == 1 else 2
     nrow = int(np.ceil(n / ncol))
-    sub_w = A4[0] / ncol
-    sub_h = min(sub_w, (A4[1] - 1.3) / nrow)
-    fig = Figure(figsize=(A4[0], 1.3 + sub_h * nrow))
+    sub_w = ctx.page[0] / ncol
+    sub_h = min(sub_w, (ctx.page[1] - 1.3) / nrow)
+    fig = Figure(figsize=(ctx.page[0], 1.3 + sub_h * nrow))
     # a header band of 1.3 in, then the grid of per-channel subfigures
     gs = fig.add_gridspec(nrow + 1, ncol, height_ratios=[1.3] + [sub_h] * nrow,
                           left=0, right=1, top=1, bottom=0, hspace=0, wspace=0)
@@ -154,5 +154,5 @@ def page_corner_response(ctx):
         sf.text(0.5, 1 - 0.12 / sub_h, cid, ha="center", va="top", fontweight="bold")
     _header(fig, "Posterior of the response parameters, per channel",
             _corner_note(drawn, []) + "\nGain: first-stage sensitivity in the StationXML's"
-            " stage-1 output units (e.g. V) per m/s.", A4[0])
+            " stage-1 output units (e.g. V) per m/s.", ctx.page[0])
     return fig

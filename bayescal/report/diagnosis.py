@@ -6,9 +6,12 @@ import textwrap
 
 import numpy as np
 
+from .layout import page_size
 
-def write_page(diagnosis, stem):
-    """Write ``stem.pdf`` and ``stem.png``; returns the two paths."""
+
+def write_page(diagnosis, stem, paper="a4"):
+    """Write ``stem.pdf`` and ``stem.png`` (one page of ``paper``, "a4" or
+    "letter"); returns the two paths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -16,7 +19,7 @@ def write_page(diagnosis, stem):
     d = diagnosis
     edges = np.asarray(d.band_edges)
     centres = np.sqrt(edges[:-1] * edges[1:])
-    fig = plt.figure(figsize=(8.27, 11.0))
+    fig = plt.figure(figsize=page_size(paper))
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
     if d.before["mismatch"]:
         text.append("Mismatch of the base model: " + "; ".join(

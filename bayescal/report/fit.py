@@ -52,7 +52,7 @@ def load_result(folder):
         raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
 
 
-def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
+def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, paper="a4"):
     """Render the calibration report of the result saved in ``folder``.
 
     Writes ``folder/report.pdf`` (or ``out_pdf``) and one PNG per figure
@@ -69,6 +69,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
         which a channel is flagged.
     truth : simulation truth (dict or JSON path) for truth markers; default
         ``meta["truth"]`` or ``folder/truth.json`` when present.
+    paper : "a4" (default) or "letter": every page of the PDF has this size.
 
     Returns the list of written paths (PDF first).
     """
@@ -85,7 +86,8 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
     out_dir = os.path.dirname(os.path.abspath(out_pdf))
     stem = os.path.splitext(os.path.basename(out_pdf))[0]
     ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
-                           tolerance_deg=float(nominal_tolerance_deg))
+                           tolerance_deg=float(nominal_tolerance_deg),
+                           page=layout.page_size(paper))
     tmp = tempfile.mkdtemp(prefix=".report-", dir=out_dir)
     written = []
     try:
@@ -97,7 +99,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None):
                     "Keywords": "seismometer calibration; orientation; Bayesian"}
             with PdfPages(os.path.join(tmp, "report.pdf"), metadata=meta) as pdf:
                 for name, fig in figures:
-                    pdf.savefig(fig)
+                    layout.save_pdf_page(pdf, fig, ctx.page)
                     layout.save_png(fig, os.path.join(tmp, f"{name}.png"))
         os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
         written.append(out_pdf)

@@ -17,14 +17,14 @@ from scipy import stats
 
 from ..core.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, wrap180
-from .layout import A4, LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
+from .layout import LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
 
 
 def page_summary(ctx):
     """Page 1: what was measured, the table of angles (and responses), flags."""
     post = ctx.post
     conv = ctx.summary["convergence"]
-    fig = Figure(figsize=A4)
+    fig = Figure(figsize=ctx.page)
     fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
     lines = _header_lines(ctx)
     fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
@@ -117,13 +117,15 @@ def _interval_panel(ax, label, x, nominal, truth, tol):
 
 def page_intervals(ctx):
     """Page 2: per channel, the credible intervals of each angle against the
-    nominal value and the tolerance band."""
+    nominal value and the tolerance band; None when no angle was estimated."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     post = ctx.post
     n = len(post.channel_ids)
-    fig = Figure(figsize=(A4[0], min(A4[1], 1.5 + 1.6 * n)))
+    if not any(_channel_panels(ctx, k) for k in range(n)):
+        return None   # no angle estimated (e.g. a vertical fixed to a vertical): no empty page
+    fig = Figure(figsize=(ctx.page[0], min(ctx.page[1], 1.5 + 1.6 * n)))
     gs = fig.add_gridspec(n, 2, left=0.06, right=0.97, top=1 - 1.0 / fig.get_figheight(),
                           bottom=0.5 / fig.get_figheight(), hspace=0.9, wspace=0.12)
     for k, cid in enumerate(post.channel_ids):
@@ -166,13 +168,13 @@ def page_data_fit(ctx):
     """Page 4: PSDs of both sensors, multiple coherence, per-band misfit."""
     d = ctx.post.diagnostics
     if not d:
-        fig = Figure(figsize=A4)
+        fig = Figure(figsize=ctx.page)
         fig.text(0.1, 0.9, "Data and fit: no diagnostics.npz in the result folder", fontsize=11)
         return fig
     f = d["freqs"]
     sut = [str(s) for s in d["sut_ids"]]
     ref = [str(s) for s in d["ref_ids"]]
-    fig = Figure(figsize=A4)
+    fig = Figure(figsize=ctx.page)
     gs = fig.add_gridspec(3, 1, left=0.11, right=0.96, top=0.93, bottom=0.06, hspace=0.35)
     fig.text(0.5, 0.965, "Data and fit", ha="center", fontsize=11, fontweight="bold")
     ax = fig.add_subplot(gs[0])
@@ -239,7 +241,7 @@ def page_convergence(ctx):
     conv = ctx.summary["convergence"]
     names = post.names
     nd = len(names)
-    fig = Figure(figsize=A4)
+    fig = Figure(figsize=ctx.page)
     fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
     n_rows = int(np.ceil(nd / 2))
     trace_h = min(0.55, 0.16 * n_rows + 0.03)

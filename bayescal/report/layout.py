@@ -14,6 +14,8 @@ from ..version import __version__
 
 
 A4 = (8.27, 11.69)
+#: Paper sizes (portrait, inches) every PDF page is written on; ``--paper``.
+PAPER = {"a4": A4, "letter": (8.5, 11.0)}
 PNG_DPI = 90
 #: 2-D contour levels of the corner plots: fractions of posterior mass enclosed.
 CORNER_LEVELS = (0.68, 0.95)
@@ -31,15 +33,39 @@ PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
                "log_gain": "ln of gain"}
 
 
+def page_size(paper="a4", landscape=False):
+    """(width, height) in inches of one page of ``paper`` ("a4" or "letter")."""
+    try:
+        w, h = PAPER[str(paper).lower()]
+    except KeyError:
+        raise ValueError(f"paper must be one of {', '.join(PAPER)}, not {paper!r}") from None
+    return (h, w) if landscape else (w, h)
+
+
+def save_pdf_page(pdf, fig, page):
+    """Add ``fig`` to the open ``PdfPages`` on a page of exactly ``page``
+    inches: a smaller figure sits at the top, centred, on white. Every page
+    of one PDF thus has the same size. A figure larger than the page is a
+    layout error."""
+    from matplotlib.transforms import Bbox
+
+    w, h = fig.get_size_inches()
+    pw, ph = page
+    if w > pw + 1e-6 or h > ph + 1e-6:
+        raise ValueError(f"figure {w:.2f} x {h:.2f} in does not fit a {pw} x {ph} in page")
+    pdf.savefig(fig, bbox_inches=Bbox.from_bounds((w - pw) / 2, h - ph, pw, ph))
+
+
 @dataclass
 class ReportContext:
-    """Everything the pages draw from."""
+    """Everything the pages draw from; ``page`` is the paper size (inches)."""
 
     folder: str
     post: object
     summary: dict
     truth: dict | None
     tolerance_deg: float
+    page: tuple = A4
 
 
 @contextlib.contextmanager
@@ -109,7 +135,7 @@ def _fmt_dev(row):
     return f"{row.deviation:+.2f} %"
 
 
-#: Height of one table row as a fraction of an A4 page (6.5 pt text).
+#: Height of one table row as a fraction of a page's height (6.5 pt text on A4).
 ROW_H = 0.0150
 
 

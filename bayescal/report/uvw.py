@@ -26,6 +26,7 @@ import numpy as np  # noqa: E402
 from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
 from ..coil.uvw import ELEMENTS, PARAMS, XYZ, element_ratios  # noqa: E402
+from .layout import page_size, save_pdf_page  # noqa: E402
 
 COLOURS = {"U": "tab:blue", "V": "tab:orange", "W": "tab:green",
            "X": "tab:red", "Y": "tab:purple", "Z": "tab:brown"}
@@ -55,9 +56,9 @@ def _response_panels(fig, f, curves, title):
         a.grid(True, which="both", alpha=0.3)
 
 
-def elements_page(result, summary):
+def elements_page(result, summary, paper="a4"):
     """Element responses over the nominal with 90 % bands, and the table."""
-    fig = plt.figure(figsize=(11, 8.5))
+    fig = plt.figure(figsize=page_size(paper, landscape=True))
     left, right = fig.subfigures(1, 2, width_ratios=[1.6, 1])
     k = element_ratios(result.joint, result.family, result.freqs)
     _response_panels(left, result.freqs, {e: k[:, j] for j, e in enumerate(ELEMENTS)},
@@ -78,9 +79,9 @@ def elements_page(result, summary):
     return fig
 
 
-def xyz_page(result, summary):
+def xyz_page(result, summary, paper="a4"):
     """XYZ responses and cross-talk with 90 % bands."""
-    fig = plt.figure(figsize=(11, 8.5))
+    fig = plt.figure(figsize=page_size(paper, landscape=True))
     left, right = fig.subfigures(1, 2)
     t = result.xyz["ratio"]
     _response_panels(left, result.freqs, {a: t[:, i, i] for i, a in enumerate(XYZ)},
@@ -101,9 +102,9 @@ def xyz_page(result, summary):
     return fig
 
 
-def agreement_page(result, summary):
+def agreement_page(result, summary, paper="a4"):
     """Z-only against all-output estimates, and the geometry check."""
-    fig, axes = plt.subplots(2, 3, figsize=(11, 8.5))
+    fig, axes = plt.subplots(2, 3, figsize=page_size(paper, landscape=True))
     modes = [("all outputs" if summary["mode"] != "z-only" else "Z only", result.fits)]
     if result.z_fits:
         modes.append(("Z only", result.z_fits))
@@ -150,8 +151,9 @@ def agreement_page(result, summary):
     return fig
 
 
-def write_report(result, folder):
-    """Write the three PNG pages and ``uvw_report.pdf`` into ``folder``;
+def write_report(result, folder, paper="a4"):
+    """Write the three PNG pages and ``uvw_report.pdf`` (landscape pages of
+    ``paper``, "a4" or "letter") into ``folder``;
     returns their paths."""
     summary = result.summary()
     pages = [("uvw_elements.png", elements_page), ("uvw_xyz.png", xyz_page),
@@ -160,10 +162,10 @@ def write_report(result, folder):
     pdf_path = os.path.join(folder, "uvw_report.pdf")
     with PdfPages(pdf_path) as pdf:
         for name, make in pages:
-            fig = make(result, summary)
+            fig = make(result, summary, paper)
             path = os.path.join(folder, name)
             fig.savefig(path, dpi=110)
-            pdf.savefig(fig)
+            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
             plt.close(fig)
             paths.append(path)
     return paths + [pdf_path]
