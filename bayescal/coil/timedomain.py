@@ -88,9 +88,14 @@ class Predictor:
 
     def __init__(self, u, fs, transfer, pad):
         self.n = u.size
-        self.nfft = next_fast_len(self.n + int(pad), real=True)
+        # after the record the input is held at its last value and brought to
+        # zero smoothly (half a Hann window, ``pad // 4`` samples), then zeros:
+        # an abrupt end would ring back into the record (band-limited signal)
+        taper = max(int(pad) // 4, 64)
+        tail = u[-1] * 0.5 * (1 + np.cos(np.pi * np.arange(1, taper + 1) / taper))
+        self.nfft = next_fast_len(self.n + taper + int(pad), real=True)
         self.freqs = rfftfreq(self.nfft, 1.0 / fs)
-        self.spectrum = rfft(u, n=self.nfft) * transfer(self.freqs)
+        self.spectrum = rfft(np.r_[u, tail], n=self.nfft) * transfer(self.freqs)
 
     def __call__(self, ratio, weight=None):
         x = self.spectrum if weight is None else self.spectrum * weight
