@@ -67,7 +67,8 @@ def step_case(i, fs, noise_ratio):
     sim = simulate_step_cal(truth=truth, fs=fs, seed=6000 + i, noise_ratio=noise_ratio)
     run = coil.read_run("U", sim.runs["cal"], sim.inventory, "BC0", "sim")
     s = fit_step(run, COIL, seed=i, n_walkers=16, min_ess=400).summary()
-    out = {p: _entry(s["parameters"][p], t) for p, t in zip(("period_s", "damping", "gain"), truth)}
+    out = {p: _entry(s["parameters"][p], t)
+           for p, t in zip(("period_s", "damping", "gain"), truth)}
     return out, s["convergence"]["converged"]
 
 
@@ -160,7 +161,8 @@ def main():
     if "lp" in previous and "sections" not in previous:      # the first layout of this file
         result["sections"] = {k: {"table": previous[k], "args": previous["args"],
                                   "seconds": previous["seconds"][k],
-                                  "converged": f"{previous['converged']} of {previous['runs']} (lp and hf together)",
+                                  "converged": (f"{previous['converged']} of "
+                                                f"{previous['runs']} (lp and hf together)"),
                                   "runs": previous["args"][f"n_{k}"]}
                               for k in ("lp", "hf")}
     for kind, (n, case) in kinds.items():
