@@ -4,13 +4,20 @@
   damping and gain a few per cent off nominal;
 * high-frequency runs (``--fit hf``): PRBS, 15 minutes at 200 Hz, true
   high-frequency poles (a pair at 50 Hz, a real pole at 70 Hz) a few per cent
-  off nominal.
+  off nominal;
+* step runs (``--kind step``): one step on and off, 30 minutes at
+  ``--step-fs`` Hz, true period, damping and gain as for the lp runs;
+* sine runs (``--kind sine``): 15 minutes at 20 Hz, a sine at a frequency
+  drawn log-uniformly from 0.02 to 2 Hz, the true response amplitude and phase
+  there.
 
 Counts the truths inside the 95 % intervals (with the 99 % binomial band for
 a true 95 %) and the median relative error per parameter. Writes
-``reports/cal/coverage.json``.
+``reports/cal/coverage.json``; a kind run with ``--n-KIND 0`` keeps its
+section from an existing file (the runs are seeded, so a section does not
+change unless its arguments do).
 
-    python benchmarks/cal_coverage.py --n-lp 20 --n-hf 6
+    python benchmarks/cal_coverage.py --n-lp 20 --n-hf 6 --n-step 20 --n-sine 12
 """
 from __future__ import annotations
 
@@ -24,7 +31,10 @@ from scipy.stats import binom
 
 from bayescal import coil
 from bayescal.coil.random import fit_random
-from bayescal.simulate.cal import HF_NOMINAL, LP_NOMINAL, simulate_random_cal
+from bayescal.coil.sine import fit_sine
+from bayescal.coil.step import fit_step
+from bayescal.simulate.cal import (HF_NOMINAL, LP_NOMINAL, simulate_random_cal,
+                                   simulate_sine_cal, simulate_step_cal)
 
 COIL = 1e-9
 
@@ -42,6 +52,44 @@ def lp_case(i, hours, noise_ratio):
     for p, t in zip(("period_s", "damping", "gain"), truth):
         e = s["parameters"][p]
         out[p] = (e["ci95"][0] <= t <= e["ci95"][1], e["median"] / t - 1, (e["median"] - t) / e["sd"])
+    return out, s["convergence"]["converged"]
+
+
+def _entry(e, t):
+    return (e["ci95"][0] <= t <= e["ci95"][1], e["median"] / t - 1, (e["median"] - t) / e["sd"])
+
+
+def step_case(i, fs, noise_ratio):
+    rng = np.random.default_rng(5000 + i)
+    t0, h0, g0 = LP_NOMINAL
+    truth = (t0 * (1 + 0.03 * rng.standard_normal()), h0 + 0.02 * rng.standard_normal(),
+             g0 * (1 + 0.01 * rng.standard_normal()))
+    sim = simulate_step_cal(truth=truth, fs=fs, seed=6000 + i, noise_ratio=noise_ratio)
+    run = coil.read_run("U", sim.runs["cal"], sim.inventory, "BC0", "sim")
+    s = fit_step(run, COIL, seed=i, n_walkers=16, min_ess=400).summary()
+    out = {p: _entry(s["parameters"][p], t)
+           for p, t in zip(("period_s", "damping", "gain"), truth)}
+    return out, s["convergence"]["converged"]
+
+
+def sine_case(i, noise_ratio):
+    rng = np.random.default_rng(7000 + i)
+    t0, h0, g0 = LP_NOMINAL
+    truth = (t0 * (1 + 0.03 * rng.standard_normal()), h0 + 0.02 * rng.standard_normal(),
+             g0 * (1 + 0.01 * rng.standard_normal()))
+    freq = float(np.exp(rng.uniform(np.log(0.02), np.log(2.0))))
+    sim = simulate_sine_cal(freq, truth=truth, seed=8000 + i, noise_ratio=noise_ratio)
+    run = coil.read_run("U", sim.runs["cal"], sim.inventory, "BC0", "sim")
+    s = fit_sine(run, COIL, seed=i, n_walkers=16, min_ess=400).summary()
+    h = complex(*sim.truth["response"])
+    p = s["parameters"]
+    ph = p["response_phase_deg"]
+    ph_true = np.degrees(np.angle(h))
+    ph_true += 360.0 * np.round((ph["median"] - ph_true) / 360.0)
+    out = {"response_amplitude": _entry(p["response_amplitude"], abs(h)),
+           "response_phase_deg": (ph["ci95"][0] <= ph_true <= ph["ci95"][1],
+                                  (ph["median"] - ph_true) / 360.0, (ph["median"] - ph_true)
+                                  / ph["sd"])}
     return out, s["convergence"]["converged"]
 
 
@@ -89,23 +137,46 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n-lp", type=int, default=20)
     ap.add_argument("--n-hf", type=int, default=6)
+    ap.add_argument("--n-step", type=int, default=0)
+    ap.add_argument("--n-sine", type=int, default=0)
+    ap.add_argument("--step-fs", type=float, default=20.0)
+    ap.add_argument("--step-noise-ratio", type=float, default=0.01,
+                    help="step and sine runs: self-noise rms over the signal's acceleration "
+                         "(default 0.01)")
     ap.add_argument("--hours", type=float, default=3.0)
     ap.add_argument("--noise-ratio", type=float, default=0.05,
                     help="sensor self-noise rms over the coil signal's rms (default 0.05)")
     ap.add_argument("--out", default="reports/cal")
     args = ap.parse_args()
-    t = time.time()
-    lp = [lp_case(i, args.hours, args.noise_ratio) for i in range(args.n_lp)]
-    t_lp = time.time() - t
-    hf = [hf_case(i, args.noise_ratio) for i in range(args.n_hf)]
-    result = {"lp": table([r for r, _ in lp]) if lp else {},
-              "hf": table([r for r, _ in hf]) if hf else {},
-              "converged": int(sum(c for _, c in lp + hf)), "runs": len(lp) + len(hf),
-              "seconds": {"lp": t_lp, "hf": time.time() - t - t_lp}, "args": vars(args)}
+    path = os.path.join(args.out, "coverage.json")
+    previous = {}
+    if os.path.exists(path):
+        with open(path) as fh:
+            previous = json.load(fh)
+    kinds = {"lp": (args.n_lp, lambda i: lp_case(i, args.hours, args.noise_ratio)),
+             "hf": (args.n_hf, lambda i: hf_case(i, args.noise_ratio)),
+             "step": (args.n_step, lambda i: step_case(i, args.step_fs, args.step_noise_ratio)),
+             "sine": (args.n_sine, lambda i: sine_case(i, args.step_noise_ratio))}
+    result = {"sections": previous.get("sections", {})}
+    if "lp" in previous and "sections" not in previous:      # the first layout of this file
+        result["sections"] = {k: {"table": previous[k], "args": previous["args"],
+                                  "seconds": previous["seconds"][k],
+                                  "converged": (f"{previous['converged']} of "
+                                                f"{previous['runs']} (lp and hf together)"),
+                                  "runs": previous["args"][f"n_{k}"]}
+                              for k in ("lp", "hf")}
+    for kind, (n, case) in kinds.items():
+        if n == 0:
+            continue
+        t = time.time()
+        rows = [case(i) for i in range(n)]
+        result["sections"][kind] = {"table": table([r for r, _ in rows]),
+                                    "converged": int(sum(c for _, c in rows)), "runs": n,
+                                    "seconds": time.time() - t, "args": vars(args)}
+        print(kind, json.dumps(result["sections"][kind]["table"], indent=1), flush=True)
     os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "coverage.json"), "w") as fh:
+    with open(path, "w") as fh:
         json.dump(result, fh, indent=2)
-    print(json.dumps(result, indent=2))
 
 
 if __name__ == "__main__":

@@ -145,7 +145,7 @@ def test_cli_writes_schema_and_corrected_xml(cli_lp):
 
 @pytest.mark.parametrize("extra, words", [
     (["--output-channel", "BHN"], "no output channel BHN"),
-    (["--kind", "step"], "not implemented"),
+    (["--kind", "step", "--fit", "all"], "--fit lp"),
     (["--fit", "hf", "--band", "0.01", "1"], "reaches no high-frequency pole"),
 ])
 def test_cli_bad_input_exit_2_nothing_written(tmp_path, cli_lp, capsys, extra, words):

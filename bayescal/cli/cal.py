@@ -13,8 +13,11 @@ errors) and the report (DIR/cal_report.pdf and PNG pages). With several
 --output-channel, one sub-folder DIR/<SEED id>/ per channel and one
 sut_corrected.xml holding them all.
 
---kind random (default) is the only kind implemented: step and sine runs are
-refused with a message.
+--kind random (default): PRBS or any broadband drive, --fit lp/hf/all.
+--kind step: one or more steps of the coil input; period, damping and gain
+(--fit lp only). --kind sine: a single sine; the response's amplitude and
+phase at its frequency against the nominal (no --fit; no sut_corrected.xml:
+one frequency does not fix poles or a gain elsewhere).
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ import numpy as np
 from ..io.read import InputError, read_metadata
 from .common import add_paper_argument
 
-HELP = "calibration of a channel from a coil calibration run (random; posterior)"
+HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
 KINDS = ("random", "step", "sine")
 
 
@@ -46,10 +49,11 @@ def configure(parser):
                         help="equivalent ground acceleration per input count (m/s^2 per count)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--kind", default="random", choices=KINDS,
-                        help="calibration signal (default random; step and sine not yet)")
-    parser.add_argument("--fit", default="lp", choices=("lp", "hf", "all"),
+                        help="calibration signal (default random)")
+    parser.add_argument("--fit", default=None, choices=("lp", "hf", "all"),
                         help="lp: period, damping, gain; hf: gain and the high-frequency "
-                             "poles/zeros the band reaches; all: both (default lp)")
+                             "poles/zeros the band reaches; all: both (default lp; random "
+                             "takes all three, step only lp, sine none)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: lp 0.5/T0 to min(25/T0, fs/4), "
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
@@ -107,10 +111,12 @@ def write_outputs(fits, inventory, out, paper="a4"):
             summary = fit.summary()
             write_json(os.path.join(folder, "cal.json"), summary)
             np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
-                     names=np.array(fit.spec.names))
+                     names=np.array(fit.model.names))
             write_report(fit, folder, paper=paper)
             summaries.append(summary)
-        write_corrected_cal(inventory, fits, os.path.join(tmp, "sut_corrected.xml"))
+        corrected = [f for f in fits if f.spec is not None]
+        if corrected:
+            write_corrected_cal(inventory, corrected, os.path.join(tmp, "sut_corrected.xml"))
         os.makedirs(out, exist_ok=True)
         for name in sorted(os.listdir(tmp)):
             dest = os.path.join(out, name)
@@ -128,7 +134,7 @@ def _print_summary(summary):
              for k, v in p.items() if isinstance(v, dict)]
     print(f"{summary['channel']} ({summary['kind']}, fit {summary['fit']}): " + "; ".join(parts))
     for kind in ("hf_poles", "hf_zeros"):
-        for e in p[kind]:
+        for e in p.get(kind, []):
             im = e["imag"].get("median", 0.0)
             print(f"  {kind[3:-1]} near {e['frequency_hz']:.4g} Hz: {e['real']['median']:.5g} "
                   f"+ {im:.5g}i rad/s (nominal {e['nominal'][0]:.5g} + {e['nominal'][1]:.5g}i)")
@@ -139,14 +145,27 @@ def _print_summary(summary):
 def run(args):
     """Entry point of ``bayescal cal``."""
     from ..coil.random import fit_random
+    from ..coil.sine import fit_sine
+    from ..coil.step import fit_step
 
-    if args.kind != "random":
-        raise InputError(f"--kind {args.kind}: not implemented yet (only random); see "
-                         "docs/cal.md")
+    if args.kind == "sine" and args.fit is not None:
+        raise InputError("--kind sine gives the response at the sine's frequency: --fit does "
+                         "not apply")
+    if args.kind != "random" and args.band is not None:
+        raise InputError(f"--kind {args.kind} is fitted in the time domain: --band does not "
+                         "apply")
+    fit = args.fit or "lp"
     runs, inv = load_runs(args)
     band = tuple(args.band) if args.band else None
-    fits = [fit_random(r, args.coil_constant, fit=args.fit, band=band, seed=args.seed + i,
-                       progress=not args.quiet) for i, r in enumerate(runs)]
+    fits = []
+    for i, r in enumerate(runs):
+        kw = dict(seed=args.seed + i, progress=not args.quiet)
+        if args.kind == "random":
+            fits.append(fit_random(r, args.coil_constant, fit=fit, band=band, **kw))
+        elif args.kind == "step":
+            fits.append(fit_step(r, args.coil_constant, fit=fit, **kw))
+        else:
+            fits.append(fit_sine(r, args.coil_constant, **kw))
     summaries = write_outputs(fits, inv, args.out, paper=args.paper)
     if not args.quiet:
         for s in summaries:

@@ -52,7 +52,8 @@ class CalFit:
     def from_chain(cls, kind, run, spec, model, chain, coil_constant, band):
         med = np.median(chain.samples, axis=0)
         model.estimate_noise(med)
-        adequacy = adequacy_summary(model, med)
+        adequacy = (model.adequacy(med) if hasattr(model, "adequacy")
+                    else adequacy_summary(model, med))
         meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
                 "duration_s": run.data.shape[1] / run.fs}
         return cls(kind, run.ids[0], spec, chain.samples, convergence_summary(chain), adequacy,

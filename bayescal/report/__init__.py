@@ -5,6 +5,8 @@
 * :mod:`.fit_pages`  its pages
 * :mod:`.diagnosis`  the diagnosis page
 * :mod:`.uvw`        the UVW calibration report
+* :mod:`.cal`        the coil calibration report of one channel (random, step)
+* :mod:`.cal_time`   its time-series pages (step, sine)
 * :mod:`.batch`      the network tables and report
 * :mod:`.noise`      the self-noise pages (against the NLNM and NHNM)
 

@@ -44,8 +44,11 @@ def response_page(fit, summary, paper="a4"):
 
     c = fit.curves()
     f, nom = c["freqs"], c["nominal"]
-    fc, ratio_m, sd_m = _measured(fit)
-    nom_c = evaluate_velocity_response(fit.response, fc)
+    if hasattr(fit.model, "measured"):
+        fc, ratio_m, sd_m = _measured(fit)
+    else:                                       # time-domain fit: no per-band measurement
+        fc, ratio_m, sd_m = np.zeros(0), np.zeros(0, complex), np.zeros(0)
+    nom_c = evaluate_velocity_response(fit.response, fc) if fc.size else np.zeros(0, complex)
     fig, axes = plt.subplots(2, 2, figsize=page_size(paper, landscape=True), sharex=True)
     (a_amp, a_ph), (r_amp, r_ph) = axes
     a_amp.loglog(f, np.abs(nom), "k--", lw=1, label="nominal")
@@ -147,11 +150,20 @@ def corner_page(fit, summary, paper="a4"):
 
 
 def write_report(fit, folder, paper="a4"):
-    """Write the three PNG pages and ``cal_report.pdf`` (landscape pages of
-    ``paper``, "a4" or "letter") into ``folder``."""
+    """Write the PNG pages and ``cal_report.pdf`` (landscape pages of
+    ``paper``, "a4" or "letter") into ``folder``: for a random run the three
+    above; for a step run the response page (fitted and nominal only), the
+    time series (:mod:`.cal_time`) and the corner plot; for a sine run the
+    time series and the corner plot of amplitude and phase."""
+    from .cal_time import sine_corner_page, timeseries_page
+
     summary = fit.summary()
-    pages = [("cal_response.png", response_page), ("cal_residuals.png", residuals_page),
-             ("cal_corner.png", corner_page)]
+    pages = {"random": [("cal_response.png", response_page),
+                        ("cal_residuals.png", residuals_page), ("cal_corner.png", corner_page)],
+             "step": [("cal_response.png", response_page),
+                      ("cal_timeseries.png", timeseries_page), ("cal_corner.png", corner_page)],
+             "sine": [("cal_timeseries.png", timeseries_page),
+                      ("cal_corner.png", sine_corner_page)]}[fit.kind]
     paths = []
     pdf_path = os.path.join(folder, "cal_report.pdf")
     with PdfPages(pdf_path) as pdf:

@@ -2,7 +2,7 @@
 
 * :mod:`.pair`      a co-located pair (with concealed effects on request)
 * :mod:`.coil`      coil calibration runs of a triaxial sensor
-* :mod:`.cal`       a random coil calibration run of one channel (with HF poles)
+* :mod:`.cal`       a random, step or sine coil calibration run of one channel
 * :mod:`.network`   an SDS archive of pairs over stations and days
 * :mod:`.selfnoise` three co-located sensors with known self-noise
 * :mod:`.coverage`  the uncertainty check: simulate, fit, count the truths inside

@@ -1,8 +1,8 @@
-"""Simulator: a random (PRBS) coil calibration run of one ordinary channel,
-with known long-period pair, gain and high-frequency poles.
+"""Simulator: a random (PRBS), step or sine coil calibration run of one
+ordinary channel, with known long-period pair, gain and high-frequency poles.
 
-The coil makes an equivalent ground acceleration ``C u(t)`` (``u`` the PRBS
-recorded on the input channel, counts). The sensor adds its own white
+The coil makes an equivalent ground acceleration ``C u(t)`` (``u`` the PRBS,
+steps or sine recorded on the input channel, counts). The sensor adds its own white
 equivalent-acceleration self-noise (``noise_ratio`` of the calibration
 signal's rms), and the digitizer white noise in counts:
 
@@ -72,24 +72,78 @@ def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_fr
 def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
                         duration=3 * 3600.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
                         clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, seed=0,
-                        input_channel="BC0", network="XX", station="CAL", location="00",
-                        start=UTCDateTime(2026, 1, 1)):
+                        **header):
     """One random calibration run of a vertical channel (see module docstring).
 
     ``truth``/``nominal``: (period_s, damping, gain V per m/s); ``hf_true`` /
     ``hf_nominal``: high-frequency poles (rad/s, Im >= 0), same count and order.
-    Returns a :class:`CalibrationSimulation` with ``runs["cal"]``.
+    ``header``: ``input_channel``, ``network``, ``station``, ``location``,
+    ``start``. Returns a :class:`CalibrationSimulation` with ``runs["cal"]``.
     """
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
+    u = amplitude * prbs(n, clock_samples, seed=int(rng.integers(1 << 30)))
+    return _simulate(u, "random", rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant,
+                     noise_ratio * coil_constant * amplitude, digitizer_noise,
+                     {"noise_ratio": noise_ratio, "seed": seed}, **header)
+
+
+def simulate_step_cal(truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, fs=20.0,
+                      steps=((120.0, 1.0), (900.0, 0.0)), coil_constant=1e-9, amplitude=1e5,
+                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
+    """One step calibration run: the input is 0 counts, then ``amplitude``
+    times each level of ``steps`` ((time s, level), ...) from that time on.
+    The sensor's white equivalent-acceleration self-noise has rms
+    ``noise_ratio`` times the step's acceleration ``C amplitude``. The
+    record should end at rest long enough for the response to decay (it is
+    built periodically)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    t = np.arange(n) / fs
+    u = np.zeros(n)
+    for t0, level in steps:
+        u[t >= t0] = amplitude * level
+    return _simulate(u, "step", rng, truth, (), nominal, (), fs, coil_constant,
+                     noise_ratio * coil_constant * amplitude, digitizer_noise,
+                     {"noise_ratio": noise_ratio, "seed": seed, "steps": [list(s) for s in steps]},
+                     **header)
+
+
+def simulate_sine_cal(freq, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
+                      duration=900.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
+                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
+    """One sine calibration run at ``freq`` Hz (rounded to a whole number of
+    cycles in the record, so the periodic construction is the steady state
+    of a sine running before the record). Self-noise rms ``noise_ratio``
+    times the sine's acceleration amplitude. ``truth["sine_freq_hz"]`` is
+    the frequency used and ``truth["response"]`` the true response there
+    (counts per m/s, real and imaginary part)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    f0 = max(1, round(freq * n / fs)) * fs / n
+    phase = rng.uniform(0, 2 * np.pi)
+    u = amplitude * np.sin(2 * np.pi * f0 * np.arange(n) / fs + phase)
+    h0 = paz_velocity_response([f0], *truth, extra_poles=_expand(hf_true),
+                               digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)[0]
+    return _simulate(u, "sine", rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant,
+                     noise_ratio * coil_constant * amplitude, digitizer_noise,
+                     {"noise_ratio": noise_ratio, "seed": seed, "sine_freq_hz": f0,
+                      "response": [h0.real, h0.imag]}, **header)
+
+
+def _simulate(u, kind, rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant, noise_std,
+              digitizer_noise, extra, input_channel="BC0", network="XX", station="CAL",
+              location="00", start=UTCDateTime(2026, 1, 1)):
+    """Output of a channel with the true response to ``C u`` plus self-noise
+    (std ``noise_std`` m/s^2, white) and digitizer noise; Stream, StationXML."""
+    n = u.size
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     iw = 2j * np.pi * freqs
     iw[0] = np.inf
     k = paz_velocity_response(freqs, *truth, extra_poles=_expand(hf_true),
                               digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
-    u = amplitude * prbs(n, clock_samples, seed=int(rng.integers(1 << 30)))
     a_f = np.fft.rfft(coil_constant * u)
-    noise = _white(rng, freqs.size, noise_ratio * coil_constant * amplitude, n)
+    noise = _white(rng, freqs.size, noise_std, n)
     x = np.fft.irfft(k * (a_f + noise) / iw, n=n) + digitizer_noise * rng.standard_normal(n)
     code = f"{band_code(fs)}HZ"
     hdr = dict(network=network, station=station, location=location, sampling_rate=fs,
@@ -100,7 +154,7 @@ def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nom
                  depth=0.0, azimuth=0.0, dip=-90.0, sample_rate=fs, start_date=start - 86400,
                  response=paz_response(*nominal, hf_poles=hf_nominal, sample_rate=fs))
     sta = Station(code=station, latitude=0.0, longitude=0.0, elevation=0.0, channels=[ch],
-                  site=Site(name="bayescal random calibration simulation"),
+                  site=Site(name=f"bayescal {kind} calibration simulation"),
                   start_date=start - 86400)
     inv = Inventory(networks=[Network(code=network, stations=[sta])],
                     source="bayescal.simulate.cal")
@@ -108,7 +162,7 @@ def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nom
                "hf_poles": [[complex(p).real, complex(p).imag] for p in hf_true],
                "nominal": {"period_s": nominal[0], "damping": nominal[1], "gain": nominal[2],
                            "hf_poles": [[complex(p).real, complex(p).imag] for p in hf_nominal]},
-               "coil_constant": coil_constant, "noise_ratio": noise_ratio, "duration_s": duration,
-               "sampling_rate": fs, "seed": seed, "channel": f"{network}.{station}.{location}.{code}",
-               "input_channel": input_channel, "kind": "random"}
+               "coil_constant": coil_constant, "duration_s": n / fs,
+               "sampling_rate": fs, "channel": f"{network}.{station}.{location}.{code}",
+               "input_channel": input_channel, "kind": kind, **extra}
     return CalibrationSimulation(runs={"cal": st}, inventory=inv, truth=truth_d)

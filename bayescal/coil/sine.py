@@ -1,0 +1,168 @@
+"""Sine calibration of one output channel: the response at the sine's
+frequency ``f0`` (amplitude and phase), with its posterior.
+
+The model is that of :mod:`.timedomain` with the nominal response's output
+to the recorded input, ``p(t)``, and its quadrature ``q(t)`` (the same with
+the spectrum multiplied by ``i``) combined as
+
+    m(t; theta) = Re(rho) p(t) + Im(rho) q(t),   rho = H(f0) / H_nom(f0) = A e^{i phi},
+
+exact for a steady sine (``irfft(rho P) = Re(rho) irfft(P) + Im(rho) irfft(iP)``).
+``theta = (ln A, phi)``. The first ``SETTLE_DECAYS`` decay times of the
+nominal pendulum are left out of the likelihood: there the model holds the
+transient of a sine switched on at the record's start, which a record cut
+from a running sine does not. The frequency is the input's periodogram peak
+refined by least squares; an input that a single sine does not explain
+(``MIN_SINE_FRACTION`` of its variance) is refused.
+
+Reported: ``f0``, the amplitude ratio ``A`` and phase difference ``phi``
+(degrees) against the nominal response, and the implied response
+(counts per m/s, amplitude and phase) at ``f0``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ..core.posterior import interval_summary
+from ..core.sampler import FitError, sample, single_threaded_blas
+from ..io.read import InputError
+from .result import SCHEMA, convergence_summary
+from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
+                         least_squares_time, padding)
+
+#: Decay times ``1 / (h w0)`` of the nominal pendulum left out at the start.
+SETTLE_DECAYS = 8.0
+#: Fraction of the input's variance a single sine must explain.
+MIN_SINE_FRACTION = 0.95
+
+
+def sine_frequency(u, fs):
+    """Frequency (Hz) of the sine in ``u`` and the fraction of its variance
+    the best single sine explains."""
+    u = u - u.mean()
+    n = u.size
+    t = np.arange(n) / fs
+    spec = np.abs(np.fft.rfft(u * np.hanning(n)))
+    k = int(np.argmax(spec[1:])) + 1
+    df = fs / n
+
+    def misfit(f):
+        design = np.column_stack([np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)])
+        c, *_ = np.linalg.lstsq(design, u, rcond=None)
+        return float(np.sum((u - design @ c) ** 2))
+
+    res = minimize_scalar(misfit, bounds=(max((k - 1) * df, 0.5 * df), (k + 1) * df),
+                          method="bounded", options={"xatol": 1e-6 * df})
+    return float(res.x), 1.0 - res.fun / float(u @ u)
+
+
+class SineModel(TimeModel):
+    """:class:`TimeModel` with ``m = Re(rho) p + Im(rho) q``."""
+
+    names = ("log_amplitude_ratio", "phase_rad")
+    ndim = 2
+
+    def __init__(self, x, fs, predictor, skip):
+        self._cache = {}
+        super().__init__(x, fs, predictor, skip)
+
+    def set_noise(self, a, s2):
+        self._cache = {}
+        super().set_noise(a, s2)
+
+    def bounds(self):
+        return np.array([np.log(0.1), -np.pi]), np.array([np.log(10.0), np.pi])
+
+    def predict(self, theta, weight=None):
+        theta = np.atleast_2d(theta)
+        key = "raw" if weight is None else "whitened"
+        if key not in self._cache:
+            self._cache[key] = self.predictor(np.array([[1.0], [1j]]), weight)   # p, q
+        pq = self._cache[key]
+        rho = np.exp(theta[:, 0]) * np.exp(1j * theta[:, 1])
+        return rho.real[:, None] * pq[0][None] + rho.imag[:, None] * pq[1][None]
+
+
+@dataclass
+class SineFit:
+    """Posterior of the response at one frequency from a sine run."""
+
+    channel: str
+    freq_hz: float
+    nominal: complex            # nominal response at f0 (counts per m/s)
+    theta: np.ndarray           # (N, 2) ln A, phi
+    convergence: dict
+    adequacy: dict
+    response: object
+    meta: dict = field(default_factory=dict)
+    model: object = field(default=None, repr=False)
+    kind: str = "sine"
+    spec: object = None
+
+    def physical(self):
+        """Samples: amplitude ratio, phase difference (deg), response
+        amplitude (counts per m/s) and phase (deg) at ``f0``."""
+        a, phi = np.exp(self.theta[:, 0]), self.theta[:, 1]
+        return {"amplitude_ratio": a, "phase_difference_deg": np.degrees(phi),
+                "response_amplitude": a * abs(self.nominal),
+                "response_phase_deg": np.degrees(np.angle(self.nominal) + phi)}
+
+    def summary(self):
+        """The ``cal.json`` content (kind ``sine``)."""
+        params = {k: interval_summary(v) for k, v in self.physical().items()}
+        return {"schema": SCHEMA, "kind": "sine", "channel": self.channel,
+                "fit": "response at the sine's frequency", "frequency_hz": self.freq_hz,
+                "parameters": params,
+                "nominal": {"response_amplitude": abs(self.nominal),
+                            "response_phase_deg": float(np.degrees(np.angle(self.nominal)))},
+                "units": {"response_amplitude": "counts per m/s (velocity, whole response)",
+                          "phase": "degrees"},
+                "convergence": self.convergence, "adequacy": self.adequacy, "meta": self.meta}
+
+
+def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
+    """Posterior of the response at the sine's frequency from a sine run
+    (``run`` restricted to one output). Returns a :class:`SineFit`."""
+    if len(run.axes) != 1:
+        raise ValueError("fit_sine takes a run with one output (CalRun.select)")
+    x, u = checked_arrays(run)
+    u = u - u.mean()
+    if not np.ptp(u) > 0:
+        raise InputError(f"{run.source}: the input channel holds no sine (it is constant)")
+    f0, frac = sine_frequency(u, run.fs)
+    if frac < MIN_SINE_FRACTION:
+        raise InputError(f"{run.source}: the input is not a single sine (the best sine, at "
+                         f"{f0:.4g} Hz, explains {100 * frac:.0f} % of its variance)")
+    fam = run.families[0]
+    decay = fam.period_s / (2 * np.pi * max(fam.damping, 0.05))
+    skip = int(SETTLE_DECAYS * decay * run.fs)
+    if x.size < 2 * skip or x.size * f0 / run.fs < 10:
+        raise InputError(f"{run.source}: the sine run is too short: {x.size / run.fs:.0f} s; "
+                         f"needs twice the settling time ({2 * skip / run.fs:.0f} s) and 10 "
+                         "cycles")
+    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(fam, run.fs))
+    model = SineModel(x, run.fs, pred, skip)
+    # start: least squares of x on (p, q) with offset and drift
+    design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
+                              model.predict(np.array([0.0, np.pi / 2]))[0], model._nuisance])
+    c, *_ = np.linalg.lstsq(design[skip:], x[skip:], rcond=None)
+    rho = complex(c[0], c[1])
+    if not 0.1 < abs(rho) < 10:
+        raise FitError(f"{run.source}: the response at {f0:.4g} Hz comes out {abs(rho):.3g} "
+                       "times the nominal: check --coil-constant")
+    theta0 = np.array([np.log(abs(rho)), np.angle(rho)])
+    with single_threaded_blas():
+        model.estimate_noise(theta0)
+        theta, cov = least_squares_time(model, theta0)
+        chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    med = np.median(chain.samples, axis=0)
+    model.estimate_noise(med)
+    nominal = complex(run.nominal_response(np.array([f0]))[0, 0])
+    meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
+            "duration_s": x.size / run.fs, "settle_s": skip / run.fs,
+            "sine_fraction_of_input": frac}
+    return SineFit(run.ids[0], f0, nominal, chain.samples, convergence_summary(chain),
+                   model.adequacy(med), run.responses[0], meta, model)

@@ -1,0 +1,124 @@
+"""Step calibration of one output channel: the response to one or more steps
+of coil current (an acceleration step ``C du``), fitted in the time domain
+(:mod:`.timedomain`: AR noise estimated from the residual, offset and drift
+marginalised) with the long-period pair and the gain free
+(:class:`bayescal.coil.hf.PZSpec` ``fit="lp"``): period and damping, as the
+USGS ASL Sensor Test Suite reports them from a step, and the gain.
+
+The input may hold any sequence of steps (on, off, several): the model is
+the nominal response with the free parts replaced, applied to the recorded
+input through a zero-padded FFT. The record is assumed to start with the
+input at rest for long enough that the sensor has settled (the input's
+first level is taken as its rest level).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from scipy.fft import irfft
+
+from ..core.sampler import FitError, sample, single_threaded_blas
+from ..io.read import InputError
+from .hf import PZSpec
+from .result import CalFit
+from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
+                         least_squares_time, padding)
+
+
+class StepModel(TimeModel):
+    """:class:`TimeModel` with the response of a :class:`PZSpec`."""
+
+    def __init__(self, x, fs, predictor, spec):
+        self.spec = spec
+        self.names = spec.names
+        self.ndim = spec.ndim
+        self._bounds = spec.bounds()
+        if spec.items or not spec.has_lp:
+            raise ValueError("StepModel fits the long-period pair and gain only")
+        fam = spec.family
+        self._s = 2j * np.pi * predictor.freqs
+        self._s2 = self._s * self._s
+        w0n = 2 * np.pi / fam.period_s
+        self._d_nom = fam.denominator(self._s, w0n, fam.damping)
+        self._sn = 2j * np.pi * fam.norm_freq
+        self._dn = abs(fam.denominator(self._sn, w0n, fam.damping)) * fam.gain
+        self._cache = {}
+        super().__init__(x, fs, predictor)
+
+    def set_noise(self, a, s2):
+        self._cache = {}
+        super().set_noise(a, s2)
+
+    def bounds(self):
+        return self._bounds
+
+    def predict(self, theta, weight=None):
+        """Model output (W, n): :meth:`PZSpec.ratio` (``fit="lp"``) written
+        out with its per-frequency constants cached (the hot path)."""
+        theta = np.atleast_2d(theta)
+        key = "raw" if weight is None else "whitened"
+        if key not in self._cache:
+            x = self.predictor.spectrum if weight is None else self.predictor.spectrum * weight
+            self._cache[key] = x * self._d_nom
+        const = self._cache[key]
+        w0 = 2 * np.pi / np.exp(theta[:, 0])
+        b, c = 2.0 * theta[:, 1] * w0, w0 * w0
+        amp = np.exp(theta[:, 2]) * np.abs(self._sn ** 2 + b * self._sn + c) / self._dn
+        d = self._s2[None] + b[:, None] * self._s[None] + c[:, None]
+        spec = (amp[:, None] * const[None]) / d
+        return irfft(spec, n=self.predictor.nfft, axis=1)[:, :self.predictor.n]
+
+
+def rest_level(u):
+    """The input's level before its first change: the median of the samples
+    before it first moves by half its range."""
+    span = np.ptp(u)
+    moved = np.flatnonzero(np.abs(u - u[0]) > 0.5 * span)
+    first = moved[0] if moved.size else u.size
+    return float(np.median(u[:max(first, 1)]))
+
+
+def _start(model, spec):
+    """Nominal theta with the gain scaled by least squares (offset, drift free)."""
+    theta = spec.nominal_theta()
+    m = model.predict(theta)[0]
+    design = np.column_stack([m, model._nuisance])
+    coef, *_ = np.linalg.lstsq(design, model.x, rcond=None)
+    return theta, coef[0]
+
+
+def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, **sample_kw):
+    """Posterior of period, damping and gain from a step run (``run``
+    restricted to one output). Returns a :class:`CalFit` of kind ``step``."""
+    if len(run.axes) != 1:
+        raise ValueError("fit_step takes a run with one output (CalRun.select)")
+    if fit != "lp":
+        raise InputError(f"{run.source}: --kind step fits the long-period pair and the gain "
+                         f"only (--fit lp), not --fit {fit}")
+    x, u = checked_arrays(run)
+    u = u - rest_level(u)
+    if not np.ptp(u) > 0:
+        raise InputError(f"{run.source}: the input channel holds no step (it is constant)")
+    spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source)
+    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
+    model = StepModel(x, run.fs, pred, spec)
+    theta0, scale = _start(model, spec)
+    if not scale > 0:
+        raise FitError(f"{run.source}: {run.ids[0]} responds to the coil with the opposite sign "
+                       "to its nominal response: check the coil wiring or the output polarity")
+    theta0[spec.i_gain] += np.log(scale)
+    lo, hi = spec.bounds()
+    if not lo[spec.i_gain] < theta0[spec.i_gain] < hi[spec.i_gain]:
+        raise FitError(f"{run.source}: the gain comes out {np.exp(theta0[spec.i_gain]):.4g}, "
+                       f"more than {spec.priors.gain_factor:g}x from nominal "
+                       f"{spec.family.gain:.4g}: check --coil-constant")
+    with single_threaded_blas():
+        model.estimate_noise(theta0)
+        theta, cov = least_squares_time(model, theta0)
+        chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    dur = x.size / run.fs
+    band = (1.0 / dur, 0.4 * run.fs)
+    out = CalFit.from_chain("step", run, spec, model, chain, coil_constant, band)
+    out.meta["band_note"] = "band_hz: the range the response curves are drawn over"
+    out.meta["n_steps_in_input"] = int(np.sum(np.abs(np.diff(u)) > 0.5 * np.ptp(u)))
+    return out

@@ -1,0 +1,229 @@
+"""Time-domain likelihood of a calibration run whose input is not broadband
+(a step or a sine), shared by :mod:`.step` and :mod:`.sine`.
+
+The output is modelled sample by sample as
+
+    x(t) = m(t; theta) + c0 + c1 t + n(t),
+
+with ``m`` the response of the channel to the recorded input (computed by
+:func:`Predictor`: FFT of the input over a zero-padded buffer, so the
+convolution is linear, not circular), an offset and a linear drift
+(nuisance, marginalised with a flat prior by projecting them out), and
+``n`` stationary, autocorrelated noise modelled as an autoregression
+AR(p) estimated from the data: the residual of the least-squares fit over
+the whole record (before, during and after the step(s), or around the sine),
+its order chosen by BIC (at most ``MAX_AR_ORDER``), the fit and the noise
+re-estimated in turn. With the AR prediction-error filter ``L`` (innovation
+variance ``s2``) the log likelihood is
+
+    log L(theta) = -|| P (L x - L m(theta)) ||^2 / (2 s2),
+
+``P`` the projection orthogonal to the whitened nuisance columns, the first
+``p`` samples (whose whitening needs samples before the record) and any
+settling time left out. Whitening the model is one product with the AR
+filter's frequency response inside the same FFT. The posterior is sampled by
+:func:`bayescal.core.sampler.sample` (the sampler and convergence rule of
+every bayescal fit), started from the least-squares point and its Laplace
+covariance.
+
+Adequacy: the standardised innovations at the posterior median should be
+white with unit variance; ``adequacy`` gives their mean square and the
+Ljung-Box p-value of their first ``LB_LAGS`` autocorrelations.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
+from scipy.optimize import least_squares
+from scipy.signal import lfilter
+from scipy.stats import chi2
+
+from ..core.sampler import FitError
+from ..io.read import InputError
+
+#: Largest autoregression order tried for the noise.
+MAX_AR_ORDER = 20
+#: Lags of the Ljung-Box whiteness check of the innovations.
+LB_LAGS = 20
+#: Zero padding after the record, in decay times ``1 / (h w0)`` of the
+#: nominal pendulum: the response to the record's last samples has decayed
+#: to ``e^-25`` before it could wrap round to the start of the buffer.
+PAD_DECAYS = 25.0
+
+
+def ar_fit(r, max_order=MAX_AR_ORDER):
+    """Autoregression of ``r`` by least squares, order by BIC.
+
+    Returns ``(a, s2)``: ``r_t = sum_k a_k r_{t-k} + e_t``, ``var e = s2``.
+    """
+    r = np.asarray(r, float) - np.mean(r)
+    n = r.size
+    best = (n * np.log(np.mean(r * r)), np.zeros(0), float(np.mean(r * r)))
+    p_max = min(max_order, n // 20)
+    lagged = np.column_stack([r[p_max - k:n - k] for k in range(1, p_max + 1)])
+    y = r[p_max:]
+    for p in range(1, p_max + 1):
+        a, *_ = np.linalg.lstsq(lagged[:, :p], y, rcond=None)
+        e = y - lagged[:, :p] @ a
+        s2 = float(np.mean(e * e))
+        bic = y.size * np.log(s2) + p * np.log(y.size)
+        if bic < best[0]:
+            best = (bic, a, s2)
+    return best[1], best[2]
+
+
+def prediction_error_filter(a):
+    """FIR coefficients ``[1, -a_1, ..., -a_p]`` of the AR whitening filter."""
+    return np.r_[1.0, -np.asarray(a, float)]
+
+
+class Predictor:
+    """Response of a channel to a recorded input, on a zero-padded FFT grid.
+
+    ``transfer(f)`` (F,) is the nominal input-to-output transfer (counts per
+    input count); :meth:`__call__` multiplies it by ``ratio`` (W, F) (the
+    fitted over the nominal response) and by ``weight`` (F,) (e.g. the
+    whitening filter) and returns the first ``n`` samples, shape (W, n).
+    """
+
+    def __init__(self, u, fs, transfer, pad):
+        self.n = u.size
+        # after the record the input is held at its last value and brought to
+        # zero smoothly (half a Hann window, ``pad // 4`` samples), then zeros:
+        # an abrupt end would ring back into the record (band-limited signal)
+        taper = max(int(pad) // 4, 64)
+        tail = u[-1] * 0.5 * (1 + np.cos(np.pi * np.arange(1, taper + 1) / taper))
+        self.nfft = next_fast_len(self.n + taper + int(pad), real=True)
+        self.freqs = rfftfreq(self.nfft, 1.0 / fs)
+        self.spectrum = rfft(np.r_[u, tail], n=self.nfft) * transfer(self.freqs)
+
+    def __call__(self, ratio, weight=None):
+        x = self.spectrum if weight is None else self.spectrum * weight
+        return irfft(np.atleast_2d(ratio) * x[None], n=self.nfft, axis=1)[:, :self.n]
+
+
+def coil_transfer(run, coil_constant):
+    """Nominal transfer from input counts to output counts of a one-output
+    run: ``H_nom(f) C / (2 pi i f)`` (zero at 0 Hz: the velocity response
+    has zeros at the origin)."""
+    def transfer(f):
+        f = np.asarray(f, float)
+        h = np.zeros(f.size, complex)
+        pos = f > 0
+        h[pos] = run.nominal_response(f[pos])[0] * coil_constant / (2j * np.pi * f[pos])
+        return h
+    return transfer
+
+
+def padding(family, fs):
+    """Samples of zero padding after a record (see ``PAD_DECAYS``)."""
+    decay = family.period_s / (2 * np.pi * max(family.damping, 0.05))
+    return int(PAD_DECAYS * decay * fs) + 64
+
+
+def checked_arrays(run):
+    """Output and input of a one-output run as float arrays; gaps refused."""
+    x, u = run.data[0], run.input
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+        raise InputError(f"{run.source}: the run has gaps; step and sine calibration need a "
+                         "continuous record (cut it at the gap)")
+    return x.astype(float), u.astype(float)
+
+
+class TimeModel:
+    """Posterior of ``theta`` from a time series (see module docstring).
+
+    Subclasses set ``names``, ``ndim``, ``bounds()`` and
+    ``predict(theta, weight)`` -> (W, n) model output (through the FFT
+    weight ``weight``, the whitening filter's response, when given).
+    """
+
+    def __init__(self, x, fs, predictor, skip=0):
+        self.x = np.asarray(x, float)
+        self.fs = fs
+        self.predictor = predictor
+        self.skip = int(skip)
+        t = np.arange(self.x.size) / fs
+        self._nuisance = np.column_stack([np.ones_like(t), t - t.mean()])
+        self.set_noise(np.zeros(0), 1.0)
+
+    # --- noise ---------------------------------------------------------------
+    def set_noise(self, a, s2):
+        """Use AR coefficients ``a`` and innovation variance ``s2``."""
+        self.ar, self.s2 = np.asarray(a, float), float(s2)
+        b = prediction_error_filter(self.ar)
+        self._weight = np.polyval(b[::-1], np.exp(-2j * np.pi * self.predictor.freqs / self.fs))
+        self._keep = slice(max(self.skip, self.ar.size), None)
+        xw = lfilter(b, 1.0, self.x)[self._keep]
+        nw = lfilter(b, 1.0, self._nuisance, axis=0)[self._keep]
+        self._q, _ = np.linalg.qr(nw)
+        self._xw = xw - self._q @ (self._q.T @ xw)
+
+    def raw_residual(self, theta):
+        """``x - m(theta)`` with offset and drift removed by least squares."""
+        r = self.x - self.predict(theta)[0]
+        c, *_ = np.linalg.lstsq(self._nuisance, r, rcond=None)
+        return r - self._nuisance @ c
+
+    def estimate_noise(self, theta):
+        """AR noise model from the residual at ``theta`` (after ``skip``)."""
+        a, s2 = ar_fit(self.raw_residual(theta)[self.skip:])
+        self.set_noise(a, s2)
+
+    # --- likelihood ----------------------------------------------------------
+    def innovations(self, theta):
+        """Standardised whitened residuals, (W, n_kept)."""
+        mw = self.predict(theta, self._weight)[:, self._keep]
+        mw = mw - (mw @ self._q) @ self._q.T
+        return (self._xw[None] - mw) / np.sqrt(self.s2)
+
+    def log_prior(self, theta):
+        theta = np.atleast_2d(theta)
+        lo, hi = self.bounds()
+        return np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
+
+    def log_prob(self, theta):
+        """Vectorised log posterior: theta (W, ndim) -> (W,)."""
+        theta = np.atleast_2d(theta)
+        lp = self.log_prior(theta)
+        out = np.full(theta.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if ok.any():
+            e = self.innovations(theta[ok])
+            out[ok] = lp[ok] - 0.5 * np.sum(e * e, axis=1)
+        return out
+
+    def adequacy(self, theta):
+        """Mean square of the standardised innovations (about 1 when the
+        model fits), the Ljung-Box p-value of their whiteness, the AR order."""
+        e = self.innovations(theta)[0]
+        e0 = e - e.mean()
+        n = e0.size
+        acf = np.array([e0[k:] @ e0[:-k] for k in range(1, LB_LAGS + 1)]) / (e0 @ e0)
+        q = n * (n + 2) * np.sum(acf ** 2 / (n - np.arange(1, LB_LAGS + 1)))
+        return {"misfit": float(np.mean(e * e)), "n_samples": int(n),
+                "p_value": float(chi2.sf(q, LB_LAGS)),
+                "test": f"Ljung-Box on the innovations, {LB_LAGS} lags",
+                "ar_order": int(self.ar.size)}
+
+
+def least_squares_time(model, theta0, passes=3):
+    """Least squares on the whitened residual, the AR noise re-estimated
+    after each pass. Returns ``(theta, Laplace covariance (J^T J)^-1)``."""
+    lo, hi = model.bounds()
+    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
+
+    def fun(t):
+        return model.innovations(t[None])[0]
+
+    for _ in range(passes):
+        res = least_squares(fun, theta, bounds=(lo, hi), x_scale="jac", method="trf",
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        theta = res.x
+        model.estimate_noise(theta)
+    res = least_squares(fun, theta, bounds=(lo, hi), x_scale="jac", method="trf", max_nfev=1)
+    try:
+        cov = np.linalg.inv(res.jac.T @ res.jac)
+    except np.linalg.LinAlgError as exc:
+        raise FitError("the least-squares point is degenerate (singular information)") from exc
+    return theta, 0.5 * (cov + cov.T)

@@ -1,0 +1,66 @@
+"""Report pages of a time-domain coil calibration (step or sine; see
+:mod:`bayescal.coil.timedomain`):
+
+* ``cal_timeseries.png``: the recorded output and the fitted model (posterior
+  median, offset and drift removed) against time, the input below, and the
+  standardised innovations (whitened residuals) with their histogram
+  against the unit normal;
+* for a sine run, ``cal_corner.png``: corner plot of the amplitude ratio and
+  phase difference against the nominal (2-D contours at 68 % and 95 % of the
+  mass).
+"""
+from __future__ import annotations
+
+import corner
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size  # noqa: E402
+
+
+def timeseries_page(fit, summary, paper="a4"):
+    """Output, fitted model, input and standardised innovations."""
+    m = fit.model
+    med = np.median(fit.theta, axis=0)
+    t = np.arange(m.x.size) / m.fs
+    model = m.predict(med)[0]
+    resid = m.raw_residual(med)
+    data = model + resid
+    e = m.innovations(med)[0]
+    fig, axes = plt.subplots(3, 1, figsize=page_size(paper, landscape=True),
+                             gridspec_kw={"height_ratios": [2, 1, 1]})
+    a1, a2, a3 = axes
+    a1.plot(t, data, color="0.6", lw=0.6, label="recorded (offset, drift removed)")
+    a1.plot(t, model, color="tab:blue", lw=1, label="fitted (posterior median)")
+    if m.skip:
+        a1.axvspan(0, m.skip / m.fs, color="0.9", label="settling time, not fitted")
+    a1.set_ylabel("output (counts)")
+    a1.legend(fontsize=8)
+    a2.plot(t, resid, color="tab:red", lw=0.5)
+    a2.set_ylabel("residual (counts)")
+    a2.set_xlabel("time since record start (s)")
+    a3.hist(e, bins=80, density=True, color="0.6")
+    z = np.linspace(-4, 4, 200)
+    a3.plot(z, np.exp(-z * z / 2) / np.sqrt(2 * np.pi), "k--", lw=1, label="unit normal")
+    ad = summary["adequacy"]
+    a3.set_xlabel(f"standardised innovation (AR({ad['ar_order']}) noise); mean square "
+                  f"{ad['misfit']:.3f}, {ad['test']} p = {ad['p_value']:.3g}")
+    a3.legend(fontsize=8)
+    fig.suptitle(f"{summary['channel']}: {summary['kind']} calibration, fit in time")
+    fig.tight_layout()
+    return fig
+
+
+def sine_corner_page(fit, summary, paper="a4"):
+    """Corner plot of the amplitude ratio and the phase difference."""
+    phys = fit.physical()
+    data = np.column_stack([phys["amplitude_ratio"], phys["phase_difference_deg"]])
+    fig = plt.figure(figsize=(8, 8))
+    corner.corner(data, fig=fig, labels=["amplitude / nominal", "phase - nominal (deg)"],
+                  levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES, plot_datapoints=False)
+    fig.suptitle(f"{summary['channel']}: response at {summary['frequency_hz']:.5g} Hz "
+                 "(2-D contours: 68 % and 95 % of the mass)")
+    return fig
