@@ -59,7 +59,12 @@ def _fmt(entry):
 
 
 def print_summary(summary, stream=sys.stdout):
-    """A short table of the result: medians and 95 % intervals."""
+    """A short table of the result: the model check first (a fit that fails
+    it says so before any number), then medians and 95 % intervals."""
+    from ..core.adequacy import describe
+
+    if "adequacy" in summary:
+        print(describe(summary["adequacy"]), file=stream)
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
     for cid, e in summary["channels"].items():
         az = e["azimuth_deg"]

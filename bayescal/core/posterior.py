@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .adequacy import from_diagnostics
 from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
 
@@ -139,6 +140,7 @@ class Posterior:
         conv = self.convergence
         return {
             "schema": SCHEMA,
+            "adequacy": from_diagnostics(self.diagnostics),
             "channels": {cid: self.channel_summary(k) for k, cid in enumerate(self.channel_ids)},
             "not_estimable": self.not_estimable,
             "orthogonality_deg": self.orthogonality(),
