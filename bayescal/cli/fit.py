@@ -72,7 +72,9 @@ def print_summary(summary, stream=sys.stdout):
         az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         for name, r in e.get("response", {}).items():
-            print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+            note = f"  SET BY THE PRIOR ({r['action']}): {r['reason']}" if r.get("set_by_prior") \
+                else ""
+            print(f"{'':22s}  {name} {_fmt(r)}{note}", file=stream)
     for pair, e in summary.get("orthogonality_deg", {}).items():
         print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
               file=stream)

@@ -51,6 +51,11 @@ def page_summary(ctx):
     for cid in post.channel_ids:
         for msg in flags.get(cid, []):
             text.append(f"  {cid}: {msg}")
+    for cid, params in ctx.summary.get("set_by_prior", {}).items():
+        for name, why in params.items():
+            text += textwrap.wrap(f"  {cid}: {name} SET BY THE PRIOR, not by the data: {why};"
+                                  " the corrected StationXML keeps its nominal value", 130,
+                                  subsequent_indent="    ")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
     if not conv["converged"]:
