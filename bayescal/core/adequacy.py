@@ -49,6 +49,9 @@ def adequacy(misfit, band_edges, channel_ids, n_r, alpha=ALPHA):
     p = band_p_values(misfit, n_r)
     flags = mismatch_flags(p, alpha)
     edges = np.asarray(band_edges, float)
+    channel_ids = list(channel_ids)
+    if len(channel_ids) != misfit.shape[1]:          # spectra without channel ids
+        channel_ids = [str(i) for i in range(misfit.shape[1])]
 
     def cell(b, i):
         return {"band_hz": [float(edges[b]), float(edges[b + 1])], "channel": str(channel_ids[i]),
