@@ -58,11 +58,12 @@ def _fmt(entry):
     return f"{entry['median']:.3f} (fixed)"
 
 
-def print_summary(summary, stream=sys.stdout):
+def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
     it says so before any number), then medians and 95 % intervals."""
     from ..core.adequacy import describe
 
+    stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     if "adequacy" in summary:
         print(describe(summary["adequacy"]), file=stream)
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
