@@ -56,8 +56,14 @@ def _fmt(entry):
     return f"{entry['median']:.3f} (fixed)"
 
 
-def print_summary(summary, stream=sys.stdout):
-    """A short table of the result: medians and 95 % intervals."""
+def print_summary(summary, stream=None):
+    """A short table of the result: the model check first (a fit that fails
+    it says so before any number), then medians and 95 % intervals."""
+    from ..core.adequacy import describe
+
+    stream = stream or sys.stdout       # looked up now, not at import (redirection works)
+    if "adequacy" in summary:
+        print(describe(summary["adequacy"]), file=stream)
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
     for cid, e in summary["channels"].items():
         az = e["azimuth_deg"]
@@ -65,7 +71,9 @@ def print_summary(summary, stream=sys.stdout):
         az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         for name, r in e.get("response", {}).items():
-            print(f"{'':22s}  {name} {_fmt(r)}", file=stream)
+            note = f"  SET BY THE PRIOR ({r['action']}): {r['reason']}" if r.get("set_by_prior") \
+                else ""
+            print(f"{'':22s}  {name} {_fmt(r)}{note}", file=stream)
     for pair, e in summary.get("orthogonality_deg", {}).items():
         print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
               file=stream)

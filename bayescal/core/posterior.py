@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .adequacy import from_diagnostics
+from .unconstrained import by_channel
 from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
 
@@ -111,6 +113,14 @@ class Posterior:
             entry["response"] = {name: interval_summary(r[:, j])
                                  for j, name in enumerate(("period_s", "damping", "gain"))
                                  if self.meta.get("free_response") == "all" or name == "gain"}
+            for name, why in by_channel(self.meta.get("set_by_prior")).get(cid, {}).items():
+                if name not in entry["response"]:
+                    continue
+                mark = {"set_by_prior": True, "reason": why["reason"], "action": why["action"]}
+                if why["action"] == "held at nominal":
+                    entry["response"][name] = {**fixed_summary(why["nominal"]), **mark}
+                else:
+                    entry["response"][name].update(mark)
         nominal = self.meta.get("nominal", {}).get(cid)
         if nominal:
             entry["nominal"] = nominal
@@ -139,8 +149,11 @@ class Posterior:
         conv = self.convergence
         return {
             "schema": SCHEMA,
+            "adequacy": from_diagnostics(self.diagnostics),
             "channels": {cid: self.channel_summary(k) for k, cid in enumerate(self.channel_ids)},
             "not_estimable": self.not_estimable,
+            "set_by_prior": {cid: {k: v["reason"] for k, v in e.items()} for cid, e in
+                             by_channel(self.meta.get("set_by_prior")).items()},
             "orthogonality_deg": self.orthogonality(),
             "convergence": {"ess_min": float(np.min(conv["ess"])),
                             "tau_max": float(np.max(conv["tau"])),

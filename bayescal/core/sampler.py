@@ -338,11 +338,17 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
                        "fixed to the reference's (one channel each), so only its response can "
                        "be estimated: add --fit-response")
+    from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
     with single_threaded_blas():
         theta_ls, cov = least_squares_fit(model, setup.theta0)
-        chain = sample(model, theta_ls, cov, seed=seed, progress=progress, **sample_kw)
-    vecs, _ = model.unpack(chain.samples)
-    resp = model.response_values(chain.samples) if free != "none" else {}
+        # parameters the data do not constrain are held at nominal (issue 13 item 5)
+        target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
+        chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
+    full = full_samples(target, chain.samples)
+    held = [j for j, n in enumerate(model.names) if n in set_by_prior]
+    set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
+    vecs, _ = model.unpack(full)
+    resp = model.response_values(full) if free != "none" else {}
     kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
     meta = dict(meta or {})
     meta.update({"free_response": free, "band_hz": [float(spectra.band_edges[0]),
@@ -351,16 +357,17 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "n_segments_possible": spectra.n_segments_possible,
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
-                 "least_squares": dict(zip(model.names, theta_ls))})
+                 "least_squares": dict(zip(model.names, theta_ls)),
+                 "set_by_prior": set_by_prior})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
-                     response=resp, samples=chain.samples, names=model.names,
+                     response=resp, samples=chain.samples, names=target.names,
                      log_prob=chain.log_prob,
                      convergence={"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
                                   "acceptance": chain.acceptance, "n_steps": chain.n_steps,
                                   "n_walkers": chain.n_walkers, "burn": chain.burn,
                                   "converged": chain.converged},
                      meta=meta, not_estimable=setup.not_estimable, trace=chain.trace,
-                     diagnostics=diagnostics(model, np.median(chain.samples, axis=0)))
+                     diagnostics=diagnostics(model, np.median(full, axis=0)))
     post.model = model
     post.theta_ls = theta_ls
     return post

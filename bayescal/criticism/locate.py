@@ -6,11 +6,8 @@ from __future__ import annotations
 
 
 import numpy as np
-from scipy.stats import gamma
 
-
-#: Family-wise false-alarm level of the mismatch test (Bonferroni over cells).
-ALPHA = 0.01
+from ..core.adequacy import ALPHA, band_p_values, mismatch_flags
 
 # --- locate -----------------------------------------------------------------
 
@@ -51,9 +48,8 @@ def locate(model, theta):
     ``{"band_hz", "channels", "p_value", "misfit_max"}``."""
     sp = model.spectra
     v = model.standardized_band_residuals(theta)
-    nr = sp.n_r
-    p = gamma.sf(nr * v, nr)
-    flag = p < ALPHA / p.size
+    p = band_p_values(v, sp.n_r)
+    flag = mismatch_flags(p)
     ids = [b.channel_id for b in model.blocks]
     runs = []
     for b, e in _runs(flag.any(axis=1)):

@@ -22,6 +22,12 @@ from ..core.spectra import cross_spectra
 
 #: Default coherence a band must have on every visible SUT channel.
 DEFAULT_THRESHOLD = 0.9
+#: Below this band-mean multiple coherence a SUT channel shares too little
+#: with the reference to be estimated (less than a tenth of its power): a fit
+#: would be set by its own noise (issue 13: azimuths of a dead sensor, at
+#: coherence 0.002, scattered from 34 to 381 degrees between windows, each
+#: with a +-13 degree interval).
+MIN_COHERENCE = 0.1
 #: The band must span at least this ratio fmax / fmin.
 MIN_RATIO = 1.5
 #: Upper limit as a fraction of Nyquist (stay clear of anti-alias filters).
@@ -109,9 +115,9 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     coh = _smooth(spectra.freqs, np.clip(spectra.multiple_coherence(), 0, 1))
     visible = [i for i in _inside_span(sut, ref) if np.nanmax(coh[i]) >= threshold]
     if not visible:
-        raise InputError(f"{source}no frequency band where the sensors are coherent "
-                         f"(best multiple coherence {np.nanmax(coh):.2f}, needed {threshold}); "
-                         "give --band")
+        best = ", ".join(f"{sut.ids[i]} {np.nanmax(coh[i]):.3f}" for i in _inside_span(sut, ref))
+        raise InputError(f"{source}no frequency band where the sensors are coherent: best "
+                         f"multiple coherence per channel {best}, needed {threshold}")
     run = _widest_run(np.all(coh[visible] >= threshold, axis=0), spectra.freqs)
     if run is None or spectra.freqs[run[2]] / spectra.freqs[run[1]] < MIN_RATIO:
         raise InputError(f"{source}no frequency band of useful width where all SUT channels "
@@ -119,3 +125,27 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     return BandChoice(fmin=float(spectra.freqs[run[1]]), fmax=float(spectra.freqs[run[2]]),
                       threshold=threshold, channels=[sut.ids[i] for i in visible],
                       freqs=spectra.freqs, coherence=coh)
+
+
+def coherence_gate(spectra, sut, ref, source="", minimum=MIN_COHERENCE):
+    """Band-mean multiple coherence of each SUT channel the reference can see,
+    above its no-signal level (``n_r / K`` for K segments), against
+    ``minimum``. Returns ``{channel id: coherence}`` of the channels
+    below it (not estimable); raises :class:`InputError`, with the coherence
+    of every channel, when none is above it."""
+    raw = np.clip(spectra.multiple_coherence(), 0.0, 1.0).mean(axis=1)
+    # without common signal the estimate is not 0 but about n_r / K (K Welch
+    # segments; Beta(n_r, K - n_r) for independent records): measure the excess
+    null = min(spectra.n_r / max(spectra.n_segments, 1), 0.99)
+    coh = np.clip((raw - null) / (1.0 - null), 0.0, 1.0)
+    visible = _inside_span(sut, ref)
+    low = {sut.ids[i]: float(coh[i]) for i in visible if coh[i] < minimum}
+    if visible and len(low) == len(visible):
+        lo, hi = spectra.band_edges[0], spectra.band_edges[-1]
+        per = ", ".join(f"{cid} {c:.3f}" for cid, c in low.items())
+        raise InputError(f"{source}too little coherence with the reference in {lo:.4g}-{hi:.4g} "
+                         f"Hz to estimate anything: mean multiple coherence above its no-signal "
+                         f"level {null:.3f}: {per} (needed "
+                         f"{minimum:g}); a sensor dead or disconnected, or a band without "
+                         "common signal")
+    return low

@@ -14,6 +14,8 @@ From ObsPy objects::
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.sampler import fit_spectra
 from .channels import check_distinct, select_channels
 from .read import InputError, align, flat_inventory, read_metadata, read_waveforms
@@ -62,7 +64,10 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
                                 nperseg=nperseg, sut_ids=s.ids, ref_ids=r.ids)
     except SpectraError as exc:
         raise InputError(f"{files}{exc}") from None
+    from .band import MIN_COHERENCE, coherence_gate
+    low = coherence_gate(spectra, s, r, files)
     families = s.families()
+    keep = [i for i, cid in enumerate(s.ids) if cid not in low]
     nominal = {cid: {"azimuth_deg": az, "dip_deg": dip,
                      **({} if fam is None else {"period_s": fam.period_s, "damping": fam.damping,
                                                 "gain": fam.gain, "gain_units": fam.gain_units})}
@@ -82,8 +87,13 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
                                   "or of a gap (the deconvolution's transient)"},
             "band_choice": band_note,
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
-    post = fit_spectra(spectra, r.vectors, s.vectors, families, free=fit_response, priors=priors,
+    fitted = spectra.select(keep) if low else spectra
+    post = fit_spectra(fitted, r.vectors, np.asarray(s.vectors)[keep],
+                       [families[i] for i in keep], free=fit_response, priors=priors,
                        seed=seed, progress=progress, meta=meta, **sample_kw)
+    for cid, c in low.items():
+        post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
+                                   f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post

@@ -13,6 +13,9 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   at the normalization frequency, and the overall sensitivity recalculated;
   the gain's 68 % interval goes into stage 1's Description and the channel's
   comment (StationXML's Gain has no error fields);
+* except that a response parameter the data do not constrain ("set by the
+  prior", :mod:`bayescal.core.unconstrained`) keeps its nominal value, and
+  the comment says why;
 * a tilted vertical's azimuth by the azimuth its axis leans toward;
 * and adds to every changed channel a Comment saying where the values come
   from (:func:`provenance_comment`).
@@ -77,9 +80,11 @@ def _update_response(channel, samples, free, summary):
     fam = TwoPoleFamily.from_response(resp)
     hertz = "HERTZ" in str(stage.pz_transfer_function_type).upper()
     scale = 1.0 / (2 * np.pi) if hertz else 1.0
-    gain = summary["gain"]["median"]
-    if free == "all":
-        period, damping = summary["period_s"]["median"], summary["damping"]["median"]
+    # a parameter set by the prior keeps its nominal value (the comment says why)
+    prior = {name for name, e in summary.items() if e.get("set_by_prior")}
+    if free == "all" and not {"period_s", "damping"} <= prior:
+        period = fam.period_s if "period_s" in prior else summary["period_s"]["median"]
+        damping = fam.damping if "damping" in prior else summary["damping"]["median"]
         new = _pendulum_poles([period], [damping])[0]
         pole_samples = _pendulum_poles(samples[:, 0], samples[:, 1])
         current = [complex(p) / scale for p in stage.poles]
@@ -95,9 +100,17 @@ def _update_response(channel, samples, free, summary):
         a0_ratio = abs(sn * sn + 2 * h * w0 * sn + w0 * w0) / abs(sn * sn + 2 * hn * w0n * sn
                                                                   + w0n * w0n)
         stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
+    if "gain" in prior:
+        if free != "all" or {"period_s", "damping"} <= prior:
+            return                          # nothing fitted is written: response untouched
+        gain = fam.gain
+    else:
+        gain = summary["gain"]["median"]
     stage.stage_gain = float(gain)
     g_lo, g_hi = summary["gain"]["ci68"]
-    stage.description = (f"stage gain fitted by bayescal: {gain:.6g}, 68 % interval "
+    stage.description = ("stage gain kept at its nominal value: set by the prior, not by the "
+                         "data (see the channel's bayescal comment)" if "gain" in prior else
+                         f"stage gain fitted by bayescal: {gain:.6g}, 68 % interval "
                          f"[{g_lo:.6g}, {g_hi:.6g}] (StationXML has no field for a gain's "
                          "uncertainty; see also the channel's bayescal comment)")
     sens = resp.instrument_sensitivity
@@ -168,8 +181,13 @@ def provenance_comment(posterior, entry):
             "credible intervals (16-84 % quantiles).")
     if meta.get("assumption"):
         text += f" Assumed: {meta['assumption']}."
+    prior = {n: e for n, e in entry.get("response", {}).items() if e.get("set_by_prior")}
+    for name, e in prior.items():
+        nominal = (entry.get("nominal") or {}).get(name, e.get("median"))
+        text += (f" {name} kept at its nominal value {nominal:.6g}: set by the prior, "
+                 f"not by the data ({e['reason']}).")
     gain = entry.get("response", {}).get("gain")
-    if gain:
+    if gain and "gain" not in prior:
         g_lo, g_hi = gain["ci68"]
         text += (f" Stage 1 gain and instrument sensitivity carry the median gain "
                  f"{gain['median']:.6g}, 68 % interval [{g_lo:.6g}, {g_hi:.6g}] "

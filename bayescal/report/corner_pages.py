@@ -68,9 +68,14 @@ def response_columns(ctx):
             continue
         tru = truth_values(ctx.truth, cid)
         idx = [j for j, n in enumerate(("period_s", "damping", "gain")) if n in names]
+        # a parameter held at nominal (set by the prior) has nothing to draw
+        idx = [j for j in idx if np.ptp(post.response[cid][:, j]) > 0]
+        drawn = [("period_s", "damping", "gain")[j] for j in idx]
+        if not idx:
+            continue
         out.append((cid, post.response[cid][:, idx],
-                    [f"{names[i].replace('_s', '')} ({units[names[i]]})" for i in range(len(idx))],
-                    [_truth_or_nan(tru.get(n)) for n in names]))
+                    [f"{n.replace('_s', '')} ({units[n]})" for n in drawn],
+                    [_truth_or_nan(tru.get(n)) for n in drawn]))
     return out
 
 

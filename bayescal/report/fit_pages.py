@@ -10,11 +10,14 @@ markers carry the distinctions, not colour alone), numbers written as text.
 from __future__ import annotations
 
 
+import textwrap
+
 import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from scipy import stats
 
+from ..core.adequacy import describe
 from ..core.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, wrap180
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
@@ -26,9 +29,14 @@ def page_summary(ctx):
     conv = ctx.summary["convergence"]
     fig = Figure(figsize=ctx.page)
     fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
+    verdict = ctx.summary.get("adequacy") or {"ok": None}
+    check = textwrap.wrap(describe(verdict), 92)
+    fig.text(0.06, 0.945, "\n".join(check), va="top", fontsize=9 if verdict["ok"] is False else 8,
+             fontweight="bold" if verdict["ok"] is False else "normal", linespacing=1.5)
+    top = 0.945 - 0.0155 * len(check) - 0.008
     lines = _header_lines(ctx)
-    fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
-    top = 0.945 - 0.0143 * len(lines) - 0.02
+    fig.text(0.06, top, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
+    top = top - 0.0143 * len(lines) - 0.02
     rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
     resp = response_rows(ctx.summary, ctx.truth)
     y = _table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
@@ -37,9 +45,17 @@ def page_summary(ctx):
         y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
                    " of nominal)", bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
+    if verdict["ok"] is False:
+        text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"
+                    " and page 4; `bayescal diagnose`)")
     for cid in post.channel_ids:
         for msg in flags.get(cid, []):
             text.append(f"  {cid}: {msg}")
+    for cid, params in ctx.summary.get("set_by_prior", {}).items():
+        for name, why in params.items():
+            text += textwrap.wrap(f"  {cid}: {name} SET BY THE PRIOR, not by the data: {why};"
+                                  " the corrected StationXML keeps its nominal value", 130,
+                                  subsequent_indent="    ")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
     if not conv["converged"]:

@@ -152,7 +152,10 @@ def response_rows(summary, truth=None):
         for name, entry in (ch.get("response") or {}).items():
             n = nom.get(name)
             dev = None if not n else 100.0 * (entry["median"] / n - 1.0)
-            rows.append(_interval_row(cid, name, entry, n, dev, truth=tru.get(name)))
+            note = ("SET BY THE PRIOR: held at nominal" if entry.get("action") == "held at nominal"
+                    else "SET BY THE PRIOR: nominal kept in StationXML"
+                    if entry.get("set_by_prior") else "")
+            rows.append(_interval_row(cid, name, entry, n, dev, note, truth=tru.get(name)))
     return rows
 
 
