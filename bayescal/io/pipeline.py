@@ -28,7 +28,7 @@ def _describe_files(side):
 
 def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="none", seed=0,
               priors=Priors(), nperseg=None, start=None, end=None, progress=True,
-              sut_source="SUT", ref_source="reference", **sample_kw):
+              sut_source="SUT", ref_source="reference", ref_noise=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings.
 
@@ -44,6 +44,11 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     fit_response : "none" (angles only), "gain", or "all" (period, damping,
         gain per channel).
     seed : random seed (results are reproducible).
+    ref_noise : how the reference's own self-noise is treated: "quiet"
+        (negligible next to the SUT's; the default), "estimate" (estimated
+        from the data: white in ground units plus white in its counts) or
+        "equal" (the same as the SUT's in ground units); see
+        :mod:`bayescal.core.refnoise`. Kept in ``posterior.meta["reference_noise"]``.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
     fit_response = {None: "none", False: "none", True: "all"}.get(fit_response, fit_response)
@@ -83,7 +88,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
             "band_choice": band_note,
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
     post = fit_spectra(spectra, r.vectors, s.vectors, families, free=fit_response, priors=priors,
-                       seed=seed, progress=progress, meta=meta, **sample_kw)
+                       seed=seed, progress=progress, meta=meta, ref_noise=ref_noise, **sample_kw)
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post
