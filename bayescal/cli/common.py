@@ -42,6 +42,12 @@ def add_pair_arguments(parser):
                         choices=["all", "gain"],
                         help="also fit the SUT's response: 'all' (default when given: natural "
                              "period, damping and gain per channel) or 'gain' only")
+    parser.add_argument("--ref-noise", choices=["quiet", "estimate", "equal"], default=None,
+                        help="the reference's own self-noise: 'quiet' (negligible next to the "
+                             "SUT's; the default), 'estimate' (estimated from the data as white "
+                             "in ground units plus white in the reference's counts: use it when "
+                             "the reference is as noisy as the SUT, as in a huddle), 'equal' "
+                             "(the same as the SUT's in ground units)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")

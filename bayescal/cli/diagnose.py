@@ -52,7 +52,7 @@ def run(args):
                            band=tuple(args.band) if args.band else None,
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,
-                           sut_id=args.sut_id, ref_id=args.ref_id)
+                           sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise)
     say("searching the catalogue of effects ...")
     d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
     final = d.final

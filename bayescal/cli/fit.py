@@ -105,7 +105,7 @@ def run(args):
                                band=tuple(args.band) if args.band else None,
                                fit_response=args.fit_response, seed=args.seed,
                                start=args.start, end=args.end, progress=not args.quiet,
-                               sut_id=args.sut_id, ref_id=args.ref_id)
+                               sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)

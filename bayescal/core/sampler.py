@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 
 from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
+from .eiv import EIVModel
 from .likelihood import ChannelBlock, Model, Priors
 
 #: A SUT channel is fitted against a two- or one-channel reference only when
@@ -73,7 +74,7 @@ class Setup:
 
 
 def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
-                priors=Priors()):
+                priors=Priors(), ref_noise=None):
     """Decide each SUT channel's parametrisation and the starting point.
 
     Parameters
@@ -85,6 +86,9 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         see, never as a starting point.
     families : per SUT channel a :class:`TwoPoleFamily` (or None).
     free : "none", "gain" or "all".
+    ref_noise : how the reference's self-noise enters: "quiet" (negligible,
+        the base :class:`Model`), "estimate" or "equal" (:class:`EIVModel`,
+        see :mod:`bayescal.core.refnoise`); None: "quiet".
     """
     ref_vectors = np.asarray(ref_vectors, float)
     basis, _ = _span_basis(ref_vectors)
@@ -127,7 +131,10 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
             theta0.extend([np.log(fam.period_s), fam.damping, np.log(fam.gain * norm)])
         blocks.append(ChannelBlock(channel_id=str(sub.sut_ids[len(blocks)]) if sub.sut_ids
                                    else str(i), manifold=manifold, family=fam, free=free))
-    model = Model(sub, ref_vectors, blocks, priors)
+    if ref_noise in (None, "quiet"):
+        model = Model(sub, ref_vectors, blocks, priors)
+    else:
+        model = EIVModel(sub, ref_vectors, blocks, priors, ref_noise=ref_noise)
     return Setup(model=model, theta0=np.asarray(theta0, float), fitted=fitted,
                  not_estimable=skipped)
 
@@ -319,7 +326,8 @@ def _progress(enabled, first, n_tau, min_ess, rhat_max):
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
-                priors=Priors(), seed=0, progress=True, meta=None, **sample_kw):
+                priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
+                **sample_kw):
     """Whole inference from spectra: start, least squares, sampling.
 
     Returns a :class:`bayescal.core.posterior.Posterior`; the least-squares point
@@ -332,7 +340,8 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free == "none" else None
     if pair is not None:   # one horizontal reference channel: ASL's orthogonal rotation
         return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
-    setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors)
+    setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
+                        ref_noise=ref_noise)
     model = setup.model
     if model.ndim == 0:
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
@@ -357,6 +366,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "n_segments_possible": spectra.n_segments_possible,
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
+                 "reference_noise": reference_noise_meta(model, theta_ls),
                  "least_squares": dict(zip(model.names, theta_ls)),
                  "set_by_prior": set_by_prior})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
@@ -371,6 +381,27 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     post.model = model
     post.theta_ls = theta_ls
     return post
+
+
+def reference_noise_meta(model, theta):
+    """How the reference's self-noise was treated, for result.json."""
+    mode = getattr(model, "ref_noise", "quiet")
+    out = {"mode": mode, "assumption": {
+        "quiet": "the reference's self-noise is negligible next to the SUT's",
+        "equal": "both sensors have the same self-noise in ground units",
+        "estimate": "the reference's self-noise estimated from the data, as white in ground "
+                    "units plus white in its counts"}[mode]}
+    if mode != "quiet":
+        psd = model.reference_noise_psd(theta)                      # (m/s)^2/Hz per band
+        w2 = (2 * np.pi * model.spectra.band_centres) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = 10 * np.log10(psd * w2[:, None])
+        out["reference_self_noise"] = {
+            "band_centre_hz": model.spectra.band_centres.tolist(),
+            "psd_db": {cid: [None if not np.isfinite(v) else round(float(v), 2) for v in col]
+                       for cid, col in zip(model.spectra.ref_ids, db.T)},
+            "units": "dB re 1 (m/s^2)^2/Hz at the least-squares point (no interval yet)"}
+    return out
 
 
 def diagnostics(model, theta):

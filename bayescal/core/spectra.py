@@ -89,6 +89,10 @@ class CrossSpectra:
         gives each segment's block); single precision (16 blocks cost 8
         times the memory of ``total``): what a model of a clock that drifts
         through the record needs.
+    response_power : (n, F) ``|H(f)|^2`` of each channel's (nominal) response
+        at ``freqs`` (None for channels already in ground units): the shape
+        self-noise white in counts has in ground units, for the
+        errors-in-variables model.
     n_u, n_r : numbers of SUT and reference channels.
     psd_scale : multiply ``total / K`` by this to get one-sided PSD, (m/s)^2/Hz.
     """
@@ -110,6 +114,7 @@ class CrossSpectra:
     ref_ids: list = field(default_factory=list)
     block_totals: np.ndarray | None = None
     block_of: np.ndarray | None = None
+    response_power: np.ndarray | None = None
 
     @property
     def n_segments(self):
@@ -169,7 +174,9 @@ class CrossSpectra:
             per_segment=self.per_segment[:, :, ix[0], ix[1]], n_u=len(sut_index),
             block_totals=(None if self.block_totals is None
                           else self.block_totals[:, :, ix[0], ix[1]]),
-            sut_ids=[self.sut_ids[i] for i in sut_index] if self.sut_ids else [])
+            sut_ids=[self.sut_ids[i] for i in sut_index] if self.sut_ids else [],
+            response_power=(None if self.response_power is None
+                            else self.response_power[keep]))
 
 
 def default_nperseg(fs, fmin, n_samples, cycles=10, min_cycles=4, min_segments=24):
@@ -327,7 +334,10 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     if per_segment.shape[0] < 4:
         raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
                            " too little data for the band")
+    power = [np.ones((x.shape[0], freqs.size)) if fn is None else np.abs(fn(freqs)) ** 2
+             for fn, x in ((sut_response, sut), (ref_response, ref))]
     return CrossSpectra(
+        response_power=np.vstack(power),
         fs=float(fs), nperseg=nperseg, step=step, freqs=freqs, band_edges=edges, band_of=band_of,
         total=total, per_segment=per_segment, segment_starts=segment_starts,
         n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),

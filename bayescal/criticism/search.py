@@ -12,6 +12,7 @@ from scipy.optimize import least_squares
 from . import effects as catalogue
 from ..core.sampler import _bounds, least_squares_fit
 from ..core.geometry import Fixed
+from ..core.eiv import EIVModel, EIVNoise
 from ..core.likelihood import MIN_TIME_BLOCKS, Model
 
 
@@ -80,8 +81,15 @@ def _with(model, effects, per_block=False):
     """``model`` with ``effects`` and its noise model. Once a time-dependent
     effect is in, the likelihood is per time block (and stays so, so that the
     models a search compares use the same data)."""
-    m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
-              per_block=per_block or model.per_block)
+    per_block = per_block or model.per_block or any(e.blocked for e in effects)
+    if isinstance(model, EIVModel) and not per_block:
+        m = EIVModel(model.spectra, model.ref_vectors, model.blocks, model.priors,
+                     ref_noise=model.ref_noise, effects=effects)
+    else:   # the per-block likelihood exists for the base model only
+        m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
+                  per_block=per_block)
+        if isinstance(model.noise, EIVNoise):   # no common noise model: estimated by the caller
+            return m
     if model.noise is not None:
         m.adopt_noise(model.noise)
     return m

@@ -30,7 +30,7 @@ def _describe_files(side):
 
 def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="none", seed=0,
               priors=Priors(), nperseg=None, start=None, end=None, progress=True,
-              sut_source="SUT", ref_source="reference", **sample_kw):
+              sut_source="SUT", ref_source="reference", ref_noise=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings.
 
@@ -46,6 +46,11 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     fit_response : "none" (angles only), "gain", or "all" (period, damping,
         gain per channel).
     seed : random seed (results are reproducible).
+    ref_noise : how the reference's own self-noise is treated: "quiet"
+        (negligible next to the SUT's; the default), "estimate" (estimated
+        from the data: white in ground units plus white in its counts) or
+        "equal" (the same as the SUT's in ground units); see
+        :mod:`bayescal.core.refnoise`. Kept in ``posterior.meta["reference_noise"]``.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
     fit_response = {None: "none", False: "none", True: "all"}.get(fit_response, fit_response)
@@ -90,7 +95,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     fitted = spectra.select(keep) if low else spectra
     post = fit_spectra(fitted, r.vectors, np.asarray(s.vectors)[keep],
                        [families[i] for i in keep], free=fit_response, priors=priors,
-                       seed=seed, progress=progress, meta=meta, **sample_kw)
+                       seed=seed, progress=progress, meta=meta, ref_noise=ref_noise, **sample_kw)
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")

@@ -13,6 +13,17 @@ Switches reproduce the effects a calibration model can leave out (see the
 model-criticism issue): ``timing_offset_s``, ``clock_drift_ppm``,
 ``extra_pole`` (sensor, corner Hz), ``polarity_reversal`` (channel index),
 ``channel_swap`` (two indices), ``tilt_noise`` (relative level).
+
+Self-noise regimes (what real huddles vary): ``coherence`` and
+``ref_coherence`` set each sensor's own noise, so the reference can be as
+noisy as the SUT or noisier; with ``noise_in_counts=True`` each channel's
+self-noise is white in counts (as a digitizer's or a sensor's electronics
+noise is) and the same on all three channels of a sensor, scaled to that
+coherence at ``NOISE_REFERENCE_HZ`` on an axis of mean ground power, so
+referred to the ground it rises below the sensor's corner instead of
+following the signal. (By default each channel's noise is a fixed share of
+its own signal: convenient for coverage studies, unlike real self-noise.) Metadata a few per cent off: give ``sut_response`` gains that differ
+from ``nominal_response``'s.
 """
 from __future__ import annotations
 
@@ -29,6 +40,8 @@ from ..core.response import paz_velocity_response
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz
+#: Frequency (Hz) at which self-noise white in counts has the asked coherence.
+NOISE_REFERENCE_HZ = 0.2
 
 
 def band_code(fs):
@@ -122,9 +135,17 @@ def _plane_waves(rng, freqs, n_waves, diffuse):
     return g, expected
 
 
-def _noise_like(rng, freqs, signal_psd, coherence):
-    """Complex noise with PSD ``signal_psd * (1 - coh) / coh``."""
-    level = np.sqrt(signal_psd * (1.0 - coherence) / coherence / 2.0)
+def _noise_like(rng, freqs, signal_psd, coherence, resp=None):
+    """Complex ground-referred noise with PSD ``signal_psd * (1 - coh) / coh``;
+    with ``resp`` (the channel's response), white in counts instead, at the
+    level that gives coherence ``coh`` at :data:`NOISE_REFERENCE_HZ`."""
+    psd = signal_psd * (1.0 - coherence) / coherence
+    if resp is not None:
+        k = np.argmin(np.abs(freqs - NOISE_REFERENCE_HZ))
+        counts = psd[k] * np.abs(resp[k]) ** 2
+        with np.errstate(divide="ignore"):
+            psd = np.where(np.abs(resp) > 0, counts / np.abs(resp) ** 2, 0.0)
+    level = np.sqrt(psd / 2.0)
     return level * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size))
 
 
@@ -155,7 +176,7 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
                   ref_response=(120.0, 0.707, 1500.0), n_waves=6, diffuse=0.3,
                   timing_offset_s=0.0, clock_drift_ppm=0.0, extra_pole=None,
                   polarity_reversal=None, channel_swap=None, tilt_noise=0.0,
-                  network="XX", station="SIM", start=UTCDateTime(2026, 1, 1)):
+                  noise_in_counts=False, network="XX", station="SIM", start=UTCDateTime(2026, 1, 1)):
     """Simulate a SUT/reference pair; see the module docstring.
 
     Angles in SEED degrees, responses as (period_s, damping, gain in V per
@@ -173,16 +194,21 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
     ref_az, ref_dip = (0.0, 90.0, 0.0), (0.0, 0.0, -90.0)
     v_ref = unit_vector(ref_az, ref_dip)
 
+    # self-noise white in counts is the same on every channel of a sensor
+    # (its electronics), at the level that gives the asked coherence on an
+    # axis with the mean power of the three ground components
+    mean_psd = np.real(np.einsum("fii->f", expected)) / 3.0
+
     def record(vectors, responses, coh, extra=None):
         out = []
         for k, v in enumerate(vectors):
             sig = v @ g
-            psd = np.real(np.einsum("i,fij,j->f", v, expected, v))
-            ground = sig + _noise_like(rng, freqs, psd, coh)
+            psd = mean_psd if noise_in_counts else np.real(np.einsum("i,fij,j->f", v, expected, v))
             t0, h, gain = responses[k]
             poles = () if extra is None else (extra,)
             resp = paz_velocity_response(freqs, t0, h, gain, extra_poles=poles,
                                          digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
+            ground = sig + _noise_like(rng, freqs, psd, coh, resp if noise_in_counts else None)
             out.append(ground * resp)
         return np.array(out)
 
@@ -235,6 +261,7 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
                                           "period_s": r[0], "damping": r[1], "gain": r[2]}
         for c, a, d, r in zip(sut_codes, sut_azimuth, sut_dip, sut_response)},
         "coherence": coherence, "ref_coherence": ref_coherence, "seed": seed,
+        "noise_in_counts": noise_in_counts,
         "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
                     "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
                     "channel_swap": channel_swap, "tilt_noise": tilt_noise}}

@@ -1,0 +1,138 @@
+"""The reference sensor's own self-noise (errors in variables): the statistic
+and its exact covariance.
+
+With ``Y_u = T s + n_u`` and ``Y_r = s + n_r`` (ground units, reference
+channel frame, per bin), the band residual of :mod:`bayescal.core.likelihood`,
+``R_b = S_ur,b(a) - T S_rr,b``, has the mean ``-T N_r,b`` (``N_r,b`` the
+reference's self-noise summed over the band's bins and segments): the
+regression dilution that biases gains low by about the reference's coherence
+deficit, and leans the axes when the ground field is anisotropic. The
+statistic used instead puts the noise back,
+
+    R_b = S_ur,b(a) - T S_rr,b + T diag(d_b),
+
+zero-mean at the truth when ``d_b = N_r,b``. Modes (``MODES``):
+
+``quiet``
+    ``d = 0``: the base model, for a reference much quieter than the SUT.
+``estimate``
+    ``d_b,k = c_k0 w_b,k + c_k1 h_b,k``: the reference's noise as a
+    combination of two fixed spectral shapes (:func:`noise_shapes`): white
+    in ground units, and white in the reference's counts (``1 / |H_r|^2``,
+    rising below its corner as real self-noise does). ``c`` (two numbers
+    per reference channel for the whole band) enters linearly and is
+    profiled out in closed form per walker (:func:`profile_ratio`), so the
+    sampled likelihood is the profile likelihood and carries the noise's
+    uncertainty into the intervals. It is identified because self-noise is
+    smooth and the ambient field is not (the microseism peak), pooled over
+    the band. The statistic is the plain residual plus a parameter term, so
+    its covariance is the base model's.
+``equal``
+    ``d_b,k = n_u,b,i(k)``: the SUT's own noise in the channel ``i(k)`` along
+    reference channel ``k``, read from its spectra, ``n_u = diag(S_uu(a) -
+    S_ur(a) T^T)`` (two sensors of one class with the same self-noise in
+    ground units). This term is data: its covariance has a pseudo-covariance
+    part (below).
+
+Covariance. Every term is linear in the band's cross-spectral matrix ``S``
+(all channels, SUT first): ``R = sum_t A_t S B_t``. For a complex Wishart
+``S`` with ``K`` degrees of freedom and per-bin covariance ``C``,
+
+    E[dR_pq conj(dR_rs)] = K sum_tt' (A_t C A_t'^H)_pr (B_t'^H C B_t)_sq,
+    E[dR_pq dR_rs]       = K sum_tt' (A_t C B_t')_ps (A_t' C B_t)_rq,
+
+which give the covariance of ``x = [Re vec R; Im vec R]``. The second term
+vanishes for the plain residual (``A C B = E[R]/K = 0``: the base model's
+``Sigma (x) S_rr^T``) but not once the SUT's own noise enters (mode
+``equal``): then ``Re R`` and ``Im R`` have different variances and some
+combinations are identically zero. See docs/errors_in_variables.md.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MODES = ("quiet", "estimate", "equal")
+
+#: Relative ridge on the profile system of ``rho``.
+RIDGE = 1e-9
+
+
+def selectors(n_u, n_r, t):
+    """(A0, B0) of the plain residual ``S_ur - T S_rr = A0 S B0`` and the SUT
+    projector ``U = [I 0]``; ``t`` (n_u, n_r)."""
+    a0 = np.concatenate([np.eye(n_u), -t], axis=1)                   # (nu, n)
+    b0 = np.concatenate([np.zeros((n_u, n_r)), np.eye(n_r)], axis=0)  # (n, nr)
+    u = np.concatenate([np.eye(n_u), np.zeros((n_u, n_r))], axis=1)   # (nu, n)
+    return a0, b0, u
+
+
+def noise_terms(t, along, weights):
+    """The (A, B) pairs of the noise terms for one band: for reference
+    channel k, ``weights[k] * (T e_k) n_u,i(k) e_k^T``. ``t`` (n_u, n_r),
+    ``along`` (n_r,) SUT channel index per reference channel."""
+    n_u, n_r = t.shape
+    a0, _, u = selectors(n_u, n_r, t)
+    out = []
+    for k in range(n_r):
+        i = along[k]
+        a = weights[k] * np.outer(t[:, k], u[i])                     # (nu, n)
+        b = np.outer(a0[i], np.eye(n_r)[k])                          # (n, nr)
+        out.append((a, b))
+    return out
+
+
+def real_covariance(terms, c, k):
+    """Covariance (2m, 2m) of ``[Re vec R; Im vec R]`` (row-major vec, m =
+    n_u n_r) for ``R = sum_t A_t S B_t``, ``S`` complex Wishart(K, C)."""
+    gam = 0.0
+    pse = 0.0
+    for at, bt in terms:
+        for au, bu in terms:
+            g = np.einsum("pr,sq->pqrs", at @ c @ au.conj().T, bu.conj().T @ c @ bt)
+            p = np.einsum("ps,rq->pqrs", at @ c @ bu, au @ c @ bt)
+            gam = gam + g
+            pse = pse + p
+    m = terms[0][0].shape[0] * terms[0][1].shape[1]
+    gam = k * np.reshape(gam, (m, m))
+    pse = k * np.reshape(pse, (m, m))
+    re = 0.5 * np.real(gam + pse)
+    im = 0.5 * np.real(gam - pse)
+    ri = 0.5 * np.imag(pse - gam)
+    return np.block([[re, ri], [ri.T, im]])
+
+
+def as_real(r):
+    """(..., n_u, n_r) complex -> (..., 2 n_u n_r) real ``[Re vec; Im vec]``."""
+    flat = r.reshape(r.shape[:-2] + (-1,))
+    return np.concatenate([flat.real, flat.imag], axis=-1)
+
+
+def noise_shapes(spectra):
+    """(B, n_r, 2) band sums of two spectral shapes of the reference's
+    self-noise, each scaled to the mean of the reference's band power: white
+    in ground units, and white in the reference's counts (``1 / |H_r|^2``;
+    ``f^-2`` when the channel is already in ground units). Mode
+    ``estimate`` fits the reference's noise as a combination of the two."""
+    nb, nu, nr = spectra.n_bands, spectra.n_u, spectra.n_r
+    onehot = np.eye(nb)[spectra.band_of]                                  # (F, B)
+    white = np.broadcast_to(onehot.sum(axis=0)[:, None], (nb, nr))
+    pw = spectra.response_power
+    inv = (1.0 / pw[nu:].T) if pw is not None else np.ones((spectra.freqs.size, nr))
+    counts = onehot.T @ inv                                               # (B, nr)
+    if np.all(np.ptp(np.log(counts / white), axis=0) < 0.1):
+        counts = onehot.T @ (spectra.freqs[:, None] ** -2.0 * np.ones((1, nr)))
+    srr = np.real(np.einsum("bkk->bk", spectra.band_sums()[:, nu:, nu:])).mean(axis=0)
+    out = np.stack([white, counts], axis=2)
+    return out / out.mean(axis=0, keepdims=True) * srr[None, :, None]
+
+
+def profile_ratio(x0, g, w):
+    """The linear nuisance ``c`` profiled out: maximiser of ``-sum_b (x0_b + G_b rho)^T W_b (x0_b + G_b rho)``.
+    ``x0`` (W, B, 2m), ``g`` (W, B, 2m, P), ``w`` (B, 2m, 2m); returns rho
+    (W, P)."""
+    wg = np.einsum("bij,wbjp->wbip", w, g)
+    h = np.einsum("wbip,wbiq->wpq", g, wg)
+    grad = np.einsum("wbip,wbi->wp", wg, x0)
+    scale = np.trace(h, axis1=1, axis2=2)[:, None, None] / h.shape[-1]
+    h = h + RIDGE * scale * np.eye(h.shape[-1])
+    return -np.linalg.solve(h, grad[..., None])[..., 0]
