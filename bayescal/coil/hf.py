@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.likelihood import Priors
+from ..core.sampler import FitError
 from ..core.response import TwoPoleFamily
 from ..io.read import InputError
 
@@ -223,3 +224,20 @@ class PZSpec:
             out["damping"] = theta[:, 1]
         out["hf"] = self.roots(theta)
         return out
+
+
+def scale_start(run, spec, theta0, scale):
+    """``theta0`` with its gain moved by the factor ``scale`` that the data
+    show at the start; a reversed or absurd scale is refused (FitError naming
+    the run), since it means wiring, polarity or the coil constant is wrong."""
+    if not scale > 0:
+        raise FitError(f"{run.source}: {run.ids[0]} responds to the coil with the opposite sign "
+                       "to its nominal response: check the coil wiring or the output polarity")
+    theta0 = np.array(theta0, float)
+    theta0[spec.i_gain] += np.log(scale)
+    lo, hi = spec.bounds()
+    if not lo[spec.i_gain] < theta0[spec.i_gain] < hi[spec.i_gain]:
+        raise FitError(f"{run.source}: the gain comes out {np.exp(theta0[spec.i_gain]):.4g}, "
+                       f"more than {spec.priors.gain_factor:g}x from nominal "
+                       f"{spec.family.gain:.4g}: check --coil-constant")
+    return theta0

@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.sampler import FitError, sample
+from ..core.sampler import sample
 from ..io.read import InputError
 from .element import RunModel, least_squares_run, run_spectra
-from .hf import PZSpec
+from .hf import PZSpec, scale_start
 from .result import CalFit
 from .runs import default_band
 
@@ -95,15 +95,7 @@ def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, 
     model = PZModel(sp, spec)
     theta0 = spec.nominal_theta()
     scale = _scale_start(model, theta0)
-    if not scale > 0:
-        raise FitError(f"{run.source}: {run.ids[0]} responds to the coil with the opposite sign "
-                       "to its nominal response: check the coil wiring or the output polarity")
-    theta0[spec.i_gain] += np.log(scale)
-    lo, hi = spec.bounds()
-    if not lo[spec.i_gain] < theta0[spec.i_gain] < hi[spec.i_gain]:
-        raise FitError(f"{run.source}: the gain comes out {np.exp(theta0[spec.i_gain]):.4g}, "
-                       f"more than {spec.priors.gain_factor:g}x from nominal "
-                       f"{spec.family.gain:.4g}: check --coil-constant")
+    theta0 = scale_start(run, spec, theta0, scale)
     theta, _ = least_squares_run(model, theta0)
     t_ls = theta.copy()
 

@@ -17,9 +17,9 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.sampler import FitError, sample, single_threaded_blas
+from ..core.sampler import sample, single_threaded_blas
 from ..io.read import InputError
-from .hf import PZSpec
+from .hf import PZSpec, scale_start
 from .result import CalFit
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
                          least_squares_time, padding)
@@ -103,15 +103,7 @@ def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, **sample_kw):
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
     model = StepModel(x, run.fs, pred, spec)
     theta0, scale = _start(model, spec)
-    if not scale > 0:
-        raise FitError(f"{run.source}: {run.ids[0]} responds to the coil with the opposite sign "
-                       "to its nominal response: check the coil wiring or the output polarity")
-    theta0[spec.i_gain] += np.log(scale)
-    lo, hi = spec.bounds()
-    if not lo[spec.i_gain] < theta0[spec.i_gain] < hi[spec.i_gain]:
-        raise FitError(f"{run.source}: the gain comes out {np.exp(theta0[spec.i_gain]):.4g}, "
-                       f"more than {spec.priors.gain_factor:g}x from nominal "
-                       f"{spec.family.gain:.4g}: check --coil-constant")
+    theta0 = scale_start(run, spec, theta0, scale)
     with single_threaded_blas():
         model.estimate_noise(theta0)
         theta, cov = least_squares_time(model, theta0)

@@ -81,7 +81,7 @@ def _update_response(channel, samples, free, summary):
     hertz = "HERTZ" in str(stage.pz_transfer_function_type).upper()
     scale = 1.0 / (2 * np.pi) if hertz else 1.0
     # a parameter set by the prior keeps its nominal value (the comment says why)
-    prior = {name for name, e in summary.items() if e.get("set_by_prior")}
+    prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
     if free == "all" and not {"period_s", "damping"} <= prior:
         period = fam.period_s if "period_s" in prior else summary["period_s"]["median"]
         damping = fam.damping if "damping" in prior else summary["damping"]["median"]
