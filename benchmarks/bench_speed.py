@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from bayescal.core.sampler import build_model, fit_spectra
-from bayescal.io.read import align
+from bayescal.io.align import align
 from bayescal.simulate.pair import simulate_pair
 from bayescal.core.spectra import cross_spectra
 

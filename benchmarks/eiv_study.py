@@ -21,7 +21,7 @@ import numpy as np
 
 from bayescal.core.sampler import build_model, least_squares_fit
 from bayescal.core.spectra import cross_spectra
-from bayescal.io.read import align
+from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 
 #: (label, SUT coherence, reference coherence): reference noise-free, as noisy

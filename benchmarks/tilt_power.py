@@ -39,7 +39,7 @@ def pair_spectra(seed, coherence, azimuth, level, band=BAND, **effects):
     ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
     the pipeline does; ``effects`` go to ``simulate_pair``. Also used by
     tests/test_tilt.py."""
-    from bayescal.io.read import align
+    from bayescal.io.align import align
     from bayescal.simulate.pair import simulate_pair
     from bayescal.core.spectra import cross_spectra
 

@@ -10,7 +10,7 @@ import pytest
 from bayescal.core import refnoise
 from bayescal.core.sampler import build_model, least_squares_fit
 from bayescal.core.spectra import cross_spectra
-from bayescal.io.read import align
+from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 
 

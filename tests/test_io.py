@@ -10,7 +10,8 @@ import pytest
 from scipy.signal import resample_poly
 
 from bayescal import io
-from bayescal.io.read import InputError, InputWarning, align
+from bayescal.io.read import InputError, InputWarning
+from bayescal.io.align import align
 
 
 def tone(freq, fs, n, t0=0.0, amp=1000.0):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayescal.core.sampler import build_model, least_squares_fit
-from bayescal.io.read import align
+from bayescal.io.align import align
 from bayescal.core.spectra import cross_spectra
 from bayescal.simulate.pair import simulate_pair
 

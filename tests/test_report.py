@@ -220,7 +220,8 @@ def test_cli_report_and_bad_folders(flagged, tmp_path, capsys):
 
 def test_single_channel_reference(tmp_path):
     """A vertical-only reference: horizontals not estimable, the vertical held
-    along the reference axis with its gain fitted; no angle corner page."""
+    along the reference axis with its gain fitted; no angle corner page and
+    no (empty) angle-interval page."""
     sim = simulate_pair(duration=3600, fs=10, seed=6, coherence=0.99,
                         sut_response=((30.0, 0.707, 750.0), (30.0, 0.707, 750.0),
                                       (30.0, 0.707, 700.0)))
@@ -232,7 +233,8 @@ def test_single_channel_reference(tmp_path):
     _, pages = _pages(folder)
     names = [os.path.basename(p) for p in paths[1:]]
     assert "report_corner_angles.png" not in names and "report_corner_response.png" in names
-    assert len(pages) == len(names) == 5
+    assert "report_intervals.png" not in names
+    assert len(pages) == len(names) == 4
     tok = _row(pages[0], "XX.SIM.10.BHZ", "dip")
     assert tok[3:5] == ["-90.00", "-"]
     assert "held along the reference axis: not estimated" in pages[0]

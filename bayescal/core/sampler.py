@@ -23,6 +23,7 @@ from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
 from .likelihood import ChannelBlock, Model, Priors
+from .unconstrained import prior_bounds as _bounds
 
 #: A SUT channel is fitted against a two- or one-channel reference only when
 #: its nominal axis lies within this angle (degrees) of the reference's span.
@@ -137,22 +138,6 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         model = EIVModel(sub, ref_vectors, blocks, priors, ref_noise=ref_noise)
     return Setup(model=model, theta0=np.asarray(theta0, float), fitted=fitted,
                  not_estimable=skipped)
-
-
-def _bounds(model):
-    lo, hi = np.full(model.ndim, -np.inf), np.full(model.ndim, np.inf)
-    pr = model.priors
-    for b, (_, sr) in zip(model.blocks, model.slices):
-        if b.free == "none":
-            continue
-        idx = np.arange(model.ndim)[sr]
-        g = np.log(b.family.gain)
-        lo[idx[-1]], hi[idx[-1]] = g - np.log(pr.gain_factor), g + np.log(pr.gain_factor)
-        if b.free == "all":
-            t = np.log(b.family.period_s)
-            lo[idx[0]], hi[idx[0]] = t - np.log(pr.period_factor), t + np.log(pr.period_factor)
-            lo[idx[1]], hi[idx[1]] = pr.damping_range
-    return lo, hi
 
 
 def least_squares_fit(model, theta0, iterations=2):

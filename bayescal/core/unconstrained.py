@@ -41,8 +41,7 @@ PHYSICAL = {"log_period": "period_s", "damping": "damping", "log_gain": "gain"}
 
 def prior_box(model):
     """(lo, hi) prior bounds per parameter (infinite for angles)."""
-    from .sampler import _bounds
-    return _bounds(model)
+    return prior_bounds(model)
 
 
 def nominal_theta(model):
@@ -89,6 +88,23 @@ def early_holds(model, theta, ratio=EARLY_RATIO):
             break
         held[free[k]] = float(r[k])
     return held
+
+
+def prior_bounds(model):
+    """(lo, hi) of every parameter under the priors (infinite for the angles)."""
+    lo, hi = np.full(model.ndim, -np.inf), np.full(model.ndim, np.inf)
+    pr = model.priors
+    for b, (_, sr) in zip(model.blocks, model.slices):
+        if b.free == "none":
+            continue
+        idx = np.arange(model.ndim)[sr]
+        g = np.log(b.family.gain)
+        lo[idx[-1]], hi[idx[-1]] = g - np.log(pr.gain_factor), g + np.log(pr.gain_factor)
+        if b.free == "all":
+            t = np.log(b.family.period_s)
+            lo[idx[0]], hi[idx[0]] = t - np.log(pr.period_factor), t + np.log(pr.period_factor)
+            lo[idx[1]], hi[idx[1]] = pr.damping_range
+    return lo, hi
 
 
 class Held:

@@ -1,7 +1,8 @@
 """Recordings and metadata in, corrected metadata out.
 
 * :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros),
-                      alignment of two or more sensors' recordings, ``InputError``
+                      ``InputError``
+* :mod:`.align`       two or more sensors' recordings on one time grid
 * :mod:`.band`        choice of the band where the sensors are coherent
 * :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
 * :mod:`.noise`       files -> aligned sensors -> spectra -> self-noise estimates
@@ -10,9 +11,10 @@
 
 May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
 """
-from .read import (CODE_ORIENTATION, InputError, InputWarning, align, align_sensors,
-                   flat_inventory, metadata_format, orientation_from_code, paz_inventory,
-                   read_gse2_paz, read_metadata, read_waveforms, two_pole_inventory)
+from .align import align, align_sensors
+from .read import (CODE_ORIENTATION, InputError, InputWarning, flat_inventory, metadata_format,
+                   orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
+                   read_waveforms, two_pole_inventory)
 
 __all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "align_sensors",
            "flat_inventory", "metadata_format", "orientation_from_code", "paz_inventory",

@@ -5,7 +5,7 @@ pipeline's pieces:
 
 * :func:`.read.read_waveforms` / :func:`.read.read_metadata` read one
   recording and one StationXML per sensor;
-* :func:`.read.align_sensors` puts every channel of every sensor on one time
+* :func:`.align.align_sensors` puts every channel of every sensor on one time
   grid at the lowest sampling rate (anti-alias resampling, fractional-delay
   alignment, gap, clip and dead-channel checks);
 * channels are grouped by component (Z, N, E: the axis nearest the
@@ -35,7 +35,8 @@ from scipy.signal.windows import hann
 
 from ..core import selfnoise as core
 from ..core.spectra import cross_spectra
-from .read import InputError, Side, align_sensors, read_metadata, read_waveforms
+from .read import InputError, read_metadata, read_waveforms
+from .align import Side, align_sensors
 
 SCHEMA = "bayescal.noise/1"
 #: Bands per decade of the self-noise curves (merged where fewer than MIN_BINS bins).

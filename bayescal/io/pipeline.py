@@ -18,7 +18,8 @@ import numpy as np
 
 from ..core.sampler import fit_spectra
 from .channels import check_distinct, select_channels
-from .read import InputError, align, flat_inventory, read_metadata, read_waveforms
+from .read import InputError, flat_inventory, read_metadata, read_waveforms
+from .align import align
 from ..core.likelihood import Priors
 from ..core.spectra import SpectraError, cross_spectra
 
