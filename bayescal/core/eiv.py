@@ -37,7 +37,7 @@ class EIVNoise:
     W: np.ndarray          # (B, 2m, 2m) precision V_b^-1 / c_b
     inflation: np.ndarray  # (B,) c_b
     along: np.ndarray      # (n_r,) SUT channel along each reference channel
-    rho: np.ndarray        # (n_r, 2) noise ratio at the plug-in point
+    rho: np.ndarray        # (n_r, 2) noise coefficients at the plug-in point (mode estimate)
     factor: np.ndarray | None = None   # (B, 2m, 2m) F with W = F F^T
     rank: np.ndarray | None = None     # (B,) directions the statistic varies in
 
@@ -93,7 +93,7 @@ class EIVModel(Model):
         return np.moveaxis(refnoise.as_real(g), 2, 3)
 
     def statistic(self, theta, w=None):
-        """``x`` (W, B, 2m) and the ratio used (W, n_r, 2)."""
+        """``x`` (W, B, 2m) and the noise coefficients used (W, n_r, 2)."""
         if self.ref_noise == "estimate":
             return self._estimate_statistic(theta, w)
         r0, nt, _ = self._parts(theta)      # mode 'equal': rho = 1
@@ -218,7 +218,7 @@ class EIVModel(Model):
 
     def reference_noise_psd(self, theta):
         """(B, n_r) the reference's self-noise PSD, (m/s)^2/Hz, per band at
-        ``theta``: the ratio times the SUT's own noise."""
+        ``theta``: the fitted shapes (estimate) or the SUT's own noise (equal)."""
         theta = np.atleast_2d(theta)[:1]
         sp = self.spectra
         _, rho = self.statistic(theta)
