@@ -68,3 +68,31 @@ def test_noisy_reference_quiet_model_biased_estimate_mode_not(coherence, ref_coh
     assert np.mean(quiet_z) < -5.0
     assert abs(np.mean(est_z)) < 1.2        # nine gains, three per pair: sd of the mean ~0.6
     assert np.max(np.abs(est_z)) < 3.5
+
+
+def test_eiv_model_in_model_criticism_and_one_channel_refusal():
+    """A diagnosis of an errors-in-variables fit scores orientation findings
+    under its own model (this crashed once), and a one-channel horizontal
+    reference, which has no errors-in-variables model, is refused."""
+    from bayescal import calibrate
+    from bayescal.core.eiv import EIVModel
+    from bayescal.core.sampler import FitError
+    from bayescal.criticism.search import held_orientation_loglik
+
+    sim = simulate_pair(duration=3600, fs=10, seed=2, coherence=0.95, ref_coherence=0.95,
+                        noise_in_counts=True)
+    s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
+    sp = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), (0.02, 1.0),
+                       sut_ids=s.ids, ref_ids=r.ids)
+    setup = build_model(sp, r.vectors, s.vectors, s.families(), "gain", ref_noise="estimate")
+    assert isinstance(setup.model, EIVModel)
+    theta, _ = least_squares_fit(setup.model, setup.theta0)
+    vecs = setup.model.unpack(theta[None])[0][0]
+    at_fit = held_orientation_loglik(setup.model, theta, vecs)
+    flipped = vecs.copy()
+    flipped[1] *= -1
+    # the fitted axes explain the data far better than a reversed channel
+    assert at_fit - held_orientation_loglik(setup.model, theta, flipped) > 100
+    with pytest.raises(FitError, match="one-channel"):
+        calibrate(sim.sut, sim.sut_inventory, sim.ref.select(channel="BHN"), sim.ref_inventory,
+                  band=(0.02, 1.0), progress=False, ref_noise="estimate")

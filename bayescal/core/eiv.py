@@ -59,6 +59,10 @@ class EIVModel(Model):
         self.ref_noise = ref_noise
         nu = spectra.n_u
         self._shapes = refnoise.noise_shapes(spectra)                     # (B, nr, 2)
+        # mode 'equal' has combinations of the statistic with (near) zero
+        # variance whose plug-in error would dominate: directions under 1 %
+        # of the largest variance are dropped; 'estimate' keeps everything
+        self._rtol = 1e-2 if ref_noise == "equal" else 1e-10
         cuu = np.real(np.einsum("fii->fi", self._cuu))
         self._suu_nominal = np.einsum("fb,fi->bi", self._onehot, cuu)      # (B, nu)
         self._cuu_rows = np.einsum("fq,fb,fi->iqb", self._interp, self._onehot, cuu)
@@ -146,7 +150,7 @@ class EIVModel(Model):
         for i in range(nu):
             idx = np.r_[i * nr:(i + 1) * nr, m + i * nr:m + (i + 1) * nr]
             cov = self.noise.cov[:, idx][:, :, idx] * self.noise.inflation[:, None, None]
-            w, _, rank = _pseudo_inverse(cov)
+            w, _, rank = _pseudo_inverse(cov, self._rtol)
             xi = x[:, idx]
             out[:, i] = np.einsum("bi,bij,bj->b", xi, w, xi) / rank
         return out
@@ -174,7 +178,7 @@ class EIVModel(Model):
         cov = np.stack([refnoise.real_covariance(
             [(a0, b0)] + (refnoise.noise_terms(t, along, rho[:, 0]) if data_terms else []),
             c_band[b], self._k[b]) for b in range(sp.n_bands)])
-        w, factor, rank = _pseudo_inverse(cov)
+        w, factor, rank = _pseudo_inverse(cov, self._rtol)
         if not data_terms:
             rho = self.statistic(theta0, w=w)[1][0]
         # inflation from per-segment statistics (band-centre response ratio)
@@ -232,7 +236,7 @@ class EIVModel(Model):
         return d / (sp.bins_per_band * sp.n_segments)[:, None] * sp.psd_scale
 
 
-def _pseudo_inverse(cov, rtol=1e-2):
+def _pseudo_inverse(cov, rtol):
     """Per band: the pseudo-inverse of a covariance, a factor ``F`` with
     ``pinv = F F^T`` and its rank. Some combinations of the statistic are
     identically zero (e.g. with T = I the imaginary diagonal of ``T^-1 R``:

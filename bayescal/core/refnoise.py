@@ -119,8 +119,9 @@ def noise_shapes(spectra):
     pw = spectra.response_power
     inv = (1.0 / pw[nu:].T) if pw is not None else np.ones((spectra.freqs.size, nr))
     counts = onehot.T @ inv                                               # (B, nr)
-    if np.all(np.ptp(np.log(counts / white), axis=0) < 0.1):
-        counts = onehot.T @ (spectra.freqs[:, None] ** -2.0 * np.ones((1, nr)))
+    # a channel already in ground units (flat) would give two equal shapes
+    flat = np.ptp(np.log(counts / white), axis=0) < 0.1
+    counts[:, flat] = (onehot.T @ spectra.freqs[:, None] ** -2.0)[:, [0] * int(flat.sum())]
     srr = np.real(np.einsum("bkk->bk", spectra.band_sums()[:, nu:, nu:])).mean(axis=0)
     out = np.stack([white, counts], axis=2)
     return out / out.mean(axis=0, keepdims=True) * srr[None, :, None]

@@ -324,6 +324,10 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
 
     pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free == "none" else None
     if pair is not None:   # one horizontal reference channel: ASL's orthogonal rotation
+        if ref_noise not in (None, "quiet"):
+            raise FitError(f"--ref-noise {ref_noise} is not available with a one-channel "
+                           "horizontal reference (ASL's orthogonal-pair rotation, which assumes "
+                           "the reference quiet)")
         return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
                         ref_noise=ref_noise)

@@ -193,7 +193,11 @@ def held_orientation_loglik(model, theta, axes):
     """Log-likelihood with every SUT axis held at ``axes`` (n_u, 3) and the
     response parameters re-fitted, under ``model``'s noise model."""
     blocks = [replace(b, manifold=Fixed(np.asarray(a, float))) for b, a in zip(model.blocks, axes)]
-    held = Model(model.spectra, model.ref_vectors, blocks, model.priors)
+    if isinstance(model, EIVModel):
+        held = EIVModel(model.spectra, model.ref_vectors, blocks, model.priors,
+                        ref_noise=model.ref_noise)
+    else:
+        held = Model(model.spectra, model.ref_vectors, blocks, model.priors)
     held.adopt_noise(model.noise)
     start = np.concatenate([np.asarray(theta)[sr] for _, sr in model.slices])
     return _best_loglik(held, (start,))

@@ -25,7 +25,6 @@ DELAY_HALF_LENGTH = 16
 CLIP_MIN_SAMPLES = 5
 CLIP_MIN_FRACTION = 1e-5
 CLIP_MIN_DISTINCT = 50
-#: Orientation implied by a SEED component code when StationXML has none.
 
 
 @dataclass

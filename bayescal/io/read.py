@@ -31,6 +31,7 @@ import re
 import numpy as np
 
 
+#: Orientation implied by a SEED component code when StationXML has none.
 CODE_ORIENTATION = {"N": (0.0, 0.0), "E": (90.0, 0.0), "Z": (0.0, -90.0)}
 
 
