@@ -32,8 +32,17 @@ class ResponseError(ValueError):
 
 
 def evaluate_velocity_response(response, freqs):
-    """Complex velocity response (counts per m/s) of an ObsPy ``Response``."""
+    """Complex velocity response (counts per m/s) of an ObsPy ``Response``:
+    evaluated in numpy as evalresp does (:mod:`bayescal.core.evalresp`, no
+    ``obspy.signal`` import), by ObsPy's evalresp for what that does not
+    cover."""
+    from .evalresp import NotHandled, velocity_response
+
     freqs = np.asarray(freqs, dtype=float)
+    try:
+        return velocity_response(response, freqs)
+    except NotHandled:
+        pass
     h = response.get_evalresp_response_for_frequencies(
         freqs, output="VEL", hide_sensitivity_mismatch_warning=True)
     return np.asarray(h, dtype=complex)
