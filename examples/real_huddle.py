@@ -89,6 +89,9 @@ def main(argv=None):
     (cid, ch), = res["channels"].items()
     print(f"{cid}: fitted in {elapsed:.1f} s (band {BAND[0]}-{BAND[1]} Hz)")
     for name, e in ch["response"].items():
+        if "ci68" not in e:     # set by the prior: held at its nominal value
+            print(f"  {name:9s} {e['median']:.4g} held at nominal ({e.get('reason', 'fixed')})")
+            continue
         print(f"  {name:9s} median {e['median']:.4g}  68 % [{e['ci68'][0]:.4g}, {e['ci68'][1]:.4g}]"
               f"  95 % [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]")
     from bayescal import Posterior

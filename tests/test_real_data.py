@@ -33,11 +33,13 @@ def test_cowi_horizontal_azimuths_match_asl(cowi_data, tmp_path):
     assert set(rot) == {"US.COWI..LHN", "US.COWI..LHE"}
     assert list(res["not_estimable"]) == ["US.COWI..LHZ"]
     for cid, r in rot.items():
-        # agreement: within the published tolerance, and our interval is
-        # sharper than that tolerance
+        # agreement: within the published tolerance; the model misses this
+        # pair (misfit 9-32 per band) and the per-band noise scale widens the
+        # interval until it holds ASL's value (the Gaussian's LHN interval,
+        # [2.94, 3.11], did not), still narrower than ASL's +-0.5
         assert abs(r["median"] - PUBLISHED_COWI_DEG) < COWI_TOL, (cid, r)
         lo, hi = r["ci95"]
-        assert hi - lo < COWI_TOL
+        assert lo < PUBLISHED_COWI_DEG < hi and hi - lo < 2 * COWI_TOL, (cid, r)
     assert res["convergence"]["converged"]
     # the reference has gaps elsewhere, but this window is complete
     assert res["meta"]["data_used"]["segments"] > 500
@@ -64,7 +66,9 @@ def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):
     assert abs(med / PUBLISHED_HUDDLE_AMP - 1) < 0.035
     # the same estimator without smoothing: agreement within 1 %
     assert abs(med / unsmoothed - 1) < 0.01
-    assert hi - lo < 0.01 * med
+    # 95 % interval 1.15 % wide (0.8 % under the Gaussian likelihood): the
+    # misfit above 1.4 Hz (poles missing from STS2_simp.cal) widens it
+    assert hi - lo < 0.015 * med
     # the fitted gain is the amplitude in this band (flat there)
     assert r["gain"]["median"] == pytest.approx(med, rel=0.01)
     assert np.isfinite(r["period_s"]["median"]) and 0.02 <= r["damping"]["median"] <= 2.0

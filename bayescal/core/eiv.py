@@ -128,9 +128,11 @@ class EIVModel(Model):
         r = (x[..., :m] + 1j * x[..., m:]).reshape(x.shape[:2] + (self.spectra.n_u, -1))
         return r[:, None]
 
-    def log_likelihood(self, theta):
+    def band_energy(self, theta):
+        """(W, B) half the statistic's chi-square per band and (B,) half its
+        rank (the complex degrees of freedom)."""
         x, _ = self.statistic(theta)
-        return -0.5 * np.einsum("wbi,bij,wbj->w", x, self.noise.W, x)
+        return 0.5 * np.einsum("wbi,bij,wbj->wb", x, self.noise.W, x), 0.5 * self.noise.rank
 
     def _whiten(self, theta, factors):
         x, _ = self.statistic(np.atleast_2d(theta))

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import misfit_scale
 from .response import TwoPoleFamily
 
 #: Density of the nodes at which response ratios are evaluated.
@@ -361,16 +362,21 @@ class Model:
         """R_b(theta) summed over time blocks, shape (W, B, n_u, n_r)."""
         return self.residual_blocks(theta).sum(axis=1)
 
-    def log_likelihood(self, theta):
+    #: Shape of the per-band noise-scale prior (:mod:`.misfit_scale`); inf:
+    #: the Gaussian likelihood. A fit sets it (``fit_spectra``).
+    misfit_shape = np.inf
+
+    def band_energy(self, theta):
+        """(W, B) whitened residual energy per band (Gaussian term ``-q_b``)
+        and (B,) its complex degrees of freedom."""
         r = self.residual_blocks(theta)
-        if not self.per_block:
-            r = r[:, 0]
-            ar = np.einsum("bij,wbjk->wbik", self.noise.A, r)
-            arb = np.einsum("wbik,bkl->wbil", ar, self.noise.B[0])
-            return -np.sum((arb * r.conj()).real, axis=(1, 2, 3))
         ar = np.einsum("bij,wgbjk->wgbik", self.noise.A, r)
         arb = np.einsum("wgbik,gbkl->wgbil", ar, self.noise.B)
-        return -np.sum((arb * r.conj()).real, axis=(1, 2, 3, 4))
+        q = np.sum((arb * r.conj()).real, axis=(1, 3, 4))
+        return q, np.full(q.shape[1], float(r.shape[1] * r.shape[3] * r.shape[4]))
+
+    def log_likelihood(self, theta):
+        return misfit_scale.band_loglik(*self.band_energy(theta), self.misfit_shape)
 
     def log_prob(self, theta):
         """Vectorised log posterior for emcee: theta (W, ndim) -> (W,)."""

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from . import misfit_scale
 from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
@@ -312,8 +313,12 @@ def _progress(enabled, first, n_tau, min_ess, rhat_max):
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
                 priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
-                **sample_kw):
+                misfit_shape=None, **sample_kw):
     """Whole inference from spectra: start, least squares, sampling.
+
+    ``misfit_shape``: shape ``a`` of the per-band noise-scale prior
+    (:mod:`bayescal.core.misfit_scale`); None: its default
+    ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood.
 
     Returns a :class:`bayescal.core.posterior.Posterior`; the least-squares point
     and the model are kept in ``posterior.meta["least_squares"]`` and on the
@@ -332,6 +337,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
                         ref_noise=ref_noise)
     model = setup.model
+    model.misfit_shape = misfit_scale.MISFIT_SHAPE if misfit_shape is None else misfit_shape
     if model.ndim == 0:
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
                        "fixed to the reference's (one channel each), so only its response can "
@@ -356,6 +362,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
                  "reference_noise": reference_noise_meta(model, theta_ls),
+                 "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
                  "least_squares": dict(zip(model.names, theta_ls)),
                  "set_by_prior": set_by_prior})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
@@ -370,6 +377,12 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     post.model = model
     post.theta_ls = theta_ls
     return post
+
+
+def _misfit_meta(model, theta):
+    """``meta.misfit_scale``: the prior and each band's variance factor at ``theta``."""
+    q, k = model.band_energy(np.atleast_2d(theta))
+    return misfit_scale.describe(model.misfit_shape, q[0], k)
 
 
 def reference_noise_meta(model, theta):
