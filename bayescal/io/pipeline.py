@@ -100,6 +100,11 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
+    from ..core.pair_noise import for_fit
+    post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
+                                                 getattr(post, "full_samples", None),
+                                                 ref_noise, fit_response, seed,
+                                                 (spectra.sut_ids, spectra.ref_ids))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post
