@@ -77,8 +77,11 @@ def transfer(model, theta):
     vecs, ratio = model.unpack(np.atleast_2d(theta))
     t = vecs @ model.ref_pinv                                          # (R, nu, nr)
     sp = model.spectra
-    rho_f = ratio @ model._interp.T                                    # (R, nu, F)
-    rho_b = np.stack([rho_f[:, :, sp.band_of == b].mean(axis=2) for b in range(sp.n_bands)], 1)
+    # band means of the interpolation weights first (linear, so the same
+    # numbers as averaging the per-bin factors, at O(nodes) per draw)
+    onehot = np.eye(sp.n_bands)[sp.band_of]                            # (F, B)
+    wb = np.ascontiguousarray(model._interp.T @ (onehot / onehot.sum(axis=0)))   # (Q, B)
+    rho_b = np.swapaxes(np.ascontiguousarray(ratio) @ wb, 1, 2)        # (R, B, nu)
     return np.broadcast_to(t[:, None], (t.shape[0], sp.n_bands) + t.shape[1:]), rho_b
 
 
@@ -126,8 +129,8 @@ def sampling_variance(model, t, rho_b, dof):
     a, b = _forms(t)
     d = np.concatenate([rho_b[sp.band_of], np.ones((sp.freqs.size, sp.n_r))], axis=1)  # (F, n)
     cf = d[:, :, None] * sp.total * d[:, None, :].conj()               # (F, n, n)
-    qa = np.real(np.einsum("jp,fpq,jq->fj", a.conj(), cf, a))
-    qb = np.real(np.einsum("jp,fpq,jq->fj", b.conj(), cf, b))
+    qa = np.real(np.sum(a.conj().T[None] * (cf @ a.T), axis=1))        # (F, n): a_j^H C_f a_j
+    qb = np.real(np.sum(b.conj().T[None] * (cf @ b.T), axis=1))
     onehot = np.eye(sp.n_bands)[sp.band_of]                            # (F, B)
     nb = sp.bins_per_band
     prod = onehot.T @ (qa * qb) / nb[:, None]                          # (B, n)
@@ -241,20 +244,29 @@ def not_identifiable(sut_ids, ref_ids):
                          for cid in list(sut_ids) + list(ref_ids)}}
 
 
-def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ())):
+FLAT_NOTE = ("'flat' metadata: levels are in the assumed units (1 count per m/s taken as "
+             "ground velocity), not in (m/s^2)^2/Hz, and with the SUT's gain held at that "
+             "assumption the split of the noise between the two sensors is not meaningful "
+             "(no sensor-order check)")
+
+
+def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False):
     """``(self_noise, sensor_order)`` result.json entries of a pair fit:
     ``model`` the fitted model (None for a fit without one, e.g. the
     orthogonal-pair rotation), ``samples`` (N, ndim) its posterior draws in
     model coordinates; ``ids`` (SUT ids, reference ids) name the channels
     when there is no model. One channel on either side: not identifiable
-    (and no sensor-order check)."""
+    (and no sensor-order check). ``flat``: either sensor's metadata is the
+    assumed flat response (:data:`FLAT_NOTE`)."""
     if model is None:
         return not_identifiable(*ids), {}
     sp = model.spectra
     if sp.n_u < 2 or sp.n_r < 2:
         return not_identifiable(sp.sut_ids, sp.ref_ids), {}
+    from .sampler import single_threaded_blas
     theta = np.median(samples, axis=0)
-    res = pair_self_noise(model, theta, samples, seed=seed)
+    with single_threaded_blas():      # small products: threads only add latency
+        res = pair_self_noise(model, theta, samples, seed=seed)
     t = transfer(model, theta)[0][0, 0]
     along = np.argmax(np.abs(t), axis=0)
     mode = ref_noise or "quiet"
@@ -264,4 +276,9 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ())):
     if mode == "quiet" and free != "none":
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
-    return summarise(res, along, basis)
+    entry, order = summarise(res, along, basis)
+    if flat:
+        entry["units"] = FLAT_NOTE
+        if free == "none":
+            order = {}
+    return entry, order

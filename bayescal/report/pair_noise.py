@@ -27,7 +27,8 @@ def _as_estimate(channels):
     first = channels[ids[0]]
     key = next(k for k in first if k.startswith("ci") and k.endswith("_db"))
     lo = np.array([np.nan_to_num(lin(channels[c][key][0]), nan=0.0) for c in ids])
-    hi = np.array([np.nan_to_num(lin(channels[c][key][1]), nan=0.0) for c in ids])
+    # no positive upper bound (the whole interval at or below 0): draw no band
+    hi = np.array([np.nan_to_num(lin(channels[c][key][1]), nan=1e-300) for c in ids])
     return SimpleNamespace(period_s=1.0 / np.asarray(first["freq_hz"], float),
                            psd=np.array([lin(channels[c]["psd_db"]) for c in ids]), lo=lo,
                            hi=hi, signal=np.array([lin(channels[c]["recorded_db"]) for c in ids]),
@@ -45,6 +46,7 @@ def page_self_noise(ctx):
     fig.text(0.06, 0.965, "Self-noise of both sensors", fontsize=13, fontweight="bold")
     est, ids = _as_estimate(entry["channels"])
     lines = textwrap.wrap(f"How: {entry['basis']}.", 110)
+    lines += textwrap.wrap(f"Units: {entry.get('units', '')}.", 110)
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):
         lines += textwrap.wrap(f"WARNING: {order['message']}", 110)
@@ -53,6 +55,6 @@ def page_self_noise(ctx):
             lines += textwrap.wrap(f"{cid}: {e['not_identifiable']}", 110)
     fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.4)
     if est is not None:
-        ax = fig.add_axes([0.1, 0.1, 0.86, 0.6])
+        ax = fig.add_axes([0.1, 0.08, 0.86, 0.74])
         draw_estimates(ax, est, ids)
     return fig
