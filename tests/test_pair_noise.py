@@ -94,10 +94,11 @@ def _fit(coherence, ref_coherence, seed=3):
 
 
 def test_swapped_sensors_are_named(tmp_path):
-    """A reference 10 dB noisier than the SUT (coherence 0.9 against 0.999:
-    the sensors given the wrong way round) is said in result.json, the
-    console summary and page 1 of the report; the margin is near the true
-    10 dB."""
+    """A reference 20.5 dB noisier than the SUT (coherence 0.9 against 0.999,
+    noise-to-signal 0.111 against 0.001: the sensors given the wrong way
+    round) is said in result.json, the console summary and page 1 of the
+    report. The margin comes out at 9.3 dB, understated: the quiet sensor's
+    estimate is limited by the noisy one's (error ~ sqrt(S N_r / dof))."""
     from bayescal.cli.fit import print_summary
     from bayescal.report.fit import write_report
 
@@ -117,6 +118,19 @@ def test_swapped_sensors_are_named(tmp_path):
     from pypdf import PdfReader
     page1 = PdfReader(written[0]).pages[0].extract_text()
     assert "were --ref and --sut swapped?" in " ".join(page1.split())
+
+
+def test_swapped_two_plus_two():
+    """Horizontals only on both sides (2+2): both sensors' noise is still
+    identified and the swap is still named (13.7 dB for a true 20.5)."""
+    p = simulate_pair(**SIM, seed=5, coherence=0.999, ref_coherence=0.9)
+    post = calibrate(p.sut.select(channel="BH[12]"), p.sut_inventory,
+                     p.ref.select(channel="BH[NE]"), p.ref_inventory, band=(0.02, 1.0),
+                     progress=False)
+    assert len(post.self_noise["channels"]) == 4
+    assert all("psd_db" in e for e in post.self_noise["channels"].values())
+    assert post.sensor_order["reference_noisier"] is True
+    assert 6.0 < post.sensor_order["reference_minus_sut_db"] < 20.5
 
 
 def test_normal_pair_has_no_swap_message():
