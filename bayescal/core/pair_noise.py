@@ -277,6 +277,9 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
     entry, order = summarise(res, along, basis)
+    if mode == "quiet" and free != "none":
+        order["caution"] = ("free gains with --ref-noise quiet: the gains absorb the "
+                            "reference's noise, so a noisier reference can go unnoticed here")
     if flat:
         entry["units"] = FLAT_NOTE
         if free == "none":
