@@ -80,12 +80,13 @@ def _row(text, cid, quantity):
 def test_pages_pngs_and_metadata(flagged):
     folder, paths = flagged
     reader, pages = _pages(folder)
-    # summary, intervals, corner (angles), data and fit, convergence
-    assert len(pages) == 5
+    # summary, intervals, corner (angles), data and fit, self-noise, convergence
+    assert len(pages) == 6
     assert paths[0] == os.path.join(folder, "report.pdf")
     names = sorted(os.path.basename(p) for p in paths[1:])
     assert names == sorted(f"report_{n}.png" for n in
-                           ("summary", "intervals", "corner_angles", "data_fit", "convergence"))
+                           ("summary", "intervals", "corner_angles", "data_fit", "self_noise",
+                            "convergence"))
     for p in paths[1:]:
         with open(p, "rb") as fh:
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
@@ -96,7 +97,8 @@ def test_pages_pngs_and_metadata(flagged):
     assert "Angle credible intervals" in pages[1]
     assert "Posterior of the orientation angles" in pages[2]
     assert "Data and fit" in pages[3]
-    assert "Convergence of the sampler" in pages[4]
+    assert "Self-noise of both sensors" in pages[4]
+    assert "Convergence of the sampler" in pages[5]
     assert not [f for f in os.listdir(folder) if f.startswith(".report")]
 
 
@@ -171,17 +173,17 @@ def test_convergence_page_numbers(flagged):
     folder, _ = flagged
     _, pages = _pages(folder)
     conv = _result(folder)["convergence"]
-    assert f"ESS min {conv['ess_min']:.0f}" in pages[4]
-    assert f"Acceptance fraction {conv['acceptance']:.3f}" in pages[4]
-    assert f"R-hat max {conv['rhat_max']:.4f}" in pages[4]
+    assert f"ESS min {conv['ess_min']:.0f}" in pages[-1]
+    assert f"Acceptance fraction {conv['acceptance']:.3f}" in pages[-1]
+    assert f"R-hat max {conv['rhat_max']:.4f}" in pages[-1]
     for name, p in conv["per_parameter"].items():
-        assert f"{name} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[4]
+        assert f"{name} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[-1]
 
 
 def test_response_rows_and_not_estimable(gain_fit):
     folder, paths = gain_fit
     reader, pages = _pages(folder)
-    assert len(pages) == 6                       # response corner page added
+    assert len(pages) == 7                       # response corner page added
     assert any(p.endswith("report_corner_response.png") for p in paths)
     assert "Posterior of the response parameters" in pages[3]
     res = _result(folder)
@@ -234,7 +236,8 @@ def test_single_channel_reference(tmp_path):
     names = [os.path.basename(p) for p in paths[1:]]
     assert "report_corner_angles.png" not in names and "report_corner_response.png" in names
     assert "report_intervals.png" not in names
-    assert len(pages) == len(names) == 4
+    assert len(pages) == len(names) == 5          # self-noise page: not identifiable
+    assert "not identifiable from one channel per sensor" in pages[-2]
     tok = _row(pages[0], "XX.SIM.10.BHZ", "dip")
     assert tok[3:5] == ["-90.00", "-"]
     assert "held along the reference axis: not estimated" in pages[0]
@@ -254,8 +257,8 @@ def test_renders_without_display(flagged, tmp_path):
             f"p = write_report({flagged[0]!r}, out_pdf={out!r}); print(len(p))")
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "6"
-    assert len(pypdf.PdfReader(out).pages) == 5
+    assert run.stdout.strip() == "7"
+    assert len(pypdf.PdfReader(out).pages) == 6
 
 
 def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
@@ -272,6 +275,6 @@ def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     write_report(folder)
     _, pages = _pages(folder)
     assert "SAMPLER NOT CONVERGED" in pages[0]
-    assert "converged: NO" in pages[0] and "converged: NO" in pages[4]
+    assert "converged: NO" in pages[0] and "converged: NO" in pages[-1]
     assert "no diagnostics.npz in the result folder" in pages[3]
     assert "SAMPLER NOT CONVERGED" not in _pages(flagged[0])[1][0]

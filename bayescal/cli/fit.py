@@ -81,6 +81,9 @@ def print_summary(summary, stream=None):
         print(f"assumed: {summary['meta']['assumption']}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
         print(f"{cid:22s}  not estimable: {why}", file=stream)
+    order = summary.get("sensor_order", {})
+    if order.get("message"):
+        print(f"WARNING: {order['message']}", file=stream)
     c = summary["convergence"]
     print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
           f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)

@@ -67,6 +67,8 @@ class Posterior:
     not_estimable: dict = field(default_factory=dict)
     trace: np.ndarray | None = None
     diagnostics: dict = field(default_factory=dict)
+    self_noise: dict = field(default_factory=dict)
+    sensor_order: dict = field(default_factory=dict)
 
     @property
     def azimuth_dip(self):
@@ -155,6 +157,8 @@ class Posterior:
             "set_by_prior": {cid: {k: v["reason"] for k, v in e.items()} for cid, e in
                              by_channel(self.meta.get("set_by_prior")).items()},
             "orthogonality_deg": self.orthogonality(),
+            **({"self_noise": self.self_noise} if self.self_noise else {}),
+            **({"sensor_order": self.sensor_order} if self.sensor_order else {}),
             "convergence": {"ess_min": float(np.min(conv["ess"])),
                             "tau_max": float(np.max(conv["tau"])),
                             "rhat_max": float(np.max(conv["rhat"])),
@@ -202,7 +206,9 @@ class Posterior:
                        response=response, samples=z["samples"], names=extra["names"],
                        log_prob=z["log_prob"], convergence=conv, meta=summary.get("meta", {}),
                        not_estimable=summary.get("not_estimable", {}),
-                       trace=z["trace"] if "trace" in z.files else None)
+                       trace=z["trace"] if "trace" in z.files else None,
+                       self_noise=summary.get("self_noise", {}),
+                       sensor_order=summary.get("sensor_order", {}))
         diag = os.path.join(folder, "diagnostics.npz")
         if os.path.exists(diag):
             with np.load(diag) as z:

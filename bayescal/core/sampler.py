@@ -376,6 +376,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                      diagnostics=diagnostics(model, np.median(full, axis=0)))
     post.model = model
     post.theta_ls = theta_ls
+    post.full_samples = full          # model coordinates (held parameters included)
     return post
 
 

@@ -100,9 +100,22 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
+    from ..core.pair_noise import for_fit
+    post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
+                                                 getattr(post, "full_samples", None),
+                                                 ref_noise, fit_response, seed,
+                                                 (spectra.sut_ids, spectra.ref_ids),
+                                                 _assumed_flat(sut_inventory)
+                                                 or _assumed_flat(ref_inventory))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post
+
+
+def _assumed_flat(inventory):
+    """True when ``inventory`` is the invented flat response of ``flat``."""
+    return any("assumed flat" in (c.value or "") for net in inventory for sta in net
+               for ch in sta for c in ch.comments)
 
 
 def load_inventory(spec, stream, side="StationXML"):

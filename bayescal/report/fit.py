@@ -8,7 +8,8 @@ from a saved result folder (``result.json``, ``samples.npz``,
 Pages: (1) summary table with flags, (2) angle credible intervals against
 nominal, (3) corner plots of the angles (and of the response parameters when
 fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
-(5) convergence (traces, tau, ESS, R-hat, acceptance). The numbers on the
+(5) self-noise of both sensors against the NLNM and NHNM, (6) convergence
+(traces, tau, ESS, R-hat, acceptance). The numbers on the
 pages are real PDF text, so they can be searched and extracted.
 
 This module holds the file handling; the numbers are in :mod:`.tables`, the
@@ -25,7 +26,8 @@ from .tables import load_truth
 
 
 #: Figures, in page order.
-PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "convergence")
+PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "self_noise",
+         "convergence")
 
 
 def _builder(name, *modules):
@@ -76,7 +78,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     from matplotlib.backends.backend_pdf import PdfPages
 
     from ..version import __version__
-    from . import corner_pages, fit_pages, layout
+    from . import corner_pages, fit_pages, layout, pair_noise
 
     folder = os.fspath(folder)
     post = load_result(folder)
@@ -92,7 +94,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     written = []
     try:
         with layout.style():
-            figures = [(name, _builder(name, fit_pages, corner_pages)(ctx)) for name in PAGES]
+            figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise)(ctx)) for name in PAGES]
             figures = [(n, f) for n, f in figures if f is not None]
             meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
                     "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",

@@ -58,8 +58,11 @@ def page_summary(ctx):
                                   subsequent_indent="    ")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
+    order = ctx.summary.get("sensor_order", {})
+    if order.get("message"):
+        text.append(f"  WARNING: {order['message']}")
     if not conv["converged"]:
-        text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see page 5)")
+        text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see the convergence page)")
     text.append("")
     text.append("Not estimable:" + ("" if post.not_estimable else " none"))
     for cid, reason in post.not_estimable.items():

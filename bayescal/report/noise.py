@@ -47,17 +47,17 @@ def _table_lines(comp):
     return lines
 
 
-def figure_component(comp, result=None):
-    """The A4 page (a matplotlib ``Figure``) of one
-    :class:`bayescal.io.noise.ComponentNoise`."""
-    from matplotlib.figure import Figure
+def draw_estimates(ax, e, ids):
+    """Draw self-noise estimates on ``ax``: each channel's estimate with its
+    interval band and its recorded PSD (dotted), and Peterson's NLNM and
+    NHNM, in dB re 1 (m/s^2)^2/Hz against period. ``e`` a
+    :class:`bayescal.core.selfnoise.SelfNoise` (or anything with its
+    ``period_s``, ``psd``, ``lo``, ``hi``, ``signal``, ``level``), ``ids``
+    its channel labels. Also used by the pair fit's self-noise page."""
     from obspy.signal.spectral_estimation import get_nhnm, get_nlnm
 
-    e = comp.estimate
     order = np.argsort(e.period_s)
     per = e.period_s[order]
-    fig = Figure(figsize=A4)
-    ax = fig.add_axes([0.1, 0.42, 0.86, 0.48])
     pl, nl = get_nlnm()
     ph, nh = get_nhnm()
     ax.semilogx(pl, nl, color="0.25", lw=1.6, label="NLNM")
@@ -66,7 +66,7 @@ def figure_component(comp, result=None):
     finite_lo = lo_db[np.isfinite(lo_db)]
     bottom = max((finite_lo.min() if finite_lo.size else -220.0) - 5, -240.0)
     top = max(np.nanmax(db(e.signal)) + 10, -90.0)
-    for i, cid in enumerate(comp.ids):
+    for i, cid in enumerate(ids):
         c, ls = COLOURS[i % len(COLOURS)], LINESTYLES[i % len(LINESTYLES)]
         ax.semilogx(per, db(e.signal[i, order]), color=c, lw=0.7, ls=":", label=f"{cid} recorded")
         lo = np.where(np.isfinite(lo_db[i, order]), lo_db[i, order], bottom)
@@ -81,6 +81,16 @@ def figure_component(comp, result=None):
     ax.set_ylabel("PSD, dB re 1 (m/s$^2$)$^2$/Hz")
     ax.grid(True, which="major", lw=0.4)
     ax.legend(fontsize=6.5, loc="upper left", ncol=2)
+
+
+def figure_component(comp, result=None):
+    """The A4 page (a matplotlib ``Figure``) of one
+    :class:`bayescal.io.noise.ComponentNoise`."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=A4)
+    ax = fig.add_axes([0.1, 0.42, 0.86, 0.48])
+    draw_estimates(ax, comp.estimate, comp.ids)
     how = "median over pairs of the other sensors" if len(comp.ids) > 3 else "three sensors"
     fig.text(0.04, 0.975, f"Self-noise, component {comp.component}", fontsize=12,
              fontweight="bold", va="top")

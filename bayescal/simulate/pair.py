@@ -271,3 +271,37 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
                                 nominal_response),
         ref_inventory=inventory("00", ref_codes, ref_az, ref_dip, ref_response),
         truth=truth)
+
+
+def self_noise_psd(freqs, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
+                   ref_coherence=0.9999, sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
+                   sut_response=((30.0, 0.707, 750.0),) * 3, ref_response=(120.0, 0.707, 1500.0),
+                   n_waves=6, diffuse=0.3, noise_in_counts=False, **_ignored):
+    """The true self-noise of every channel of :func:`simulate_pair` called
+    with the same arguments: ``(sut, ref)``, each (3, len(freqs)) one-sided
+    velocity PSD in (m/s)^2/Hz at ``freqs`` (Hz), interpolated from the
+    simulation's frequency grid. (The noise of a bin ``N_f`` has
+    ``E|N_f|^2 = psd``; the inverse FFT of ``n`` samples at ``fs`` makes that
+    a one-sided PSD ``2 psd / (n fs)``.)"""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    grid = np.fft.rfftfreq(n, 1.0 / fs)
+    _, expected = _plane_waves(rng, grid, n_waves, diffuse)
+    mean_psd = np.real(np.einsum("fii->f", expected)) / 3.0
+    k = np.argmin(np.abs(grid - NOISE_REFERENCE_HZ))
+
+    def side(vectors, responses, coh):
+        out = []
+        for v, (t0, h, gain) in zip(vectors, responses):
+            if noise_in_counts:
+                resp = np.abs(paz_velocity_response(grid, t0, h, gain, digitizer_gain=DIGITIZER_GAIN,
+                                                    norm_freq=NORM_FREQ)) ** 2
+                psd = mean_psd[k] * (1 - coh) / coh * resp[k] / np.where(resp > 0, resp, np.inf)
+            else:
+                psd = np.real(np.einsum("i,fij,j->f", v, expected, v)) * (1 - coh) / coh
+            out.append(np.interp(freqs, grid, 2.0 * psd / (n * fs)))
+        return np.array(out)
+
+    v_ref = unit_vector((0.0, 90.0, 0.0), (0.0, 0.0, -90.0))
+    return (side(unit_vector(sut_azimuth, sut_dip), sut_response, coherence),
+            side(v_ref, [ref_response] * 3, ref_coherence))
