@@ -13,6 +13,8 @@ from ..io.read import InputError
 from ..core.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import SpectraError, cross_spectra
+from .bounded import BoundedPosterior
+from .result import convergence_summary
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
 
@@ -63,7 +65,7 @@ def regularise(sigma, power):
     return np.einsum("bij,bj,bkj->bik", v, w, v.conj())
 
 
-class RunModel:
+class RunModel(BoundedPosterior):
     """Posterior of one element's ``theta = (ln T, h, ln G)`` from one run.
 
     ``coef`` is ``m_c`` per output, ``families`` the outputs' parametric
@@ -142,25 +144,9 @@ class RunModel:
         r = self._cya_b[None] - amp[:, :, None] * model
         return r.transpose(0, 2, 1)
 
-    def log_prior(self, theta):
-        theta = np.atleast_2d(theta)
-        lo, hi = self.bounds()
-        ok = np.all((theta > lo) & (theta < hi), axis=1)
-        return np.where(ok, 0.0, -np.inf)
-
     def log_likelihood(self, theta):
         r = self.residual(theta)
         return -np.einsum("wbi,bij,wbj->w", r.conj(), self.noise, r).real
-
-    def log_prob(self, theta):
-        """Vectorised log posterior: theta (W, 3) -> (W,)."""
-        theta = np.atleast_2d(theta)
-        lp = self.log_prior(theta)
-        out = np.full(theta.shape[0], -np.inf)
-        ok = np.isfinite(lp)
-        if ok.any():
-            out[ok] = lp[ok] + self.log_likelihood(theta[ok])
-        return out
 
     def whitened_residual(self, theta, chol):
         r = self.residual(theta)[0]                                  # (B, no)
@@ -213,15 +199,21 @@ class RunModel:
         return num / den
 
 
-def _start(model):
-    """Nominal period and damping, and the least-squares scale of the nominal
-    transfer to the data (its sign tells whether the geometry's polarity holds)."""
-    nom = model.nominal
-    theta = np.array([np.log(nom.period_s), nom.damping, np.log(nom.gain)])
+def transfer_scale(model, theta):
+    """Least-squares scale of the model transfer at ``theta`` to the data (its
+    sign tells whether the geometry's polarity holds)."""
     mu = model.mu(theta)[0]
     num = np.sum((mu.conj() * model._cya.T).real)
     den = np.sum(np.abs(mu) ** 2 * model._saa[None])
-    return theta, num / den
+    return num / den
+
+
+def _start(model):
+    """Nominal period and damping, and the least-squares scale of the nominal
+    transfer to the data."""
+    nom = model.nominal
+    theta = np.array([np.log(nom.period_s), nom.damping, np.log(nom.gain)])
+    return theta, transfer_scale(model, theta)
 
 
 def least_squares_run(model, theta0):
@@ -244,6 +236,36 @@ def least_squares_run(model, theta0):
     except np.linalg.LinAlgError as exc:
         raise FitError("the least-squares point is degenerate (singular information)") from exc
     return theta, 0.5 * (cov + cov.T)
+
+
+def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, seed=0,
+                 progress=False, **sample_kw):
+    """The fit of one run shared by ``bayescal uvw`` (:func:`fit_run`) and
+    ``bayescal cal --kind random`` (:func:`bayescal.coil.random.fit_random`).
+
+    First pass: spectra of the outputs deconvolved by their nominal response,
+    ``make_model(spectra, None)``, the start ``start(model) -> theta0``, least
+    squares. Second pass: the outputs deconvolved again by the fitted response
+    ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the segment windows smooth
+    only the nearly flat ratio of true to fitted response),
+    ``make_model(spectra, base)``, least squares, then the posterior sampled by
+    :func:`bayescal.core.sampler.sample`. Returns ``(model, chain, spectra,
+    theta_ls, cov_ls)`` (the second pass's least-squares point and Laplace
+    covariance).
+    """
+    sp = run_spectra(run, coil_constant, band, nperseg)
+    model = make_model(sp, None)
+    theta, _ = least_squares_run(model, start(model))
+    t_ls = theta.copy()
+
+    def base(f):
+        return ratio_at(f, t_ls)
+
+    sp = run_spectra(run, coil_constant, band, nperseg, base=base)
+    model = make_model(sp, base(sp.freqs))
+    theta, cov = least_squares_run(model, theta)
+    chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    return model, chain, sp, theta, cov
 
 
 @dataclass
@@ -279,52 +301,49 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
         raise InputError(f"{run.source}: the outputs {run.axes} do not see element "
                          f"{run.element} in this geometry")
     nominal = run.families[-1]
-    sp = run_spectra(run, coil_constant, band, nperseg)
-    model = RunModel(sp, coef, run.families, nominal, priors)
-    # start from the Z output when there is one: every element shows in Z with
-    # the same sign in the built-in geometries, so a wrong X/Y sign convention
-    # shows up as a misfit and a Z-only disagreement rather than a failed start
-    # (an output that barely sees the element, e.g. Z in an identity geometry,
-    # cannot give a start: then the output that sees it most does)
-    iz = run.axes.index("Z") if "Z" in run.axes else None
-    if iz is None or abs(coef[iz]) < 0.1 * np.abs(coef).max():
-        iz = None if len(run.axes) == 1 else int(np.argmax(np.abs(coef)))
-    start_model = model if iz is None else RunModel(sp.select([iz]), coef[[iz]],
-                                                    [run.families[iz]], nominal, priors)
-    theta0, scale = _start(start_model)
-    if not scale > 0:
-        raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} with "
-                       "the opposite sign to the geometry: check the coil wiring, the output "
-                       "polarity or the sensor matrix")
-    theta0[2] += np.log(scale)
-    lo, hi = model.bounds()
-    if not lo[2] < theta0[2] < hi[2]:
-        raise FitError(f"{run.source}: element {run.element}'s gain comes out "
-                       f"{np.exp(theta0[2]):.4g}, more than {priors.gain_factor:g}x from "
-                       f"nominal {nominal.gain:.4g}: check --coil-constant")
-    theta, _ = least_squares_run(model, theta0)
-    # second pass: deconvolve by the fitted response (see module docstring)
-    t_ls = theta.copy()
 
-    def base(f):
-        return np.stack([fam.ratio(f, np.exp(t_ls[0]), t_ls[1], np.exp(t_ls[2]))[0]
+    def make_model(sp, base):
+        return RunModel(sp, coef, run.families, nominal, priors, base=base)
+
+    def start(model):
+        # start from the Z output when there is one: every element shows in Z
+        # with the same sign in the built-in geometries, so a wrong X/Y sign
+        # convention shows up as a misfit and a Z-only disagreement rather than
+        # a failed start (an output that barely sees the element, e.g. Z in an
+        # identity geometry, cannot give a start: then the output that sees it
+        # most does)
+        iz = run.axes.index("Z") if "Z" in run.axes else None
+        if iz is None or abs(coef[iz]) < 0.1 * np.abs(coef).max():
+            iz = None if len(run.axes) == 1 else int(np.argmax(np.abs(coef)))
+        start_model = model if iz is None else RunModel(model.spectra.select([iz]), coef[[iz]],
+                                                        [run.families[iz]], nominal, priors)
+        theta0, scale = _start(start_model)
+        if not scale > 0:
+            raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} "
+                           "with the opposite sign to the geometry: check the coil wiring, the "
+                           "output polarity or the sensor matrix")
+        theta0[2] += np.log(scale)
+        lo, hi = model.bounds()
+        if not lo[2] < theta0[2] < hi[2]:
+            raise FitError(f"{run.source}: element {run.element}'s gain comes out "
+                           f"{np.exp(theta0[2]):.4g}, more than {priors.gain_factor:g}x from "
+                           f"nominal {nominal.gain:.4g}: check --coil-constant")
+        return theta0
+
+    def ratio_at(f, t):
+        return np.stack([fam.ratio(f, np.exp(t[0]), t[1], np.exp(t[2]))[0]
                          for fam in run.families])
 
-    sp = run_spectra(run, coil_constant, band, nperseg, base=base)
-    model = RunModel(sp, coef, run.families, nominal, priors, base=base(sp.freqs))
-    theta, cov = least_squares_run(model, theta)
-    chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    model, chain, sp, theta, cov = fit_two_pass(run, coil_constant, band, nperseg, make_model, start,
+                                                ratio_at, seed=seed, progress=progress,
+                                                **sample_kw)
     s = chain.samples
     phys = np.column_stack([np.exp(s[:, 0]), s[:, 1], np.exp(s[:, 2])])
     med = np.median(s, axis=0)
     app = model.apparent_coefficients(med)
-    conv = {"tau_max": float(chain.tau.max()), "ess_min": float(chain.ess.min()),
-            "rhat_max": float(chain.rhat.max()), "n_steps": int(chain.n_steps),
-            "n_walkers": int(chain.n_walkers), "acceptance": float(chain.acceptance),
-            "converged": bool(chain.converged)}
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
-        convergence=conv, misfit=dict(zip(run.axes, model.misfit(med).tolist())),
+        convergence=convergence_summary(chain), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
         apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
                   for a, v, c in zip(run.axes, app, coef)},
         inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),

@@ -5,18 +5,18 @@ noise model measured from their scatter across segments (the likelihood of
 the response parametrised by :class:`bayescal.coil.hf.PZSpec` (``--fit lp``,
 ``hf`` or ``all``).
 
-As in the UVW fit, the least-squares point of a first pass (outputs
-deconvolved by the nominal response) is used to deconvolve the outputs again
-(second pass), so that what the segment windows smooth is the nearly flat
-ratio of true to fitted response; the posterior is sampled on the second pass.
+The fit is the one of ``bayescal uvw`` (:func:`bayescal.coil.element.fit_two_pass`):
+the least-squares point of a first pass (outputs deconvolved by the nominal
+response) deconvolves the outputs again (second pass), so that what the
+segment windows smooth is the nearly flat ratio of true to fitted response;
+the posterior is sampled on the second pass.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.sampler import sample
 from ..io.read import InputError
-from .element import RunModel, least_squares_run, run_spectra
+from .element import RunModel, fit_two_pass, transfer_scale
 from .hf import PZSpec, scale_start
 from .result import CalFit
 from .runs import default_band
@@ -72,14 +72,6 @@ def default_cal_band(run, fit):
     return lp[0], top
 
 
-def _scale_start(model, theta):
-    """Least-squares scale of the transfer at ``theta`` to the data."""
-    mu = model.mu(theta)[0]
-    num = np.sum((mu.conj() * model._cya.T).real)
-    den = np.sum(np.abs(mu) ** 2 * model._saa[None])
-    return num / den
-
-
 def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, nperseg=None,
                **sample_kw):
     """Posterior of one output channel's response from a random calibration
@@ -91,19 +83,12 @@ def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, 
         raise InputError(f"{run.source}: band top {band[1]:g} Hz is above Nyquist "
                          f"({run.fs / 2:g} Hz)")
     spec = PZSpec.from_response(run.responses[0], fit, band[1], source=run.source)
-    sp = run_spectra(run, coil_constant, band, nperseg)
-    model = PZModel(sp, spec)
-    theta0 = spec.nominal_theta()
-    scale = _scale_start(model, theta0)
-    theta0 = scale_start(run, spec, theta0, scale)
-    theta, _ = least_squares_run(model, theta0)
-    t_ls = theta.copy()
 
-    def base(f):
-        return spec.ratio(f, t_ls)
+    def start(model):
+        theta0 = spec.nominal_theta()
+        return scale_start(run, spec, theta0, transfer_scale(model, theta0))
 
-    sp = run_spectra(run, coil_constant, band, nperseg, base=base)
-    model = PZModel(sp, spec, base=base(sp.freqs))
-    theta, cov = least_squares_run(model, theta)
-    chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    model, chain, _, _, _ = fit_two_pass(run, coil_constant, band, nperseg,
+                                         lambda sp, base: PZModel(sp, spec, base=base), start,
+                                         spec.ratio, seed=seed, progress=progress, **sample_kw)
     return CalFit.from_chain("random", run, spec, model, chain, coil_constant, band)

@@ -87,6 +87,26 @@ def _start(model, spec):
     return theta, coef[0]
 
 
+def least_squares_step(run, coil_constant):
+    """The step model of ``run`` (one output) at its least-squares point:
+    ``(model, spec, theta, Laplace covariance)``; the noise model estimated
+    there. The start of :func:`fit_step`'s sampler."""
+    x, u = checked_arrays(run)
+    u = u - rest_level(u)
+    if not np.ptp(u) > 0:
+        raise InputError(f"{run.source}: the input channel holds no step (it is constant)")
+    spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source)
+    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
+    model = StepModel(x, run.fs, pred, spec)
+    model.input = u
+    theta0, scale = _start(model, spec)
+    theta0 = scale_start(run, spec, theta0, scale)
+    with single_threaded_blas():
+        model.estimate_noise(theta0)
+        theta, cov = least_squares_time(model, theta0)
+    return model, spec, theta, cov
+
+
 def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, **sample_kw):
     """Posterior of period, damping and gain from a step run (``run``
     restricted to one output). Returns a :class:`CalFit` of kind ``step``."""
@@ -95,19 +115,10 @@ def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, **sample_kw):
     if fit != "lp":
         raise InputError(f"{run.source}: --kind step fits the long-period pair and the gain "
                          f"only (--fit lp), not --fit {fit}")
-    x, u = checked_arrays(run)
-    u = u - rest_level(u)
-    if not np.ptp(u) > 0:
-        raise InputError(f"{run.source}: the input channel holds no step (it is constant)")
-    spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source)
-    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
-    model = StepModel(x, run.fs, pred, spec)
-    theta0, scale = _start(model, spec)
-    theta0 = scale_start(run, spec, theta0, scale)
+    model, spec, theta, cov = least_squares_step(run, coil_constant)
     with single_threaded_blas():
-        model.estimate_noise(theta0)
-        theta, cov = least_squares_time(model, theta0)
         chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+    x, u = model.x, model.input
     dur = x.size / run.fs
     band = (1.0 / dur, 0.4 * run.fs)
     out = CalFit.from_chain("step", run, spec, model, chain, coil_constant, band)

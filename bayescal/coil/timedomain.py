@@ -40,6 +40,7 @@ from scipy.stats import chi2
 
 from ..core.sampler import FitError
 from ..io.read import InputError
+from .bounded import BoundedPosterior
 
 #: Largest autoregression order tried for the noise.
 MAX_AR_ORDER = 20
@@ -130,7 +131,7 @@ def checked_arrays(run):
     return x.astype(float), u.astype(float)
 
 
-class TimeModel:
+class TimeModel(BoundedPosterior):
     """Posterior of ``theta`` from a time series (see module docstring).
 
     Subclasses set ``names``, ``ndim``, ``bounds()`` and
@@ -177,21 +178,10 @@ class TimeModel:
         mw = mw - (mw @ self._q) @ self._q.T
         return (self._xw[None] - mw) / np.sqrt(self.s2)
 
-    def log_prior(self, theta):
-        theta = np.atleast_2d(theta)
-        lo, hi = self.bounds()
-        return np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
-
-    def log_prob(self, theta):
-        """Vectorised log posterior: theta (W, ndim) -> (W,)."""
-        theta = np.atleast_2d(theta)
-        lp = self.log_prior(theta)
-        out = np.full(theta.shape[0], -np.inf)
-        ok = np.isfinite(lp)
-        if ok.any():
-            e = self.innovations(theta[ok])
-            out[ok] = lp[ok] - 0.5 * np.sum(e * e, axis=1)
-        return out
+    def log_likelihood(self, theta):
+        """``-|innovations|^2 / 2``, theta (W, ndim) -> (W,)."""
+        e = self.innovations(theta)
+        return -0.5 * np.sum(e * e, axis=1)
 
     def adequacy(self, theta):
         """Mean square of the standardised innovations (about 1 when the
