@@ -35,7 +35,7 @@ noise make the true scatter larger than the independent-bin formula says; the
 factor ``c_b`` measures that ratio from the scatter of the per-segment band
 residuals (with the lag-one covariance of overlapping segments), shrunk
 toward its pooled value over bands. The noise model is held fixed while
-sampling (a plug-in estimate).
+sampling (a plug-in estimate, in the SUT's counts: :mod:`.noisescale`).
 
 Time blocks
 -----------
@@ -60,6 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import noisescale
 from .response import TwoPoleFamily
 
 #: Density of the nodes at which response ratios are evaluated.
@@ -160,6 +161,7 @@ class NoiseModel:
     B: np.ndarray        # (G, B, n_r, n_r), G = 1 unless per-block
     sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
     inflation: np.ndarray  # (B,) c_b
+    scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
 
     def cholesky(self):
         """Factors for the whitened residual ``L_A^H R L_B``."""
@@ -215,6 +217,7 @@ class Model:
                                    self._cur).reshape(nu, self.nodes.size, -1)
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
+        self._band_nodes = noisescale.band_node_weights(self._onehot, self._interp)
         self._inverse = {k: b.family.inverse_ratio_at(self.nodes)
                          for k, b in enumerate(self.blocks) if b.free == "all"}
         self._blocked = [(e, sl) for e, sl in zip(self.effects, self.effect_slices) if e.blocked]
@@ -321,11 +324,17 @@ class Model:
 
     # --- residual and likelihood -----------------------------------------
     def residual_blocks(self, theta):
-        """R_{b,g}(theta) per band and time block, shape (W, G, B, n_u, n_r)
-        (G = 1 unless ``per_block``)."""
-        if self.per_block:
-            return self._exact_block_residuals(theta)
+        """R_{b,g}(theta), (W, G, B, n_u, n_r), G = 1 unless ``per_block``, in
+        the counts of the plug-in point (:mod:`bayescal.core.noisescale`)."""
         vecs, ratio = self.unpack(theta)
+        return noisescale.rescale_rows(self.plain_residual_blocks(vecs, ratio, theta),
+                                       getattr(self.noise, "scale0", None), ratio,
+                                       self._band_nodes, self._free_rows)
+
+    def plain_residual_blocks(self, vecs, ratio, theta):
+        """The same from unpacked parameters, unscaled."""
+        if self.per_block:
+            return self._exact_block_residuals(theta, (vecs, ratio))
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv                                    # (W, nu, nr)
@@ -338,10 +347,10 @@ class Model:
         r -= _times_blocks(t, self._srr_g)                            # (W, 1, B, nu, nr)
         return r
 
-    def _exact_block_residuals(self, theta):
+    def _exact_block_residuals(self, theta, unpacked=None):
         """(W, G, B, n_u, n_r): the residual of every time block of the
         spectra, with each effect's factor applied per frequency bin."""
-        vecs, ratio = self.unpack(theta)
+        vecs, ratio = self.unpack(theta) if unpacked is None else unpacked
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv
@@ -453,8 +462,9 @@ class Model:
         wgt = r_k.shape[0] * p
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
         c = np.maximum(c, 1e-3 * pooled)
+        scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
-                                inflation=c)
+                                inflation=c, scale0=scale0)
         return self.noise
 
     def adopt_noise(self, noise):
@@ -464,7 +474,8 @@ class Model:
         b = noise.B
         if b.shape[0] != self.n_time_blocks:
             b = np.linalg.inv(self._srr_g)
-        self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation)
+        self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation,
+                                scale0=getattr(noise, "scale0", None))
         return self.noise
 
     def standardized_band_residuals(self, theta):
