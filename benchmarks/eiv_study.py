@@ -45,7 +45,7 @@ REGIMES = (("ref noise-free, coh 0.9", 0.9, 0.9999), ("equal noise, coh 0.9", 0.
            ("ref 10x noisier, coh 0.99", 0.99, 0.908), ("ref 10x noisier, coh 0.999", 0.999, 0.99))
 
 
-def one(mode, seed, coherence, ref_coherence):
+def one(mode, seed, coherence, ref_coherence, two=False):
     rng = np.random.default_rng(1000 + seed)
     gains = 750 * (1 + rng.uniform(-0.03, 0.03, 3))
     az = rng.uniform(0, 360)
@@ -53,7 +53,10 @@ def one(mode, seed, coherence, ref_coherence):
                         ref_coherence=ref_coherence, sut_azimuth=(az, az + 90, 0),
                         sut_dip=(0, 0, -90), noise_in_counts=True,
                         sut_response=tuple((30.0, 0.707, g) for g in gains))
-    s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
+    sut, ref = sim.sut, sim.ref
+    if two:           # a 2+2 pair: the horizontals only
+        sut, ref = sut.select(channel="BH[12]"), ref.select(channel="BH[NE]")
+    s, r, fs, _ = align(sut, sim.sut_inventory, ref, sim.ref_inventory)
     sp = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), (0.02, 1.0),
                        sut_ids=s.ids, ref_ids=r.ids)
     setup = build_model(sp, r.vectors, s.vectors, s.families(), "gain", ref_noise=mode)
@@ -84,6 +87,7 @@ def main():
     ap.add_argument("--ratios", nargs="+", type=float, default=[0.0, 1.0, 10.0])
     ap.add_argument("--coherences", nargs="+", type=float, default=[0.9, 0.99, 0.999])
     ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--two-by-two", action="store_true", help="horizontals only (2+2 pairs)")
     ap.add_argument("--table", action="store_true", help="with --mcmc: print the table only")
     args = ap.parse_args()
     if args.mcmc:
@@ -97,7 +101,7 @@ def main():
             t0 = time.time()
             zg, za = [], []
             for seed in range(args.seed0, args.seed0 + args.n):
-                g, a = one(mode, seed, coh, refc)
+                g, a = one(mode, seed, coh, refc, args.two_by_two)
                 zg += g
                 za += a
             zg, za = np.array(zg), np.array(za)
