@@ -12,6 +12,8 @@ what changes is the residual, its noise model and the likelihood:
 
 ``V_b`` the Wishart covariance of the statistic at the least-squares point and
 ``c_b`` the inflation measured from the per-segment statistics. In mode
+``estimate`` each SUT row of ``x`` is taken to the counts of that point
+(:mod:`bayescal.core.noisescale`), as in the base model. In mode
 ``estimate`` the reference's noise coefficients are profiled out in closed form
 per walker.
 Effects of model criticism that do not depend on time work as on the base
