@@ -9,6 +9,16 @@ channel of a sensor (SUT 30 s, reference 120 s nominal responses), seeded.
     python benchmarks/eiv_study.py --n 12        # about 2 minutes per mode and regime
 
 Writes reports/eiv/study.json and prints the table quoted in the README.
+
+With ``--mcmc`` the posterior is sampled as ``bayescal fit`` does, over
+regimes of noise ratio and pair coherence (``benchmarks/eiv_coverage.py``);
+seeds ``--seed0 .. --seed0 + n - 1`` per regime, rows appended to
+``reports/eiv/coverage.json`` (so chunks run one after another add up), and
+the per-regime, per-kind table printed:
+
+    python benchmarks/eiv_study.py --mcmc --fit gain --modes estimate --n 3
+    python benchmarks/eiv_study.py --mcmc --fit all --modes estimate --n 2
+    python benchmarks/eiv_study.py --mcmc --table      # the table of what is there
 """
 from __future__ import annotations
 
@@ -24,13 +34,18 @@ from bayescal.core.spectra import cross_spectra
 from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 
+try:
+    from eiv_coverage import run_pair, summarise, table
+except ImportError:      # run from elsewhere
+    from benchmarks.eiv_coverage import run_pair, summarise, table
+
 #: (label, SUT coherence, reference coherence): reference noise-free, as noisy
 #: as the SUT, ten times noisier.
 REGIMES = (("ref noise-free, coh 0.9", 0.9, 0.9999), ("equal noise, coh 0.9", 0.9, 0.9),
            ("ref 10x noisier, coh 0.99", 0.99, 0.908), ("ref 10x noisier, coh 0.999", 0.999, 0.99))
 
 
-def one(mode, seed, coherence, ref_coherence):
+def one(mode, seed, coherence, ref_coherence, two=False):
     rng = np.random.default_rng(1000 + seed)
     gains = 750 * (1 + rng.uniform(-0.03, 0.03, 3))
     az = rng.uniform(0, 360)
@@ -38,7 +53,10 @@ def one(mode, seed, coherence, ref_coherence):
                         ref_coherence=ref_coherence, sut_azimuth=(az, az + 90, 0),
                         sut_dip=(0, 0, -90), noise_in_counts=True,
                         sut_response=tuple((30.0, 0.707, g) for g in gains))
-    s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
+    sut, ref = sim.sut, sim.ref
+    if two:           # a 2+2 pair: the horizontals only
+        sut, ref = sut.select(channel="BH[12]"), ref.select(channel="BH[NE]")
+    s, r, fs, _ = align(sut, sim.sut_inventory, ref, sim.ref_inventory)
     sp = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), (0.02, 1.0),
                        sut_ids=s.ids, ref_ids=r.ids)
     setup = build_model(sp, r.vectors, s.vectors, s.families(), "gain", ref_noise=mode)
@@ -63,8 +81,18 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=12, help="pairs per mode and regime")
     ap.add_argument("--modes", nargs="+", default=["quiet", "estimate"])
-    ap.add_argument("--out", default="reports/eiv/study.json")
+    ap.add_argument("--out", default=None, help="reports/eiv/study.json or coverage.json")
+    ap.add_argument("--mcmc", action="store_true", help="MCMC coverage over regimes")
+    ap.add_argument("--fit", default="gain", choices=["gain", "all"])
+    ap.add_argument("--ratios", nargs="+", type=float, default=[0.0, 1.0, 10.0])
+    ap.add_argument("--coherences", nargs="+", type=float, default=[0.9, 0.99, 0.999])
+    ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--two-by-two", action="store_true", help="horizontals only (2+2 pairs)")
+    ap.add_argument("--table", action="store_true", help="with --mcmc: print the table only")
     args = ap.parse_args()
+    if args.mcmc:
+        return mcmc(args)
+    args.out = args.out or "reports/eiv/study.json"
     rows = []
     print(f"{'regime':28s} {'mode':9s} {'gain z mean':>11s} {'sd':>5s} {'in 90%':>7s} "
           f"{'az z mean':>9s} {'sd':>5s} {'in 90%':>7s}")
@@ -72,8 +100,8 @@ def main():
         for mode in args.modes:
             t0 = time.time()
             zg, za = [], []
-            for seed in range(args.n):
-                g, a = one(mode, seed, coh, refc)
+            for seed in range(args.seed0, args.seed0 + args.n):
+                g, a = one(mode, seed, coh, refc, args.two_by_two)
                 zg += g
                 za += a
             zg, za = np.array(zg), np.array(za)
@@ -89,8 +117,38 @@ def main():
                   f"{row['az_z_sd']:5.2f} {row['az_in90']:3d}/{za.size:<3d}", flush=True)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as fh:
-        json.dump({"command": "python benchmarks/eiv_study.py --n %d" % args.n, "rows": rows},
+        json.dump({"command": "python benchmarks/eiv_study.py --n %d --seed0 %d" % (args.n, args.seed0),
+                   "rows": rows},
                   fh, indent=1)
+
+
+def mcmc(args):
+    """Coverage rows appended to ``args.out`` and the summary table printed."""
+    out = args.out or "reports/eiv/coverage.json"
+    rows = json.load(open(out))["rows"] if os.path.exists(out) else []
+    done = {(r["seed"], r["ratio"], r["pair_coherence"], r["fit"], r["mode"]) for r in rows}
+    for ratio in [] if args.table else args.ratios:
+        for coh in args.coherences:
+            for mode in args.modes:
+                for seed in range(args.seed0, args.seed0 + args.n):
+                    if (seed, ratio, coh, args.fit, mode) in done:
+                        continue
+                    r = run_pair(seed, ratio, coh, args.fit, mode)
+                    rows.append(r)
+                    print(f"ratio {ratio:g} coh {coh} {args.fit} {mode} seed {seed}: "
+                          f"{r['cpu_s']:.1f} s cpu, converged {r['converged']}", flush=True)
+                    os.makedirs(os.path.dirname(out), exist_ok=True)
+                    with open(out, "w") as fh:
+                        json.dump({"command": "python benchmarks/eiv_study.py --mcmc ...",
+                                   "rows": rows, "summary": summarise(rows)}, fh, indent=1)
+    summary = summarise(rows)
+    print(table(summary))
+    cpu = {}
+    for r in rows:
+        cpu.setdefault((r["fit"], r["mode"]), []).append(r["cpu_s"])
+    for k, v in sorted(cpu.items()):
+        print(f"cpu per fit {k[0]} {k[1]}: median {np.median(v):.1f} s over {len(v)}")
+    print(f"converged {sum(r['converged'] for r in rows)} / {len(rows)}")
 
 
 if __name__ == "__main__":

@@ -70,6 +70,35 @@ def test_noisy_reference_quiet_model_biased_estimate_mode_not(coherence, ref_coh
     assert np.max(np.abs(est_z)) < 3.5
 
 
+def test_gain_error_scales_with_the_noise_without_a_drift():
+    """Noise-free reference, the same seeded SUT noise at coherence 0.9 and
+    0.999 (the simulator draws the same normals, scaled): the estimator is
+    linear in the noise, so the standardised errors agree. With the plug-in
+    noise held in ground units instead of the SUT's counts
+    (core/noisescale.py) the low-coherence fit drifted high by about
+    ``dim * sd``: +0.48 on these seeds (+0.55 in mode estimate with equal
+    noise, whose profiled noise makes it less linear: -0.39 after the fix,
+    hence not tested this way)."""
+    drift = []
+    for seed in (100, 101):
+        lo, sd_lo = _gain_errors("quiet", seed, 0.9, 0.99999)
+        hi, sd_hi = _gain_errors("quiet", seed, 0.999, 0.99999)
+        drift.extend(lo / sd_lo - hi / sd_hi)
+    assert abs(np.mean(drift)) < 0.2
+
+
+def test_residual_rows_are_compared_in_the_counts_of_the_plugin_point():
+    """Row i of the residual times |rho_i(a0)| / |rho_i(a)|: a gain 2 % above
+    the plug-in point's multiplies that SUT row by 1.02 exactly (its noise in ground units is 1.02 times smaller)."""
+    from bayescal.core import noisescale
+    ratio = np.ones((1, 2, 5), complex)
+    ratio[0, 1] /= 1.02                          # H_nom / H: gain 2 % higher
+    r = np.ones((1, 1, 4, 2, 3))
+    out = noisescale.rescale_rows(r, np.ones((2, 4)), ratio, np.full((5, 4), 0.2), [0, 1])
+    assert np.allclose(out[0, 0, :, 0], 1.0) and np.allclose(out[0, 0, :, 1], 1.02)
+    assert noisescale.rescale_rows(r, None, ratio, np.full((5, 4), 0.2), [1]) is r
+
+
 def test_eiv_model_in_model_criticism_and_one_channel_refusal():
     """A diagnosis of an errors-in-variables fit scores orientation findings
     under its own model (this crashed once), and a one-channel horizontal
@@ -96,3 +125,12 @@ def test_eiv_model_in_model_criticism_and_one_channel_refusal():
     with pytest.raises(FitError, match="one-channel"):
         calibrate(sim.sut, sim.sut_inventory, sim.ref.select(channel="BHN"), sim.ref_inventory,
                   band=(0.02, 1.0), progress=False, ref_noise="estimate")
+
+
+def test_recommended_reference_noise_mode_by_channel_count():
+    """Pairs with two or more channels a side get the errors-in-variables
+    mode; a one-channel pair cannot separate the noise and stays quiet."""
+    assert refnoise.recommended_mode(3, 3) == refnoise.RECOMMENDED == "estimate"
+    assert refnoise.recommended_mode(2, 2) == "estimate"
+    assert refnoise.recommended_mode(1, 1) == "quiet"
+    assert refnoise.recommended_mode(1, 3) == "quiet"

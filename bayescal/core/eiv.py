@@ -12,6 +12,8 @@ what changes is the residual, its noise model and the likelihood:
 
 ``V_b`` the Wishart covariance of the statistic at the least-squares point and
 ``c_b`` the inflation measured from the per-segment statistics. In mode
+``estimate`` each SUT row of ``x`` is taken to the counts of that point
+(:mod:`bayescal.core.noisescale`), as in the base model. In mode
 ``estimate`` the reference's noise coefficients are profiled out in closed form
 per walker.
 Effects of model criticism that do not depend on time work as on the base
@@ -25,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import refnoise
+from . import noisescale, refnoise
 from .likelihood import INFLATION_SHRINK, Model, Priors
 
 
@@ -40,6 +42,7 @@ class EIVNoise:
     rho: np.ndarray        # (n_r, 2) noise coefficients at the plug-in point (mode estimate)
     factor: np.ndarray | None = None   # (B, 2m, 2m) F with W = F F^T
     rank: np.ndarray | None = None     # (B,) directions the statistic varies in
+    scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
 
     def cholesky(self):
         """Factor F with ``W = F F^T`` per band (whitening: ``F^T x``)."""
@@ -76,7 +79,7 @@ class EIVModel(Model):
         theta = np.atleast_2d(theta)
         vecs, ratio = self.unpack(theta)
         t = vecs @ self.ref_pinv
-        r0 = super().residual_blocks(theta)[:, 0]
+        r0 = self.plain_residual_blocks(vecs, ratio, theta)[:, 0]
         sur = r0 + np.einsum("wij,bjk->wbik", t, self._srr)
         suu = np.broadcast_to(self._suu_nominal, (theta.shape[0],) + self._suu_nominal.shape).copy()
         for j in self._free_rows:
@@ -110,14 +113,28 @@ class EIVModel(Model):
         reference's noise as a combination of fixed spectral shapes
         (:func:`bayescal.core.refnoise.noise_shapes`), profiled out."""
         theta = np.atleast_2d(theta)
-        vecs, _ = self.unpack(theta)
+        vecs, ratio = self.unpack(theta)
         t = vecs @ self.ref_pinv
-        x0 = refnoise.as_real(super().residual_blocks(theta)[:, 0])
+        x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
         nt = t[:, None, :, :] * np.ones((1, self.spectra.n_bands, 1, 1))
         g = self._design(nt, self._shapes)
         nr = t.shape[2]
+        f = self._row_factor(ratio)
+        if f is not None:
+            x0, g = x0 * f, g * f[..., None]
         coef = refnoise.profile_ratio(x0, g, self.noise.W if w is None else w)
         return x0 + np.einsum("wbip,wp->wbi", g, coef), coef.reshape(-1, nr, 2)
+
+    def _row_factor(self, ratio):
+        """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
+        (each SUT row in the counts of the plug-in point,
+        :mod:`bayescal.core.noisescale`), or None before a noise model."""
+        scale0 = getattr(self.noise, "scale0", None)
+        if scale0 is None:
+            return None
+        f = scale0[None] / noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)
+        f = np.repeat(f.transpose(0, 2, 1), self.spectra.n_r, axis=2)          # (W, B, m)
+        return np.concatenate([f, f], axis=2)
 
     # --- likelihood --------------------------------------------------------
     def residual_blocks(self, theta):
@@ -206,6 +223,9 @@ class EIVModel(Model):
         c = np.maximum(c, 1e-3 * pooled)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank)
+        if not data_terms:      # mode estimate: the noise held in the SUT's counts
+            self.noise.scale0 = noisescale.noise_scale(ratio, self._band_nodes,
+                                                       self._free_rows)[0]
         return self.noise
 
     @staticmethod

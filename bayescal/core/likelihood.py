@@ -1,4 +1,4 @@
-"""The Frobenius residual of seed 000 inside a likelihood with a noise model
+"""The Frobenius residual of the orientation design document inside a likelihood with a noise model
 estimated from the spectra.
 
 Residual
@@ -17,10 +17,8 @@ reference as the right-hand factor, per band b:
 which has zero mean at the truth whatever the SUT's noise (the SUT noise is
 incoherent with the reference), so the estimate stays unbiased at low
 coherence (``tests/test_likelihood.py`` measures both forms at coherence
-0.9). One band is exactly the seed's single sum. The reference is the
-well-known sensor of the protocol: its own noise is assumed small next to the
-SUT's (if both were equally noisy, gains would come out low by about the
-reference's coherence deficit).
+0.9). One band is exactly the single sum. The reference's own noise is left
+out here (``--ref-noise quiet``); :mod:`.eiv` models it.
 
 Noise model
 -----------
@@ -35,7 +33,7 @@ noise make the true scatter larger than the independent-bin formula says; the
 factor ``c_b`` measures that ratio from the scatter of the per-segment band
 residuals (with the lag-one covariance of overlapping segments), shrunk
 toward its pooled value over bands. The noise model is held fixed while
-sampling (a plug-in estimate).
+sampling (a plug-in estimate, in the SUT's counts: :mod:`.noisescale`).
 
 Time blocks
 -----------
@@ -47,12 +45,10 @@ linearly through the record cancels to first order (it only decoheres the
 sum, evenly in its rate); per block its progression, sign included, is seen.
 
 A model with effects measures ``c_b`` on the exact residuals of the time
-blocks (every bin kept), after removing the part common to all blocks,
-rather than on per-segment band residuals, which apply the response ratio at
-the band centre and so miss an effect's factor that turns within a band (a
-delay's phase). Records with fewer than ``MIN_TIME_BLOCKS`` blocks (under 8
-segments) fall back to the per-segment estimate, which overstates ``c_b``
-under a large delay.
+blocks less their common part (per-segment band residuals apply the response
+ratio at the band centre and miss a factor turning within a band, a delay's
+phase); under ``MIN_TIME_BLOCKS`` blocks it falls back to the per-segment
+estimate, which overstates ``c_b`` under a large delay.
 """
 from __future__ import annotations
 
@@ -60,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import misfit_scale
+from . import misfit_scale, noisescale
 from .response import TwoPoleFamily
 
 #: Density of the nodes at which response ratios are evaluated.
@@ -161,6 +157,7 @@ class NoiseModel:
     B: np.ndarray        # (G, B, n_r, n_r), G = 1 unless per-block
     sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
     inflation: np.ndarray  # (B,) c_b
+    scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
 
     def cholesky(self):
         """Factors for the whitened residual ``L_A^H R L_B``."""
@@ -216,6 +213,7 @@ class Model:
                                    self._cur).reshape(nu, self.nodes.size, -1)
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
+        self._band_nodes = noisescale.band_node_weights(self._onehot, self._interp)
         self._inverse = {k: b.family.inverse_ratio_at(self.nodes)
                          for k, b in enumerate(self.blocks) if b.free == "all"}
         self._blocked = [(e, sl) for e, sl in zip(self.effects, self.effect_slices) if e.blocked]
@@ -322,11 +320,17 @@ class Model:
 
     # --- residual and likelihood -----------------------------------------
     def residual_blocks(self, theta):
-        """R_{b,g}(theta) per band and time block, shape (W, G, B, n_u, n_r)
-        (G = 1 unless ``per_block``)."""
-        if self.per_block:
-            return self._exact_block_residuals(theta)
+        """R_{b,g}(theta), (W, G, B, n_u, n_r), G = 1 unless ``per_block``, in
+        the counts of the plug-in point (:mod:`bayescal.core.noisescale`)."""
         vecs, ratio = self.unpack(theta)
+        return noisescale.rescale_rows(self.plain_residual_blocks(vecs, ratio, theta),
+                                       getattr(self.noise, "scale0", None), ratio,
+                                       self._band_nodes, self._free_rows)
+
+    def plain_residual_blocks(self, vecs, ratio, theta):
+        """The same from unpacked parameters, unscaled."""
+        if self.per_block:
+            return self._exact_block_residuals(theta, (vecs, ratio))
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv                                    # (W, nu, nr)
@@ -339,10 +343,10 @@ class Model:
         r -= _times_blocks(t, self._srr_g)                            # (W, 1, B, nu, nr)
         return r
 
-    def _exact_block_residuals(self, theta):
+    def _exact_block_residuals(self, theta, unpacked=None):
         """(W, G, B, n_u, n_r): the residual of every time block of the
         spectra, with each effect's factor applied per frequency bin."""
-        vecs, ratio = self.unpack(theta)
+        vecs, ratio = self.unpack(theta) if unpacked is None else unpacked
         w = vecs.shape[0]
         nb, nr = self.spectra.n_bands, self.spectra.n_r
         t = vecs @ self.ref_pinv
@@ -362,8 +366,7 @@ class Model:
         """R_b(theta) summed over time blocks, shape (W, B, n_u, n_r)."""
         return self.residual_blocks(theta).sum(axis=1)
 
-    #: Shape of the per-band noise-scale prior (:mod:`.misfit_scale`); inf:
-    #: the Gaussian likelihood. A fit sets it (``fit_spectra``).
+    #: Per-band noise-scale prior shape (:mod:`.misfit_scale`; inf: Gaussian; fits set it).
     misfit_shape = np.inf
 
     def band_energy(self, theta):
@@ -459,8 +462,9 @@ class Model:
         wgt = r_k.shape[0] * p
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
         c = np.maximum(c, 1e-3 * pooled)
+        scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
-                                inflation=c)
+                                inflation=c, scale0=scale0)
         return self.noise
 
     def adopt_noise(self, noise):
@@ -470,7 +474,8 @@ class Model:
         b = noise.B
         if b.shape[0] != self.n_time_blocks:
             b = np.linalg.inv(self._srr_g)
-        self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation)
+        self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation,
+                                scale0=getattr(noise, "scale0", None))
         return self.noise
 
     def standardized_band_residuals(self, theta):
