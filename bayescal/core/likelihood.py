@@ -60,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .response import TwoPoleFamily
+from .response import TwoPoleFamily, gain_prior_factor
 
 #: Density of the nodes at which response ratios are evaluated.
 NODES_PER_DECADE = 60
@@ -245,6 +245,9 @@ class Model:
             self._srr_g = self._srr[None]
         affected = {k for e in self.effects for k in e.rows}
         self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
+        # a gain alone scales its row of S_ur,b: no product over the nodes needed
+        self._scaled_rows = [k for k in self._free_rows
+                             if self.blocks[k].free == "gain" and k not in affected]
         self.noise = None
 
     # --- parameters -------------------------------------------------------
@@ -309,7 +312,7 @@ class Model:
                 continue
             r = theta[:, sr]
             lg = r[:, -1] - np.log(b.family.gain)
-            bad = np.abs(lg) > np.log(pr.gain_factor)
+            bad = np.abs(lg) > np.log(gain_prior_factor(b.family, pr))
             if b.free == "all":
                 lt = r[:, 0] - np.log(b.family.period_s)
                 bad |= np.abs(lt) > np.log(pr.period_factor)
@@ -333,6 +336,9 @@ class Model:
         # one BLAS product per row: (W, Q) @ (Q, B*nr); operands must be
         # contiguous (a transposed view drops matmul off BLAS, 50x slower)
         for j in self._free_rows:
+            if j in self._scaled_rows:      # ratio constant in frequency: scale the row
+                r[:, 0, :, j, :] *= ratio[:, j, :1, None]
+                continue
             r[:, 0, :, j, :] = (np.ascontiguousarray(ratio[:, j]) @ self._cur_rows[j]).reshape(
                 w, nb, nr)
         r -= _times_blocks(t, self._srr_g)                            # (W, 1, B, nu, nr)
