@@ -99,6 +99,8 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                   "periods of the band's lower edge from the ends of the record "
                                   "or of a gap (the deconvolution's transient)"},
             "band_choice": band_note,
+            "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
+                                     "reference": placeholder_channels(ref_inventory, r.ids)},
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
     fitted = spectra.select(keep) if low else spectra
     post = fit_spectra(fitted, r.vectors, np.asarray(s.vectors)[keep],
@@ -110,6 +112,20 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post
+
+
+def placeholder_channels(inventory, ids):
+    """The ids among ``ids`` whose metadata are bayescal placeholders
+    (``flat``: their deconvolved spectra are counts, not ground units)."""
+    out = []
+    for cid in ids:
+        net, sta, loc, cha = str(cid).split(".")
+        chans = [c for n in inventory.select(network=net, station=sta, location=loc, channel=cha)
+                 for s in n for c in s]
+        if any(getattr(c, "subject", None) == "bayescal placeholder"
+               for ch in chans for c in ch.comments):
+            out.append(str(cid))
+    return out
 
 
 def load_inventory(spec, stream, side="StationXML"):
