@@ -57,9 +57,11 @@ def test_cowi_base_model_fails_and_says_so_first(cowi_data, tmp_path):
     res = json.loads((out / "result.json").read_text())
     a = res["adequacy"]
     assert a["ok"] is False
-    # diagnose: base model p = 5.6e-27 (LHE, upper band)
-    assert a["worst"]["p"] < 1e-20
-    assert a["worst"]["channel"] == "US.COWI..LHE"
+    # gains held (--fit-response none): p = 5.6e-27 on LHE, upper band; with
+    # the gains free (the default since issue 12 item 5) part of the misfit
+    # is absorbed: p = 1.1e-9, misfit 11.9, on LHN in the upper band
+    assert a["worst"]["p"] < 1e-6
+    assert a["worst"]["channel"] == "US.COWI..LHN"
     assert a["worst"]["band_hz"][1] == pytest.approx(1 / 3, rel=1e-6)
     assert a["worst"]["misfit"] > 10
     first = buf.getvalue().splitlines()[0]

@@ -15,11 +15,11 @@ from bayescal.simulate.pair import simulate_pair
 AZ = (5.0, 95.0, 0.0)
 
 
-def _diagnose(band=(0.05, 3.0), seed=1, coherence=0.99, **effect):
+def _diagnose(band=(0.05, 3.0), seed=1, coherence=0.99, fit_response="gain", **effect):
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=AZ,
                         nominal_azimuth=(3.0, 93.0, 0.0), **effect)
     post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
-                              progress=False, min_ess=200, n_tau=20)
+                              progress=False, min_ess=200, n_tau=20, fit_response=fit_response)
     return diagnose(post, mcmc=False)
 
 
@@ -58,8 +58,10 @@ def test_extra_pole_on_the_right_sensor(which):
 
 
 def test_gain_error_on_one_channel():
+    """With the gains held (--fit-response none) a gain error is an effect to
+    name; by default the gain is a fitted parameter instead."""
     resp = ((30.0, 0.707, 750.0), (30.0, 0.707, 750.0 * 0.95), (30.0, 0.707, 750.0))
-    d = _diagnose(sut_response=resp)
+    d = _diagnose(sut_response=resp, fit_response="none")
     e = _only(d, "gain_error")
     assert e["channels"] == ["XX.SIM.10.BH2"]
     _inside(e, "fraction", -0.05)

@@ -1,7 +1,8 @@
 """One-channel references (issue 14, items 3 and 13): two SUT horizontals
 against one reference horizontal (ASL's orthogonal rotation, stated in the
-output), a vertical against a vertical without --fit-response (a clear
-refusal, not a crash) and with it (no azimuth of 180 degrees invented)."""
+output), a vertical against a vertical with its gain held (--fit-response
+none: a clear refusal, not a crash) and by default, gain free (no azimuth of
+180 degrees invented)."""
 from __future__ import annotations
 
 import json
@@ -50,17 +51,17 @@ def test_cowi_against_azi8_lh1_alone_matches_asl(cowi_data, tmp_path):
     assert "assumed orthogonal" in res["meta"]["assumption"]
 
 
-def test_vertical_against_vertical_needs_fit_response(sim_files, tmp_path):
+def test_vertical_against_vertical_with_gain_held_is_refused(sim_files, tmp_path):
     out = tmp_path / "o"
     proc = run_fit(*base_args(sim_files), "--sut-id", "XX.SIM.10.BHZ", "--ref-id",
-                   "XX.SIM.00.BHZ", "--band", *SIM_BAND, out=out)
-    assert_user_error(proc, out, "", "add --fit-response")
+                   "XX.SIM.00.BHZ", "--band", *SIM_BAND, "--fit-response", "none", out=out)
+    assert_user_error(proc, out, "", "do not hold it with --fit-response none")
 
 
 def test_vertical_against_vertical_is_not_given_azimuth_180(sim_files, tmp_path):
     out = tmp_path / "o"
     proc = run_fit(*base_args(sim_files), "--sut-id", "XX.SIM.10.BHZ", "--ref-id",
-                   "XX.SIM.00.BHZ", "--band", *SIM_BAND, "--fit-response", "gain", out=out)
+                   "XX.SIM.00.BHZ", "--band", *SIM_BAND, out=out)   # default: gain free
     assert proc.returncode == 0, proc.stderr
     az = json.loads((out / "result.json").read_text())["channels"]["XX.SIM.10.BHZ"]["azimuth_deg"]
     assert az["undefined"] and az["median"] == 0.0

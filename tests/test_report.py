@@ -37,10 +37,11 @@ def _fit(tmp, name, sim, ref=None, **kw):
 
 @pytest.fixture(scope="module")
 def flagged(tmp_path_factory):
-    """Orientation-only fit of a pair with one turned and one reversed channel."""
+    """Orientation-only fit (gains held: --fit-response none) of a pair with
+    one turned and one reversed channel."""
     sim = simulate_pair(duration=3600, fs=10, seed=4, coherence=0.99, sut_azimuth=TRUE_AZ,
                         sut_dip=TRUE_DIP, polarity_reversal=1)
-    folder = _fit(tmp_path_factory.mktemp("flagged"), "result", sim)
+    folder = _fit(tmp_path_factory.mktemp("flagged"), "result", sim, fit_response="none")
     paths = write_report(folder)
     return folder, paths
 

@@ -46,8 +46,9 @@ def configure(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="band in Hz for items whose plan row gives none (default: chosen "
                              "per pair from the data where the sensors are coherent)")
-    parser.add_argument("--fit-response", choices=("none", "gain", "all"), default="none",
-                        help="default response fit (default none: angles only)")
+    parser.add_argument("--fit-response", choices=("none", "gain", "all"), default="gain",
+                        help="default response fit (default gain: angles and each channel's "
+                             "gain; none: gains held at their metadata values)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="address of a running Dask scheduler (default: a local cluster)")
     parser.add_argument("--workers", type=int, metavar="N",

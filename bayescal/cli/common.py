@@ -38,10 +38,16 @@ def add_pair_arguments(parser):
     g.add_argument("--ref-id", nargs="+", metavar="PATTERN",
                    help="SEED ids of the reference's channels (e.g. 'XX.SIM.00.BH?')")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--fit-response", nargs="?", const="all", default="none",
-                        choices=["all", "gain"],
-                        help="also fit the SUT's response: 'all' (default when given: natural "
-                             "period, damping and gain per channel) or 'gain' only")
+    parser.add_argument("--fit-response", nargs="?", const="all", default="gain",
+                        choices=["all", "gain", "none"],
+                        help="which of the SUT's response parameters are fitted: 'gain' (the "
+                             "default without the option: each channel's gain, reported also "
+                             "as a relative gain = fitted / metadata; works with 'flat' "
+                             "metadata), 'all' (the default when the option is given without "
+                             "a value: natural period, damping and gain per channel; needs "
+                             "poles and zeros) or 'none' (gains held at their metadata values, "
+                             "angles only). With one horizontal reference channel the gains "
+                             "are held (it cannot separate them from the rotation)")
     parser.add_argument("--ref-noise", choices=["quiet", "estimate", "equal"], default=None,
                         help="the reference's own self-noise: 'quiet' (negligible next to the "
                              "SUT's; the default), 'estimate' (estimated from the data as white "

@@ -1,8 +1,9 @@
 """Calibrate a sensor under test (SUT) against a co-located reference.
 
 Reads both sensors' recordings (any format ObsPy reads; several files per
-side) and StationXML, estimates the SUT's channel orientations (and, with
---fit-response, its response), and writes into DIR:
+side) and StationXML, estimates the SUT's channel orientations and gains
+(relative gain = fitted / metadata; --fit-response none holds the gains,
+--fit-response all also fits period and damping), and writes into DIR:
 
   result.json        medians, 68/90/95 % credible intervals, convergence,
                      the band and the amount of data used
@@ -38,7 +39,7 @@ import warnings
 
 from .common import add_pair_arguments, say, staging
 
-HELP = "estimate the SUT's orientation (and response) from recordings beside a reference"
+HELP = "estimate the SUT's orientation and gain (and response) from recordings beside a reference"
 
 
 def configure(parser):

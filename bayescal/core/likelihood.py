@@ -57,7 +57,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import misfit_scale, noisescale
-from .response import TwoPoleFamily
+from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
+from .response import TwoPoleFamily, gain_prior_factor
 
 #: Density of the nodes at which response ratios are evaluated.
 NODES_PER_DECADE = 60
@@ -113,41 +114,6 @@ class ChannelBlock:
         return [f"{self.channel_id}:{p}" for p in orient + resp]
 
 
-class Effect:
-    """A physical effect the base model leaves out, as an extension of it.
-
-    An effect multiplies the SUT deconvolution factor of the channels
-    ``rows`` (indices into the model's SUT channels) by ``factor(freqs, p)``,
-    a complex array of shape (W, len(rows), F) or broadcastable to it, for
-    parameters ``p`` of shape (W, n_params). An effect on the reference (a
-    pole missing from its metadata, its clock) is expressed on the SUT side as
-    the reciprocal factor applied to every row. ``factor`` must be 1 at the
-    effect's null value, so the extended model nests the base model.
-    Subclasses set ``name``, ``param_names``, ``rows`` and implement
-    ``factor`` and ``log_prior`` (vectorised, -inf outside the support).
-
-    An effect that changes through the record (a drifting clock) sets
-    ``blocked = True``; its ``factor`` then returns one factor per time block
-    of the spectra (``CrossSpectra.block_totals``), shape (W, G, len(rows), F)
-    or broadcastable to it.
-    """
-
-    name = "effect"
-    param_names: tuple = ()
-    rows: list = []
-    blocked = False
-
-    @property
-    def n_params(self):
-        return len(self.param_names)
-
-    def factor(self, freqs, p):
-        raise NotImplementedError
-
-    def log_prior(self, p):
-        return np.zeros(p.shape[0])
-
-
 @dataclass
 class NoiseModel:
     """Per-band precision factors: ``A_b = Sigma_b^-1 / c_b``, ``B_b = S_rr,b^-1``
@@ -179,7 +145,7 @@ class Model:
         self.blocks = list(blocks)
         self.priors = priors
         self.effects = list(effects)
-        nu, nr = spectra.n_u, spectra.n_r
+        nu = spectra.n_u
         if len(self.blocks) != nu:
             raise ValueError("one ChannelBlock per SUT channel is needed")
         self.ref_vectors = np.asarray(ref_vectors, float)
@@ -244,6 +210,9 @@ class Model:
             self._srr_g = self._srr[None]
         affected = {k for e in self.effects for k in e.rows}
         self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
+        # a gain alone scales its row of S_ur,b: no product over the nodes needed
+        self._scaled_rows = [k for k in self._free_rows
+                             if self.blocks[k].free == "gain" and k not in affected]
         self.noise = None
 
     # --- parameters -------------------------------------------------------
@@ -308,7 +277,7 @@ class Model:
                 continue
             r = theta[:, sr]
             lg = r[:, -1] - np.log(b.family.gain)
-            bad = np.abs(lg) > np.log(pr.gain_factor)
+            bad = np.abs(lg) > np.log(gain_prior_factor(b.family, pr))
             if b.free == "all":
                 lt = r[:, 0] - np.log(b.family.period_s)
                 bad |= np.abs(lt) > np.log(pr.period_factor)
@@ -338,6 +307,9 @@ class Model:
         # one BLAS product per row: (W, Q) @ (Q, B*nr); operands must be
         # contiguous (a transposed view drops matmul off BLAS, 50x slower)
         for j in self._free_rows:
+            if j in self._scaled_rows:      # ratio constant in frequency: scale the row
+                r[:, 0, :, j, :] *= ratio[:, j, :1, None]
+                continue
             r[:, 0, :, j, :] = (np.ascontiguousarray(ratio[:, j]) @ self._cur_rows[j]).reshape(
                 w, nb, nr)
         r -= _times_blocks(t, self._srr_g)                            # (W, 1, B, nu, nr)

@@ -38,6 +38,22 @@ def fixed_summary(value):
     return {"median": float(value), "fixed": True}
 
 
+def relative_gain(gain_entry, nominal_gain, response_samples):
+    """Summary of the relative gain (fitted gain / metadata gain, what a
+    relative-gain experiment measures) of one channel, or None when its gain
+    was not fitted. A gain held at nominal gives a fixed 1."""
+    if gain_entry is None or not nominal_gain:
+        return None
+    if gain_entry.get("fixed"):
+        return {**fixed_summary(gain_entry["median"] / nominal_gain),
+                **{k: gain_entry[k] for k in ("set_by_prior", "reason", "action")
+                   if k in gain_entry}}
+    out = interval_summary(np.asarray(response_samples)[:, 2] / nominal_gain)
+    if gain_entry.get("set_by_prior"):
+        out.update({k: gain_entry[k] for k in ("set_by_prior", "reason", "action")})
+    return out
+
+
 @dataclass
 class Posterior:
     """Samples of one fit and their physical meaning.
@@ -126,6 +142,10 @@ class Posterior:
         nominal = self.meta.get("nominal", {}).get(cid)
         if nominal:
             entry["nominal"] = nominal
+        rel = relative_gain(entry.get("response", {}).get("gain"), (nominal or {}).get("gain"),
+                            self.response.get(cid))
+        if rel is not None:
+            entry["response"]["relative_gain"] = rel
         return entry
 
     def orthogonality(self):

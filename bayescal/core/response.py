@@ -138,6 +138,67 @@ class TwoPoleFamily:
         return (np.atleast_1d(gain) / self.gain)[:, None]
 
 
+@dataclass(frozen=True)
+class ScaleFamily:
+    """A channel's response known only up to a scale factor: the gain of a
+    response whose first stage is not a pendulum pair (``flat`` metadata, a
+    response of one gain stage). ``gain`` is the first stage's gain (or the
+    overall sensitivity when the first stage carries none); fitting it
+    multiplies the whole nominal response by ``gain / gain_nom`` (a relative
+    gain), which needs no poles or zeros. Period and damping are undefined
+    (NaN): only ``free="gain"`` uses this family. Such metadata are often a
+    placeholder (``flat``: 1 count per m/s), so the gain's log-uniform prior
+    spans ``gain_factor`` either side of it rather than the usual factor 10
+    (:func:`gain_prior_factor`)."""
+
+    gain: float
+    norm_freq: float
+    gain_units: str
+    period_s: float = float("nan")
+    damping: float = float("nan")
+    gain_factor: float = 1e12
+
+    @classmethod
+    def from_response(cls, response):
+        """The nominal scale of an ObsPy ``Response`` (see the class docstring)."""
+        stages = getattr(response, "response_stages", None) or []
+        sens = getattr(response, "instrument_sensitivity", None)
+        if stages and stages[0].stage_gain:
+            st = stages[0]
+            unit = getattr(st.input_units, "upper", lambda: str(st.input_units))()
+            return cls(gain=float(st.stage_gain),
+                       norm_freq=float(st.stage_gain_frequency or getattr(sens, "frequency", 0)
+                                       or 1.0),
+                       gain_units=f"{st.output_units}/{unit}")
+        if sens is not None and sens.value:
+            return cls(gain=float(sens.value), norm_freq=float(sens.frequency or 1.0),
+                       gain_units=f"{sens.output_units}/{sens.input_units}")
+        raise ResponseError("the response has neither a first-stage gain nor a sensitivity")
+
+    gain_only_ratio = TwoPoleFamily.gain_only_ratio
+
+
+def gain_prior_factor(family, priors):
+    """How far (a factor either side) the gain's log-uniform prior reaches
+    from the metadata gain: the family's own ``gain_factor`` when it has one
+    (a :class:`ScaleFamily`), else ``priors.gain_factor``."""
+    return getattr(family, "gain_factor", None) or priors.gain_factor
+
+
+def response_family(response):
+    """The parametric family of a channel's response: a
+    :class:`TwoPoleFamily` when its first stage is a pendulum pair, else a
+    :class:`ScaleFamily` (gain only), else None."""
+    try:
+        return TwoPoleFamily.from_response(response)
+    except ResponseError:
+        pass
+    try:
+        return ScaleFamily.from_response(response)
+    except ResponseError:
+        return None
+
+
 def paz_velocity_response(freqs, period_s, damping, gain, extra_poles=(), digitizer_gain=1.0,
                           norm_freq=1.0):
     """Velocity response (counts per m/s) of an ideal broadband: two pendulum

@@ -39,7 +39,9 @@ HORIZONTAL_TOLERANCE_DEG = 30.0
 N_SAMPLES = 20000
 ASSUMPTION = ("one reference channel: the SUT's two horizontals are assumed orthogonal "
               "(ASL's azimuth method) and their common rotation is estimated; their "
-              "orthogonality is not tested")
+              "orthogonality is not tested; their gains are held at the metadata values (one "
+              "reference channel cannot tell the two horizontals' gains from their rotation, "
+              "and a gain error common to both does not bias it)")
 
 
 def orthogonal_pair(ref_vectors, sut_nominal_vectors):

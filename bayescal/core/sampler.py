@@ -86,8 +86,11 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     sut_nominal_vectors : (n_u, 3) SUT axes from its metadata: used only to
         decide which channels a partial (one- or two-channel) reference can
         see, never as a starting point.
-    families : per SUT channel a :class:`TwoPoleFamily` (or None).
-    free : "none", "gain" or "all".
+    families : per SUT channel a :class:`TwoPoleFamily`, a gain-only
+        :class:`ScaleFamily` (``flat`` metadata) or None.
+    free : "none" (gains held at their metadata values), "gain" (each
+        channel's gain free: the relative gain is fitted / metadata) or
+        "all" (period, damping and gain).
     ref_noise : how the reference's self-noise enters: "quiet" (negligible,
         the base :class:`Model`), "estimate" or "equal" (:class:`EIVModel`,
         see :mod:`bayescal.core.refnoise`); None: "quiet".
@@ -113,7 +116,11 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     if not fitted:
         raise FitError("no SUT channel can be estimated from this reference")
     if free != "none" and any(families[i] is None for i in fitted):
-        raise FitError("response fitting needs a poles-and-zeros first stage on every fitted channel")
+        raise FitError("gain fitting needs a response with a gain on every fitted channel")
+    if free == "all" and any(not np.isfinite(families[i].period_s) for i in fitted):
+        raise FitError("fitting period and damping (--fit-response all) needs a poles-and-zeros "
+                       "first stage with a pendulum pair on every fitted channel ('flat' has "
+                       "none: use the default, which fits each channel's gain)")
     sub = spectra.select(fitted)
     blocks, theta0 = [], []
     for i in fitted:
@@ -327,8 +334,10 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     from .posterior import Posterior
     from .rotation import fit_rotation, orthogonal_pair
 
-    pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free == "none" else None
+    pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free != "all" else None
     if pair is not None:   # one horizontal reference channel: ASL's orthogonal rotation
+        # (gains held: one reference channel cannot tell the two horizontals'
+        # gains from their rotation; a gain common to both does not bias it)
         if ref_noise not in (None, "quiet"):
             raise FitError(f"--ref-noise {ref_noise} is not available with a one-channel "
                            "horizontal reference (ASL's orthogonal-pair rotation, which assumes "
@@ -341,7 +350,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     if model.ndim == 0:
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
                        "fixed to the reference's (one channel each), so only its response can "
-                       "be estimated: add --fit-response")
+                       "be estimated: do not hold it with --fit-response none")
     from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
     with single_threaded_blas():
         theta_ls, cov = least_squares_fit(model, setup.theta0)

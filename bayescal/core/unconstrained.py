@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from .response import gain_prior_factor
+
 #: Laplace sd / prior sd at or above which a parameter is held at nominal.
 EARLY_RATIO = 0.5
 #: Posterior sd / prior sd at or above which a sampled parameter is flagged.
@@ -99,7 +101,8 @@ def prior_bounds(model):
             continue
         idx = np.arange(model.ndim)[sr]
         g = np.log(b.family.gain)
-        lo[idx[-1]], hi[idx[-1]] = g - np.log(pr.gain_factor), g + np.log(pr.gain_factor)
+        wide = np.log(gain_prior_factor(b.family, pr))
+        lo[idx[-1]], hi[idx[-1]] = g - wide, g + wide
         if b.free == "all":
             t = np.log(b.family.period_s)
             lo[idx[0]], hi[idx[0]] = t - np.log(pr.period_factor), t + np.log(pr.period_factor)

@@ -12,7 +12,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..core.geometry import unit_vector
-from ..core.response import ResponseError, TwoPoleFamily, evaluate_velocity_response
+from ..core.response import evaluate_velocity_response, response_family
 from .read import InputError, InputWarning, _channel_meta
 
 #: Sub-sample offsets smaller than this fraction of a sample are rounded.
@@ -45,15 +45,11 @@ class Side:
         return lambda f: np.array([evaluate_velocity_response(r, f) for r in self.responses])
 
     def families(self):
-        """Per channel the :class:`TwoPoleFamily` of its response, or None
-        when the first stage is not a two-pole poles-and-zeros stage."""
-        out = []
-        for r in self.responses:
-            try:
-                out.append(TwoPoleFamily.from_response(r))
-            except ResponseError:
-                out.append(None)
-        return out
+        """Per channel the parametric family of its response
+        (:func:`bayescal.core.response.response_family`: a
+        :class:`TwoPoleFamily`, a gain-only :class:`ScaleFamily` when the
+        first stage is not a pendulum pair, or None)."""
+        return [response_family(r) for r in self.responses]
 
     @property
     def fraction_finite(self):

@@ -29,7 +29,7 @@ def _describe_files(side):
     return ", ".join(files)
 
 
-def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="none", seed=0,
+def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="gain", seed=0,
               priors=Priors(), nperseg=None, start=None, end=None, progress=True,
               sut_source="SUT", ref_source="reference", ref_noise=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
@@ -44,8 +44,13 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
         sensors are coherent (:func:`bayescal.io.band.choose_band`); the band
         used is in ``posterior.meta["band_hz"]`` and how it was chosen in
         ``posterior.meta["band_choice"]``.
-    fit_response : "none" (angles only), "gain", or "all" (period, damping,
-        gain per channel).
+    fit_response : "gain" (the default: angles and each SUT channel's gain,
+        reported also as a relative gain, fitted / metadata, which is what a
+        relative-gain experiment measures; works with ``flat`` metadata too),
+        "all" (period, damping and gain per channel; needs a poles-and-zeros
+        first stage) or "none" (angles only, gains held at their metadata
+        values). With a one-channel horizontal reference the gains are held
+        whatever is asked short of "all" (see :mod:`bayescal.core.rotation`).
     seed : random seed (results are reproducible).
     ref_noise : how the reference's own self-noise is treated: "quiet"
         (negligible next to the SUT's; the default), "estimate" (estimated
@@ -54,7 +59,7 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
         :mod:`bayescal.core.refnoise`. Kept in ``posterior.meta["reference_noise"]``.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
-    fit_response = {None: "none", False: "none", True: "all"}.get(fit_response, fit_response)
+    fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
     check_distinct(sut, ref)
     s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
                          start, end)
@@ -75,8 +80,10 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
     families = s.families()
     keep = [i for i, cid in enumerate(s.ids) if cid not in low]
     nominal = {cid: {"azimuth_deg": az, "dip_deg": dip,
-                     **({} if fam is None else {"period_s": fam.period_s, "damping": fam.damping,
-                                                "gain": fam.gain, "gain_units": fam.gain_units})}
+                     **({} if fam is None else {k: v for k, v in (
+                         ("period_s", fam.period_s), ("damping", fam.damping), ("gain", fam.gain),
+                         ("gain_units", fam.gain_units)) if not isinstance(v, float)
+                         or np.isfinite(v)})}
                for cid, az, dip, fam in zip(s.ids, s.azimuths, s.dips, families)}
     used_s = (spectra.n_segments * spectra.step + spectra.nperseg - spectra.step) / fs
     meta = {"nominal": nominal, "reference": {cid: {"azimuth_deg": az, "dip_deg": dip}
@@ -92,6 +99,8 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="n
                                   "periods of the band's lower edge from the ends of the record "
                                   "or of a gap (the deconvolution's transient)"},
             "band_choice": band_note,
+            "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
+                                     "reference": placeholder_channels(ref_inventory, r.ids)},
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
     fitted = spectra.select(keep) if low else spectra
     post = fit_spectra(fitted, r.vectors, np.asarray(s.vectors)[keep],
@@ -118,6 +127,20 @@ def _assumed_flat(inventory):
                for ch in sta for c in ch.comments)
 
 
+def placeholder_channels(inventory, ids):
+    """The ids among ``ids`` whose metadata are bayescal placeholders
+    (``flat``: their deconvolved spectra are counts, not ground units)."""
+    out = []
+    for cid in ids:
+        net, sta, loc, cha = str(cid).split(".")
+        chans = [c for n in inventory.select(network=net, station=sta, location=loc, channel=cha)
+                 for s in n for c in s]
+        if any(getattr(c, "subject", None) == "bayescal placeholder"
+               for ch in chans for c in ch.comments):
+            out.append(str(cid))
+    return out
+
+
 def load_inventory(spec, stream, side="StationXML"):
     """An Inventory from ``spec``: an ObsPy Inventory, a metadata file
     (StationXML, RESP, or GSE2 poles and zeros applied to every channel of
@@ -134,7 +157,7 @@ def load_inventory(spec, stream, side="StationXML"):
     return read_metadata(spec, side, stream=stream)
 
 
-def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="none",
+def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="gain",
                     seed=0, start=None, end=None, progress=True, sut_id=None, ref_id=None,
                     **kw):
     """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path

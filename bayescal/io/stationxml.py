@@ -6,13 +6,16 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   ``minusError`` from the 68 % interval (``ci68``); a value held fixed
   (the dip of a channel fitted against a two-channel reference) is left as
   it was;
-* when the response was fitted (``--fit-response``), the two long-period
+* when the response was fitted (the gain by default, everything with
+  ``--fit-response all``; ``flat`` metadata has only its stage-1 gain
+  scaled), the two long-period
   poles of stage 1 by those of the median period and damping, with errors
   from the 68 % interval of the pole samples, stage 1's gain by the median
   gain, the stage's normalization factor so that the gain keeps its meaning
   at the normalization frequency, and the overall sensitivity recalculated;
   the gain's 68 % interval goes into stage 1's Description and the channel's
-  comment (StationXML's Gain has no error fields);
+  comment with the relative gain (fitted / metadata) and its interval
+  (StationXML's Gain has no error fields);
 * except that a response parameter the data do not constrain ("set by the
   prior", :mod:`bayescal.core.unconstrained`) keeps its nominal value, and
   the comment says why;
@@ -73,11 +76,11 @@ def _pole_with_errors(samples):
 
 def _update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response import TwoPoleFamily
+    from ..core.response import response_family
 
     resp = channel.response
     stage = resp.response_stages[0]
-    fam = TwoPoleFamily.from_response(resp)
+    fam = response_family(resp)     # a ScaleFamily ('flat') has only its gain fitted
     hertz = "HERTZ" in str(stage.pz_transfer_function_type).upper()
     scale = 1.0 / (2 * np.pi) if hertz else 1.0
     # a parameter set by the prior keeps its nominal value (the comment says why)
@@ -192,6 +195,10 @@ def provenance_comment(posterior, entry):
         text += (f" Stage 1 gain and instrument sensitivity carry the median gain "
                  f"{gain['median']:.6g}, 68 % interval [{g_lo:.6g}, {g_hi:.6g}] "
                  f"(95 % [{gain['ci95'][0]:.6g}, {gain['ci95'][1]:.6g}]).")
+        rel = entry["response"].get("relative_gain")
+        if rel and "ci68" in rel:
+            text += (f" Relative gain (fitted / metadata) {rel['median']:.5f}, 68 % interval "
+                     f"[{rel['ci68'][0]:.5f}, {rel['ci68'][1]:.5f}].")
     return Comment(value=text, subject="bayescal provenance")
 
 

@@ -77,7 +77,7 @@ def _options(row, source, defaults):
     return opts
 
 
-def default_options(band=None, fit_response="none"):
+def default_options(band=None, fit_response="gain"):
     """Fit options an item takes when its plan does not say (``band`` None:
     chosen from each pair's coherence, as ``bayescal fit`` does)."""
     return {"band": None if band is None else [float(b) for b in band],

@@ -20,6 +20,7 @@ from scipy import stats
 from ..core.adequacy import describe
 from ..core.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, wrap180
+from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
 
 
@@ -204,10 +205,11 @@ def page_data_fit(ctx):
         ax.loglog(f, psd[i], color="0.55" if is_ref else "k", lw=0.9,
                   ls=LINESTYLES[j % len(LINESTYLES)], label=f"{'REF' if is_ref else 'SUT'} {cid}")
     ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("PSD ((m/s)$^2$/Hz)")
+    ax.set_ylabel(psd_label(ctx.post.meta, sut + ref))
     ax.set_title("Power spectra, ground velocity (nominal responses removed); "
                  "SUT black, reference grey", loc="left")
     ax.legend(ncol=2, loc="best")
+    frequency_ticks(ax, f[0], f[-1])
     ax = fig.add_subplot(gs[1])
     incoherent = np.clip(1.0 - d["multiple_coherence"], 1e-8, 1.0)
     for i, cid in enumerate(sut):
@@ -218,6 +220,7 @@ def page_data_fit(ctx):
     ax.set_title("Incoherent fraction of each SUT channel's power, against all reference channels"
                  " (0.01 = coherence 0.99)", loc="left")
     ax.legend(loc="best")
+    frequency_ticks(ax, f[0], f[-1])
     _misfit_panel(fig.add_subplot(gs[2]), d, sut, len(ref))
     return fig
 
@@ -252,6 +255,7 @@ def _misfit_panel(ax, d, sut, n_r):
     else:
         ax.set_ylim(0, max(hi * 1.3, top * 1.15))
     ax.legend(loc="upper left", ncol=2)
+    frequency_ticks(ax, edges[0], edges[-1])
 
 
 def page_convergence(ctx):
@@ -274,10 +278,12 @@ def page_convergence(ctx):
         x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
         walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
         burn = post.convergence.get("burn")
+        nominal = post.meta.get("nominal", {})
         for p, name in enumerate(names):
             ax = fig.add_subplot(gs[p // 2, p % 2])
-            segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)),
-                             tr[::step, walkers, p].T], axis=-1)
+            values, unit = trace_in_user_units(name, tr[::step, walkers, p].T,
+                                               nominal.get(name.rsplit(":", 1)[0]))
+            segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)), values], axis=-1)
             ax.add_collection(LineCollection(segs, colors="k", linewidths=0.4, alpha=0.6))
             ax.autoscale_view()
             ax.margins(y=0.35)
@@ -285,15 +291,17 @@ def page_convergence(ctx):
                 ax.axvline(float(burn), color="k", ls="--", lw=0.8)
             ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
                     bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
-            ax.set_ylabel(PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
+            ax.set_ylabel(unit or PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
             ax.tick_params(labelsize=6)
             if p >= nd - 2:
                 ax.set_xlabel("step")
             else:
                 ax.tick_params(labelbottom=False)
-        fig.text(0.1, 0.93 - trace_h - 0.05,
-                 f"Traces of {len(walkers)} of {tr.shape[1]} walkers in model coordinates;"
-                 " dashed line: end of burn-in (samples after it are kept).", fontsize=7)
+        fig.text(0.1, 0.93 - trace_h - 0.045,
+                 f"Traces of {len(walkers)} of {tr.shape[1]} walkers: orientation in deg "
+                 "(tangent-plane angle from the start axis, or azimuth),\nperiod in s, gain in % "
+                 "off metadata; dashed line: end of burn-in (samples after it are kept).",
+                 fontsize=7, va="top")
     ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
     ax.axis("off")
     per = conv["per_parameter"]
@@ -311,7 +319,7 @@ def page_convergence(ctx):
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
     fig.text(0.06, 0.015, "Default convergence rule of bayescal.core.sampler.sample: kept chain >= 50 tau,"
-             " ESS >= 1000 for every parameter, split R-hat (chain halves) < 1.01.", fontsize=7)
+             "\nESS >= 1000 for every parameter, split R-hat (chain halves) < 1.01.", fontsize=7)
     return fig
 
 

@@ -26,8 +26,9 @@ MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*")
 GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
 QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "orthogonality": "deg",
                   "period_s": "s",
-                  "damping": "-", "gain": "stage-1 units per m/s"}
-QUANTITY_NAMES = {"period_s": "period"}
+                  "damping": "-", "gain": "stage-1 units per m/s",
+                  "relative_gain": "fitted / metadata"}
+QUANTITY_NAMES = {"period_s": "period", "relative_gain": "relative gain"}
 PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
                "azimuth_rad": "rad", "log_period": "ln s", "damping": "dimensionless",
                "log_gain": "ln of gain"}

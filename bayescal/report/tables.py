@@ -23,7 +23,8 @@ class Row:
     """One line of the summary table (angles in degrees)."""
 
     channel: str
-    quantity: str          # "azimuth", "dip", "tilt", "period_s", "damping", "gain"
+    quantity: str          # "azimuth", "dip", "tilt", "period_s", "damping", "gain",
+    #                        "relative_gain" (fitted / metadata gain)
     median: float | None
     ci68: list | None
     ci95: list | None
@@ -151,11 +152,15 @@ def response_rows(summary, truth=None):
         tru = truth_values(truth, cid)
         for name, entry in (ch.get("response") or {}).items():
             n = nom.get(name)
+            true = tru.get(name)
+            if name == "relative_gain":        # fitted / metadata gain: nominal 1
+                n = 1.0
+                true = tru["gain"] / nom["gain"] if "gain" in tru and nom.get("gain") else None
             dev = None if not n else 100.0 * (entry["median"] / n - 1.0)
             note = ("SET BY THE PRIOR: held at nominal" if entry.get("action") == "held at nominal"
                     else "SET BY THE PRIOR: nominal kept in StationXML"
                     if entry.get("set_by_prior") else "")
-            rows.append(_interval_row(cid, name, entry, n, dev, note, truth=tru.get(name)))
+            rows.append(_interval_row(cid, name, entry, n, dev, note, truth=true))
     return rows
 
 

@@ -1,0 +1,79 @@
+"""Axis helpers of the report pages: readable log-frequency ticks over a
+narrow band, the PSD's unit (counts when the metadata were ``flat``
+placeholders) and the sampler's parameters in the units users read
+(degrees, seconds, percent of the metadata gain).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Tick mantissas on a log frequency axis, by the number of decades spanned.
+_SUBS = ((1.2, tuple(range(1, 10))), (2.5, (1.0, 2.0, 5.0)))
+
+
+#: Below this span (decades) a log frequency axis gets evenly spaced ticks.
+NARROW_DECADES = 0.7
+
+
+def frequency_ticks(ax, lo=None, hi=None, axis="x"):
+    """Label a log frequency axis so that a narrow band shows several values
+    (evenly spaced round values under a factor 5, 1-9 x 10^n within about a
+    decade, 1, 2, 5 x 10^n within 2.5 decades;
+    matplotlib's default labels only the powers of ten, which leaves two or
+    fewer labels on a band such as 0.125-0.33 Hz). ``lo``/``hi`` default to
+    the axis's current limits."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    which = ax.xaxis if axis == "x" else ax.yaxis
+    if lo is None or hi is None:
+        lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    decades = np.log10(hi / lo) if lo > 0 and hi > lo else 10.0
+    subs = next((s for span, s in _SUBS if decades <= span), None)
+    if subs is None:
+        return
+    if decades <= NARROW_DECADES:     # under a factor 5: evenly spaced round values
+        which.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))
+    else:
+        which.set_major_locator(LogLocator(base=10.0, subs=subs, numticks=40))
+    which.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    which.set_minor_formatter(NullFormatter())
+
+
+def placeholder_ids(meta):
+    """Channel ids (both sensors) whose response was a ``flat`` placeholder
+    (their spectra are in counts, not in ground units)."""
+    p = meta.get("placeholder_response") or {}
+    return set(p.get("sut", [])) | set(p.get("reference", []))
+
+
+def psd_label(meta, ids):
+    """The PSD axis label for channels ``ids``: (m/s)^2/Hz, counts^2/Hz when
+    every channel had ``flat`` placeholder metadata, both when mixed."""
+    flat = placeholder_ids(meta) & set(ids)
+    if not flat:
+        return "PSD ((m/s)$^2$/Hz)"
+    if flat >= set(ids):
+        return "PSD (counts$^2$/Hz: 'flat' metadata, no response removed)"
+    return "PSD ((m/s)$^2$/Hz; counts$^2$/Hz for 'flat' channels)"
+
+
+def trace_in_user_units(name, values, nominal=None):
+    """A sampler coordinate's trace in the units of the rest of the report:
+    ``(values, label)``. Tangent-plane orientation coordinates become the
+    angle (deg) from the chain's start direction, azimuths degrees, log
+    period seconds, log gain percent off the metadata gain (or the gain when
+    no metadata gain is known); anything else is returned as it is."""
+    kind = name.split(":")[-1]
+    values = np.asarray(values, float)
+    if kind in ("orient_a", "orient_b"):
+        return np.degrees(np.arctan(values)), "deg (tangent plane)"
+    if kind == "azimuth_rad":
+        return np.degrees(values), "azimuth (deg)"
+    if kind == "log_period":
+        return np.exp(values), "period (s)"
+    if kind == "log_gain":
+        g = (nominal or {}).get("gain")
+        if g:
+            return 100.0 * (np.exp(values) / g - 1.0), "gain, % off metadata"
+        return np.exp(values), "gain"
+    return values, None

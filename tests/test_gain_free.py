@@ -1,0 +1,105 @@
+"""The SUT's gain is free by default (issue 12 item 5): each channel's gain is
+fitted and reported as a relative gain (fitted / metadata), with 'flat'
+metadata too; ``fit_response="none"`` holds the gains (the old default)."""
+from __future__ import annotations
+
+import obspy
+import pytest
+
+import bayescal
+from bayescal.io.read import flat_inventory
+from bayescal.simulate.pair import DIGITIZER_GAIN, simulate_pair
+from tests.conftest import SIM_BAND, SIM_KW
+
+#: Metadata gains 1.5 % off the truth on the horizontals (nominal 750 V per m/s).
+OFF = (1.015, 0.985, 1.0)
+
+
+@pytest.fixture(scope="module")
+def gains_off():
+    kw = dict(SIM_KW, sut_dip=(0.0, 0.0, -90.0))
+    return simulate_pair(**kw, sut_response=tuple((30.0, 0.707, 750.0 * k) for k in OFF))
+
+
+def _fit(sim, **kw):
+    return bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+                              band=SIM_BAND, progress=False, **kw)
+
+
+def test_gains_off_metadata_default_covers_true_azimuth(gains_off):
+    """With the gains held (the old default) the 1.5 %-off gains pull BH1's
+    azimuth out of its interval; with them free (the default) the 95 %
+    intervals of both azimuths and relative gains hold the truth."""
+    held = _fit(gains_off, fit_response="none").summary()["channels"]
+    lo, hi = held["XX.SIM.10.BH1"]["azimuth_deg"]["ci95"]
+    assert not lo <= 3.0 <= hi
+    channels = _fit(gains_off).summary()["channels"]
+    for cid, az, k in (("XX.SIM.10.BH1", 3.0, OFF[0]), ("XX.SIM.10.BH2", 93.0, OFF[1]),
+                       ("XX.SIM.10.BHZ", None, OFF[2])):
+        e = channels[cid]
+        if az is not None:
+            lo, hi = e["azimuth_deg"]["ci95"]
+            assert lo <= az <= hi, (cid, e["azimuth_deg"])
+        rel = e["response"]["relative_gain"]
+        assert rel["ci95"][0] <= k <= rel["ci95"][1], (cid, rel)
+        assert rel["median"] == pytest.approx(e["response"]["gain"]["median"] / 750.0, rel=1e-3)
+        assert "period_s" not in e["response"]
+
+
+def test_flat_metadata_gives_the_true_relative_gain(tmp_path):
+    """A SUT flat in the band (120 s pendulum, band 0.3-2 Hz) given as
+    'flat' (1 count per m/s): its relative gain is its true sensitivity
+    750 V/(m/s) x 4e5 counts/V, and the corrected StationXML carries it."""
+    from bayescal.io.stationxml import write_corrected
+
+    sim = simulate_pair(**dict(SIM_KW, sut_response=((120.0, 0.707, 750.0),) * 3))
+    inv = flat_inventory(sim.sut)
+    post = bayescal.calibrate(sim.sut, inv, sim.ref, sim.ref_inventory, band=(0.3, 2.0),
+                              progress=False)
+    truth = 750.0 * DIGITIZER_GAIN
+    channels = post.summary()["channels"]
+    for cid, e in channels.items():
+        rel = e["response"]["relative_gain"]
+        assert rel["median"] == pytest.approx(truth, rel=3e-3), cid
+        assert rel["ci95"][1] - rel["ci95"][0] < 0.01 * truth
+    write_corrected(inv, post, tmp_path / "c.xml")
+    ch = obspy.read_inventory(str(tmp_path / "c.xml")).select(channel="BH1")[0][0][0]
+    g = channels["XX.SIM.10.BH1"]["response"]["gain"]["median"]
+    assert ch.response.response_stages[0].stage_gain == pytest.approx(g, rel=1e-6)
+    assert ch.response.instrument_sensitivity.value == pytest.approx(g, rel=1e-6)
+    assert "Relative gain (fitted / metadata)" in ch.comments[-1].value
+
+
+def test_flat_metadata_refuses_period_and_damping():
+    from bayescal.core.sampler import FitError
+
+    sim = simulate_pair(**dict(SIM_KW, duration=1200.0))
+    with pytest.raises(FitError, match="poles-and-zeros"):
+        bayescal.calibrate(sim.sut, flat_inventory(sim.sut), sim.ref, sim.ref_inventory,
+                           band=SIM_BAND, progress=False, fit_response="all")
+
+
+def test_vertical_only_pair_gives_its_relative_gain():
+    """A vertical against a vertical: the default fits the one thing it can,
+    the SUT vertical's gain relative to its metadata (truth 1.02)."""
+    sim = simulate_pair(**dict(SIM_KW, sut_dip=(0.0, 0.0, -90.0),
+                               sut_response=((30.0, 0.707, 750.0),) * 2
+                               + ((30.0, 0.707, 765.0),)))
+    sut, ref = sim.sut.select(channel="BHZ"), sim.ref.select(channel="BHZ")
+    post = bayescal.calibrate(sut, sim.sut_inventory, ref, sim.ref_inventory, band=SIM_BAND,
+                              progress=False)
+    rel = post.summary()["channels"]["XX.SIM.10.BHZ"]["response"]["relative_gain"]
+    assert rel["ci95"][0] <= 1.02 <= rel["ci95"][1]
+    assert rel["median"] == pytest.approx(1.02, abs=0.003)
+
+
+def test_one_horizontal_reference_channel_holds_the_gains(gains_off):
+    """One reference channel: ASL's orthogonal rotation, whatever the
+    default; the gains are held (the result says so) and no relative gain is
+    reported, since one channel cannot tell them from the rotation."""
+    ref = gains_off.ref.select(channel="BHN")
+    post = bayescal.calibrate(gains_off.sut, gains_off.sut_inventory, ref,
+                              gains_off.ref_inventory, band=SIM_BAND, progress=False)
+    s = post.summary()
+    assert "gains are held at the metadata values" in s["meta"]["assumption"]
+    assert all("response" not in e for e in s["channels"].values())
