@@ -89,5 +89,6 @@ def describe(verdict):
     if verdict["ok"]:
         return f"model check: passed; largest standardised misfit {where}"
     return (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, expected about 1. "
-            "The intervals assume the model and are too narrow where it fails; run "
+            "The per-band noise scale widens the intervals with the misfit, but a "
+            "systematic error the model leaves out can still move the estimates; run "
             "`bayescal diagnose` with the same arguments to locate and name the cause.")
