@@ -103,3 +103,31 @@ def test_one_horizontal_reference_channel_holds_the_gains(gains_off):
     s = post.summary()
     assert "gains are held at the metadata values" in s["meta"]["assumption"]
     assert all("response" not in e for e in s["channels"].values())
+
+
+def test_gain_only_stages_written_back():
+    """A SUT whose first stage is a bare gain (no poles and zeros: V per m/s,
+    then counts per V) gets its gain fitted and written: the corrected
+    StationXML's sensitivity is the product of its stage gains (it crashed on
+    the missing transfer-function type), near the simulated 3e8 counts/(m/s)."""
+    import copy
+
+    from obspy.core.inventory.response import InstrumentSensitivity, Response, ResponseStage
+
+    from bayescal.io.stationxml import corrected_inventory
+
+    sim = simulate_pair(duration=1800, fs=10, seed=3, coherence=0.99)
+    inv = copy.deepcopy(sim.sut_inventory)
+    for ch in inv[0][0]:
+        g = abs(ch.response.instrument_sensitivity.value)
+        ch.response = Response(
+            instrument_sensitivity=InstrumentSensitivity(g, 1.0, "M/S", "COUNTS"),
+            response_stages=[ResponseStage(1, g / 4e5, 1.0, "M/S", "V"),
+                             ResponseStage(2, 4e5, 1.0, "V", "COUNTS")])
+    post = bayescal.calibrate(sim.sut, inv, sim.ref, sim.ref_inventory, band=(0.05, 1.0),
+                              progress=False)
+    for ch in corrected_inventory(inv, post)[0][0]:
+        stages = ch.response.response_stages
+        sens = ch.response.instrument_sensitivity.value
+        assert sens == pytest.approx(stages[0].stage_gain * stages[1].stage_gain, rel=1e-9)
+        assert sens == pytest.approx(3e8, rel=0.05)

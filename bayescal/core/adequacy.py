@@ -89,6 +89,7 @@ def describe(verdict):
     if verdict["ok"]:
         return f"model check: passed; largest standardised misfit {where}"
     return (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, expected about 1. "
-            "The per-band noise scale widens the intervals with the misfit, but a "
-            "systematic error the model leaves out can still move the estimates; run "
+            "Where a fit uses the per-band noise scale (bayescal fit does) its intervals "
+            "widen with the misfit, but a systematic error the model leaves out can still "
+            "move the estimates; run "
             "`bayescal diagnose` with the same arguments to locate and name the cause.")

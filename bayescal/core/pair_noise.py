@@ -256,8 +256,10 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     orthogonal-pair rotation), ``samples`` (N, ndim) its posterior draws in
     model coordinates; ``ids`` (SUT ids, reference ids) name the channels
     when there is no model. One channel on either side: not identifiable
-    (and no sensor-order check). ``flat``: either sensor's metadata is the
-    assumed flat response (:data:`FLAT_NOTE`)."""
+    (and no sensor-order check). ``flat``: the reference's metadata, or the
+    SUT's with its gain held, is the assumed flat response
+    (:data:`FLAT_NOTE`; a flat SUT whose gain is fitted is put in the
+    reference's ground units by that gain)."""
     if model is None:
         return not_identifiable(*ids), {}
     sp = model.spectra

@@ -170,7 +170,8 @@ class ScaleFamily:
                        norm_freq=float(st.stage_gain_frequency or getattr(sens, "frequency", 0)
                                        or 1.0),
                        gain_units=f"{st.output_units}/{unit}")
-        if sens is not None and sens.value:
+        if sens is not None and sens.value and len(stages) <= 1:
+            # the sensitivity is the first stage's gain only when it is the only stage
             return cls(gain=float(sens.value), norm_freq=float(sens.frequency or 1.0),
                        gain_units=f"{sens.output_units}/{sens.input_units}")
         raise ResponseError("the response has neither a first-stage gain nor a sensitivity")

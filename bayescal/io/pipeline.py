@@ -114,8 +114,9 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                                  getattr(post, "full_samples", None),
                                                  ref_noise, fit_response, seed,
                                                  (spectra.sut_ids, spectra.ref_ids),
-                                                 _assumed_flat(sut_inventory)
-                                                 or _assumed_flat(ref_inventory))
+                                                 _assumed_flat(ref_inventory)
+                                                 or (_assumed_flat(sut_inventory)
+                                                     and fit_response == "none"))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post

@@ -81,7 +81,7 @@ def _update_response(channel, samples, free, summary):
     resp = channel.response
     stage = resp.response_stages[0]
     fam = response_family(resp)     # a ScaleFamily ('flat') has only its gain fitted
-    hertz = "HERTZ" in str(stage.pz_transfer_function_type).upper()
+    hertz = "HERTZ" in str(getattr(stage, "pz_transfer_function_type", "")).upper()
     scale = 1.0 / (2 * np.pi) if hertz else 1.0
     # a parameter set by the prior keeps its nominal value (the comment says why)
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
@@ -110,6 +110,8 @@ def _update_response(channel, samples, free, summary):
     else:
         gain = summary["gain"]["median"]
     stage.stage_gain = float(gain)
+    if stage.stage_gain_frequency is None:     # a gain ObsPy's evaluation would ignore
+        stage.stage_gain_frequency = float(fam.norm_freq)
     g_lo, g_hi = summary["gain"]["ci68"]
     stage.description = ("stage gain kept at its nominal value: set by the prior, not by the "
                          "data (see the channel's bayescal comment)" if "gain" in prior else
@@ -118,6 +120,15 @@ def _update_response(channel, samples, free, summary):
                          "uncertainty; see also the channel's bayescal comment)")
     sens = resp.instrument_sensitivity
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
+    if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
+        # ObsPy's recalculation in numpy (bayescal.core.evalresp; no obspy.signal import)
+        from ..core.evalresp import NotHandled, velocity_response
+        sens.frequency = float(freq)
+        try:
+            sens.value = float(abs(velocity_response(resp, [freq])[0]))
+            return
+        except NotHandled:
+            pass
     try:
         resp.recalculate_overall_sensitivity(freq)
     except Exception as exc:   # ObsPy/evalresp cannot evaluate this response
