@@ -21,28 +21,33 @@ PUBLISHED_COWI_DEG, COWI_TOL = 3.2, 0.5
 PUBLISHED_HUDDLE_AMP = 1130.0
 
 
-def test_cowi_horizontal_azimuths_match_asl(cowi_data, tmp_path):
+@pytest.mark.parametrize("gains", ["held", "free"])
+def test_cowi_horizontal_azimuths_match_asl(cowi_data, tmp_path, gains):
+    """Gains held at their metadata values (the fit this check was written
+    for): the 95 % interval holds ASL's 3.2 and is narrower than ASL's
+    +-0.5. Gains free (today's default): within ASL's tolerance and as
+    narrow, but LHE's 95 % interval, [2.85, 3.13], does not hold the point
+    3.2 (ASL's value is the common rotation of both horizontals; LHN's
+    [3.14, 3.54] does): checked as that, not hidden."""
     from real_cowi import command, rotation
 
     from bayescal.cli import main
 
     out = tmp_path / "cowi"
-    assert main(command(cowi_data, str(out))) == 0
+    args = command(cowi_data, str(out)) + (["--fit-response", "none"] if gains == "held" else [])
+    assert main(args) == 0
     res = json.loads((out / "result.json").read_text())
     rot = rotation(res["channels"])
     assert set(rot) == {"US.COWI..LHN", "US.COWI..LHE"}
     assert list(res["not_estimable"]) == ["US.COWI..LHZ"]
     for cid, r in rot.items():
-        # agreement: within the published tolerance (ASL 3.2 +- 0.5, the
-        # common rotation of both horizontals), the 95 % interval overlapping
-        # it and narrower than it. The model misses this pair (misfit up to 18
-        # per band) and the per-band noise scale widens the interval; with the
-        # gains free (the default) LHE's [2.85, 3.13] holds 3.2 +- 0.5 but not
-        # the point 3.2 (LHN [3.14, 3.54] does)
+        # the model misses this pair (misfit up to 18 per band); the per-band
+        # noise scale widens the interval
         assert abs(r["median"] - PUBLISHED_COWI_DEG) < COWI_TOL, (cid, r)
         lo, hi = r["ci95"]
-        assert hi > PUBLISHED_COWI_DEG - COWI_TOL and lo < PUBLISHED_COWI_DEG + COWI_TOL
         assert hi - lo < 2 * COWI_TOL, (cid, r)
+        holds_point = lo < PUBLISHED_COWI_DEG < hi
+        assert holds_point or (gains == "free" and cid == "US.COWI..LHE"), (cid, r)
     assert res["convergence"]["converged"]
     # the reference has gaps elsewhere, but this window is complete
     assert res["meta"]["data_used"]["segments"] > 500
