@@ -143,6 +143,48 @@ def test_normal_pair_has_no_swap_message():
     assert "message" not in post.sensor_order
 
 
+@pytest.mark.parametrize("case", ["swapped", "normal", "swapped_below_gain_error",
+                                  "sut_gain_low"])
+def test_sensor_order_with_free_gains(case):
+    """The default fit (gains free, --ref-noise quiet): the fitted gains
+    absorb the reference's noise, so the order is judged at the metadata
+    gains +-3 % (issue 14 item 5). Before this check the swapped pair gave
+    no warning (margin -inf at the fitted gains). ``swapped``: reference
+    coherence 0.9 against the SUT's 0.999 (noise 11 % of the signal, over
+    the 3 % a gain error can fake): the warning, margin 6.5 dB at seed 3.
+    ``normal``: the reverse, silent and determined. ``swapped_below_gain_error``:
+    noise 0.5 % of the signal (the demo's levels) with exact metadata: the
+    least margin cannot pass, the margin at the metadata gains does: a
+    caution naming both readings. ``sut_gain_low``: equal noise (coherence
+    0.95), the SUT's true gain 3 % below its metadata: no warning (a gain
+    error alone never raises one)."""
+    kw = {"swapped": dict(coherence=0.999, ref_coherence=0.9),
+          "normal": dict(coherence=0.9, ref_coherence=0.999),
+          "swapped_below_gain_error": dict(coherence=0.9999, ref_coherence=0.995),
+          "sut_gain_low": dict(coherence=0.95, ref_coherence=0.95,
+                               sut_response=((30.0, 0.707, 750 * 0.97),) * 3)}[case]
+    p = simulate_pair(**SIM, seed=3, **kw)
+    post = calibrate(p.sut, p.sut_inventory, p.ref, p.ref_inventory, band=(0.02, 1.0),
+                     progress=False)
+    order = post.sensor_order
+    assert "metadata gains" in order["basis"]
+    if case == "swapped":
+        assert order["reference_noisier"] is True
+        assert 3.0 < order["reference_minus_sut_db"] < 20.5
+        assert "were --ref and --sut swapped?" in order["message"]
+    else:
+        assert order["reference_noisier"] is False
+        assert "message" not in order
+    if case == "normal":
+        assert order["at_metadata_gains_db"] < -3.0
+        assert "caution" not in order and "undetermined" not in order
+    if case == "swapped_below_gain_error":
+        assert order["at_metadata_gains_db"] > 3.0
+        assert "swapped or the SUT's gain is below its metadata" in order["caution"]
+    if case == "sut_gain_low":
+        assert "caution" in order or "undetermined" in order
+
+
 def test_single_component_pair_not_identifiable():
     """A vertical huddle (one channel per sensor): no numbers, the reason."""
     p = simulate_pair(**SIM, seed=4, coherence=0.99, ref_coherence=0.99)

@@ -85,6 +85,8 @@ def print_summary(summary, stream=None):
     order = summary.get("sensor_order", {})
     if order.get("message"):
         print(f"WARNING: {order['message']}", file=stream)
+    elif order.get("caution"):
+        print(f"sensor order: {order['caution']}", file=stream)
     c = summary["convergence"]
     print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
           f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)

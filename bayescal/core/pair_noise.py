@@ -52,6 +52,8 @@ NOT_IDENTIFIABLE_REF = ("not identifiable: the sensor under test has fewer chann
                         "recovered; use bayescal noise with a third sensor")
 #: Median margin (dB) over the band above which the reference is called the noisier sensor.
 SWAP_MARGIN_DB = 3.0
+#: Error of the metadata gains the sensor-order check with free gains allows for (+-3 %).
+METADATA_GAIN_SPREAD = 0.03
 
 
 def noise_from_t(S, t):
@@ -191,10 +193,13 @@ def pair_self_noise(model, theta_point, theta_draws=None, level=0.9, n_draws=300
             "identified": ident, "level": level}
 
 
-def reference_margin_db(result, along):
+def reference_margin_db(result, along, signed=False):
     """Median over bands and identified channel pairs of reference minus
     SUT self-noise in dB; ``along`` (n_r,) the SUT channel along each
-    reference channel. NaN when nothing can be compared."""
+    reference channel. NaN when nothing can be compared. A band where
+    either estimate is not positive is left out, or with ``signed`` counted
+    as an infinite margin for the other sensor (a reference noise at or
+    below zero: the reference is the quieter there)."""
     nu = result["n_u"]
     diffs = []
     for k, i in enumerate(along):
@@ -202,9 +207,75 @@ def reference_margin_db(result, along):
             continue
         a, b = result["psd"][nu + k], result["psd"][i]
         ok = (a > 0) & (b > 0)
-        diffs.append(db(a[ok]) - db(b[ok]))
+        d = np.full(a.shape, np.nan)
+        d[ok] = db(a[ok]) - db(b[ok])
+        if signed:
+            d[a <= 0] = -np.inf
+            d[(a > 0) & (b <= 0)] = np.inf
+        diffs.append(d[~np.isnan(d)])
     diffs = np.concatenate(diffs) if diffs else np.array([])
     return float(np.median(diffs)) if diffs.size else float("nan")
+
+
+def at_metadata_gain(model, theta, factor=1.0):
+    """``theta`` with every fitted SUT gain set to its metadata value times
+    ``factor`` (period, damping and angles as fitted)."""
+    th = np.array(theta, dtype=float)
+    for b, (_, sr) in zip(model.blocks, model.slices):
+        if b.free in ("gain", "all") and b.family is not None:
+            th[..., np.arange(th.shape[-1])[sr][-1]] = np.log(b.family.gain * factor)
+    return th
+
+
+def metadata_gain_margins_db(model, theta, along, spread=METADATA_GAIN_SPREAD):
+    """Reference-minus-SUT margins (dB, :func:`reference_margin_db` with
+    ``signed``) with the SUT's gains at their metadata values times
+    ``1/(1+spread)``, 1 and ``1+spread``: a (3,) array.
+
+    Why: with one axis seen by both sensors the gain and the two noises
+    trade off (``S_ur = g S``, ``S_rr = S + N_r``, ``S_uu = g^2 S + N_u``),
+    so a gain fitted under the quiet-reference model (``g = S_ur / S_rr``)
+    puts all the incoherent power into the SUT and cannot see a noisy
+    reference. At the metadata gain the split is unbiased when the metadata
+    are right; a gain error ``e`` moves ``N_r`` by about ``e S``. The least of
+    the three margins names a reference that is noisier whatever the
+    metadata error up to ``spread``; where the noise is below about
+    ``spread`` of the signal at every frequency the margins straddle the
+    threshold and the order is undetermined (:func:`order_entry`)."""
+    return np.array([reference_margin_db(pair_self_noise(model, at_metadata_gain(model, theta, f)),
+                                         along, signed=True)
+                     for f in (1.0 / (1.0 + spread), 1.0, 1.0 + spread)])
+
+
+def order_entry(margins, spread=METADATA_GAIN_SPREAD):
+    """``sensor_order`` of a free-gain quiet-reference fit from the three
+    :func:`metadata_gain_margins_db`: a warning where even the least margin
+    passes :data:`SWAP_MARGIN_DB`; a caution where only the margin at the
+    metadata gains does (a swap, or a SUT gain below its metadata); else
+    silent. A margin of None in result.json: the reference's noise is below
+    what the split resolves."""
+    least, at_meta = float(np.min(margins)), float(margins[1])
+    msg = swap_message(least)
+    out = {"reference_minus_sut_db": least, "at_metadata_gains_db": at_meta,
+           "reference_noisier": msg is not None, "threshold_db": SWAP_MARGIN_DB,
+           "basis": (f"self-noise split at the SUT's metadata gains times 1/{1 + spread:g}, 1 "
+                     f"and {1 + spread:g}, the least margin of the three (the fitted gains "
+                     "absorb the reference's noise under --ref-noise quiet)")}
+    if msg:
+        out["message"] = msg
+    elif at_meta > SWAP_MARGIN_DB:
+        by = f"by {at_meta:.1f} dB" if np.isfinite(at_meta) else "in most bands"
+        out["caution"] = (f"at the SUT's metadata gains the reference comes out the noisier "
+                          f"({by}), but a gain error under {100 * spread:g} % could explain "
+                          "it: either --ref and --sut are swapped or the SUT's gain is below "
+                          "its metadata; --ref-noise estimate or bayescal noise with a third "
+                          "sensor tells them apart")
+    elif np.max(margins) >= -SWAP_MARGIN_DB:
+        out["undetermined"] = ("which sensor is the noisier cannot be told from this pair: "
+                               f"within a {100 * spread:g} % error of the metadata gains "
+                               "either could be; --ref-noise estimate or bayescal noise with a "
+                               "third sensor tells them apart")
+    return out
 
 
 def swap_message(margin_db):
@@ -250,7 +321,8 @@ FLAT_NOTE = ("'flat' metadata: levels are in the assumed units (1 count per m/s 
              "(no sensor-order check)")
 
 
-def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False):
+def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False,
+            sut_placeholder=False):
     """``(self_noise, sensor_order)`` result.json entries of a pair fit:
     ``model`` the fitted model (None for a fit without one, e.g. the
     orthogonal-pair rotation), ``samples`` (N, ndim) its posterior draws in
@@ -259,7 +331,10 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     (and no sensor-order check). ``flat``: the reference's metadata, or the
     SUT's with its gain held, is the assumed flat response
     (:data:`FLAT_NOTE`; a flat SUT whose gain is fitted is put in the
-    reference's ground units by that gain)."""
+    reference's ground units by that gain). With free gains under the
+    quiet-reference model the sensor order is judged at the metadata gains
+    (:func:`metadata_gain_margin_db`), unless the SUT's metadata are a
+    placeholder (``sut_placeholder``: no gain to trust, a caution instead)."""
     if model is None:
         return not_identifiable(*ids), {}
     sp = model.spectra
@@ -267,21 +342,27 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
         return not_identifiable(sp.sut_ids, sp.ref_ids), {}
     from .sampler import single_threaded_blas
     theta = np.median(samples, axis=0)
-    with single_threaded_blas():      # small products: threads only add latency
-        res = pair_self_noise(model, theta, samples, seed=seed)
     t = transfer(model, theta)[0][0, 0]
     along = np.argmax(np.abs(t), axis=0)
     mode = ref_noise or "quiet"
+    quiet_free = mode == "quiet" and free != "none"
+    with single_threaded_blas():      # small products: threads only add latency
+        res = pair_self_noise(model, theta, samples, seed=seed)
+        margins = (metadata_gain_margins_db(model, theta, along)
+                   if quiet_free and not (sut_placeholder or flat) else None)
     basis = (f"diag(S_uu - S_ur T^H) and diag(S_rr - T^+ S_ur) with the fitted transfer T "
              f"(--ref-noise {mode}); 90 % band: Wishart variance of the band spectra plus "
              "the scatter over posterior draws of T")
-    if mode == "quiet" and free != "none":
+    if quiet_free:
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
     entry, order = summarise(res, along, basis)
-    if mode == "quiet" and free != "none":
-        order["caution"] = ("free gains with --ref-noise quiet: the gains absorb the "
-                            "reference's noise, so a noisier reference can go unnoticed here")
+    if margins is not None:
+        order = order_entry(margins)
+    elif quiet_free:
+        order["caution"] = ("free gains with --ref-noise quiet and placeholder metadata: the "
+                            "gains absorb the reference's noise, so a noisier reference can go "
+                            "unnoticed here")
     if flat:
         entry["units"] = FLAT_NOTE
         if free == "none":

@@ -116,7 +116,8 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                                  (spectra.sut_ids, spectra.ref_ids),
                                                  _assumed_flat(ref_inventory)
                                                  or (_assumed_flat(sut_inventory)
-                                                     and fit_response == "none"))
+                                                     and fit_response == "none"),
+                                                 _assumed_flat(sut_inventory))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post

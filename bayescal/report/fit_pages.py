@@ -62,6 +62,9 @@ def page_summary(ctx):
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):
         text.append(f"  WARNING: {order['message']}")
+    elif order.get("caution"):
+        text += textwrap.wrap(f"  Sensor order: {order['caution']}", 130,
+                              subsequent_indent="    ")
     if not conv["converged"]:
         text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see the convergence page)")
     text.append("")

@@ -50,6 +50,9 @@ def page_self_noise(ctx):
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):
         lines += textwrap.wrap(f"WARNING: {order['message']}", 110)
+    for key in ("caution", "undetermined", "basis"):
+        if order.get(key):
+            lines += textwrap.wrap(f"Sensor order ({key}): {order[key]}", 110)
     for cid, e in entry["channels"].items():
         if "not_identifiable" in e:
             lines += textwrap.wrap(f"{cid}: {e['not_identifiable']}", 110)
