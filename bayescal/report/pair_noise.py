@@ -35,6 +35,12 @@ def _as_estimate(channels):
                            level=int(key[2:-3]) / 100), ids
 
 
+def _rows(est, rows):
+    """The estimate namespace restricted to channel rows ``rows``."""
+    return SimpleNamespace(period_s=est.period_s, level=est.level,
+                           **{k: getattr(est, k)[rows] for k in ("psd", "lo", "hi", "signal")})
+
+
 def page_self_noise(ctx):
     """The self-noise page, or None when result.json has no ``self_noise``."""
     from matplotlib.figure import Figure
@@ -58,6 +64,15 @@ def page_self_noise(ctx):
             lines += textwrap.wrap(f"{cid}: {e['not_identifiable']}", 110)
     fig.text(0.06, 0.945, "\n".join(lines), va="top", fontsize=8, linespacing=1.4)
     if est is not None:
-        ax = fig.add_axes([0.1, 0.08, 0.86, 0.74])
-        draw_estimates(ax, est, ids)
+        # one panel per sensor: six channels on one axes are unreadable
+        sut = set(ctx.summary.get("channels", {}))
+        groups = [("sensor under test", [i for i, c in enumerate(ids) if c in sut]),
+                  ("reference", [i for i, c in enumerate(ids) if c not in sut])]
+        groups = [(name, rows) for name, rows in groups if rows]
+        height = 0.74 / len(groups)
+        for k, (name, rows) in enumerate(groups):
+            ax = fig.add_axes([0.1, 0.08 + (len(groups) - 1 - k) * height, 0.86,
+                               height - 0.06])
+            draw_estimates(ax, _rows(est, rows), [ids[i] for i in rows])
+            ax.set_title(name, fontsize=9, loc="left")
     return fig
