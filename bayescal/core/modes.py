@@ -134,6 +134,11 @@ def _polish(model, theta, factors):
     """Least squares from ``theta`` with the noise model held fixed."""
     lo, hi = prior_bounds(model)
     theta = np.clip(theta, lo + 1e-9, hi - 1e-9)
+    with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
+        return _least_squares(model, theta, factors, lo, hi)
+
+
+def _least_squares(model, theta, factors, lo, hi):
     res = least_squares(model.whitened_residual, theta, jac=_jacobian(model), args=(factors,),
                         method="lm")
     if np.any(res.x < lo) or np.any(res.x > hi):
