@@ -53,7 +53,8 @@ def configure(parser):
 def _fmt(entry):
     if "ci95" in entry:
         lo, hi = entry["ci95"]
-        return f"{entry['median']:.3f} [{lo:.3f}, {hi:.3f}]"
+        modes = " MULTIMODAL: see modes" if entry.get("multimodal") else ""
+        return f"{entry['median']:.3f} [{lo:.3f}, {hi:.3f}]{modes}"
     return f"{entry['median']:.3f} (fixed)"
 
 
@@ -61,10 +62,14 @@ def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
     it says so before any number), then medians and 95 % intervals."""
     from ..core.adequacy import describe
+    from ..core.modes import multimodal_line
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     if "adequacy" in summary:
         print(describe(summary["adequacy"]), file=stream)
+    modes = multimodal_line(summary)
+    if modes:
+        print(modes, file=stream)
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
     for cid, e in summary["channels"].items():
         az = e["azimuth_deg"]

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .adequacy import from_diagnostics
+from .modes import mark_channel
 from .unconstrained import by_channel
 from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
@@ -146,6 +147,7 @@ class Posterior:
                             self.response.get(cid))
         if rel is not None:
             entry["response"]["relative_gain"] = rel
+        mark_channel(entry, cid, self.meta.get("multimodal"))
         return entry
 
     def orthogonality(self):
@@ -172,6 +174,8 @@ class Posterior:
         return {
             "schema": SCHEMA,
             "adequacy": from_diagnostics(self.diagnostics),
+            "multimodal": self.meta.get("multimodal") or {
+                "detected": None, "note": "not searched for this kind of fit"},
             "channels": {cid: self.channel_summary(k) for k, cid in enumerate(self.channel_ids)},
             "not_estimable": self.not_estimable,
             "set_by_prior": {cid: {k: v["reason"] for k, v in e.items()} for cid, e in
@@ -189,7 +193,7 @@ class Posterior:
                             "per_parameter": {n: {"tau": float(t), "ess": float(e), "rhat": float(r)}
                                               for n, t, e, r in zip(self.names, conv["tau"],
                                                                     conv["ess"], conv["rhat"])}},
-            "meta": _jsonable(self.meta),
+            "meta": _jsonable({k: v for k, v in self.meta.items() if k != "multimodal"}),
         }
 
     # --- disk ---------------------------------------------------------------
@@ -224,7 +228,8 @@ class Posterior:
                     for k, v in extra["convergence"].items()}
             post = cls(channel_ids=extra["channel_ids"], kinds=extra["kinds"], vectors=z["vectors"],
                        response=response, samples=z["samples"], names=extra["names"],
-                       log_prob=z["log_prob"], convergence=conv, meta=summary.get("meta", {}),
+                       log_prob=z["log_prob"], convergence=conv,
+                       meta={**summary.get("meta", {}), "multimodal": summary.get("multimodal")},
                        not_estimable=summary.get("not_estimable", {}),
                        trace=z["trace"] if "trace" in z.files else None,
                        self_noise=summary.get("self_noise", {}),

@@ -354,6 +354,9 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
     with single_threaded_blas():
         theta_ls, cov = least_squares_fit(model, setup.theta0)
+        # other optima (issue 13 item 4): the most probable mode is sampled
+        model, theta_ls, cov, multimodal = _modes(model, theta_ls, cov, sut_nominal_vectors,
+                                                  setup.fitted)
         # parameters the data do not constrain are held at nominal (issue 13 item 5)
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
         chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
@@ -373,7 +376,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "reference_noise": reference_noise_meta(model, theta_ls),
                  "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
                  "least_squares": dict(zip(model.names, theta_ls)),
-                 "set_by_prior": set_by_prior})
+                 "set_by_prior": set_by_prior, "multimodal": multimodal})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
                      response=resp, samples=chain.samples, names=target.names,
                      log_prob=chain.log_prob,
@@ -387,6 +390,18 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     post.theta_ls = theta_ls
     post.full_samples = full          # model coordinates (held parameters included)
     return post
+
+
+def _modes(model, theta_ls, cov, nominal, fitted):
+    """:func:`bayescal.core.modes.search`; when another mode is the most
+    probable, the fit restarts there (noise model re-estimated)."""
+    from .modes import search
+
+    best, report = search(model, theta_ls, np.asarray(nominal, float)[fitted])
+    if best.label.startswith("closed-form"):
+        return model, theta_ls, cov, report
+    theta_ls, cov = least_squares_fit(best.model, best.theta)
+    return best.model, theta_ls, cov, report
 
 
 def _misfit_meta(model, theta):

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 from scipy import stats
 
 from ..core.adequacy import describe
+from ..core.modes import multimodal_line
 from ..core.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
@@ -35,6 +36,12 @@ def page_summary(ctx):
     fig.text(0.06, 0.945, "\n".join(check), va="top", fontsize=9 if verdict["ok"] is False else 8,
              fontweight="bold" if verdict["ok"] is False else "normal", linespacing=1.5)
     top = 0.945 - 0.0155 * len(check) - 0.008
+    modes = multimodal_line(ctx.summary)
+    if modes:
+        modes = textwrap.wrap(modes, 92)
+        fig.text(0.06, top, "\n".join(modes), va="top", fontsize=9, fontweight="bold",
+                 linespacing=1.5)
+        top -= 0.0155 * len(modes) + 0.008
     lines = _header_lines(ctx)
     fig.text(0.06, top, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
     top = top - 0.0143 * len(lines) - 0.02
@@ -49,6 +56,9 @@ def page_summary(ctx):
     if verdict["ok"] is False:
         text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"
                     " and page 4; `bayescal diagnose`)")
+    if modes:
+        text.append("  MULTIMODAL POSTERIOR: intervals marked \"multimodal\" hold one mode only"
+                    " (result.json: \"multimodal\")")
     for cid in post.channel_ids:
         for msg in flags.get(cid, []):
             text.append(f"  {cid}: {msg}")
