@@ -37,7 +37,34 @@ def _nondiagonal_pairs(n):
     return np.column_stack([np.concatenate([rows, cols]), np.concatenate([cols, rows])])
 
 
-class Ensemble:
+class StoredChain:
+    """The stored chain of a set of walkers: ``_store`` appends a run, and
+    ``get_chain``/``acceptance_fraction`` read it as emcee does. Subclasses
+    set ``coords`` (W, ndim), ``log_prob`` (W,) and call ``_init_chain``."""
+
+    def _init_chain(self):
+        self.chain = np.empty((0, self.n_walkers, self.ndim))
+        self.chain_log_prob = np.empty((0, self.n_walkers))
+        self.accepted = np.zeros(self.n_walkers)
+        self.iteration = 0
+
+    def _store(self, chain, lps):
+        self.chain = np.concatenate([self.chain, chain])
+        self.chain_log_prob = np.concatenate([self.chain_log_prob, lps])
+        self.iteration += chain.shape[0]
+
+    def get_chain(self, discard=0, thin=1, flat=False, log_prob=False):
+        """As emcee's ``get_chain``/``get_log_prob``: steps ``discard + thin - 1``,
+        every ``thin``; ``flat`` merges steps and walkers."""
+        v = (self.chain_log_prob if log_prob else self.chain)[discard + thin - 1::thin]
+        return v.reshape((-1,) + v.shape[2:]) if flat else v
+
+    @property
+    def acceptance_fraction(self):
+        return self.accepted / max(self.iteration, 1)
+
+
+class Ensemble(StoredChain):
     """Walkers, their log-probabilities and the stored chain.
 
     Parameters
@@ -60,10 +87,7 @@ class Ensemble:
         self.weights = np.array([w for _, w, _ in MOVES])
         self.weights /= self.weights.sum()
         self.g0 = 2.38 / np.sqrt(2 * self.ndim)
-        self.chain = np.empty((0, self.n_walkers, self.ndim))
-        self.chain_log_prob = np.empty((0, self.n_walkers))
-        self.accepted = np.zeros(self.n_walkers)
-        self.iteration = 0
+        self._init_chain()
         self._pairs = {}
 
     def _evaluate(self, q):
@@ -129,19 +153,7 @@ class Ensemble:
             chain[t], lps[t] = self.coords, self.log_prob
             if on_step is not None:
                 on_step()
-        self.chain = np.concatenate([self.chain, chain])
-        self.chain_log_prob = np.concatenate([self.chain_log_prob, lps])
-        self.iteration += n_steps
-
-    def get_chain(self, discard=0, thin=1, flat=False, log_prob=False):
-        """As emcee's ``get_chain``/``get_log_prob``: steps ``discard + thin - 1``,
-        every ``thin``; ``flat`` merges steps and walkers."""
-        v = (self.chain_log_prob if log_prob else self.chain)[discard + thin - 1::thin]
-        return v.reshape((-1,) + v.shape[2:]) if flat else v
-
-    @property
-    def acceptance_fraction(self):
-        return self.accepted / max(self.iteration, 1)
+        self._store(chain, lps)
 
 
 def _next_pow_two(n):
