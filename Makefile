@@ -18,8 +18,11 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 demo: $(VENV)/.installed
 	$(BIN)/python examples/demo.py --out reports/demo
 
+# -n 2 --dist loadfile: two pytest-xdist workers (the CI machine has 2 cores); a
+# whole test file goes to one worker, so a module-scoped fixture (the batch
+# run, the UVW calibration) is computed once, not once per worker.
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q --durations=20
+	$(BIN)/python -m pytest -q --durations=20 -n 2 --dist loadfile
 
 reports: $(VENV)/.installed
 	$(BIN)/python examples/make_reports.py

@@ -65,8 +65,11 @@ CASES = {
 }
 
 
-def run_case(name, spec, data, out, seed=0, mcmc=False):
-    """Diagnose one case; writes its folder and returns the Diagnosis."""
+def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
+    """Diagnose one case; writes its folder and returns the Diagnosis.
+    ``page=False`` skips the rendered page (diagnosis.json is still written);
+    ``sample_kw`` go to the base fit's sampler (the tests pass a shorter chain:
+    the diagnosis starts from the least-squares point, not from the samples)."""
     from obspy import UTCDateTime
 
     import bayescal
@@ -84,13 +87,14 @@ def run_case(name, spec, data, out, seed=0, mcmc=False):
         window = {}
     t0 = time.perf_counter()
     base = bayescal.calibrate(*inputs, band=spec["band"], fit_response=spec["free"], seed=seed,
-                              progress=False, **window)
+                              progress=False, **window, **sample_kw)
     d = diagnose(base, seed=seed, mcmc=mcmc, log=lambda s: print(s, flush=True))
     summary = d.summary()
     summary["case"] = {"name": name, **{k: v for k, v in spec.items()}, "seconds":
                        time.perf_counter() - t0}
     write_json(os.path.join(folder, "diagnosis.json"), summary)
-    write_page(d, os.path.join(folder, "diagnosis"))
+    if page:
+        write_page(d, os.path.join(folder, "diagnosis"))
     return d
 
 

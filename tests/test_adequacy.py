@@ -85,8 +85,11 @@ def test_clean_simulations_pass_at_the_level():
         sim = simulate_pair(duration=1800.0, fs=10.0, seed=100 + seed,
                             coherence=float(rng.uniform(0.9, 0.999)),
                             sut_azimuth=(float(rng.uniform(0, 360)), 0.0, 0.0))
+        # the verdict is the misfit at the posterior median: a shorter chain
+        # (as tests/test_diagnose.py uses) moves that median by a few per cent
+        # of a standard deviation, which the level check does not depend on
         post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
-                         band=(0.02, 1.0), progress=False)
+                         band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
         verdict = post.summary()["adequacy"]
         fails += not verdict["ok"]
         d = post.diagnostics
