@@ -26,10 +26,8 @@ from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
 
 
 class StepModel(TimeModel):
-    """:class:`TimeModel` with the response of a :class:`PZSpec`.
-    ``band_shape`` stays the Gaussian (``inf``): a per-band marginalised
-    noise scale (:mod:`.timebands`) was measured not to calibrate the step
-    intervals (docs/cal.md, "Step coverage")."""
+    """:class:`TimeModel` with the response of a :class:`PZSpec`; the AR
+    noise model is fitted after :func:`acceleration_prefilter`."""
 
     def __init__(self, x, fs, predictor, spec):
         self.spec = spec

@@ -41,7 +41,6 @@ from scipy.stats import chi2
 from ..core.sampler import FitError
 from ..io.read import InputError
 from .bounded import BoundedPosterior
-from .timebands import FrequencyBands
 
 #: Largest autoregression order tried for the noise.
 MAX_AR_ORDER = 20
@@ -138,12 +137,7 @@ class TimeModel(BoundedPosterior):
     Subclasses set ``names``, ``ndim``, ``bounds()`` and
     ``predict(theta, weight)`` -> (W, n) model output (through the FFT
     weight ``weight``, the whitening filter's response, when given).
-    ``band_shape``: the inverse-gamma shape of a per-band noise scale
-    marginalised over the innovations' frequency bands (:mod:`.timebands`);
-    ``inf`` (the default) is the Gaussian likelihood with the AR level known.
     """
-
-    band_shape = np.inf
 
     def __init__(self, x, fs, predictor, skip=0):
         self.x = np.asarray(x, float)
@@ -188,7 +182,6 @@ class TimeModel(BoundedPosterior):
         nw = lfilter(b, 1.0, cols, axis=0)[self._keep]
         self._q, _ = np.linalg.qr(nw)
         self._xw = xw - self._q @ (self._q.T @ xw)
-        self.bands = FrequencyBands(self._xw.size, self.fs)
 
     def raw_residual(self, theta):
         """``x - m(theta)`` with offset and drift removed by least squares."""
@@ -209,12 +202,9 @@ class TimeModel(BoundedPosterior):
         return (self._xw[None] - mw) / np.sqrt(self.s2)
 
     def log_likelihood(self, theta):
-        """``-|innovations|^2 / 2`` (``band_shape`` inf), or its per-band
-        marginalised form (:mod:`.timebands`), theta (W, ndim) -> (W,)."""
+        """``-|innovations|^2 / 2``, theta (W, ndim) -> (W,)."""
         e = self.innovations(theta)
-        if not np.isfinite(self.band_shape):
-            return -0.5 * np.sum(e * e, axis=1)
-        return self.bands.log_likelihood(e, self.band_shape)
+        return -0.5 * np.sum(e * e, axis=1)
 
     def adequacy(self, theta):
         """Mean square of the standardised innovations (about 1 when the
@@ -251,29 +241,3 @@ def least_squares_time(model, theta0, passes=3):
         raise FitError("the least-squares point is degenerate (singular information)") from exc
     return theta, 0.5 * (cov + cov.T)
 
-
-def laplace(model, theta, cov, steps=4):
-    """Mode and Laplace covariance of ``model.log_likelihood`` (flat prior)
-    by Newton steps with a central-difference Hessian, in units of the
-    start's sd (``cov``, e.g. from :func:`least_squares_time`). For a
-    Gaussian likelihood this is the least-squares point and ``(J^T J)^-1``;
-    with per-band scales (``band_shape``) it is the marginal posterior's."""
-    sd = np.sqrt(np.diag(cov))
-    d = theta.size
-    eye = np.eye(d) * 0.5
-    pairs = [(i, j) for i in range(d) for j in range(i + 1, d)]
-    offsets = np.vstack([np.zeros(d), eye, -eye]
-                        + [np.vstack([eye[i] + eye[j], eye[i] - eye[j], -eye[i] + eye[j],
-                                      -eye[i] - eye[j]]) for i, j in pairs])
-    for _ in range(steps):
-        f = model.log_likelihood(theta + offsets * sd)
-        g = (f[1:d + 1] - f[d + 1:2 * d + 1]) / 1.0
-        hess = np.diag((f[1:d + 1] + f[d + 1:2 * d + 1] - 2 * f[0]) / 0.25)
-        for k, (i, j) in enumerate(pairs):
-            a, b, c, e = f[2 * d + 1 + 4 * k: 2 * d + 5 + 4 * k]
-            hess[i, j] = hess[j, i] = (a - b - c + e) / 1.0
-        step = -np.linalg.solve(hess, g)
-        theta = theta + np.clip(step, -3, 3) * sd
-    cov_u = np.linalg.inv(-hess)
-    cov = cov_u * np.outer(sd, sd)
-    return theta, 0.5 * (cov + cov.T)
