@@ -20,7 +20,10 @@ variance ``s2``) the log likelihood is
 
 ``P`` the projection orthogonal to the whitened nuisance columns, the first
 ``p`` samples (whose whitening needs samples before the record) and any
-settling time left out. Whitening the model is one product with the AR
+settling time left out. A model may set a fixed prefilter ``Q``
+(:meth:`TimeModel.set_prefilter`): the AR model is then fitted to ``Q r``
+and the whitening is ``L Q`` (the step kind takes the output back to
+equivalent acceleration, where an all-pole model can describe the noise). Whitening the model is one product with the AR
 filter's frequency response inside the same FFT. The posterior is sampled by
 :func:`bayescal.core.sampler.sample` (the sampler and convergence rule of
 every bayescal fit), started from the least-squares point and its Laplace
@@ -240,4 +243,3 @@ def least_squares_time(model, theta0, passes=3):
     except np.linalg.LinAlgError as exc:
         raise FitError("the least-squares point is degenerate (singular information)") from exc
     return theta, 0.5 * (cov + cov.T)
-
