@@ -1,8 +1,9 @@
 """Step calibration of one output channel: the response to one or more steps
 of coil current (an acceleration step ``C du``), fitted in the time domain
 (:mod:`.timedomain`: AR noise estimated from the residual after
-:func:`acceleration_prefilter`, offset and drift marginalised) with the long-period pair and the gain free
-(:class:`bayescal.coil.hf.PZSpec` ``fit="lp"``): period and damping, as the
+:func:`acceleration_prefilter`, offset and drift marginalised) with the
+long-period pair and the gain free (:class:`bayescal.coil.hf.PZSpec`
+``fit="lp"``): period and damping, as the
 USGS ASL Sensor Test Suite reports them from a step, and the gain.
 
 The input may hold any sequence of steps (on, off, several): the model is
