@@ -1,8 +1,9 @@
 """Step calibration of one output channel: the response to one or more steps
 of coil current (an acceleration step ``C du``), fitted in the time domain
-(:mod:`.timedomain`: AR noise estimated from the residual, offset and drift
-marginalised) with the long-period pair and the gain free
-(:class:`bayescal.coil.hf.PZSpec` ``fit="lp"``): period and damping, as the
+(:mod:`.timedomain`: AR noise estimated from the residual after
+:func:`acceleration_prefilter`, offset and drift marginalised) with the
+long-period pair and the gain free (:class:`bayescal.coil.hf.PZSpec`
+``fit="lp"``): period and damping, as the
 USGS ASL Sensor Test Suite reports them from a step, and the gain.
 
 The input may hold any sequence of steps (on, off, several): the model is
@@ -26,7 +27,8 @@ from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
 
 
 class StepModel(TimeModel):
-    """:class:`TimeModel` with the response of a :class:`PZSpec`."""
+    """:class:`TimeModel` with the response of a :class:`PZSpec`; the AR
+    noise model is fitted after :func:`acceleration_prefilter`."""
 
     def __init__(self, x, fs, predictor, spec):
         self.spec = spec
@@ -44,6 +46,7 @@ class StepModel(TimeModel):
         self._dn = abs(fam.denominator(self._sn, w0n, fam.damping)) * fam.gain
         self._cache = {}
         super().__init__(x, fs, predictor)
+        self.set_prefilter(*acceleration_prefilter(fam, fs))
 
     def set_noise(self, a, s2):
         self._cache = {}
@@ -67,6 +70,26 @@ class StepModel(TimeModel):
         d = self._s2[None] + b[:, None] * self._s[None] + c[:, None]
         spec = (amp[:, None] * const[None]) / d
         return irfft(spec, n=self.predictor.nfft, axis=1)[:, :self.predictor.n]
+
+
+def acceleration_prefilter(family, fs):
+    """``(b, a)`` of the filter that takes the output (counts) back to the
+    equivalent ground acceleration through the nominal pendulum, in discrete
+    time: its two poles ``exp(p / fs)`` become zeros, the zero at 0 Hz of
+    the acceleration-to-output response an integrator ``1 / (1 - z^-1)``.
+
+    Why: noise seen through the sensor (self-noise, ground noise) has a zero
+    at 0 Hz in counts (the response's high-pass), which an autoregression,
+    all poles, cannot represent; fitted to such noise it puts several times
+    too much power below the pendulum's corner and too little just above it,
+    where a step's information sits (docs/cal.md, "Step coverage"). In
+    acceleration the noise has no zero (the digitizer's white noise becomes
+    red, a pole at 0 Hz, which it can represent)."""
+    w0 = 2 * np.pi / family.period_s
+    h = family.damping
+    poles = np.roots([1.0, 2 * h * w0, w0 * w0])
+    b = np.real(np.poly(np.exp(poles / fs)))
+    return b, np.array([1.0, -1.0])
 
 
 def rest_level(u):

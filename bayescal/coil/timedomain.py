@@ -20,7 +20,10 @@ variance ``s2``) the log likelihood is
 
 ``P`` the projection orthogonal to the whitened nuisance columns, the first
 ``p`` samples (whose whitening needs samples before the record) and any
-settling time left out. Whitening the model is one product with the AR
+settling time left out. A model may set a fixed prefilter ``Q``
+(:meth:`TimeModel.set_prefilter`): the AR model is then fitted to ``Q r``
+and the whitening is ``L Q`` (the step kind takes the output back to
+equivalent acceleration, where an all-pole model can describe the noise). Whitening the model is one product with the AR
 filter's frequency response inside the same FFT. The posterior is sampled by
 :func:`bayescal.core.sampler.sample` (the sampler and convergence rule of
 every bayescal fit), started from the least-squares point and its Laplace
@@ -149,14 +152,37 @@ class TimeModel(BoundedPosterior):
         self.set_noise(np.zeros(0), 1.0)
 
     # --- noise ---------------------------------------------------------------
+    #: Fixed IIR prefilter ``(b, a)`` applied before the AR whitening (the
+    #: identity by default; :meth:`set_prefilter`).
+    prefilter = (np.ones(1), np.ones(1))
+
+    def set_prefilter(self, b, a):
+        """Whiten by the AR filter *after* the fixed filter ``b(z) / a(z)``
+        (leading coefficients 1, so the likelihood's Jacobian is 1). With
+        ``a = [1, -1]`` (an integrator) the integration constant joins the
+        nuisance (offset, drift) and is projected out."""
+        self.prefilter = (np.asarray(b, float), np.asarray(a, float))
+        self.set_noise(self.ar, self.s2)
+
+    def _pre(self, y):
+        b, a = self.prefilter
+        return lfilter(b, a, y, axis=0)
+
     def set_noise(self, a, s2):
         """Use AR coefficients ``a`` and innovation variance ``s2``."""
         self.ar, self.s2 = np.asarray(a, float), float(s2)
         b = prediction_error_filter(self.ar)
-        self._weight = np.polyval(b[::-1], np.exp(-2j * np.pi * self.predictor.freqs / self.fs))
+        zinv = np.exp(-2j * np.pi * self.predictor.freqs / self.fs)
+        pb, pa = self.prefilter
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = np.polyval(b[::-1], zinv) * np.polyval(pb[::-1], zinv) / np.polyval(pa[::-1], zinv)
+        self._weight = np.where(np.isfinite(w), w, 0.0)
         self._keep = slice(max(self.skip, self.ar.size), None)
-        xw = lfilter(b, 1.0, self.x)[self._keep]
-        nw = lfilter(b, 1.0, self._nuisance, axis=0)[self._keep]
+        xw = lfilter(b, 1.0, self._pre(self.x))[self._keep]
+        cols = self._pre(self._nuisance)
+        if pa.size > 1:
+            cols = np.column_stack([cols, np.ones(self.x.size)])
+        nw = lfilter(b, 1.0, cols, axis=0)[self._keep]
         self._q, _ = np.linalg.qr(nw)
         self._xw = xw - self._q @ (self._q.T @ xw)
 
@@ -168,7 +194,7 @@ class TimeModel(BoundedPosterior):
 
     def estimate_noise(self, theta):
         """AR noise model from the residual at ``theta`` (after ``skip``)."""
-        a, s2 = ar_fit(self.raw_residual(theta)[self.skip:])
+        a, s2 = ar_fit(self._pre(self.raw_residual(theta))[self.skip:])
         self.set_noise(a, s2)
 
     # --- likelihood ----------------------------------------------------------
