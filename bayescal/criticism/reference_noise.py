@@ -46,11 +46,14 @@ class _QuietUnderEIV(EIVModel):
 
 def applicable(model):
     """The test needs a quiet base model (not already errors-in-variables,
-    no effects) and two or more channels a side (with one channel each the
-    reference's noise is not identifiable)."""
+    no effects) and two or more reference channels (their cross-spectra
+    separate the ground motion from the reference's noise; with one channel
+    a side it is not identifiable). One SUT channel is enough: the coherence
+    gate leaves one when both sensors are noisy and only one SUT channel sees
+    the ground above the noise."""
     sp = model.spectra
     return (type(model) is Model and not model.effects and not model.per_block
-            and min(sp.n_u, sp.n_r) >= 2)
+            and sp.n_r >= 2)
 
 
 def reference_noise_test(model, theta, bic_keep=10.0):
@@ -64,8 +67,8 @@ def reference_noise_test(model, theta, bic_keep=10.0):
     """
     if not applicable(model):
         return ({"applicable": False, "kept": False, "delta_bic": None,
-                 "explanation": "reference noise not tested (one channel a side, or the base "
-                                "model already models it)"}, None, None, None)
+                 "explanation": "reference noise not tested (one reference channel, or the "
+                                "base model already models it)"}, None, None, None)
     sp = model.spectra
     eiv = EIVModel(sp, model.ref_vectors, model.blocks, model.priors, ref_noise="estimate")
     try:
