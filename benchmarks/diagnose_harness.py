@@ -26,6 +26,24 @@ import numpy as np
 KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
          "channel_swap", "tilt_noise"]
 BAND = (0.02, 3.0)
+#: Noise regimes of the runs: (reference coherence, self-noise white in counts).
+#: "default": a reference 100x quieter than the SUT's quietest draw (the base
+#: model's assumption); "equal": the reference as noisy as the SUT (a huddle of
+#: two sensors of one class), noise shaped like the ground; "equal-counts": the
+#: same, white in counts (rising in velocity below each sensor's corner, as
+#: real self-noise does); "ref10x": the reference 10x quieter than the SUT.
+REGIMES = ("default", "equal", "equal-counts", "ref10x")
+
+
+def regime_kw(regime, coherence):
+    """simulate_pair keyword arguments of a noise regime at SUT ``coherence``."""
+    if regime == "default":
+        return {}
+    if regime == "ref10x":
+        return {"ref_coherence": 1.0 / (1.0 + 0.1 * (1.0 - coherence) / coherence)}
+    if regime in ("equal", "equal-counts"):
+        return {"ref_coherence": coherence, "noise_in_counts": regime == "equal-counts"}
+    raise ValueError(f"unknown regime {regime!r}; one of {REGIMES}")
 
 
 def draw(rng, p_clean):
@@ -59,7 +77,7 @@ def draw(rng, p_clean):
     return kind, {"tilt_noise": level}, {"level": level}
 
 
-def run_one(seed, p_clean):
+def run_one(seed, p_clean, regime="default", gain_off=0.0):
     """One concealed-effect run; returns its record."""
     import bayescal
     from bayescal.criticism.diagnose import diagnose
@@ -71,17 +89,34 @@ def run_one(seed, p_clean):
     coherence = float(rng.uniform(0.9, 0.995))
     az, dip = (a, a + 90, 0.0), (0.0, 0.0, -90.0)
     nom_az = tuple(x + rng.uniform(-3, 3) for x in az[:2]) + (0.0,)
+    extra = regime_kw(regime, coherence)
+    if gain_off and "sut_response" not in kw:
+        # each SUT gain off its metadata by up to gain_off (the fit's free gains absorb it);
+        # its own generator so the runs' other draws match gain_off = 0
+        off = np.random.default_rng([seed, 7]).uniform(-gain_off, gain_off, 3)
+        kw = dict(kw, sut_response=tuple((30.0, 0.707, 750.0 * (1 + o)) for o in off))
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=az,
-                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip, **kw)
+                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip, **extra, **kw)
     t0 = time.perf_counter()
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=BAND,
-                              progress=False, seed=seed, min_ess=200, n_tau=20)
+    from bayescal.io.read import InputError
+    try:
+        post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+                                  band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20)
+    except InputError as exc:
+        # the fit refuses (e.g. too little coherence when both sensors are noisy):
+        # nothing is named, which is neither a detection nor a false alarm
+        return {"seed": seed, "truth": kind, "truth_size": truth, "named": [],
+                "coherence": coherence, "regime": regime, "gain_off": gain_off,
+                "outcome": "refused", "refusal": str(exc),
+                "seconds": time.perf_counter() - t0, "unexplained": []}
     d = diagnose(post, seed=seed, mcmc=False)
     ids = d.ids
     named = d.effects
     names = [e["name"] for e in named]
     rec = {"seed": seed, "truth": kind, "truth_size": truth, "named": names,
-           "coherence": coherence,
+           "coherence": coherence, "regime": regime, "gain_off": gain_off,
+           "reference_noise_delta_bic": (d.signatures.get("reference_noise") or {}).get("delta_bic"),
+           "tilt_delta_bic": (d.signatures.get("tilt_noise") or {}).get("delta_bic"),
            "seconds": time.perf_counter() - t0, "unexplained": d.unexplained()}
     hit = None
     for e in named:
@@ -111,7 +146,7 @@ def run_one(seed, p_clean):
 
 def table(records):
     """Confusion table: rows = hidden effect, columns = outcomes."""
-    cols = ["right name", "wrong name", "miss", "false alarm", "clean"]
+    cols = ["right name", "wrong name", "miss", "false alarm", "clean", "refused"]
     rows = {}
     for r in records:
         rows.setdefault(r["truth"], dict.fromkeys(cols, 0))[r["outcome"]] += 1
@@ -124,11 +159,15 @@ def main(argv=None):
     ap.add_argument("--p-clean", type=float, default=0.3)
     ap.add_argument("--first-seed", type=int, default=1000)
     ap.add_argument("--out", default="reports/diagnose/harness.json")
+    ap.add_argument("--regime", choices=REGIMES, default="default",
+                    help="noise regime of the runs (reference coherence, noise shape)")
+    ap.add_argument("--gain-off", type=float, default=0.0,
+                    help="SUT gains off their metadata by up to this fraction (e.g. 0.03)")
     args = ap.parse_args(argv)
     records = []
     t0 = time.perf_counter()
     for k in range(args.runs):
-        rec = run_one(args.first_seed + k, args.p_clean)
+        rec = run_one(args.first_seed + k, args.p_clean, args.regime, args.gain_off)
         records.append(rec)
         from bayescal.core.posterior import write_json
         write_json(args.out + ".partial", {"runs": records})
@@ -142,6 +181,7 @@ def main(argv=None):
     eff = [r for r in records if r["truth"] != "none"]
     clean = [r for r in records if r["truth"] == "none"]
     right = sum(r["outcome"] == "right name" for r in eff) / max(len(eff), 1)
+    clean = [r for r in clean if r["outcome"] != "refused"]
     false = sum(r["outcome"] == "false alarm" for r in clean) / max(len(clean), 1)
     cover = [s["covered"] for r in eff for s in r.get("size", {}).values()]
     lines.append("")
@@ -163,7 +203,8 @@ def main(argv=None):
     write_json(args.out, {"runs": records, "table": rows, "right_name_fraction": right,
                    "false_alarm_fraction": false, "markdown": text,
                    "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
-                                "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean}})
+                                "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean,
+                                "regime": args.regime, "gain_off": args.gain_off}})
     return 0
 
 

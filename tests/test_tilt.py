@@ -100,7 +100,9 @@ def test_strong_tilt_level_scales_with_the_simulated_level():
                  / weak["per_channel"][i]["nsr_lowest_band"]["median"])
         assert 3.5 < ratio < 7.0
     assert np.abs(np.array(strong["misfit_tilt"])).max() < 4.0
-    assert np.abs(np.array(strong["misfit_base"])).max() > 8.0
+    # 6.3 here: y's error carries the transfer's estimation error, x (1 + NSR),
+    # large where tilt dominates the lowest bands (it was > 8 without it)
+    assert np.abs(np.array(strong["misfit_base"])).max() > 5.0
     assert json.loads(json.dumps(strong))["channels"] == [0, 1]      # JSON-safe
 
 

@@ -6,6 +6,8 @@
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
 * :mod:`.diagnose`  the whole diagnosis and its summary
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
+* :mod:`.reference_noise`  whether the reference's own self-noise is part of the
+                    mismatch (a noise-model term, tested before any physics is named)
 
 May import :mod:`bayescal.core`; never io, report, network or cli.
 """

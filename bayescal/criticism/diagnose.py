@@ -34,7 +34,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import effects as catalogue, tilt
-from ..core.sampler import diagnostics, least_squares_fit, sample
+from .reference_noise import reference_noise_test
+from ..core.sampler import diagnostics, least_squares_fit, reference_noise_meta, sample
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
 from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
@@ -114,6 +115,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     sig = catalogue.signatures(sp.band_centres, q, ratio_weights(sp))
     times, tau_k, w_k = segment_timing(model0, th0)
     sig["clock_drift"] = catalogue.drift_signature(times, tau_k, w_k)
+    # the reference's own noise first: a noise-model term, not physics; when it
+    # is there, every effect is judged against the model that includes it
+    sig["reference_noise"], eiv, th_e, cov_e = reference_noise_test(model0, th0, BIC_KEEP)
+    if eiv is not None:
+        model0, th0 = eiv, th_e
     # when a drift is a candidate, every model of the search is scored on the
     # per-time-block likelihood (candidates ranked on the same data)
     start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
@@ -121,15 +127,20 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
         start.estimate_noise(th0)
     model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"])
     if cov is None:
-        model, th, cov = model0, th0, least_squares_fit(model0, th0)[1]
+        model, th = model0, th0
+        cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
     after = locate(model, th)
     # the base model's misfit under the final noise model: the base's own
     # noise estimate is inflated by the misfit it leaves (before/after on one scale)
     common = _with(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
     before_common = locate(common, _refit(common, (th0,))[1])
-    if model.effects:
-        final = posterior_of(model, th, cov, base.meta, base.not_estimable, free, seed=seed,
+    if model.effects or eiv is not None:
+        meta = base.meta if eiv is None else dict(
+            base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
+                                            chosen_by="diagnose",
+                                            reason=sig["reference_noise"]["explanation"]))
+        final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
                              mcmc=mcmc, progress=progress, **sample_kw)
     else:       # nothing to add to the response model: the final fit is the base fit
         final = base
@@ -211,6 +222,9 @@ class Diagnosis:
         """The finding in plain words."""
         out = []
         edges = self.band_edges
+        ref = self.signatures.get("reference_noise", {})
+        if ref.get("kept"):
+            out.append(ref["explanation"])
         for e in self.effects:
             s = e["explanation"]
             if e.get("score_gain") is not None and "BIC" not in s:
@@ -234,7 +248,8 @@ class Diagnosis:
             out.append("it moves " + ", ".join(f"{c}'s azimuth by {v:+.2f} degree"
                                                for c, _, v in big))
         if not self.effects and not self.after["mismatch"]:
-            out.append("no mismatch: the model describes the recordings within their noise")
+            out.append("no mismatch: the model describes the recordings within their noise"
+                       + (" once the reference's noise is modelled" if ref.get("kept") else ""))
         out += self.unexplained()
         return out
 

@@ -163,6 +163,15 @@ def nsr_data(sp, pool=True, fine=FINE_BANDS, debias=True):
         big_n = np.maximum(2.0 / (h * u_band), 2.0 * n_r)
         shift = p_inc * n_r / (big_n - n_r)
         p_coh, p_inc = np.maximum(p_coh - shift, 0.5 * p_coh), p_inc + shift
+    # the error of the regression's transfer: the variance of the estimated
+    # coherence gives var(y) = 2 (1 + NSR) / N (delta method on var(coh^2) =
+    # 2 coh^2 (1 - coh^2)^2 / N, Bendat & Piersol); the per-segment powers at
+    # the band's fixed transfer give only its NSR -> 0 limit. Negligible at
+    # high coherence; dominant in bands where the pair records mostly
+    # self-noise (a reference as noisy as the SUT, self-noise white in counts
+    # against a peaked ground spectrum), where the tilt term used to absorb
+    # the unexplained scatter (alpha at its bound, false alarms)
+    var = var * (1.0 + p_inc / p_coh)
     return {"y": np.log(p_inc / p_coh), "sd": np.sqrt(np.maximum(var, 1e-8)),
             "p_coh": p_coh, "p_inc": p_inc, "edges": np.asarray(edges),
             "centres": np.sqrt(edges[:-1] * edges[1:]), "band_of": band_of}
