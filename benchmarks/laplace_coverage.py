@@ -11,6 +11,7 @@ per-band noise scale. About 1.5-2.5 s per seed (sampling: 4-6 s).
 
     python benchmarks/laplace_coverage.py --seeds 0 100 --out /tmp/ls_base.json
     python benchmarks/laplace_coverage.py --seeds 0 100 --variant norescale
+    python benchmarks/laplace_coverage.py --case 15 --coherence 0.9 --seeds 1000 1060
     (variants, combinable with '+': norescale, nodes<N>, bpd<N>m<M>, shrink<X>, nperseg<N>)
 """
 from __future__ import annotations
@@ -50,8 +51,11 @@ def apply_variant(variant):
     return kw
 
 
-def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), **kw):
-    """(coherence, {channel:kind: z}) at the least-squares point of one case."""
+def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coherence=None,
+              **kw):
+    """(coherence, {channel:kind: z}) at the least-squares point of one case:
+    the coverage study's case ``seed``, or with ``case`` that case's truth
+    (and ``coherence`` if given) simulated with noise and waves of ``seed``."""
     import bayescal.core.sampler as sm
     from bayescal.io.pipeline import calibrate
     from bayescal.simulate.coverage import NOMINAL, draw_case
@@ -61,7 +65,8 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), **kw):
     def stop(model, theta0, iterations=2):
         raise _Stop(model, *orig(model, theta0, iterations=iterations))
 
-    azs, dips, resp, coh = draw_case(seed)
+    azs, dips, resp, coh = draw_case(seed if case is None else case)
+    coh = coh if coherence is None else coherence
     sim = simulate_pair(duration=duration, fs=fs, seed=seed, coherence=coh, sut_azimuth=azs,
                         sut_dip=dips, sut_response=resp, nominal_response=NOMINAL)
     sm.least_squares_fit = stop
@@ -103,12 +108,15 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, nargs=2, default=(0, 100), metavar=("FIRST", "STOP"))
     ap.add_argument("--variant", default="")
+    ap.add_argument("--case", type=int, default=None,
+                    help="hold this case's truth; the seeds vary noise and waves only")
+    ap.add_argument("--coherence", type=float, default=None, help="with --case")
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
     kw = apply_variant(args.variant)
     runs = []
     for seed in range(*args.seeds):
-        coh, z = laplace_z(seed, **kw)
+        coh, z = laplace_z(seed, case=args.case, coherence=args.coherence, **kw)
         runs.append({"seed": seed, "coherence": coh, "z": z})
         print(seed, f"{coh:.4f}", {k: round(v, 2) for k, v in z.items() if "damping" in k},
               flush=True)
