@@ -28,6 +28,7 @@ from bayescal.simulate.coverage import coverage_checks, run_case, summarise
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=100)
+    ap.add_argument("--first", type=int, default=0, help="first seed (seeds first .. first+n-1)")
     ap.add_argument("--duration", type=float, default=3600.0)
     ap.add_argument("--fs", type=float, default=10.0)
     ap.add_argument("--band", type=float, nargs=2, default=(0.01, 1.0))
@@ -36,7 +37,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     rows, t0 = [], time.time()
-    for seed in range(args.n):
+    for seed in range(args.first, args.first + args.n):
         post, azs, dips, resp, coh = run_case(seed, args.duration, args.fs, tuple(args.band),
                                               args.fit_response)
         checks = coverage_checks(post, azs, dips, resp)
@@ -45,7 +46,7 @@ def main(argv=None):
                      "ess_min": conv["ess_min"], "rhat_max": conv["rhat_max"],
                      "converged": conv["converged"]})
         inside = np.mean([v[0] for r in rows for v in r["checks"].values()])
-        print(f"[{seed + 1}/{args.n}] coherence {coh:.4f}  running coverage {inside:.3f}  "
+        print(f"[{seed - args.first + 1}/{args.n}] coherence {coh:.4f}  running coverage {inside:.3f}  "
               f"({time.time() - t0:.0f} s)", flush=True)
     table = summarise(rows)
     plot(rows, table, os.path.join(args.out, "coverage.png"))
