@@ -1,0 +1,38 @@
+"""Forward-difference Jacobian of a model's whitened residual with all
+``ndim + 1`` points in one vectorised residual call.
+
+scipy's ``"2-point"`` makes one residual call per parameter; the model's
+residual is vectorised over parameter points (emcee's walkers), so one call
+for all columns costs little more than one point (five times faster for the
+base model, :mod:`.modes`; twelve parameters of a diagnose search's
+per-time-block model, :mod:`bayescal.criticism.search`). Steps are scipy's
+size, ``sqrt(eps) max(1, |theta|)``, always forward; the columns agree
+with scipy's to the differences' rounding, not to the bit, so a fit whose
+numbers must not move keeps ``"2-point"``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .likelihood import Model
+
+
+def forward_jacobian(model):
+    """A ``jac`` callable for :func:`scipy.optimize.least_squares` on
+    ``model.whitened_residual`` (args ``(factors,)``); scipy's ``"2-point"``
+    for models whose whitened residual is not :class:`Model`'s (the
+    errors-in-variables model)."""
+    if type(model).whitened_residual is not Model.whitened_residual:
+        return "2-point"
+
+    def jac(theta, factors):
+        la, lb = factors
+        h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(theta))
+        # la^H R lb for every point (batched matmul: a three-operand einsum
+        # loops over all five indices at once, ten times slower here)
+        r = model.residual_blocks(np.vstack([theta, theta + np.diag(h)]))
+        z = np.ascontiguousarray(la.conj().transpose(0, 2, 1)) @ r @ lb
+        z = z.reshape(z.shape[0], -1)
+        r = np.concatenate([z.real, z.imag], axis=1)
+        return ((r[1:] - r[0]) / h[:, None]).T
+    return jac
