@@ -17,21 +17,28 @@ import numpy as np
 from .likelihood import Model
 
 
-def forward_jacobian(model):
+def forward_jacobian(model, matmul=False):
     """A ``jac`` callable for :func:`scipy.optimize.least_squares` on
     ``model.whitened_residual`` (args ``(factors,)``); scipy's ``"2-point"``
     for models whose whitened residual is not :class:`Model`'s (the
-    errors-in-variables model)."""
+    errors-in-variables model).
+
+    ``matmul``: whiten (``la^H R lb``) with batched matrix products instead
+    of the three-operand einsum, which loops over all five indices at once
+    (several times slower on a per-time-block model); the columns differ in
+    rounding, so the mode search (:mod:`.modes`), whose optima a fit reports,
+    keeps the einsum."""
     if type(model).whitened_residual is not Model.whitened_residual:
         return "2-point"
 
     def jac(theta, factors):
         la, lb = factors
         h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(theta))
-        # la^H R lb for every point (batched matmul: a three-operand einsum
-        # loops over all five indices at once, ten times slower here)
         r = model.residual_blocks(np.vstack([theta, theta + np.diag(h)]))
-        z = np.ascontiguousarray(la.conj().transpose(0, 2, 1)) @ r @ lb
+        if matmul:
+            z = np.ascontiguousarray(la.conj().transpose(0, 2, 1)) @ r @ lb
+        else:
+            z = np.einsum("bji,wgbjk,gbkl->wgbil", la.conj(), r, lb)
         z = z.reshape(z.shape[0], -1)
         r = np.concatenate([z.real, z.imag], axis=1)
         return ((r[1:] - r[0]) / h[:, None]).T

@@ -133,7 +133,7 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     best = None
     for theta0 in _starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1):
         try:
-            theta, cov = least_squares_fit(m, theta0, jac=forward_jacobian(m))
+            theta, cov = least_squares_fit(m, theta0, jac=forward_jacobian(m, matmul=True))
         except Exception:
             continue
         if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
@@ -181,7 +181,7 @@ def _refit(model, starts):
     best = (-np.inf, None)
     for start in starts:
         res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
-                            jac=forward_jacobian(model), args=(fac,),
+                            jac=forward_jacobian(model, matmul=True), args=(fac,),
                             method="trf" if bounded else "lm",
                             bounds=(lo, hi) if bounded else (-np.inf, np.inf),
                             xtol=1e-12, ftol=1e-12, gtol=1e-12)
