@@ -29,3 +29,17 @@ def test_batched_jacobian_matches_scipy(sim_pair):
         jac = forward_jacobian(m, matmul=matmul)(theta, fac)
         assert jac.shape == ref.shape
         np.testing.assert_allclose(jac, ref, rtol=0, atol=1e-6 * scale)
+
+
+def test_band_fold_is_the_einsum():
+    from bayescal.core.bandfold import fold
+
+    rng = np.random.default_rng(3)
+    f, q, b, g = 40, 7, 4, 5
+    interp = rng.random((f, q))
+    band_of = np.sort(rng.integers(0, b, f))
+    band_of[band_of == 2] = 1                        # an empty band
+    c = (rng.standard_normal((g, f, 3, 2)) + 1j * rng.standard_normal((g, f, 3, 2))).astype(
+        np.complex64)
+    want = np.einsum("fq,fb,gfij->giqbj", interp, np.eye(b)[band_of], c).reshape(g, 3, q, -1)
+    np.testing.assert_allclose(fold(interp, band_of, b, c), want, rtol=1e-12, atol=1e-12)
