@@ -5,6 +5,9 @@ Modules, in the order data flows through them:
 * :mod:`.geometry`   angles <-> unit vectors (NED), SEED conventions, manifolds
 * :mod:`.response`   parametric two-pole responses, evaluation of ObsPy responses
 * :mod:`.spectra`    streamed Welch cross-spectra and per-band matrices
+* :mod:`.coherence`  Welch multiple coherence alone (the band choice's)
+* :mod:`.bandfold`   per-time-block spectra folded into bands and nodes
+* :mod:`.jacobian`   batched forward-difference Jacobian for least squares
 * :mod:`.likelihood` the Frobenius residual, its noise model, vectorised log-prob
 * :mod:`.sampler`    closed-form start, least squares, emcee, convergence control
 * :mod:`.posterior`  samples, summaries, result.json / samples.npz

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import misfit_scale, noisescale
+from .bandfold import fold
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from .response import TwoPoleFamily, gain_prior_factor
 
@@ -196,9 +197,8 @@ class Model:
         self._exact_blocks = has_blocks and (self.per_block or bool(self.effects))
         if self._exact_blocks:
             # per time block, as _cur_rows: (G, nu, Q, B*nr)
-            self._cur_blocks = np.einsum("fq,fb,gfij->giqbj", self._interp, self._onehot,
-                                         bt[:, :, :nu, nu:]).reshape(bt.shape[0], nu,
-                                                                     self.nodes.size, -1)
+            self._cur_blocks = fold(self._interp, spectra.band_of, spectra.n_bands,
+                                    bt[:, :, :nu, nu:])
             band = np.einsum("fb,gfij->gbij", self._onehot, bt)
             self._sur_blocks, self._srr_blocks = band[:, :, :nu, nu:], band[:, :, nu:, nu:]
         if self.per_block:

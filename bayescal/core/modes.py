@@ -52,7 +52,7 @@ from scipy.optimize import least_squares
 from scipy.stats import chi2
 
 from .geometry import Circle, Sphere, azimuth_dip
-from .likelihood import Model
+from .jacobian import forward_jacobian as _jacobian
 from .unconstrained import information, prior_bounds
 
 #: Smallest posterior mass fraction of a second mode that makes a fit multimodal.
@@ -109,25 +109,6 @@ def theta_for(model, vectors, theta_response):
         if b.manifold.n_params:
             theta[so] = b.manifold.params(v)
     return theta
-
-
-def _jacobian(model):
-    """Forward-difference Jacobian of the base model's whitened residual with
-    all ``ndim + 1`` points in one vectorised residual call (scipy's makes
-    one call per point: five times slower here); scipy's ``"2-point"`` for
-    other models."""
-    if type(model).whitened_residual is not Model.whitened_residual:
-        return "2-point"
-
-    def jac(theta, factors):
-        la, lb = factors
-        h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(theta))
-        z = np.einsum("bji,wgbjk,gbkl->wgbil", la.conj(),
-                      model.residual_blocks(np.vstack([theta, theta + np.diag(h)])), lb)
-        z = z.reshape(z.shape[0], -1)
-        r = np.concatenate([z.real, z.imag], axis=1)
-        return ((r[1:] - r[0]) / h[:, None]).T
-    return jac
 
 
 def _polish(model, theta, factors):

@@ -150,9 +150,11 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  not_estimable=skipped)
 
 
-def least_squares_fit(model, theta0, iterations=2):
+def least_squares_fit(model, theta0, iterations=2, jac="2-point"):
     """Refine ``theta0`` by :func:`scipy.optimize.least_squares` on the
     whitened residual, re-estimating the noise model after each pass.
+    ``jac``: scipy's (the pair fit's, whose numbers are fixed) or a callable
+    such as :func:`bayescal.core.jacobian.forward_jacobian`'s.
 
     Returns ``(theta, covariance)``; the covariance is the inverse Fisher
     information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm).
@@ -166,14 +168,16 @@ def least_squares_fit(model, theta0, iterations=2):
         # Levenberg-Marquardt: the trust-region method stalls when the start
         # is exactly zero in the tangent-plane coordinates (its first trust
         # radius is |x0| = 0); fall back to it only when LM leaves the box.
-        res = least_squares(model.whitened_residual, theta, args=(fac,), method="lm", **tol)
+        res = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,), method="lm",
+                            **tol)
         if np.any(res.x < lo) or np.any(res.x > hi):
             res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
-                                args=(fac,), bounds=(lo, hi), method="trf", **tol)
+                                jac=jac, args=(fac,), bounds=(lo, hi), method="trf", **tol)
         theta = res.x
         model.estimate_noise(theta)
     fac = model.noise.cholesky()
-    jac = least_squares(model.whitened_residual, theta, args=(fac,), method="lm", max_nfev=1).jac
+    jac = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,), method="lm",
+                        max_nfev=1).jac
     fisher = 2.0 * jac.T @ jac
     try:
         cov = np.linalg.inv(fisher)

@@ -48,10 +48,12 @@ SCHEMA = "bayescal.diagnose/1"
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
     """A :class:`Posterior` of ``model`` (with effects) from MCMC
-    (:func:`bayescal.core.sampler.sample`) or, with ``mcmc=False``, from its Laplace
+    (:func:`bayescal.core.sampler.sample`, the pair fit's independence
+    sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:
-        chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
+        chain = sample(model, theta, cov, seed=seed, progress=progress,
+                       **{"move": "independence", **sample_kw})
         samples, lp = chain.samples, chain.log_prob
         conv = {"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
                 "acceptance": chain.acceptance, "n_steps": chain.n_steps,

@@ -10,7 +10,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import effects as catalogue
-from ..core.sampler import _bounds, least_squares_fit
+from ..core.jacobian import forward_jacobian
+from ..core.sampler import _bounds, least_squares_fit, single_threaded_blas
 from ..core.geometry import Fixed
 from ..core.eiv import EIVModel, EIVNoise
 from ..core.likelihood import MIN_TIME_BLOCKS, Model
@@ -132,7 +133,7 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     best = None
     for theta0 in _starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1):
         try:
-            theta, cov = least_squares_fit(m, theta0)
+            theta, cov = least_squares_fit(m, theta0, jac=forward_jacobian(m, matmul=True))
         except Exception:
             continue
         if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
@@ -180,7 +181,8 @@ def _refit(model, starts):
     best = (-np.inf, None)
     for start in starts:
         res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
-                            args=(fac,), method="trf" if bounded else "lm",
+                            jac=forward_jacobian(model, matmul=True), args=(fac,),
+                            method="trf" if bounded else "lm",
                             bounds=(lo, hi) if bounded else (-np.inf, np.inf),
                             xtol=1e-12, ftol=1e-12, gtol=1e-12)
         ll = float(model.log_likelihood(res.x)[0])
@@ -242,7 +244,13 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
 
 def search(model, theta, free, log=None, drift=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
-    gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps)."""
+    gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
+    BLAS runs single-threaded (small products: threads only add latency)."""
+    with single_threaded_blas():
+        return _search(model, theta, free, log, drift)
+
+
+def _search(model, theta, free, log, drift):
     cur, th, cov = model, theta, None
     steps = []
     while len(cur.effects) < MAX_EFFECTS:

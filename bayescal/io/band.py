@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .read import InputError
-from ..core.spectra import cross_spectra
+from ..core.coherence import welch_multiple_coherence
 
 #: Default coherence a band must have on every visible SUT channel.
 DEFAULT_THRESHOLD = 0.9
@@ -141,22 +141,22 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     if fmin >= fmax:
         raise InputError(f"{source}too little data to choose a band: {n / fs:.0f} s")
     # coherence is unchanged by each channel's own (invertible) response: no
-    # deconvolution, so no run-edge margins either
-    spectra = cross_spectra(sut.data, ref.data, fs, None, None,
-                            (fmin, fmax), nperseg=nperseg, sut_ids=sut.ids, ref_ids=ref.ids)
-    coh = _smooth(spectra.freqs, np.clip(spectra.multiple_coherence(), 0, 1))
+    # deconvolution, so no run-edge margins either (core.coherence computes
+    # only the coherence, not the fit's per-band and per-segment matrices)
+    freqs, raw = welch_multiple_coherence(sut.data, ref.data, fs, (fmin, fmax), nperseg)
+    coh = _smooth(freqs, np.clip(raw, 0, 1))
     visible = [i for i in _inside_span(sut, ref) if np.nanmax(coh[i]) >= threshold]
     if not visible:
         best = ", ".join(f"{sut.ids[i]} {np.nanmax(coh[i]):.3f}" for i in _inside_span(sut, ref))
         raise InputError(f"{source}no frequency band where the sensors are coherent: best "
                          f"multiple coherence per channel {best}, needed {threshold}")
-    run = _widest_run(np.all(coh[visible] >= threshold, axis=0), spectra.freqs)
-    if run is None or spectra.freqs[run[2]] / spectra.freqs[run[1]] < MIN_RATIO:
+    run = _widest_run(np.all(coh[visible] >= threshold, axis=0), freqs)
+    if run is None or freqs[run[2]] / freqs[run[1]] < MIN_RATIO:
         raise InputError(f"{source}no frequency band of useful width where all SUT channels "
                          f"are coherent with the reference above {threshold}; give --band")
-    return BandChoice(fmin=float(spectra.freqs[run[1]]), fmax=float(spectra.freqs[run[2]]),
+    return BandChoice(fmin=float(freqs[run[1]]), fmax=float(freqs[run[2]]),
                       threshold=threshold, channels=[sut.ids[i] for i in visible],
-                      freqs=spectra.freqs, coherence=coh)
+                      freqs=freqs, coherence=coh)
 
 
 def coherence_gate(spectra, sut, ref, source="", minimum=MIN_COHERENCE):
