@@ -59,8 +59,11 @@ def test_demo_band_and_fit_unchanged(demo):
     post = calibrate(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory,
                      progress=False)
     assert tuple(post.meta["band_hz"]) == DEMO_BAND
-    np.testing.assert_allclose(np.median(post.samples, axis=0), DEMO_MEDIANS, rtol=1e-12,
-                               atol=1e-15)
+    # not bit for bit: BLAS threading (pytest-xdist workers) moves the least
+    # squares in the 8th digit (seen: 1.5e-7 relative); a changed band or
+    # spectra moves the medians by orders of magnitude more
+    np.testing.assert_allclose(np.median(post.samples, axis=0), DEMO_MEDIANS, rtol=1e-5,
+                               atol=1e-9)
 
 
 @pytest.mark.skipif(not HUDDLE.is_dir(), reason="needs ../shared/data/real/obspy_relcal")
