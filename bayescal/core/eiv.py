@@ -123,7 +123,7 @@ class EIVModel(Model):
         if f is not None:
             x0, g = x0 * f, g * f[..., None]
         coef = refnoise.profile_ratio(x0, g, self.noise.W if w is None else w)
-        return x0 + np.einsum("wbip,wp->wbi", g, coef), coef.reshape(-1, nr, 2)
+        return x0 + (g @ coef[:, None, :, None])[..., 0], coef.reshape(-1, nr, 2)
 
     def _row_factor(self, ratio):
         """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
@@ -149,11 +149,12 @@ class EIVModel(Model):
         """(W, B) half the statistic's chi-square per band and (B,) half its
         rank (the complex degrees of freedom)."""
         x, _ = self.statistic(theta)
-        return 0.5 * np.einsum("wbi,bij,wbj->wb", x, self.noise.W, x), 0.5 * self.noise.rank
+        wx = (self.noise.W[None] @ x[..., None])[..., 0]                  # (W, B, 2m)
+        return 0.5 * np.sum(x * wx, axis=-1), 0.5 * self.noise.rank
 
     def _whiten(self, theta, factors):
         x, _ = self.statistic(np.atleast_2d(theta))
-        return np.einsum("bji,bj->bi", factors, x[0]) / np.sqrt(2.0)
+        return (np.swapaxes(factors, -1, -2) @ x[0][..., None])[..., 0] / np.sqrt(2.0)
 
     def whitened_residual(self, theta, factors):
         """Real vector whose squared norm is ``-log L``."""

@@ -19,15 +19,18 @@ from .likelihood import Model
 
 def forward_jacobian(model, matmul=False):
     """A ``jac`` callable for :func:`scipy.optimize.least_squares` on
-    ``model.whitened_residual`` (args ``(factors,)``); scipy's ``"2-point"``
-    for models whose whitened residual is not :class:`Model`'s (the
-    errors-in-variables model).
+    ``model.whitened_residual`` (args ``(factors,)``): :class:`Model`'s and
+    the errors-in-variables model's; scipy's ``"2-point"`` for any other.
 
     ``matmul``: whiten (``la^H R lb``) with batched matrix products instead
     of the three-operand einsum, which loops over all five indices at once
     (several times slower on a per-time-block model); the columns differ in
     rounding, so the mode search (:mod:`.modes`), whose optima a fit reports,
     keeps the einsum."""
+    from .eiv import EIVModel
+
+    if isinstance(model, EIVModel) and type(model).whitened_residual is EIVModel.whitened_residual:
+        return _eiv_jacobian(model)
     if type(model).whitened_residual is not Model.whitened_residual:
         return "2-point"
 
@@ -41,5 +44,18 @@ def forward_jacobian(model, matmul=False):
             z = np.einsum("bji,wgbjk,gbkl->wgbil", la.conj(), r, lb)
         z = z.reshape(z.shape[0], -1)
         r = np.concatenate([z.real, z.imag], axis=1)
+        return ((r[1:] - r[0]) / h[:, None]).T
+    return jac
+
+
+def _eiv_jacobian(model):
+    """The same for :class:`bayescal.core.eiv.EIVModel`: its statistic is
+    vectorised over points too (the profiled noise coefficients solved per
+    point), whitened as :meth:`EIVModel.whitened_residual` does."""
+    def jac(theta, factors):
+        h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(theta))
+        x, _ = model.statistic(np.vstack([theta, theta + np.diag(h)]))     # (W, B, 2m)
+        z = (np.swapaxes(factors, -1, -2)[None] @ x[..., None])[..., 0] / np.sqrt(2.0)
+        r = z.reshape(z.shape[0], -1)
         return ((r[1:] - r[0]) / h[:, None]).T
     return jac

@@ -176,8 +176,8 @@ class Model:
         # so a likelihood call costs O(nodes), not O(bins).
         self.nodes, self._interp = interpolation_nodes(spectra.freqs, NODES_PER_DECADE)
         # (nu, Q, B*nr): row i of C_ur, band indicator and weights folded in
-        self._cur_rows = np.einsum("fq,fb,fij->iqbj", self._interp, self._onehot,
-                                   self._cur).reshape(nu, self.nodes.size, -1)
+        # (folded band by band: the three-operand einsum took ~0.5 s per model)
+        self._cur_rows = fold(self._interp, spectra.band_of, spectra.n_bands, self._cur[None])[0]
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
         self._band_nodes = noisescale.band_node_weights(self._onehot, self._interp)

@@ -150,15 +150,21 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  not_estimable=skipped)
 
 
-def least_squares_fit(model, theta0, iterations=2, jac="2-point"):
+def least_squares_fit(model, theta0, iterations=2, jac=None):
     """Refine ``theta0`` by :func:`scipy.optimize.least_squares` on the
     whitened residual, re-estimating the noise model after each pass.
-    ``jac``: scipy's (the pair fit's, whose numbers are fixed) or a callable
-    such as :func:`bayescal.core.jacobian.forward_jacobian`'s.
+    ``jac``: scipy's ``"2-point"``, a callable such as
+    :func:`bayescal.core.jacobian.forward_jacobian`'s, or None: ``"2-point"``
+    for the base model (whose numbers are fixed) and the one-call forward
+    Jacobian for the errors-in-variables model (its residual costs several
+    times the base model's; the columns agree to rounding).
 
     Returns ``(theta, covariance)``; the covariance is the inverse Fisher
     information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm).
     """
+    if jac is None:
+        from .jacobian import forward_jacobian
+        jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
     lo, hi = _bounds(model)
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     model.estimate_noise(theta)
