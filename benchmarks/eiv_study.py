@@ -89,6 +89,10 @@ def main():
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--two-by-two", action="store_true", help="horizontals only (2+2 pairs)")
     ap.add_argument("--table", action="store_true", help="with --mcmc: print the table only")
+    ap.add_argument("--signal-noise", action="store_true",
+                    help="with --mcmc: self-noise a fixed share of each channel's signal (the "
+                         "simulator's default, outside mode estimate's model) instead of white "
+                         "in counts")
     args = ap.parse_args()
     if args.mcmc:
         return mcmc(args)
@@ -126,16 +130,19 @@ def mcmc(args):
     """Coverage rows appended to ``args.out`` and the summary table printed."""
     out = args.out or "reports/eiv/coverage.json"
     rows = json.load(open(out))["rows"] if os.path.exists(out) else []
-    done = {(r["seed"], r["ratio"], r["pair_coherence"], r["fit"], r["mode"]) for r in rows}
+    noise = "signal" if args.signal_noise else "counts"
+    done = {(r["seed"], r["ratio"], r["pair_coherence"], r["fit"], r["mode"],
+             r.get("noise", "counts")) for r in rows}
     for ratio in [] if args.table else args.ratios:
         for coh in args.coherences:
             for mode in args.modes:
                 for seed in range(args.seed0, args.seed0 + args.n):
-                    if (seed, ratio, coh, args.fit, mode) in done:
+                    if (seed, ratio, coh, args.fit, mode, noise) in done:
                         continue
-                    r = run_pair(seed, ratio, coh, args.fit, mode)
+                    r = run_pair(seed, ratio, coh, args.fit, mode,
+                                 noise_in_counts=not args.signal_noise)
                     rows.append(r)
-                    print(f"ratio {ratio:g} coh {coh} {args.fit} {mode} seed {seed}: "
+                    print(f"ratio {ratio:g} coh {coh} {args.fit} {mode} {noise} seed {seed}: "
                           f"{r['cpu_s']:.1f} s cpu, converged {r['converged']}", flush=True)
                     os.makedirs(os.path.dirname(out), exist_ok=True)
                     with open(out, "w") as fh:
