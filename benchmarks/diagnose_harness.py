@@ -101,7 +101,8 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
     from bayescal.io.read import InputError
     try:
         post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
-                                  band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20)
+                                  band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
+                                  ref_noise="quiet")
     except InputError as exc:
         # the fit refuses (e.g. too little coherence when both sensors are noisy):
         # nothing is named, which is neither a detection nor a false alarm

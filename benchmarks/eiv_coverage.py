@@ -73,18 +73,23 @@ def run_pair(seed, ratio, pair_coherence, fit, mode, duration=3600.0, fs=10.0,
     c68 = coverage_checks(post, azs, dips, resp, level=68.0)
     conv = post.convergence
     return {"seed": seed, "ratio": ratio, "pair_coherence": pair_coherence, "fit": fit,
-            "mode": mode, "noise": "counts" if noise_in_counts else "signal", "sut_coherence": cu, "ref_coherence": cr, "cpu_s": cpu,
+            "mode": mode, "noise": "counts" if noise_in_counts else "signal",
+            "duration_s": duration, "sut_coherence": cu, "ref_coherence": cr, "cpu_s": cpu,
             "converged": bool(conv["converged"]), "ess_min": float(np.min(conv["ess"])),
             "rhat_max": float(np.max(conv["rhat"])),
             "checks": {k: {"z": c90[k][1], "in90": c90[k][0], "in68": c68[k][0]} for k in c90}}
 
 
-def summarise(rows, by=("fit", "noise", "mode", "ratio")):
+#: Row fields added after the first rows were written, and their value then.
+LATER_FIELDS = {"noise": "counts", "duration_s": 3600.0}
+
+
+def summarise(rows, by=("fit", "noise", "duration_s", "mode", "ratio")):
     """Per regime (``by``) and parameter kind: mean and sd of z, counts inside
     the 68 % and 90 % intervals with their 99 % binomial bands."""
     groups = {}
     for r in rows:
-        key = tuple(r.get(k, "counts") for k in by)    # rows before "noise": counts
+        key = tuple(r.get(k, LATER_FIELDS.get(k)) for k in by)
         for name, c in r["checks"].items():
             kind = name.split(":")[1]
             groups.setdefault(key, {}).setdefault(kind, []).append(c)
@@ -107,10 +112,12 @@ def summarise(rows, by=("fit", "noise", "mode", "ratio")):
 
 def table(summary):
     """Markdown table of :func:`summarise`'s rows."""
-    lines = ["| fit | self-noise | ref noise | ratio | kind | n | z mean | z sd | in 68 % [99 % band] "
-             "| in 90 % [99 % band] | |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| fit | self-noise | record | ref noise | ratio | kind | n | z mean | z sd "
+             "| in 68 % [99 % band] | in 90 % [99 % band] | |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
-        lines.append(f"| {s['fit']} | {s['noise']} | {s['mode']} | {s['ratio']:g} | {s['kind']} | {s['n']} | "
+        lines.append(f"| {s['fit']} | {s['noise']} | {s['duration_s'] / 3600:g} h | {s['mode']} | "
+                     f"{s['ratio']:g} | {s['kind']} | {s['n']} | "
                      f"{s['z_mean']:+.2f} | {s['z_sd']:.2f} | {s['in68']} {s['band68']} | "
                      f"{s['in90']} {s['band90']} | {'ok' if s['ok'] else 'OUT'} |")
     return "\n".join(lines)

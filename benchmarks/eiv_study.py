@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 
 import numpy as np
@@ -89,6 +90,8 @@ def main():
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--two-by-two", action="store_true", help="horizontals only (2+2 pairs)")
     ap.add_argument("--table", action="store_true", help="with --mcmc: print the table only")
+    ap.add_argument("--duration", type=float, default=3600.0,
+                    help="with --mcmc: record length in seconds (default 3600, at 10 Hz)")
     ap.add_argument("--signal-noise", action="store_true",
                     help="with --mcmc: self-noise a fixed share of each channel's signal (the "
                          "simulator's default, outside mode estimate's model) instead of white "
@@ -129,25 +132,29 @@ def main():
 def mcmc(args):
     """Coverage rows appended to ``args.out`` and the summary table printed."""
     out = args.out or "reports/eiv/coverage.json"
-    rows = json.load(open(out))["rows"] if os.path.exists(out) else []
+    old = json.load(open(out)) if os.path.exists(out) else {}
+    rows = old.get("rows", [])
+    commands = old.get("commands", [old["command"]] if "command" in old else [])
+    if not args.table:
+        commands.append("python benchmarks/eiv_study.py " + " ".join(sys.argv[1:]))
     noise = "signal" if args.signal_noise else "counts"
     done = {(r["seed"], r["ratio"], r["pair_coherence"], r["fit"], r["mode"],
-             r.get("noise", "counts")) for r in rows}
+             r.get("noise", "counts"), r.get("duration_s", 3600.0)) for r in rows}
     for ratio in [] if args.table else args.ratios:
         for coh in args.coherences:
             for mode in args.modes:
                 for seed in range(args.seed0, args.seed0 + args.n):
-                    if (seed, ratio, coh, args.fit, mode, noise) in done:
+                    if (seed, ratio, coh, args.fit, mode, noise, args.duration) in done:
                         continue
-                    r = run_pair(seed, ratio, coh, args.fit, mode,
+                    r = run_pair(seed, ratio, coh, args.fit, mode, duration=args.duration,
                                  noise_in_counts=not args.signal_noise)
                     rows.append(r)
                     print(f"ratio {ratio:g} coh {coh} {args.fit} {mode} {noise} seed {seed}: "
                           f"{r['cpu_s']:.1f} s cpu, converged {r['converged']}", flush=True)
                     os.makedirs(os.path.dirname(out), exist_ok=True)
                     with open(out, "w") as fh:
-                        json.dump({"command": "python benchmarks/eiv_study.py --mcmc ...",
-                                   "rows": rows, "summary": summarise(rows)}, fh, indent=1)
+                        json.dump({"commands": commands, "rows": rows,
+                                   "summary": summarise(rows)}, fh, indent=1)
     summary = summarise(rows)
     print(table(summary))
     cpu = {}

@@ -87,7 +87,7 @@ def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
         window = {}
     t0 = time.perf_counter()
     base = bayescal.calibrate(*inputs, band=spec["band"], fit_response=spec["free"], seed=seed,
-                              progress=False, **window, **sample_kw)
+                              progress=False, ref_noise="quiet", **window, **sample_kw)
     d = diagnose(base, seed=seed, mcmc=mcmc, log=lambda s: print(s, flush=True))
     summary = d.summary()
     summary["case"] = {"name": name, **{k: v for k, v in spec.items()}, "seconds":

@@ -54,7 +54,7 @@ def test_fit_recovers_simulated_orientation_and_writes_everything(sim_files, sim
     truth = sim_pair.truth["channels"]
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
         az = res["channels"][cid]["azimuth_deg"]
-        assert abs(az["median"] - truth[cid]["azimuth_deg"]) < 0.15
+        assert abs(az["median"] - truth[cid]["azimuth_deg"]) < 3 * az["sd"] and az["sd"] < 0.15
         assert az["ci95"][0] - 0.05 < truth[cid]["azimuth_deg"] < az["ci95"][1] + 0.05
     # gap-free record: only segments within two periods of the band's lower
     # edge from the record's ends (the deconvolution transient) are left out
@@ -84,7 +84,8 @@ def test_fit_without_band_chooses_and_reports_it(sim_files, sim_pair, tmp_path):
     assert "chosen from the data" in res["meta"]["band_choice"]
     assert len(res["meta"]["files"]["sut"]) == 3
     truth = sim_pair.truth["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
-    assert abs(res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]["median"] - truth) < 0.15
+    az = res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
+    assert abs(az["median"] - truth) < 3 * az["sd"] and az["sd"] < 0.15
 
 
 def test_help_and_version():

@@ -32,7 +32,8 @@ def test_channels_chosen_by_seed_id_pattern(sim_files, sim_pair, both_sensors, t
     res = json.loads((out / "result.json").read_text())
     assert sorted(res["channels"]) == ["XX.SIM.10.BH1", "XX.SIM.10.BH2", "XX.SIM.10.BHZ"]
     truth = sim_pair.truth["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
-    assert abs(res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]["median"] - truth) < 0.15
+    az = res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
+    assert abs(az["median"] - truth) < 3 * az["sd"] and az["sd"] < 0.15
 
 
 def test_pattern_matching_nothing_names_the_file_and_its_ids(sim_files, both_sensors,

@@ -185,7 +185,7 @@ def test_messy_simulated_pair_still_recovers_the_orientation(sim_pair):
     truth = sim_pair.truth["channels"]
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
         e = summ["channels"][cid]["azimuth_deg"]
-        assert abs(e["median"] - truth[cid]["azimuth_deg"]) < 0.2
+        assert abs(e["median"] - truth[cid]["azimuth_deg"]) < 3 * e["sd"] and e["sd"] < 0.15
     used = summ["meta"]["data_used"]
     assert used["segments"] < used["segments_possible"]
 
@@ -224,8 +224,8 @@ def test_acceleration_response_is_not_misscaled(sim_pair):
                               band=SIM_BAND, progress=False)
     truth = sim_pair.truth["channels"]
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
-        med = post.summary()["channels"][cid]["azimuth_deg"]["median"]
-        assert abs(med - truth[cid]["azimuth_deg"]) < 0.15
+        az = post.summary()["channels"][cid]["azimuth_deg"]
+        assert abs(az["median"] - truth[cid]["azimuth_deg"]) < 3 * az["sd"] and az["sd"] < 0.15
 
 
 def test_natural_and_coarse_records_are_not_called_clipped():
@@ -268,7 +268,8 @@ def test_two_channel_reference_gives_horizontal_azimuths_only(sim_pair):
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
         e = summ["channels"][cid]
         assert e["kind"] == "circle"
-        assert abs(e["azimuth_deg"]["median"] - truth[cid]["azimuth_deg"]) < 0.2
+        az = e["azimuth_deg"]
+        assert abs(az["median"] - truth[cid]["azimuth_deg"]) < 3 * az["sd"] and az["sd"] < 0.15
 
 
 def test_gap_in_a_trace_to_be_resampled_spreads_over_the_filter_only():

@@ -101,7 +101,7 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
                         sut_azimuth=(30.0, 120.0, 0.0))
     ref = sim.ref.select(channel="BH[NE]")
     post = calibrate(sim.sut, sim.sut_inventory, ref, sim.ref_inventory, band=(0.02, 1.0),
-                     fit_response="none", progress=False)
+                     fit_response="none", progress=False, ref_noise="quiet")
     write_results(post, str(tmp_path))
     res = json.loads((tmp_path / "result.json").read_text())
     mm = res["multimodal"]

@@ -165,9 +165,10 @@ def test_sensor_order_with_free_gains(case):
                                sut_response=((30.0, 0.707, 750 * 0.97),) * 3)}[case]
     p = simulate_pair(**SIM, seed=3, **kw)
     post = calibrate(p.sut, p.sut_inventory, p.ref, p.ref_inventory, band=(0.02, 1.0),
-                     progress=False)
+                     progress=False, ref_noise="quiet")
     order = post.sensor_order
     assert "metadata gains" in order["basis"]
+    assert "at_fitted_gains_db" not in order
     if case == "swapped":
         assert order["reference_noisier"] is True
         assert 3.0 < order["reference_minus_sut_db"] < 20.5
@@ -183,6 +184,44 @@ def test_sensor_order_with_free_gains(case):
         assert "swapped or the SUT's gain is below its metadata" in order["caution"]
     if case == "sut_gain_low":
         assert "caution" in order or "undetermined" in order
+
+
+@pytest.mark.parametrize("case", ["swapped_signal_shaped", "swapped_below_gain_error_counts",
+                                  "normal_counts"])
+def test_sensor_order_default_estimate(case):
+    """The default fit (gains free, --ref-noise estimate on 3+3): the
+    metadata-gain margins as under quiet, and the margin at the fitted gains,
+    unbiased where the self-noise is smooth (white in counts): a swap whose
+    noise is only 0.5 % of the signal, which the metadata margins leave at a
+    caution, is named (6.7 dB at seed 3; gain sd 0.98 times the quiet
+    model's: well separated). With noise shaped like the ground motion the
+    fitted gains absorb the reference's noise (-9.6 dB there): the fit says
+    the noise is poorly separated from the gains (sd ratio 2.1) and the split
+    at the fitted gains is not used; the metadata margins still name the
+    swap (6.4 dB)."""
+    kw = {"swapped_signal_shaped": dict(coherence=0.999, ref_coherence=0.9),
+          "swapped_below_gain_error_counts": dict(coherence=0.9999, ref_coherence=0.995,
+                                                  noise_in_counts=True),
+          "normal_counts": dict(coherence=0.9, ref_coherence=0.999, noise_in_counts=True)}[case]
+    p = simulate_pair(**SIM, seed=3, **kw)
+    post = calibrate(p.sut, p.sut_inventory, p.ref, p.ref_inventory, band=(0.02, 1.0),
+                     progress=False)
+    assert post.meta["reference_noise"]["mode"] == "estimate"
+    assert post.meta["reference_noise"]["chosen_by"] == "default"
+    order = post.sensor_order
+    if case == "normal_counts":
+        assert order["reference_noisier"] is False and "message" not in order
+        assert order["at_fitted_gains_db"] < -3.0 and "caution" not in order
+        return
+    assert order["reference_noisier"] is True
+    assert "were --ref and --sut swapped?" in order["message"]
+    separation = post.meta["reference_noise"]["separation"]
+    if case == "swapped_signal_shaped":
+        assert "poorly separated" in separation["note"]
+        assert "at_fitted_gains_db" not in order and order["reference_minus_sut_db"] > 3.0
+    else:
+        assert "note" not in separation and max(separation["gain_sd_ratio"].values()) < 1.5
+        assert order["reference_minus_sut_db"] < 3.0 < order["at_fitted_gains_db"]
 
 
 def test_single_component_pair_not_identifiable():

@@ -49,11 +49,13 @@ def add_pair_arguments(parser):
                              "angles only). With one horizontal reference channel the gains "
                              "are held (it cannot separate them from the rotation)")
     parser.add_argument("--ref-noise", choices=["quiet", "estimate", "equal"], default=None,
-                        help="the reference's own self-noise: 'quiet' (negligible next to the "
-                             "SUT's; the default), 'estimate' (estimated from the data as white "
-                             "in ground units plus white in the reference's counts: use it when "
-                             "the reference is as noisy as the SUT, as in a huddle), 'equal' "
-                             "(the same as the SUT's in ground units)")
+                        help="the reference's own self-noise: 'estimate' (estimated from the "
+                             "data as white in ground units plus white in the reference's "
+                             "counts: unbiased whether the reference is quiet or as noisy as "
+                             "the SUT, as in a huddle; the default with two or more channels "
+                             "on each side), 'quiet' (negligible next to the SUT's; the default "
+                             "for a one-channel pair, which cannot separate it; about 1.5 "
+                             "times faster), 'equal' (the same as the SUT's in ground units)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")

@@ -32,8 +32,17 @@ HELP = "locate model/recording mismatch, name and model the missing physics"
 
 
 def configure(parser):
-    """Arguments: those of ``bayescal fit`` (without ``--diagnose``)."""
+    """Arguments: those of ``bayescal fit`` (without ``--diagnose``); the base
+    fit's ``--ref-noise`` defaults to ``quiet``: the diagnosis's first step
+    tests whether the reference's noise must be modelled
+    (:mod:`bayescal.criticism.reference_noise`) and models it when it must."""
     add_pair_arguments(parser)
+    action = parser._option_string_actions["--ref-noise"]
+    action.default = "quiet"
+    action.help = ("the reference's own self-noise in the base fit: 'quiet' (the default: the "
+                   "diagnosis then tests whether the reference's noise matters and, if so, "
+                   "models it before naming any effect), 'estimate' or 'equal' (as in "
+                   "bayescal fit)")
 
 
 def run(args):
@@ -52,7 +61,8 @@ def run(args):
                            band=tuple(args.band) if args.band else None,
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,
-                           sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise)
+                           sut_id=args.sut_id, ref_id=args.ref_id,
+                           ref_noise=args.ref_noise or "quiet")     # fit --diagnose: None
     say("searching the catalogue of effects ...")
     d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
     final = d.final

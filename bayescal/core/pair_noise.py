@@ -247,20 +247,28 @@ def metadata_gain_margins_db(model, theta, along, spread=METADATA_GAIN_SPREAD):
                      for f in (1.0 / (1.0 + spread), 1.0, 1.0 + spread)])
 
 
-def order_entry(margins, spread=METADATA_GAIN_SPREAD):
-    """``sensor_order`` of a free-gain quiet-reference fit from the three
+def order_entry(margins, spread=METADATA_GAIN_SPREAD, fitted_db=None):
+    """``sensor_order`` of a free-gain fit from the three
     :func:`metadata_gain_margins_db`: a warning where even the least margin
     passes :data:`SWAP_MARGIN_DB`; a caution where only the margin at the
     metadata gains does (a swap, or a SUT gain below its metadata); else
     silent. A margin of None in result.json: the reference's noise is below
-    what the split resolves."""
+    what the split resolves. ``fitted_db``: under ``--ref-noise estimate``,
+    the margin at the fitted gains (unbiased where the self-noise is smooth
+    in frequency, as real self-noise is), which also raises the warning."""
     least, at_meta = float(np.min(margins)), float(margins[1])
-    msg = swap_message(least)
+    msg = swap_message(least) or (swap_message(fitted_db) if fitted_db is not None else None)
+    third = ("bayescal noise with a third sensor tells them apart" if fitted_db is not None
+             else "--ref-noise estimate or bayescal noise with a third sensor tells them apart")
     out = {"reference_minus_sut_db": least, "at_metadata_gains_db": at_meta,
            "reference_noisier": msg is not None, "threshold_db": SWAP_MARGIN_DB,
            "basis": (f"self-noise split at the SUT's metadata gains times 1/{1 + spread:g}, 1 "
                      f"and {1 + spread:g}, the least margin of the three (the fitted gains "
-                     "absorb the reference's noise under --ref-noise quiet)")}
+                     "absorb the reference's noise under --ref-noise quiet, and under "
+                     "estimate where its noise has the ground motion's spectral shape)")}
+    if fitted_db is not None:
+        out["at_fitted_gains_db"] = float(fitted_db)
+        out["basis"] += "; or the margin at the fitted gains (--ref-noise estimate)"
     if msg:
         out["message"] = msg
     elif at_meta > SWAP_MARGIN_DB:
@@ -268,13 +276,11 @@ def order_entry(margins, spread=METADATA_GAIN_SPREAD):
         out["caution"] = (f"at the SUT's metadata gains the reference comes out the noisier "
                           f"({by}), but a gain error under {100 * spread:g} % could explain "
                           "it: either --ref and --sut are swapped or the SUT's gain is below "
-                          "its metadata; --ref-noise estimate or bayescal noise with a third "
-                          "sensor tells them apart")
+                          f"its metadata; {third}")
     elif np.max(margins) >= -SWAP_MARGIN_DB:
         out["undetermined"] = ("which sensor is the noisier cannot be told from this pair: "
                                f"within a {100 * spread:g} % error of the metadata gains "
-                               "either could be; --ref-noise estimate or bayescal noise with a "
-                               "third sensor tells them apart")
+                               f"either could be; {third}")
     return out
 
 
@@ -322,7 +328,7 @@ FLAT_NOTE = ("'flat' metadata: levels are in the assumed units (1 count per m/s 
 
 
 def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False,
-            sut_placeholder=False):
+            sut_placeholder=False, poorly_separated=False):
     """``(self_noise, sensor_order)`` result.json entries of a pair fit:
     ``model`` the fitted model (None for a fit without one, e.g. the
     orthogonal-pair rotation), ``samples`` (N, ndim) its posterior draws in
@@ -334,7 +340,10 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     reference's ground units by that gain). With free gains under the
     quiet-reference model the sensor order is judged at the metadata gains
     (:func:`metadata_gain_margin_db`), unless the SUT's metadata are a
-    placeholder (``sut_placeholder``: no gain to trust, a caution instead)."""
+    placeholder (``sut_placeholder``: no gain to trust, a caution instead).
+    ``poorly_separated``: under ``--ref-noise estimate`` the reference's noise
+    was not told apart from the gains (:mod:`bayescal.core.separation`), so
+    the split at the fitted gains names no order."""
     if model is None:
         return not_identifiable(*ids), {}
     sp = model.spectra
@@ -346,10 +355,14 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     along = np.argmax(np.abs(t), axis=0)
     mode = ref_noise or "quiet"
     quiet_free = mode == "quiet" and free != "none"
+    # free gains: the order is judged at the metadata gains in every mode;
+    # under 'quiet' the fitted gains absorb the reference's noise, and under
+    # 'estimate' so do they where its noise has the ground motion's own
+    # spectral shape (a pair cannot tell that from a gain: S_ur / S_rr = T / (1 + x))
     with single_threaded_blas():      # small products: threads only add latency
         res = pair_self_noise(model, theta, samples, seed=seed)
         margins = (metadata_gain_margins_db(model, theta, along)
-                   if quiet_free and not (sut_placeholder or flat) else None)
+                   if free != "none" and not (sut_placeholder or flat) else None)
     basis = (f"diag(S_uu - S_ur T^H) and diag(S_rr - T^+ S_ur) with the fitted transfer T "
              f"(--ref-noise {mode}); 90 % band: Wishart variance of the band spectra plus "
              "the scatter over posterior draws of T")
@@ -357,8 +370,17 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
     entry, order = summarise(res, along, basis)
+    split_at_fit = mode == "estimate" and not poorly_separated
     if margins is not None:
-        order = order_entry(margins)
+        order = order_entry(margins, fitted_db=order.get("reference_minus_sut_db")
+                            if split_at_fit else None)
+    elif mode == "estimate" and poorly_separated and free != "none":
+        order = {"reference_minus_sut_db": order.get("reference_minus_sut_db"),
+                 "reference_noisier": False, "threshold_db": SWAP_MARGIN_DB,
+                 "undetermined": "which sensor is the noisier cannot be told from this pair: "
+                                 "its noise is poorly separated from the SUT's gains in this "
+                                 "band (see reference noise); bayescal noise with a third "
+                                 "sensor tells them apart"}
     elif quiet_free:
         order["caution"] = ("free gains with --ref-noise quiet and placeholder metadata: the "
                             "gains absorb the reference's noise, so a noisier reference can go "

@@ -53,10 +53,10 @@ import numpy as np
 
 MODES = ("quiet", "estimate", "equal")
 
-#: The mode recommended for pairs of two or more channels on each side
+#: The mode for pairs of two or more channels on each side, and the default
+#: of :func:`bayescal.calibrate` and ``bayescal fit`` there
 #: (docs/errors_in_variables.md, "Evidence"): unbiased whatever the split of
-#: noise, at about 1.7 (angles and gains) to 2.6 (joint) times the CPU of
-#: ``quiet``. Not yet the command line's default (see :func:`recommended_mode`).
+#: noise, at about 1.5 times the CPU of ``quiet`` (see :func:`recommended_mode`).
 RECOMMENDED = "estimate"
 
 

@@ -387,6 +387,13 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     (:mod:`bayescal.core.misfit_scale`); None: its default
     ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood.
 
+    ``ref_noise``: None (the default) is
+    :func:`bayescal.core.refnoise.recommended_mode` of the pair: "estimate"
+    (the reference's self-noise estimated, unbiased whatever the split of
+    noise) with two or more channels a side, "quiet" otherwise; the mode
+    used and whether it was the default are in
+    ``posterior.meta["reference_noise"]``.
+
     Returns a :class:`bayescal.core.posterior.Posterior`; the least-squares point
     and the model are kept in ``posterior.meta["least_squares"]`` and on the
     returned object as ``posterior.model`` (not saved to disk).
@@ -403,6 +410,10 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                            "horizontal reference (ASL's orthogonal-pair rotation, which assumes "
                            "the reference quiet)")
         return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
+    chosen_by = "user"
+    if ref_noise is None:       # the default: unbiased whatever the split of noise
+        from .refnoise import recommended_mode
+        ref_noise, chosen_by = recommended_mode(spectra.n_r, spectra.n_u), "default"
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
                         ref_noise=ref_noise)
     model = setup.model
@@ -417,6 +428,10 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         # other optima (issue 13 item 4): the most probable mode is sampled
         model, theta_ls, cov, multimodal = _modes(model, theta_ls, cov, sut_nominal_vectors,
                                                   setup.fitted)
+        separation = {}
+        if getattr(model, "ref_noise", None) == "estimate":
+            from .separation import gain_separation
+            separation = gain_separation(model, theta_ls, cov)
         # parameters the data do not constrain are held at nominal (issue 13 item 5)
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
         chain = sample(target, start, cov, seed=seed, progress=progress,
@@ -434,7 +449,9 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "n_segments_possible": spectra.n_segments_possible,
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
-                 "reference_noise": reference_noise_meta(model, theta_ls),
+                 "reference_noise": dict(reference_noise_meta(model, theta_ls),
+                                         chosen_by=chosen_by,
+                                         **({"separation": separation} if separation else {})),
                  "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
                  "least_squares": dict(zip(model.names, theta_ls)),
                  "set_by_prior": set_by_prior, "multimodal": multimodal})

@@ -53,10 +53,13 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
         whatever is asked short of "all" (see :mod:`bayescal.core.rotation`).
     seed : random seed (results are reproducible).
     ref_noise : how the reference's own self-noise is treated: "quiet"
-        (negligible next to the SUT's; the default), "estimate" (estimated
-        from the data: white in ground units plus white in its counts) or
-        "equal" (the same as the SUT's in ground units); see
-        :mod:`bayescal.core.refnoise`. Kept in ``posterior.meta["reference_noise"]``.
+        (negligible next to the SUT's), "estimate" (estimated from the data:
+        white in ground units plus white in its counts) or "equal" (the same
+        as the SUT's in ground units); None (the default): "estimate" with
+        two or more channels on each side (unbiased whatever the split of
+        noise), "quiet" otherwise (a one-channel pair cannot separate the
+        reference's noise); see :mod:`bayescal.core.refnoise`. The mode used
+        is in ``posterior.meta["reference_noise"]``.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
@@ -110,14 +113,17 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
     from ..core.pair_noise import for_fit
+    used = post.meta.get("reference_noise", {}).get("mode", ref_noise)
     post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
                                                  getattr(post, "full_samples", None),
-                                                 ref_noise, fit_response, seed,
+                                                 used, fit_response, seed,
                                                  (spectra.sut_ids, spectra.ref_ids),
                                                  _assumed_flat(ref_inventory)
                                                  or (_assumed_flat(sut_inventory)
                                                      and fit_response == "none"),
-                                                 _assumed_flat(sut_inventory))
+                                                 _assumed_flat(sut_inventory),
+                                                 "note" in post.meta.get("reference_noise", {})
+                                                 .get("separation", {}))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post

@@ -69,6 +69,9 @@ def page_summary(ctx):
                                   subsequent_indent="    ")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
+    note = ctx.summary.get("meta", {}).get("reference_noise", {}).get("separation", {}).get("note")
+    if note:
+        text += textwrap.wrap(f"  Reference noise: {note}", 130, subsequent_indent="    ")
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):
         text.append(f"  WARNING: {order['message']}")
