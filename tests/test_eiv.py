@@ -166,3 +166,24 @@ def test_default_mode_and_gain_separation_note(capsys):
                     progress=False, min_ess=200, n_tau=20)
     assert one.meta["reference_noise"]["mode"] == "quiet"
     assert one.meta["reference_noise"]["chosen_by"] == "default"
+
+
+def test_profiled_noise_columns_match_the_dense_design():
+    """:func:`refnoise.profile_columns` (one Gram matrix per band) gives the
+    dense least-squares solution with the full ``2 n_r``-column design."""
+    rng = np.random.default_rng(5)
+    nw, nb, n2m, nr = 4, 7, 18, 3
+    x0 = rng.standard_normal((nw, nb, n2m))
+    u = rng.standard_normal((nw, nb, n2m, nr))
+    shapes = rng.random((nb, nr, 2))
+    a = rng.standard_normal((nb, n2m, n2m))
+    w = a @ np.swapaxes(a, -1, -2)
+    g = (u[..., :, None] * shapes[None, :, None, :, :]).reshape(nw, nb, n2m, 2 * nr)
+    h = np.einsum("wbip,bij,wbjq->wpq", g, w, g)
+    grad = np.einsum("wbip,bij,wbj->wp", g, w, x0)
+    want = -np.linalg.solve(h, grad[..., None])[..., 0]
+    c, term, q = refnoise.profile_columns(x0, u, shapes, w)
+    np.testing.assert_allclose(c.reshape(nw, -1), want, rtol=1e-6)
+    np.testing.assert_allclose(term, np.einsum("wbip,wp->wbi", g, want), rtol=1e-6, atol=1e-9)
+    x = x0 + term
+    np.testing.assert_allclose(q, np.einsum("wbi,bij,wbj->wb", x, w, x), rtol=1e-8)

@@ -71,6 +71,8 @@ class EIVModel(Model):
         self._cuu_rows = np.einsum("fq,fb,fi->iqb", self._interp, self._onehot, cuu)
         self._k = (spectra.bins_per_band * spectra.n_segments).astype(float)
         self._m = nu * spectra.n_r
+        # reference channel of each entry of a flattened (n_u, n_r) residual
+        self._column_of = np.eye(spectra.n_r)[np.arange(self._m) % spectra.n_r]
 
     # --- the statistic ------------------------------------------------------
     def _parts(self, theta):
@@ -89,15 +91,15 @@ class EIVModel(Model):
         nt = t[:, None, :, :] * n_u[:, :, along][:, :, None, :]
         return r0, nt, t
 
-    def _design(self, nt, shapes):
-        """(W, B, 2m, 2 n_r) real design of the reference's noise: column
-        (k, j) is ``nt``'s column k times ``shapes[:, k, j]``."""
+    def _noise_columns(self, nt):
+        """(W, B, 2m, n_r) real statistic of reference channel ``k``'s noise
+        term at unit size: ``nt``'s column ``k`` alone, as :func:`refnoise.as_real`
+        lays it out (entry ``i n_r + k`` and its imaginary part)."""
         w, b, nu, nr = nt.shape
-        g = np.zeros((w, b, nu, nr, nr, 2), complex)
-        for k in range(nr):
-            g[:, :, :, k, k, :] = nt[:, :, :, k, None] * shapes[None, :, None, k, :]
-        g = g.reshape(w, b, nu, nr, 2 * nr).transpose(0, 1, 4, 2, 3)
-        return np.moveaxis(refnoise.as_real(g), 2, 3)
+        flat = nt.reshape(w, b, nu * nr)
+        onehot = self._column_of                                          # (m, nr)
+        return np.concatenate([flat.real[..., None] * onehot,
+                               flat.imag[..., None] * onehot], axis=2)
 
     def statistic(self, theta, w=None):
         """``x`` (W, B, 2m) and the noise coefficients used (W, n_r, 2)."""
@@ -112,18 +114,24 @@ class EIVModel(Model):
         """Mode ``estimate``: the plain residual plus ``T diag(d)``, ``d`` the
         reference's noise as a combination of fixed spectral shapes
         (:func:`bayescal.core.refnoise.noise_shapes`), profiled out."""
+        x, coef, _ = self._estimate_parts(theta, w)
+        return x, coef
+
+    def _estimate_parts(self, theta, w):
+        """:meth:`_estimate_statistic`'s ``(x, coefficients)`` and the
+        quadratic form ``x^T W x`` per band (W, B)."""
         theta = np.atleast_2d(theta)
         vecs, ratio = self.unpack(theta)
         t = vecs @ self.ref_pinv
         x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
-        nt = t[:, None, :, :] * np.ones((1, self.spectra.n_bands, 1, 1))
-        g = self._design(nt, self._shapes)
-        nr = t.shape[2]
+        nt = np.broadcast_to(t[:, None, :, :], (t.shape[0], self.spectra.n_bands) + t.shape[1:])
+        u = self._noise_columns(nt)
         f = self._row_factor(ratio)
         if f is not None:
-            x0, g = x0 * f, g * f[..., None]
-        coef = refnoise.profile_ratio(x0, g, self.noise.W if w is None else w)
-        return x0 + (g @ coef[:, None, :, None])[..., 0], coef.reshape(-1, nr, 2)
+            x0, u = x0 * f, u * f[..., None]
+        coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
+                                                 self.noise.W if w is None else w)
+        return x0 + term, coef, q
 
     def _row_factor(self, ratio):
         """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
@@ -148,8 +156,11 @@ class EIVModel(Model):
     def band_energy(self, theta):
         """(W, B) half the statistic's chi-square per band and (B,) half its
         rank (the complex degrees of freedom)."""
+        if (self.ref_noise == "estimate"
+                and type(self)._estimate_statistic is EIVModel._estimate_statistic):
+            return 0.5 * self._estimate_parts(theta, None)[2], 0.5 * self.noise.rank
         x, _ = self.statistic(theta)
-        wx = (self.noise.W[None] @ x[..., None])[..., 0]                  # (W, B, 2m)
+        wx = refnoise.band_matmul(self.noise.W, x[..., None])[..., 0]      # (W, B, 2m)
         return 0.5 * np.sum(x * wx, axis=-1), 0.5 * self.noise.rank
 
     def _whiten(self, theta, factors):

@@ -21,7 +21,7 @@ zero-mean at the truth when ``d_b = N_r,b``. Modes (``MODES``):
     in ground units, and white in the reference's counts (``1 / |H_r|^2``,
     rising below its corner as real self-noise does). ``c`` (two numbers
     per reference channel for the whole band) enters linearly and is
-    profiled out in closed form per walker (:func:`profile_ratio`), so the
+    profiled out in closed form per walker (:func:`profile_columns`), so the
     sampled likelihood is the profile likelihood and carries the noise's
     uncertainty into the intervals. It is identified because self-noise is
     smooth and the ambient field is not (the microseism peak), pooled over
@@ -141,14 +141,46 @@ def noise_shapes(spectra):
     return out / out.mean(axis=0, keepdims=True) * srr[None, :, None]
 
 
-def profile_ratio(x0, g, w):
-    """The linear nuisance ``c`` profiled out: maximiser of ``-sum_b (x0_b + G_b rho)^T W_b (x0_b + G_b rho)``.
-    ``x0`` (W, B, 2m), ``g`` (W, B, 2m, P), ``w`` (B, 2m, 2m); returns rho
-    (W, P)."""
-    # batched matmuls: several times faster than the equivalent einsums
-    wg = w[None] @ g                                                   # (W, B, 2m, P)
-    h = (np.swapaxes(g, -1, -2) @ wg).sum(axis=1)                      # (W, P, P)
-    grad = (x0[..., None, :] @ wg)[..., 0, :].sum(axis=1)              # (W, P)
+def band_matmul(w, x):
+    """``w_b @ x_b`` for every leading index: ``w`` (B, n, n), ``x`` (W, B,
+    n, k) -> (W, B, n, k), as B matrix products over all W k columns at once
+    (a stack of W B small products costs several times more)."""
+    nw, nb, n, k = x.shape
+    xt = np.ascontiguousarray(x.transpose(1, 2, 0, 3)).reshape(nb, n, nw * k)
+    return (w @ xt).reshape(nb, n, nw, k).transpose(2, 0, 1, 3)
+
+
+def profile_columns(x0, u, shapes, w):
+    """The reference's noise profiled out of the statistic ``x0 + G c``.
+
+    Column ``(k, j)`` of the design ``G`` is ``u[..., k] * shapes[b, k, j]``
+    (the noise term of reference channel ``k``, ``T e_k``, times shape
+    ``j``'s band sum), so ``c`` maximising ``-sum_b (x0_b + G_b c)^T W_b
+    (x0_b + G_b c)`` solves a ``2 n_r`` system built from one Gram matrix of
+    ``[x0, u]`` per band (the dense design has ``2 n_r`` columns, each
+    ``n_u`` of ``2 m`` rows non-zero); the quadratic form of the profiled
+    statistic comes from the same Gram matrix.
+
+    ``x0`` (W, B, 2m), ``u`` (W, B, 2m, n_r), ``shapes`` (B, n_r, 2), ``w``
+    (B, 2m, 2m) symmetric. Returns ``(c, G c, q)``: (W, n_r, 2), (W, B, 2m)
+    and ``q_b = x_b^T W_b x_b`` of ``x = x0 + G c``, (W, B).
+    """
+    nw, nb, _, nr = u.shape
+    xu = np.concatenate([x0[..., None], u], axis=-1)                   # (W, B, 2m, 1+nr)
+    gram = np.swapaxes(xu, -1, -2) @ band_matmul(w, xu)                # (W, B, 1+nr, 1+nr)
+    m_kl, gx = gram[..., 1:, 1:], gram[..., 0, 1:]
+    # h[(k, j), (l, i)] = sum_b s_bkj s_bli M_bkl, grad[(k, j)] = sum_b s_bkj gx_bk:
+    # sums over bands as one matrix product per (k, l) pair, resp. per k
+    pair = (shapes[:, :, None, :, None] * shapes[:, None, :, None, :]).reshape(nb, nr * nr, 4)
+    h = np.ascontiguousarray(m_kl.reshape(nw, nb, nr * nr).transpose(2, 0, 1)) @ \
+        pair.transpose(1, 0, 2)                                        # (nr nr, W, 4)
+    h = h.reshape(nr, nr, nw, 2, 2).transpose(2, 0, 3, 1, 4).reshape(nw, 2 * nr, 2 * nr)
+    grad = np.ascontiguousarray(gx.transpose(2, 0, 1)) @ shapes.transpose(1, 0, 2)  # (nr, W, 2)
+    grad = grad.transpose(1, 0, 2).reshape(nw, 2 * nr)
     scale = np.trace(h, axis1=1, axis2=2)[:, None, None] / h.shape[-1]
     h = h + RIDGE * scale * np.eye(h.shape[-1])
-    return -np.linalg.solve(h, grad[..., None])[..., 0]
+    c = -np.linalg.solve(h, grad[..., None])[..., 0].reshape(nw, nr, 2)
+    per_band = (shapes[None] * c[:, None]).sum(axis=-1)                # (W, B, nr)
+    q = (gram[..., 0, 0] + 2.0 * (gx * per_band).sum(axis=-1)
+         + ((m_kl @ per_band[..., None])[..., 0] * per_band).sum(axis=-1))
+    return c, (u * per_band[..., None, :]).sum(axis=-1), q
