@@ -111,3 +111,19 @@ def test_public_api_as_the_readme_shows():
     from bayescal import io
     for name in ("paz_inventory", "two_pole_inventory", "flat_inventory", "InputError"):
         assert hasattr(io, name)
+
+
+def test_fit_path_does_not_import_heavy_modules():
+    """Issue 16's start-up: the modules a pair fit runs through import
+    neither scipy.stats (about 1 s), matplotlib, Dask nor emcee (a
+    chi-square quantile in core/modes.py once pulled scipy.stats back in)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.sampler, "
+            "bayescal.core.modes, bayescal.core.eiv, bayescal.core.separation, "
+            "bayescal.core.pair_noise; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
+            "'dask', 'emcee') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=str(PKG.parent), check=True).stdout.strip()
+    assert out == "[]"
