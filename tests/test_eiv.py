@@ -160,7 +160,10 @@ def test_default_mode_and_gain_separation_note(capsys):
         lo, hi = e["response"]["relative_gain"]["ci95"]
         assert lo < 1.02 < hi, cid
     print_summary(summary)
-    assert "reference noise: in this band (0.3-2 Hz)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "reference noise: in this band (0.3-2 Hz)" in out
+    assert "reference noise: estimate (the reference's self-noise estimated" in out
+    assert "the default for this pair)" in out
     one = calibrate(sim.sut.select(channel="BHZ"), sim.sut_inventory,
                     sim.ref.select(channel="BHZ"), sim.ref_inventory, band=(0.05, 1.0),
                     progress=False, min_ess=200, n_tau=20)

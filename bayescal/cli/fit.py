@@ -87,7 +87,11 @@ def print_summary(summary, stream=None):
         print(f"assumed: {summary['meta']['assumption']}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
         print(f"{cid:22s}  not estimable: {why}", file=stream)
-    note = summary.get("meta", {}).get("reference_noise", {}).get("separation", {}).get("note")
+    rn = summary.get("meta", {}).get("reference_noise", {})
+    if rn:
+        from ..core.refnoise import describe_treatment
+        print(f"reference noise: {describe_treatment(rn)}", file=stream)
+    note = rn.get("separation", {}).get("note")
     if note:
         print(f"reference noise: {note}", file=stream)
     order = summary.get("sensor_order", {})

@@ -67,6 +67,14 @@ def recommended_mode(n_ref, n_sut):
     motion), ``quiet`` otherwise (a one-channel pair cannot)."""
     return RECOMMENDED if min(n_ref, n_sut) >= 2 else "quiet"
 
+def describe_treatment(meta):
+    """One line on how a fit treated the reference's self-noise, from its
+    ``meta["reference_noise"]`` (mode, assumption, who chose it)."""
+    chosen = {"default": "the default for this pair", "user": "chosen by the user",
+              "diagnose": "chosen by the diagnosis"}.get(meta.get("chosen_by"), "")
+    return f"{meta.get('mode')} ({meta.get('assumption', '')}{'; ' + chosen if chosen else ''})"
+
+
 #: Relative ridge on the profile system of ``rho``.
 RIDGE = 1e-9
 

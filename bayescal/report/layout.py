@@ -206,6 +206,10 @@ def _header_lines(ctx):
         lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
     if m.get("assumption"):
         lines += textwrap.wrap(f"Assumed: {m['assumption']}", 120)
+    if m.get("reference_noise"):
+        from ..core.refnoise import describe_treatment
+        lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m['reference_noise'])}",
+                               120)
     if m.get("method"):
         lines.append(f"Posterior: {m['method']}, {conv['ess_min']:.0f} independent draws")
     else:
@@ -220,3 +224,4 @@ def _header(fig, title, note, width):
     note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
     fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")
     fig.text(0.02, 1 - 0.45 / height, note, fontsize=7, va="top")
+
