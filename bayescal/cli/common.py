@@ -56,6 +56,11 @@ def add_pair_arguments(parser):
                              "on each side), 'quiet' (negligible next to the SUT's; the default "
                              "for a one-channel pair, which cannot separate it; about 1.5 "
                              "times faster), 'equal' (the same as the SUT's in ground units)")
+    parser.add_argument("--ref-noise-psd", metavar="FILE",
+                        help="the reference's self-noise as known, instead of --ref-noise: "
+                             "bayescal noise's noise.json (from a third co-located sensor: the "
+                             "remedy for a one-channel pair such as a vertical huddle) or a text "
+                             "file of period (s) and PSD (dB re 1 (m/s^2)^2/Hz) columns")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")

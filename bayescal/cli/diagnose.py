@@ -62,7 +62,9 @@ def run(args):
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,
                            sut_id=args.sut_id, ref_id=args.ref_id,
-                           ref_noise=args.ref_noise or "quiet")     # fit --diagnose: None
+                           # fit --diagnose: None; a given PSD replaces the quiet default
+                           ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
+                           ref_noise_psd=args.ref_noise_psd)
     say("searching the catalogue of effects ...")
     d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
     final = d.final

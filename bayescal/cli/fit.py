@@ -91,6 +91,8 @@ def print_summary(summary, stream=None):
     if rn:
         from ..core.refnoise import describe_treatment
         print(f"reference noise: {describe_treatment(rn)}", file=stream)
+    if rn.get("input", {}).get("extrapolated"):
+        print(f"reference noise: {rn['input']['extrapolated']}", file=stream)
     note = rn.get("separation", {}).get("note")
     if note:
         print(f"reference noise: {note}", file=stream)
@@ -123,7 +125,8 @@ def run(args):
                                band=tuple(args.band) if args.band else None,
                                fit_response=args.fit_response, seed=args.seed,
                                start=args.start, end=args.end, progress=not args.quiet,
-                               sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise)
+                               sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise,
+                               ref_noise_psd=args.ref_noise_psd)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)

@@ -50,16 +50,28 @@ class EIVNoise:
 
 
 class EIVModel(Model):
-    """Model with both sensors' self-noise; ``ref_noise`` in ``("equal", "estimate")``."""
+    """Model with both sensors' self-noise; ``ref_noise`` in ``("equal",
+    "estimate", "fixed")``. ``known_noise`` (mode ``fixed``): the reference's
+    self-noise per band and reference channel (B, n_r), band sums in the
+    spectra's units (:func:`bayescal.core.refnoise.band_sums_of_psd`), e.g.
+    from a third co-located sensor (``bayescal noise``) or the user."""
 
     def __init__(self, spectra, ref_vectors, blocks, priors=Priors(), ref_noise="estimate",
-                 effects=()):
-        if ref_noise not in ("equal", "estimate"):
-            raise ValueError(f"EIVModel needs ref_noise 'equal' or 'estimate', not {ref_noise!r}")
+                 effects=(), known_noise=None):
+        if ref_noise not in ("equal", "estimate", "fixed"):
+            raise ValueError("EIVModel needs ref_noise 'equal', 'estimate' or 'fixed', not "
+                             f"{ref_noise!r}")
+        if (ref_noise == "fixed") != (known_noise is not None):
+            raise ValueError("known_noise goes with ref_noise 'fixed' (and only with it)")
         if any(e.blocked for e in effects):
             raise ValueError("time-dependent effects need the per-block base Model")
         super().__init__(spectra, ref_vectors, blocks, priors, effects=effects)
         self.ref_noise = ref_noise
+        self.known_noise = None if known_noise is None else np.asarray(known_noise, float)
+        if self.known_noise is not None and self.known_noise.shape != (spectra.n_bands,
+                                                                         spectra.n_r):
+            raise ValueError(f"known_noise must be (bands, reference channels) = "
+                             f"{(spectra.n_bands, spectra.n_r)}, not {self.known_noise.shape}")
         nu = spectra.n_u
         self._shapes = refnoise.noise_shapes(spectra)                     # (B, nr, 2)
         # mode 'equal' has combinations of the statistic with (near) zero
@@ -103,7 +115,7 @@ class EIVModel(Model):
 
     def statistic(self, theta, w=None):
         """``x`` (W, B, 2m) and the noise coefficients used (W, n_r, 2)."""
-        if self.ref_noise == "estimate":
+        if self.ref_noise in ("estimate", "fixed"):
             return self._estimate_statistic(theta, w)
         r0, nt, _ = self._parts(theta)      # mode 'equal': rho = 1
         rho = np.zeros((r0.shape[0], nt.shape[-1], 2))
@@ -113,7 +125,8 @@ class EIVModel(Model):
     def _estimate_statistic(self, theta, w):
         """Mode ``estimate``: the plain residual plus ``T diag(d)``, ``d`` the
         reference's noise as a combination of fixed spectral shapes
-        (:func:`bayescal.core.refnoise.noise_shapes`), profiled out."""
+        (:func:`bayescal.core.refnoise.noise_shapes`), profiled out. Mode
+        ``fixed``: ``d`` the known noise (coefficients returned as zeros)."""
         x, coef, _ = self._estimate_parts(theta, w)
         return x, coef
 
@@ -129,8 +142,12 @@ class EIVModel(Model):
         f = self._row_factor(ratio)
         if f is not None:
             x0, u = x0 * f, u * f[..., None]
-        coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
-                                                 self.noise.W if w is None else w)
+        w = self.noise.W if w is None else w
+        if self.ref_noise == "fixed":
+            x = x0 + (u * self.known_noise[None, :, None, :]).sum(axis=-1)
+            q = (x * refnoise.band_matmul(w, x[..., None])[..., 0]).sum(axis=-1)
+            return x, np.zeros((x.shape[0], u.shape[-1], 2)), q
+        coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w)
         return x0 + term, coef, q
 
     def _row_factor(self, ratio):
@@ -156,7 +173,7 @@ class EIVModel(Model):
     def band_energy(self, theta):
         """(W, B) half the statistic's chi-square per band and (B,) half its
         rank (the complex degrees of freedom)."""
-        if (self.ref_noise == "estimate"
+        if (self.ref_noise in ("estimate", "fixed")
                 and type(self)._estimate_statistic is EIVModel._estimate_statistic):
             return 0.5 * self._estimate_parts(theta, None)[2], 0.5 * self.noise.rank
         x, _ = self.statistic(theta)
@@ -205,7 +222,7 @@ class EIVModel(Model):
         rho[:, 0] = 1.0 if self.ref_noise == "equal" else 0.0
         self.noise = EIVNoise(cov=None, W=None, inflation=np.ones(sp.n_bands), along=along, rho=rho)
         a0, b0, _ = refnoise.selectors(nu, nr, t)
-        data_terms = self.ref_noise != "estimate"     # the SUT's noise read from the data
+        data_terms = self.ref_noise == "equal"     # the SUT's noise read from the data
         cov = np.stack([refnoise.real_covariance(
             [(a0, b0)] + (refnoise.noise_terms(t, along, rho[:, 0]) if data_terms else []),
             c_band[b], self._k[b]) for b in range(sp.n_bands)])
@@ -221,7 +238,8 @@ class EIVModel(Model):
                                                                      rho[:, 0]))
                             for b in range(sp.n_bands)], axis=1)          # (K, B, 2m)
         else:   # the plain residual with each segment's share of the fitted noise
-            d = np.sum(rho[None] * self._shapes, axis=2) / seg.shape[0]    # (B, nr)
+            d = (self.known_noise if self.ref_noise == "fixed"
+                 else np.sum(rho[None] * self._shapes, axis=2)) / seg.shape[0]   # (B, nr)
             x_k = np.stack([refnoise.as_real(self._segment_statistic(seg[:, b], t, along, None)
                                              + t * d[b][None, :])
                             for b in range(sp.n_bands)], axis=1)
@@ -260,8 +278,9 @@ class EIVModel(Model):
         theta = np.atleast_2d(theta)[:1]
         sp = self.spectra
         _, rho = self.statistic(theta)
-        if self.ref_noise == "estimate":
-            d = np.sum(rho[0][None] * self._shapes, axis=2)
+        if self.ref_noise in ("estimate", "fixed"):
+            d = (self.known_noise if self.ref_noise == "fixed"
+                 else np.sum(rho[0][None] * self._shapes, axis=2))
             return d / (sp.bins_per_band * sp.n_segments)[:, None] * sp.psd_scale
         _, nt, t = self._parts(theta)
         cols = np.arange(t.shape[2])

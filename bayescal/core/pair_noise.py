@@ -370,7 +370,7 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
     entry, order = summarise(res, along, basis)
-    split_at_fit = mode == "estimate" and not poorly_separated
+    split_at_fit = mode in ("estimate", "fixed") and not poorly_separated
     if margins is not None:
         order = order_entry(margins, fitted_db=order.get("reference_minus_sut_db")
                             if split_at_fit else None)

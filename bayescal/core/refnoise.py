@@ -67,12 +67,37 @@ def recommended_mode(n_ref, n_sut):
     motion), ``quiet`` otherwise (a one-channel pair cannot)."""
     return RECOMMENDED if min(n_ref, n_sut) >= 2 else "quiet"
 
+def band_sums_of_psd(spectra, period_s, psd_db):
+    """(B,) a self-noise PSD given as dB re 1 (m/s^2)^2/Hz at ``period_s``
+    (the ``bayescal noise`` / NLNM convention) as band sums in the units of
+    ``spectra``'s band sums (ground velocity, summed over the band's bins and
+    the segments), the ``d_b`` of mode ``fixed``. Interpolated linearly in
+    dB against log period at every bin; periods outside the given ones take
+    the nearest value (said by the caller). Entries that are not finite
+    (a ``null`` estimate) are skipped."""
+    period_s = np.asarray(period_s, float)
+    psd_db = np.asarray([np.nan if v is None else v for v in psd_db], float)
+    ok = np.isfinite(period_s) & np.isfinite(psd_db) & (period_s > 0)
+    if ok.sum() < 2:
+        raise ValueError("a self-noise PSD needs at least two finite values")
+    order = np.argsort(np.log(period_s[ok]))
+    logp, db = np.log(period_s[ok])[order], psd_db[ok][order]
+    f = spectra.freqs
+    acc = 10.0 ** (np.interp(np.log(1.0 / f), logp, db) / 10.0)         # (m/s^2)^2/Hz
+    vel = acc / (2.0 * np.pi * f) ** 2                                    # (m/s)^2/Hz
+    per_bin = vel / spectra.psd_scale * spectra.n_segments
+    return np.bincount(spectra.band_of, weights=per_bin, minlength=spectra.n_bands)
+
+
 def describe_treatment(meta):
     """One line on how a fit treated the reference's self-noise, from its
     ``meta["reference_noise"]`` (mode, assumption, who chose it)."""
     chosen = {"default": "the default for this pair", "user": "chosen by the user",
               "diagnose": "chosen by the diagnosis"}.get(meta.get("chosen_by"), "")
-    return f"{meta.get('mode')} ({meta.get('assumption', '')}{'; ' + chosen if chosen else ''})"
+    given = meta.get("input", {})
+    src = f"; from {given['source']}" if given.get("source") else ""
+    return (f"{meta.get('mode')} ({meta.get('assumption', '')}{src}"
+            f"{'; ' + chosen if chosen else ''})")
 
 
 #: Relative ridge on the profile system of ``rho``.

@@ -78,7 +78,7 @@ class Setup:
 
 
 def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
-                priors=Priors(), ref_noise=None):
+                priors=Priors(), ref_noise=None, known_noise=None):
     """Decide each SUT channel's parametrisation and the starting point.
 
     Parameters
@@ -95,7 +95,8 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         "all" (period, damping and gain).
     ref_noise : how the reference's self-noise enters: "quiet" (negligible,
         the base :class:`Model`), "estimate" or "equal" (:class:`EIVModel`,
-        see :mod:`bayescal.core.refnoise`); None: "quiet".
+        see :mod:`bayescal.core.refnoise`); None: "quiet"; "fixed" with
+        ``known_noise`` (B, n_r): the reference's self-noise given.
     """
     ref_vectors = np.asarray(ref_vectors, float)
     basis, _ = _span_basis(ref_vectors)
@@ -145,7 +146,8 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     if ref_noise in (None, "quiet"):
         model = Model(sub, ref_vectors, blocks, priors)
     else:
-        model = EIVModel(sub, ref_vectors, blocks, priors, ref_noise=ref_noise)
+        model = EIVModel(sub, ref_vectors, blocks, priors, ref_noise=ref_noise,
+                         known_noise=known_noise)
     return Setup(model=model, theta0=np.asarray(theta0, float), fitted=fitted,
                  not_estimable=skipped)
 
@@ -380,7 +382,7 @@ def _progress(enabled, first, n_tau, min_ess, rhat_max):
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
                 priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
-                misfit_shape=None, **sample_kw):
+                misfit_shape=None, known_noise=None, **sample_kw):
     """Whole inference from spectra: start, least squares, sampling.
 
     ``misfit_shape``: shape ``a`` of the per-band noise-scale prior
@@ -392,7 +394,9 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     (the reference's self-noise estimated, unbiased whatever the split of
     noise) with two or more channels a side, "quiet" otherwise; the mode
     used and whether it was the default are in
-    ``posterior.meta["reference_noise"]``.
+    ``posterior.meta["reference_noise"]``. ``known_noise`` (B, n_r): the
+    reference's self-noise given as band sums
+    (:func:`bayescal.core.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
 
     Returns a :class:`bayescal.core.posterior.Posterior`; the least-squares point
     and the model are kept in ``posterior.meta["least_squares"]`` and on the
@@ -415,7 +419,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         from .refnoise import recommended_mode
         ref_noise, chosen_by = recommended_mode(spectra.n_r, spectra.n_u), "default"
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
-                        ref_noise=ref_noise)
+                        ref_noise=ref_noise, known_noise=known_noise)
     model = setup.model
     model.misfit_shape = misfit_scale.MISFIT_SHAPE if misfit_shape is None else misfit_shape
     if model.ndim == 0:
@@ -495,7 +499,9 @@ def reference_noise_meta(model, theta):
         "quiet": "the reference's self-noise is negligible next to the SUT's",
         "equal": "both sensors have the same self-noise in ground units",
         "estimate": "the reference's self-noise estimated from the data, as white in ground "
-                    "units plus white in its counts"}[mode]}
+                    "units plus white in its counts",
+        "fixed": "the reference's self-noise as given (a third sensor or the user's model)"
+        }[mode]}
     if mode != "quiet":
         psd = model.reference_noise_psd(theta)                      # (m/s)^2/Hz per band
         w2 = (2 * np.pi * model.spectra.band_centres) ** 2

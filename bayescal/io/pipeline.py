@@ -31,7 +31,8 @@ def _describe_files(side):
 
 def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="gain", seed=0,
               priors=Priors(), nperseg=None, start=None, end=None, progress=True,
-              sut_source="SUT", ref_source="reference", ref_noise=None, **sample_kw):
+              sut_source="SUT", ref_source="reference", ref_noise=None, ref_noise_psd=None,
+              **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings.
 
@@ -60,6 +61,10 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
         noise), "quiet" otherwise (a one-channel pair cannot separate the
         reference's noise); see :mod:`bayescal.core.refnoise`. The mode used
         is in ``posterior.meta["reference_noise"]``.
+    ref_noise_psd : the reference's self-noise as known (mode "fixed"): a
+        file path or :func:`bayescal.io.refnoise_file.read_reference_noise`'s
+        table (``bayescal noise``'s noise.json from a third co-located sensor,
+        or a period / dB text file): the remedy for a one-channel pair.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
@@ -106,9 +111,16 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                      "reference": placeholder_channels(ref_inventory, r.ids)},
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
     fitted = spectra.select(keep) if low else spectra
+    known = None
+    if ref_noise_psd is not None:
+        ref_noise, known, meta["reference_noise_input"] = _known_reference_noise(
+            ref_noise_psd, ref_noise, fitted)
     post = fit_spectra(fitted, r.vectors, np.asarray(s.vectors)[keep],
                        [families[i] for i in keep], free=fit_response, priors=priors,
-                       seed=seed, progress=progress, meta=meta, ref_noise=ref_noise, **sample_kw)
+                       seed=seed, progress=progress, meta=meta, ref_noise=ref_noise,
+                       known_noise=known, **sample_kw)
+    if "reference_noise_input" in meta:
+        post.meta["reference_noise"]["input"] = meta["reference_noise_input"]
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
@@ -127,6 +139,29 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
     post.spectra = spectra
     post.sut_inventory = sut_inventory
     return post
+
+
+def _known_reference_noise(psd, ref_noise, spectra):
+    """(mode "fixed", (B, n_r) band sums, a JSON-safe note) from ``psd``."""
+    from ..core.refnoise import band_sums_of_psd
+    from .refnoise_file import for_channels, read_reference_noise
+
+    if ref_noise not in (None, "fixed"):
+        raise InputError(f"--ref-noise {ref_noise} and --ref-noise-psd both say how to treat the "
+                         "reference's noise: give one")
+    source = psd if isinstance(psd, str) else "ref_noise_psd"
+    table = read_reference_noise(psd) if isinstance(psd, str) else psd
+    curves = for_channels(table, spectra.ref_ids, source)
+    known = np.stack([band_sums_of_psd(spectra, p, d) for _, p, d in curves], axis=1)
+    lo, hi = 1.0 / spectra.band_edges[-1], 1.0 / spectra.band_edges[0]
+    note = {"source": source, "curves": {cid: key for cid, (key, _, _) in
+                                          zip(spectra.ref_ids, curves)}}
+    short = [cid for cid, (_, p, _) in zip(spectra.ref_ids, curves)
+             if p.min() > lo * 1.001 or p.max() < hi * 0.999]
+    if short:
+        note["extrapolated"] = (f"the given PSD does not span the band's periods {lo:.3g}-"
+                                f"{hi:.3g} s for {', '.join(short)}: held at its end values")
+    return "fixed", known, note
 
 
 def _assumed_flat(inventory):
