@@ -89,6 +89,29 @@ def band_sums_of_psd(spectra, period_s, psd_db):
     return np.bincount(spectra.band_of, weights=per_bin, minlength=spectra.n_bands)
 
 
+def treatment_meta(model, theta):
+    """How the reference's self-noise was treated, for result.json."""
+    mode = getattr(model, "ref_noise", "quiet")
+    out = {"mode": mode, "assumption": {
+        "quiet": "the reference's self-noise is negligible next to the SUT's",
+        "equal": "both sensors have the same self-noise in ground units",
+        "estimate": "the reference's self-noise estimated from the data, as white in ground "
+                    "units plus white in its counts",
+        "fixed": "the reference's self-noise as given (a third sensor or the user's model)"
+        }[mode]}
+    if mode != "quiet":
+        psd = model.reference_noise_psd(theta)                      # (m/s)^2/Hz per band
+        w2 = (2 * np.pi * model.spectra.band_centres) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            db = 10 * np.log10(psd * w2[:, None])
+        out["reference_self_noise"] = {
+            "band_centre_hz": model.spectra.band_centres.tolist(),
+            "psd_db": {cid: [None if not np.isfinite(v) else round(float(v), 2) for v in col]
+                       for cid, col in zip(model.spectra.ref_ids, db.T)},
+            "units": "dB re 1 (m/s^2)^2/Hz at the least-squares point (no interval yet)"}
+    return out
+
+
 def describe_treatment(meta):
     """One line on how a fit treated the reference's self-noise, from its
     ``meta["reference_noise"]`` (mode, assumption, who chose it)."""

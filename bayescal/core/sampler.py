@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import misfit_scale
+from . import misfit_scale, refnoise
 from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
@@ -453,7 +453,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "n_segments_possible": spectra.n_segments_possible,
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
-                 "reference_noise": dict(reference_noise_meta(model, theta_ls),
+                 "reference_noise": dict(refnoise.treatment_meta(model, theta_ls),
                                          chosen_by=chosen_by,
                                          **({"separation": separation} if separation else {})),
                  "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
@@ -490,29 +490,6 @@ def _misfit_meta(model, theta):
     """``meta.misfit_scale``: the prior and each band's variance factor at ``theta``."""
     q, k = model.band_energy(np.atleast_2d(theta))
     return misfit_scale.describe(model.misfit_shape, q[0], k)
-
-
-def reference_noise_meta(model, theta):
-    """How the reference's self-noise was treated, for result.json."""
-    mode = getattr(model, "ref_noise", "quiet")
-    out = {"mode": mode, "assumption": {
-        "quiet": "the reference's self-noise is negligible next to the SUT's",
-        "equal": "both sensors have the same self-noise in ground units",
-        "estimate": "the reference's self-noise estimated from the data, as white in ground "
-                    "units plus white in its counts",
-        "fixed": "the reference's self-noise as given (a third sensor or the user's model)"
-        }[mode]}
-    if mode != "quiet":
-        psd = model.reference_noise_psd(theta)                      # (m/s)^2/Hz per band
-        w2 = (2 * np.pi * model.spectra.band_centres) ** 2
-        with np.errstate(divide="ignore", invalid="ignore"):
-            db = 10 * np.log10(psd * w2[:, None])
-        out["reference_self_noise"] = {
-            "band_centre_hz": model.spectra.band_centres.tolist(),
-            "psd_db": {cid: [None if not np.isfinite(v) else round(float(v), 2) for v in col]
-                       for cid, col in zip(model.spectra.ref_ids, db.T)},
-            "units": "dB re 1 (m/s^2)^2/Hz at the least-squares point (no interval yet)"}
-    return out
 
 
 def diagnostics(model, theta):

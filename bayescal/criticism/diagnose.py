@@ -35,7 +35,8 @@ import numpy as np
 
 from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
-from ..core.sampler import diagnostics, least_squares_fit, reference_noise_meta, sample
+from ..core.refnoise import treatment_meta as reference_noise_meta
+from ..core.sampler import diagnostics, least_squares_fit, sample
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
 from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
