@@ -71,3 +71,51 @@ def test_noise_to_signal_errors_hold_when_both_sensors_are_noisy():
     sp = pair_spectra(1000, 0.945, 7000.0, 100.0, ref_coherence=0.945, noise_in_counts=True)
     out = tilt_test(sp, hz)
     assert out["kept"] and out["channels"] and set(out["channels"]) <= {0, 1}, out["delta_bic"]
+
+
+def _harness_spectra(seed, tilt_level=0.0):
+    """Spectra of the harness's ``equal-counts`` pair ``seed`` (gains off up to
+    3 %), with tilt noise of ``tilt_level`` on the SUT's horizontals if asked."""
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import diagnose_harness as h
+
+    rng = np.random.default_rng(seed)
+    h.draw(rng, 1.0)
+    a = rng.uniform(0, 360)
+    coherence = float(rng.uniform(0.9, 0.995))
+    az, dip = (a, a + 90, 0.0), (0.0, 0.0, -90.0)
+    nom_az = tuple(x + rng.uniform(-3, 3) for x in az[:2]) + (0.0,)
+    off = np.random.default_rng([seed, 7]).uniform(-0.03, 0.03, 3)
+    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=az,
+                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip,
+                        sut_response=tuple((30.0, 0.707, 750.0 * (1 + o)) for o in off),
+                        tilt_noise=tilt_level, **h.regime_kw("equal-counts", coherence))
+    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+                              band=h.BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
+                              ref_noise="quiet")
+    return post.model.spectra
+
+
+def test_tilt_exponent_bound_keeps_a_flat_noise_shape_from_passing_as_tilt():
+    """Harness seed 1030 (equal-counts, coherence 0.977) was the one false alarm
+    of the equal-noise runs: tilt noise at delta BIC 13.0 with its exponent at
+    the old lower bound 0.5, a nearly flat shape no tilt has (tilt's velocity
+    PSD falls at least as f^-2 for any tilt spectrum that does not rise with
+    frequency). With the bound at 1 it is not kept, and tilt of level 20
+    hidden in the same pair is still found (named on BH2, delta BIC 72.8)."""
+    import numpy as np
+
+    from bayescal.criticism.tilt import ALPHA_RANGE, tilt_test
+
+    hz = np.array([True, True, False])
+    clean = tilt_test(_harness_spectra(1030), hz)
+    assert not clean["kept"] and clean["delta_bic"] < 0, clean["delta_bic"]
+    tilted = tilt_test(_harness_spectra(1030, 20.0), hz)
+    assert tilted["kept"] and tilted["delta_bic"] > 30, tilted["delta_bic"]
+    assert tilted["channels"] and set(tilted["channels"]) <= {0, 1}, tilted["channels"]
+    assert ALPHA_RANGE[0] < tilted["alpha"]["median"] < 4.0
