@@ -96,6 +96,9 @@ def print_summary(summary, stream=None):
     note = rn.get("separation", {}).get("note")
     if note:
         print(f"reference noise: {note}", file=stream)
+    short = summary.get("meta", {}).get("record_length", {}).get("note")
+    if short:
+        print(f"record: {short}", file=stream)
     order = summary.get("sensor_order", {})
     if order.get("message"):
         print(f"WARNING: {order['message']}", file=stream)

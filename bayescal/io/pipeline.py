@@ -22,6 +22,7 @@ from .read import InputError, flat_inventory, read_metadata, read_waveforms
 from .align import align
 from ..core.likelihood import Priors
 from ..core.spectra import SpectraError, cross_spectra
+from ..core.record_length import record_length
 
 
 def _describe_files(side):
@@ -106,6 +107,8 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                   "or a clipped sample are dropped, and so are those within two "
                                   "periods of the band's lower edge from the ends of the record "
                                   "or of a gap (the deconvolution's transient)"},
+            "record_length": record_length(min(used_s, s.data.shape[1] / fs),
+                                           float(spectra.band_edges[0])),
             "band_choice": band_note,
             "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
                                      "reference": placeholder_channels(ref_inventory, r.ids)},

@@ -72,6 +72,9 @@ def page_summary(ctx):
     note = ctx.summary.get("meta", {}).get("reference_noise", {}).get("separation", {}).get("note")
     if note:
         text += textwrap.wrap(f"  Reference noise: {note}", 130, subsequent_indent="    ")
+    short = ctx.summary.get("meta", {}).get("record_length", {}).get("note")
+    if short:
+        text += textwrap.wrap(f"  Record: {short}", 130, subsequent_indent="    ")
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):
         text.append(f"  WARNING: {order['message']}")
