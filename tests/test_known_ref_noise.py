@@ -21,7 +21,9 @@ def test_known_reference_noise_removes_the_one_channel_bias():
     coherence 0.99 each): the quiet model's relative gain is 2.4 % low and
     its 95 % interval misses the truth (1); with the reference's true noise
     PSD given it is within 0.1 % and the interval holds 1 (measured 0.9756
-    [0.955, 0.992] against 0.9998 [0.990, 1.010]); the result says which."""
+    [0.955, 0.992] against 0.9998 [0.990, 1.010]); so does the stated
+    assumption of equal self-noise, ``--ref-noise equal``, true here (1.0001
+    [0.992, 1.010]); the result says which was used."""
     kw = dict(duration=3600.0, fs=10.0, seed=4, coherence=0.99, ref_coherence=0.99,
               noise_in_counts=True)
     p = simulate_pair(**kw)
@@ -29,7 +31,8 @@ def test_known_reference_noise_removes_the_one_channel_bias():
     ref_psd = self_noise_psd(f, **kw)[1][2]                     # reference BHZ, velocity
     table = {"*": (1.0 / f, 10 * np.log10(ref_psd * (2 * np.pi * f) ** 2))}
     fits = {}
-    for name, extra in (("quiet", {}), ("fixed", {"ref_noise_psd": table})):
+    for name, extra in (("quiet", {}), ("fixed", {"ref_noise_psd": table}),
+                        ("equal", {"ref_noise": "equal"})):
         post = calibrate(p.sut.select(channel="BHZ"), p.sut_inventory,
                          p.ref.select(channel="BHZ"), p.ref_inventory, band=(0.02, 1.0),
                          progress=False, seed=4, min_ess=400, n_tau=20, **extra)
@@ -37,8 +40,10 @@ def test_known_reference_noise_removes_the_one_channel_bias():
         fits[name] = post.summary()["channels"]["XX.SIM.10.BHZ"]["response"]["relative_gain"]
     lo, hi = fits["quiet"]["ci95"]
     assert hi < 1.0 and fits["quiet"]["median"] < 0.985
-    lo, hi = fits["fixed"]["ci95"]
-    assert lo < 1.0 < hi and abs(fits["fixed"]["median"] - 1.0) < 0.003
+    for name in ("fixed", "equal"):
+        lo, hi = fits[name]["ci95"]
+        assert lo < 1.0 < hi and abs(fits[name]["median"] - 1.0) < 0.003, (name, fits[name])
+    assert post.meta["reference_noise"]["assumption"].startswith("both sensors have the same")
 
 
 def test_third_sensor_noise_json_through_the_command_line(tmp_path):
