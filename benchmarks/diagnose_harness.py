@@ -7,7 +7,10 @@ runs the base fit and the diagnosis (base by MCMC, final model by its
 Laplace approximation for speed), and scores what the tool names:
 
 * right name: the hidden effect is named (extra pole: on the right sensor;
-  gain error, polarity: on the right channel; swap: the right pair);
+  gain error, polarity: on the right channel; swap: the right pair); a gain
+  error also when nothing is named and the fit, whose gains are free by
+  default, measures it: the channel's relative gain (fitted / metadata) has
+  a 95 % interval that excludes 1 and holds the truth (``measured_as``);
 * wrong name: something else is named and the hidden effect is not;
 * miss: nothing is named on an effect run;
 * false alarm: anything is named on a clean run.
@@ -118,7 +121,8 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
            "coherence": coherence, "regime": regime, "gain_off": gain_off,
            "reference_noise_delta_bic": (d.signatures.get("reference_noise") or {}).get("delta_bic"),
            "tilt_delta_bic": (d.signatures.get("tilt_noise") or {}).get("delta_bic"),
-           "seconds": time.perf_counter() - t0, "unexplained": d.unexplained()}
+           "seconds": time.perf_counter() - t0, "unexplained": d.unexplained(),
+           "sentences": d.sentences()}
     hit = None
     for e in named:
         if e["name"] != kind:
@@ -130,6 +134,19 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
         if kind == "channel_swap" and sorted(e["channels"]) != sorted(ids[r] for r in truth["rows"]):
             continue
         hit = e
+    if kind == "gain_error" and hit is None and not names:
+        # with the gains fitted (the default) a gain error is no mismatch: the
+        # fit measures it as the channel's relative gain (fitted / metadata)
+        rel = post.summary()["channels"][ids[truth["row"]]].get("response", {}).get(
+            "relative_gain")
+        if rel and "ci95" in rel:
+            lo, hi = rel["ci95"]
+            rec["relative_gain"] = {"truth": 1 + truth["fraction"], "median": rel["median"],
+                                    "ci95": [lo, hi]}
+            if not lo <= 1.0 <= hi and lo <= 1 + truth["fraction"] <= hi:
+                hit = {"parameters": {"fraction": {"median": rel["median"] - 1,
+                                                   "ci95": [lo - 1, hi - 1]}}}
+                rec["measured_as"] = "relative gain"
     if kind == "none":
         rec["outcome"] = "false alarm" if names else "clean"
     else:

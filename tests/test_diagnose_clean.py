@@ -119,3 +119,25 @@ def test_tilt_exponent_bound_keeps_a_flat_noise_shape_from_passing_as_tilt():
     assert tilted["kept"] and tilted["delta_bic"] > 30, tilted["delta_bic"]
     assert tilted["channels"] and set(tilted["channels"]) <= {0, 1}, tilted["channels"]
     assert ALPHA_RANGE[0] < tilted["alpha"]["median"] < 4.0
+
+
+def test_mismatch_left_with_a_noisy_reference_names_the_noise_model_as_suspect():
+    """Harness seed 1001 of the ``equal`` regime: the reference as noisy as
+    the SUT, its noise shaped like the ground (outside the errors-in-variables
+    model's two shapes). Nothing is named as physics; the mismatch left in the
+    microseism bands (BHZ, 0.084-0.171 Hz, misfit 5.3 times its expectation)
+    is reported as unexplained, with the caveat that a reference noise of
+    another shape leaves such a mismatch."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import diagnose_harness as h
+
+    from bayescal.criticism.diagnose import REFERENCE_SHAPE_CAVEAT
+
+    rec = h.run_one(1001, 1.0, "equal", 0.03)
+    assert rec["outcome"] == "clean" and rec["named"] == [], rec
+    assert rec["reference_noise_delta_bic"] > 100
+    assert rec["unexplained"] and "BHZ" in rec["unexplained"][0], rec["unexplained"]
+    assert REFERENCE_SHAPE_CAVEAT in rec["sentences"]
