@@ -10,6 +10,7 @@ reports/coverage/.
 
     python benchmarks/coverage_study.py --n 100            # the full study
     python benchmarks/coverage_study.py --n 20 --out /tmp/cov
+    python benchmarks/coverage_study.py --n 50 --ref-noise zero --out /tmp/cov0   # noise coefficients held at zero
 
 Truth for a channel's axis is checked as azimuth and dip for horizontals and
 as tilt from vertical for the near-vertical channel.
@@ -34,12 +35,29 @@ def main(argv=None):
     ap.add_argument("--band", type=float, nargs=2, default=(0.01, 1.0))
     ap.add_argument("--fit-response", default="all", choices=("none", "gain", "all"))
     ap.add_argument("--out", default="reports/coverage")
+    ap.add_argument("--ref-noise", default="default", choices=("default", "quiet", "estimate", "zero"),
+                    help="the reference's noise treatment: the fit's default, a mode, or 'zero' "
+                         "(the errors-in-variables statistic with the noise held at zero: "
+                         "--ref-noise-psd of a zero curve)")
+    ap.add_argument("--bands-per-decade", type=int, default=None,
+                    help="the spectra's bands per decade (default: the pipeline's 6)")
     args = ap.parse_args(argv)
+    kw = {}
+    if args.ref_noise == "zero":
+        period = np.geomspace(0.01, 1e4, 50)
+        kw["ref_noise_psd"] = {"*": (period, np.full(period.size, -400.0))}
+    elif args.ref_noise != "default":
+        kw["ref_noise"] = args.ref_noise
+    if args.bands_per_decade:
+        import bayescal.io.pipeline as pipeline
+        spectra_fn = pipeline.cross_spectra
+        pipeline.cross_spectra = lambda *a, **k: spectra_fn(
+            *a, **dict(k, bands_per_decade=args.bands_per_decade))
     os.makedirs(args.out, exist_ok=True)
     rows, t0 = [], time.time()
     for seed in range(args.first, args.first + args.n):
         post, azs, dips, resp, coh = run_case(seed, args.duration, args.fs, tuple(args.band),
-                                              args.fit_response)
+                                              args.fit_response, **kw)
         checks = coverage_checks(post, azs, dips, resp)
         conv = post.summary()["convergence"]
         rows.append({"seed": seed, "coherence": coh, "checks": checks,

@@ -19,7 +19,7 @@ record, band 0.02-1 Hz unless said         azimuth, dip: z sd (in 90 %
 
 (40 pairs each, seeds 800-839 of ``benchmarks/eiv_coverage.py``'s draws at
 10 Hz, coherence 0.9, reference noise-free, gains free, ``--ref-noise
-quiet``; gains' z sd 1.00-1.13 in all four.)
+quiet``; gains' z sd 1.00-1.13 in all four; ``benchmarks/short_records.py``.)
 
 So a fit says when its record holds fewer than :data:`MIN_PERIODS` periods
 of the band's lower edge; it does not widen the intervals (the cause is not

@@ -29,7 +29,10 @@ def draw_case(seed):
     return azs, dips, resp, coherence
 
 
-def run_case(seed, duration, fs, band, fit_response):
+def run_case(seed, duration, fs, band, fit_response, **calibrate_kw):
+    """One seeded case fitted as ``bayescal fit`` does (``calibrate_kw`` to
+    :func:`bayescal.io.pipeline.calibrate`, e.g. ``ref_noise``); returns the
+    posterior and the truth."""
     azs, dips, resp, coh = draw_case(seed)
     if fit_response == "none":            # response held at nominal: truth must be nominal
         resp = (NOMINAL,) * 3
@@ -38,7 +41,7 @@ def run_case(seed, duration, fs, band, fit_response):
     sim = simulate_pair(duration=duration, fs=fs, seed=seed, coherence=coh, sut_azimuth=azs,
                         sut_dip=dips, sut_response=resp, nominal_response=NOMINAL)
     post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
-                              fit_response=fit_response, seed=seed, progress=False)
+                     fit_response=fit_response, seed=seed, progress=False, **calibrate_kw)
     return post, azs, dips, resp, coh
 
 
