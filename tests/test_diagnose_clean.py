@@ -141,3 +141,25 @@ def test_mismatch_left_with_a_noisy_reference_names_the_noise_model_as_suspect()
     assert rec["reference_noise_delta_bic"] > 100
     assert rec["unexplained"] and "BHZ" in rec["unexplained"][0], rec["unexplained"]
     assert REFERENCE_SHAPE_CAVEAT in rec["sentences"]
+
+
+def test_caveat_also_when_the_user_chose_the_reference_noise_model():
+    """The same pair with ``--ref-noise estimate`` in the base fit (the
+    diagnosis then has nothing to test: the reference's noise is already
+    modelled): the mismatch left carries the caveat too. ``equal`` has a
+    caveat of its own; ``quiet`` and ``fixed`` have none."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import diagnose_harness as h
+
+    from bayescal.criticism.diagnose import (EQUAL_SHAPE_CAVEAT, REFERENCE_SHAPE_CAVEAT,
+                                             reference_shape_caveat)
+
+    rec = h.run_one(1001, 1.0, "equal", 0.03, ref_noise="estimate")
+    assert rec["outcome"] == "clean" and rec["named"] == [], rec
+    assert rec["reference_noise_delta_bic"] is None          # not tested: already modelled
+    assert rec["unexplained"] and REFERENCE_SHAPE_CAVEAT in rec["sentences"]
+    assert reference_shape_caveat("equal") == EQUAL_SHAPE_CAVEAT
+    assert reference_shape_caveat("quiet") is None and reference_shape_caveat("fixed") is None

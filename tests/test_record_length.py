@@ -33,3 +33,14 @@ def test_fit_says_so_in_result_and_console(band, short, capsys):
     print_summary(post.summary())
     out = capsys.readouterr().out
     assert ("short record for the band" in out) is short
+
+
+def test_batch_table_carries_the_note():
+    """``results.csv``'s ``notes`` column (bayescal batch): the short record
+    in a few words, with one decimal (34.8 periods is not "35")."""
+    from bayescal.report.batch import _notes
+    meta = {"record_length": record_length(1740.0, 0.02)}
+    assert meta["record_length"]["periods_of_lower_edge"] == pytest.approx(34.8)
+    assert "34.8 periods" in meta["record_length"]["note"]
+    assert _notes(meta) == "short record (34.8 periods of 0.02 Hz)"
+    assert _notes({"record_length": record_length(3600.0, 0.02)}) == ""

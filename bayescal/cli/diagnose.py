@@ -88,5 +88,8 @@ def run(args):
         raise
     for s in d.sentences():
         print(s)
+    short = final.meta.get("record_length", {}).get("note")
+    if short:
+        print(f"record: {short}")
     say(f"wrote {out}")
     return 0

@@ -23,13 +23,18 @@ quiet``; gains' z sd 1.00-1.13 in all four; ``benchmarks/short_records.py``.)
 
 So a fit says when its record holds fewer than :data:`MIN_PERIODS` periods
 of the band's lower edge; it does not widen the intervals (the cause is not
-isolated well enough to model: it is not the segment count alone, nor the
-misfit term, nor the noise's cross-channel terms; see the doc).
+isolated well enough to model: shorter segments, more of them, bring the
+dips and gains back near 1 (z sd 1.08, 1.07 at 1024 samples) but not the
+azimuths (1.18); neither the misfit term nor the noise's cross-channel
+terms explain it; see the doc). The threshold is loosely placed: the 31-
+and 38-period cases differ in band as well as in length, and at 31 periods
+only the dips were outside their band.
 """
 from __future__ import annotations
 
 #: Fewer periods of the band's lower edge than this in the record used: a note
-#: (between the 31 measured too narrow in the dips and the 38 measured inside).
+#: (between the 31 measured too narrow in the dips and the 38 measured inside;
+#: a rough line, not a measured edge).
 MIN_PERIODS = 35.0
 
 
@@ -41,9 +46,9 @@ def record_length(seconds, lower_edge_hz):
     out = {"seconds": float(seconds), "lower_edge_hz": float(lower_edge_hz),
            "periods_of_lower_edge": periods, "min_periods": MIN_PERIODS}
     if periods < MIN_PERIODS:
-        out["note"] = (f"short record for the band: {seconds:.0f} s hold {periods:.0f} periods of "
+        out["note"] = (f"short record for the band: {seconds:.0f} s hold {periods:.1f} periods of "
                        f"its lower edge {lower_edge_hz:.3g} Hz (fewer than {MIN_PERIODS:.0f}); on "
                        "simulations with 12 such periods the intervals came out too narrow (the "
-                       "angles' by 10-25 %, the gains' by about 10 %); a longer record or a "
+                       "angles' by 10-25 %, fitted gains' by about 10 %); a longer record or a "
                        "higher lower edge (--band) avoids it")
     return out

@@ -53,6 +53,18 @@ REFERENCE_SHAPE_CAVEAT = (
     "white in its counts); a reference noise of another shape, one that follows the ground "
     "motion's spectrum for instance, leaves a mismatch like this one: a third co-located "
     "sensor settles it (bayescal noise, then --ref-noise-psd)")
+#: The same caveat when the user chose ``--ref-noise equal``.
+EQUAL_SHAPE_CAVEAT = (
+    "the reference's self-noise is modelled as equal to the SUT's; a reference noise of "
+    "another level or shape leaves a mismatch like this one: a third co-located sensor "
+    "settles it (bayescal noise, then --ref-noise-psd)")
+
+
+def reference_shape_caveat(mode):
+    """The caveat said with a mismatch left by a fit whose reference-noise
+    model is an assumed shape (``estimate`` or ``equal``, whether the user
+    or the diagnosis chose it); None for ``quiet`` and ``fixed``."""
+    return {"estimate": REFERENCE_SHAPE_CAVEAT, "equal": EQUAL_SHAPE_CAVEAT}.get(mode)
 
 
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
@@ -263,8 +275,9 @@ class Diagnosis:
             out.append("no mismatch: the model describes the recordings within their noise"
                        + (" once the reference's noise is modelled" if ref.get("kept") else ""))
         out += self.unexplained()
-        if ref.get("kept") and self.after["mismatch"]:
-            out.append(REFERENCE_SHAPE_CAVEAT)
+        caveat = reference_shape_caveat(self.final.meta.get("reference_noise", {}).get("mode"))
+        if caveat and self.after["mismatch"]:
+            out.append(caveat)
         return out
 
     def summary(self):

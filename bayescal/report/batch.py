@@ -32,7 +32,7 @@ COLUMNS = ("label", "station", "day", "channel", "kind",
            "dip", "dip_lo95", "dip_hi95", "nominal_dip",
            "tilt", "tilt_lo95", "tilt_hi95",
            "gain", "gain_lo95", "gain_hi95", "nominal_gain",
-           "ess_min", "tau_max", "rhat_max", "converged", "effects", "error")
+           "ess_min", "tau_max", "rhat_max", "converged", "effects", "notes", "error")
 FLAG_COLUMNS = ("station", "channel", "quantity", "flag", "day", "previous_day", "value",
                 "lo95", "hi95", "reference", "threshold", "unit")
 
@@ -51,6 +51,7 @@ def _rows_for(item, folder):
     conv = res.get("convergence", {})
     day = item.get("day") or str(res.get("meta", {}).get("starttime", ""))[:10]
     effects = res.get("effects") or res.get("diagnosis", {}).get("effects", [])
+    notes = _notes(res.get("meta", {}))
     rows = []
     for cid, ch in res["channels"].items():
         nom = ch.get("nominal", {})
@@ -68,8 +69,22 @@ def _rows_for(item, folder):
                      "nominal_gain": None if gain is None else nom.get("gain"),
                      "ess_min": conv.get("ess_min"), "tau_max": conv.get("tau_max"),
                      "rhat_max": conv.get("rhat_max"), "converged": conv.get("converged"),
-                     "effects": ";".join(map(str, effects)), "error": ""})
+                     "effects": ";".join(map(str, effects)), "notes": notes, "error": ""})
     return rows
+
+
+def _notes(meta):
+    """The fit's cautions in a few words for the ``notes`` column (the full
+    sentences are in the item's result.json): a short record, a reference
+    noise poorly separated from the ground motion."""
+    out = []
+    rl = meta.get("record_length", {})
+    if rl.get("note"):
+        out.append(f"short record ({rl['periods_of_lower_edge']:.1f} periods of "
+                   f"{rl['lower_edge_hz']:.3g} Hz)")
+    if meta.get("reference_noise", {}).get("separation", {}).get("note"):
+        out.append("reference noise poorly separated")
+    return ";".join(out)
 
 
 def results_table(items, out):
@@ -107,8 +122,8 @@ def read_results(path):
         rows = list(csv.DictReader(fh))
     for r in rows:
         for k, v in r.items():
-            if k not in ("label", "station", "day", "channel", "kind", "effects", "error",
-                         "converged"):
+            if k not in ("label", "station", "day", "channel", "kind", "effects", "notes",
+                         "error", "converged"):
                 r[k] = float(v) if v != "" else None
     return rows
 
