@@ -80,8 +80,9 @@ def draw(rng, p_clean):
     return kind, {"tilt_noise": level}, {"level": level}
 
 
-def run_one(seed, p_clean, regime="default", gain_off=0.0):
-    """One concealed-effect run; returns its record."""
+def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
+    """One concealed-effect run; returns its record. ``ref_noise`` is the
+    base fit's (the diagnosis's default base is ``quiet``)."""
     import bayescal
     from bayescal.criticism.diagnose import diagnose
     from bayescal.simulate.pair import simulate_pair
@@ -105,7 +106,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
     try:
         post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
                                   band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
-                                  ref_noise="quiet")
+                                  ref_noise=ref_noise)
     except InputError as exc:
         # the fit refuses (e.g. too little coherence when both sensors are noisy):
         # nothing is named, which is neither a detection nor a false alarm
@@ -114,7 +115,9 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
                 "outcome": "refused", "refusal": str(exc),
                 "seconds": time.perf_counter() - t0, "unexplained": []}
     d = diagnose(post, seed=seed, mcmc=False)
-    ids = d.ids
+    # the SUT's channel ids in the simulator's row order (the fit's own list,
+    # d.ids, drops a channel the coherence gate left out, which shifts rows)
+    ids = [tr.id for tr in sim.sut]
     named = d.effects
     names = [e["name"] for e in named]
     rec = {"seed": seed, "truth": kind, "truth_size": truth, "named": names,
@@ -137,13 +140,15 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0):
     if kind == "gain_error" and hit is None and not names:
         # with the gains fitted (the default) a gain error is no mismatch: the
         # fit measures it as the channel's relative gain (fitted / metadata)
-        rel = post.summary()["channels"][ids[truth["row"]]].get("response", {}).get(
-            "relative_gain")
+        # found when its 95 % interval excludes 1 (a detection); whether it
+        # holds the truth is scored apart, as every recovered size is
+        rel = post.summary()["channels"].get(ids[truth["row"]], {}).get(
+            "response", {}).get("relative_gain")
         if rel and "ci95" in rel:
             lo, hi = rel["ci95"]
             rec["relative_gain"] = {"truth": 1 + truth["fraction"], "median": rel["median"],
                                     "ci95": [lo, hi]}
-            if not lo <= 1.0 <= hi and lo <= 1 + truth["fraction"] <= hi:
+            if not lo <= 1.0 <= hi:
                 hit = {"parameters": {"fraction": {"median": rel["median"] - 1,
                                                    "ci95": [lo - 1, hi - 1]}}}
                 rec["measured_as"] = "relative gain"
