@@ -48,11 +48,21 @@ def main(argv=None):
         kw["ref_noise_psd"] = {"*": (period, np.full(period.size, -400.0))}
     elif args.ref_noise != "default":
         kw["ref_noise"] = args.ref_noise
-    if args.bands_per_decade:
+    if args.bands_per_decade is not None:
+        if args.bands_per_decade < 1:
+            ap.error("--bands-per-decade must be 1 or more")
         import bayescal.io.pipeline as pipeline
         spectra_fn = pipeline.cross_spectra
         pipeline.cross_spectra = lambda *a, **k: spectra_fn(
             *a, **dict(k, bands_per_decade=args.bands_per_decade))
+    try:
+        return _study(args, kw)
+    finally:
+        if args.bands_per_decade is not None:
+            pipeline.cross_spectra = spectra_fn
+
+
+def _study(args, kw):
     os.makedirs(args.out, exist_ok=True)
     rows, t0 = [], time.time()
     for seed in range(args.first, args.first + args.n):

@@ -12,8 +12,9 @@ parameter kind, with the periods of the band's lower edge in the record used.
 
 Variants: the record (900, 1800, 3600 s) and band (0.02-1, 0.05-1 Hz);
 at 900 s over 0.02-1 Hz also 1024-sample segments, the Gaussian likelihood
-(no per-band misfit term), the SUT's noise covariance held diagonal, and a
-diffuse ground field.
+(no per-band misfit term), the SUT's noise covariance held diagonal (its
+cross-channel terms dropped; the misfit inflation is still the one computed
+from the full covariance), and a diffuse ground field.
 """
 from __future__ import annotations
 
@@ -43,7 +44,8 @@ VARIANTS = {
 
 def _diagonal_noise():
     """Hold the base model's SUT noise covariance diagonal (a study switch:
-    its off-diagonal terms are what the SUT channels' noise shares)."""
+    its off-diagonal terms are what the SUT channels' noise shares); the
+    inflation factors stay those estimated with the full covariance."""
     from bayescal.core import likelihood
     est = likelihood.Model.estimate_noise
 
