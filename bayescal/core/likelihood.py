@@ -229,7 +229,8 @@ class Model:
             vecs[:, k] = b.manifold.vectors(theta[:, so])
             r = theta[:, sr]
             if b.free == "gain":
-                ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
+                with np.errstate(all="ignore"):    # wild least-squares steps; the prior rejects them
+                    ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
             elif b.free == "all":
                 with np.errstate(all="ignore"):    # wild least-squares steps; the prior rejects them
                     ratio[:, k] = self._inverse[k](np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2]))

@@ -176,8 +176,12 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
         # Levenberg-Marquardt: the trust-region method stalls when the start
         # is exactly zero in the tangent-plane coordinates (its first trust
         # radius is |x0| = 0); fall back to it only when LM leaves the box.
-        res = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,), method="lm",
-                            **tol)
+        # LM's trial steps are unbounded: one far outside the box overflows
+        # the response (exp of a large log-gain); its residual is rejected by
+        # LM and the box check below, so those warnings are noise
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            res = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,),
+                                method="lm", **tol)
         if np.any(res.x < lo) or np.any(res.x > hi):
             res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
                                 jac=jac, args=(fac,), bounds=(lo, hi), method="trf", **tol)
