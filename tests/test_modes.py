@@ -171,3 +171,65 @@ def test_cowi_is_not_flagged(cowi_data):
     mm = post.summary()["multimodal"]
     assert mm["detected"] is False
     assert all(m["log_mass_difference"] < -np.log(100) for m in mm["modes"][1:])
+
+
+def test_newton_peak_is_checked_against_the_posterior():
+    """The Laplace peak extrapolated from a point far from an optimum is
+    capped by the log-posterior at the Newton point: a quadratic model needs
+    no cap (exact), a flat-topped one gets none of the extrapolated height."""
+    a = np.array([[2.0, 0.0], [0.0, 0.5]])
+    centre = np.array([1.0, -2.0])
+
+    def quad(x):
+        d = np.atleast_2d(x) - centre
+        return -0.5 * np.einsum("ni,ij,nj->n", d, a, d)
+
+    theta = np.zeros(2)
+    grad, hess = modes.curvature(quad, theta, np.array([0.1, 0.1]))
+    assert modes.newton_peak(quad, theta, quad(theta)[0], grad, hess) == pytest.approx(0.0,
+                                                                                        abs=1e-9)
+
+    def plateau(x):          # the same quadratic near theta, then a cliff at |x| > 0.5
+        x = np.atleast_2d(x)
+        return np.where(np.abs(x).max(axis=1) < 0.5, quad(x), -1e3)
+
+    lp = plateau(theta)[0]
+    assert modes.newton_peak(plateau, theta, lp, grad, hess) == lp
+
+
+def test_a_stalled_start_does_not_outweigh_the_real_optimum():
+    """Seeded pair 452 of ``benchmarks/eiv_coverage.py`` (1 h, coherence 0.99,
+    reference noise-free, gains fitted, nominal axes of the simulator: BH1 0,
+    BH2 90 against true azimuths 177.1 and 268.0). The start from the nominal
+    axes stalls 527 log units below the first fit on a flat ridge of the
+    per-band misfit term; its Laplace mass, extrapolated from there, was 129
+    log units above the first fit's, so that point was sampled: BH1 came out
+    179.95 [179.86, 180.08] at the chart's edge, without converging. Checked
+    against the posterior, the stalled start weighs nothing and the first
+    fit is sampled (converged, BH1 176.6 [176.2, 177.0])."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import eiv_coverage as ec
+
+    import bayescal
+    from bayescal.simulate import simulate_pair
+
+    azs, dips, resp = ec.draw_truth(452, "gain")
+    cu, cr = ec.coherences(0.99, 0)
+    sim = simulate_pair(duration=3600, fs=10, seed=452, coherence=cu, ref_coherence=cr,
+                        sut_azimuth=azs, sut_dip=dips, sut_response=resp,
+                        nominal_response=ec.NOMINAL, noise_in_counts=True)
+    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+                              band=(0.02, 1.0), fit_response="gain", seed=452, progress=False,
+                              ref_noise="quiet")
+    s = post.summary()
+    report = post.meta["multimodal"]
+    assert report["modes"][0]["start"].startswith("closed-form") and not report["detected"]
+    bh1 = s["channels"]["XX.SIM.10.BH1"]
+    # the first fit's 176.7 (the truth 177.1 lies just outside this seed's 95 %
+    # interval, 2.3 sd: one pair is no coverage test), not the chart's edge
+    lo, hi = bh1["azimuth_deg"]["ci95"]
+    assert abs(bh1["azimuth_deg"]["median"] - azs[0]) < 1.0 and hi - lo > 0.5, (azs[0], lo, hi)
+    assert s["convergence"]["converged"]
