@@ -58,3 +58,18 @@ def test_unbiased_at_coherence_09_where_seed_form_is_not():
     assert abs(ours.mean()) < max(3 * se, 1e-4) and abs(ours.mean()) < 0.003
     # the seed's form: biased high by about 1/coherence - 1 = 11 %
     assert seed_form.mean() == pytest.approx(1 / 0.9 - 1, abs=0.03)
+
+
+def test_non_finite_least_squares_point_is_a_fit_error(monkeypatch):
+    """A least-squares end point with a NaN (a residual that turned
+    non-finite) is refused with a FitError, not carried into the sampler."""
+    from types import SimpleNamespace
+
+    import bayescal.core.sampler as sampler
+
+    sp, s, r = _spectra(0, 0.9)
+    setup = build_model(sp, r.vectors, s.vectors, s.families(), free="gain")
+    monkeypatch.setattr(sampler, "least_squares",
+                        lambda fun, x0, **kw: SimpleNamespace(x=np.full_like(x0, np.nan)))
+    with pytest.raises(sampler.FitError, match="non-finite"):
+        least_squares_fit(setup.model, setup.theta0)

@@ -185,6 +185,9 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
         if np.any(res.x < lo) or np.any(res.x > hi):
             res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
                                 jac=jac, args=(fac,), bounds=(lo, hi), method="trf", **tol)
+        if not np.isfinite(res.x).all():
+            raise FitError("least squares left the finite parameter range (a non-finite "
+                           "residual); check the responses and the band")
         theta = res.x
         model.estimate_noise(theta)
     fac = model.noise.cholesky()
