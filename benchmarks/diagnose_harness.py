@@ -15,6 +15,11 @@ Laplace approximation for speed), and scores what the tool names:
 * miss: nothing is named on an effect run;
 * false alarm: anything is named on a clean run.
 
+The gain rule has false alarms of its own, which the last line counts apart:
+a channel whose true relative gain is 1 (on a clean run, or the other two of
+a gain-error run) with a 95 % interval excluding 1 (about 5 % of channels
+expected when the intervals are right).
+
     python benchmarks/diagnose_harness.py --runs 60 --out reports/diagnose/harness.json
 """
 from __future__ import annotations
@@ -137,6 +142,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
         if kind == "channel_swap" and sorted(e["channels"]) != sorted(ids[r] for r in truth["rows"]):
             continue
         hit = e
+    rec["relative_gains"] = relative_gains(post, ids, kw)
     if kind == "gain_error" and hit is None and not names:
         # with the gains fitted (the default) a gain error is no mismatch: the
         # fit measures it as the channel's relative gain (fitted / metadata)
@@ -165,6 +171,37 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
                            "covered": p["ci95"][0] <= v <= p["ci95"][1]}
         rec["size"] = size
     return rec
+
+
+def relative_gains(post, ids, kw):
+    """Every SUT channel's relative gain (fitted / metadata): truth, median and
+    95 % interval, by channel id (the truth from the simulated responses)."""
+    chans = post.summary()["channels"]
+    resp = kw.get("sut_response") or [(30.0, 0.707, 750.0)] * 3
+    out = {}
+    for row, cid in enumerate(ids):
+        rel = chans.get(cid, {}).get("response", {}).get("relative_gain")
+        if rel and "ci95" in rel:
+            out[cid] = {"truth": resp[row][2] / 750.0, "median": rel["median"],
+                        "ci95": list(rel["ci95"])}
+    return out
+
+
+def gain_false_alarms(records):
+    """The gain rule's own false-alarm rate: channels whose true relative gain
+    is 1 (every channel of a clean run, the other two of a gain-error run)
+    with a 95 % interval that excludes 1. Returns (channels excluding 1,
+    channels checked, clean runs with any such channel, clean runs)."""
+    n_ex = n_ch = runs_ex = runs = 0
+    for r in records:
+        if r["truth"] not in ("none", "gain_error") or "relative_gains" not in r:
+            continue
+        ex = [not lo <= 1.0 <= hi for g in r["relative_gains"].values()
+              if g["truth"] == 1.0 for lo, hi in [g["ci95"]]]
+        n_ex, n_ch = n_ex + sum(ex), n_ch + len(ex)
+        if r["truth"] == "none":
+            runs, runs_ex = runs + 1, runs_ex + any(ex)
+    return n_ex, n_ch, runs_ex, runs
 
 
 def table(records):
@@ -212,6 +249,10 @@ def main(argv=None):
                  f"{100 * false:.0f} % of {len(clean)} clean runs; effect size inside its 95 % "
                  f"interval in {sum(cover)} of {len(cover)} recovered sizes; "
                  f"{time.perf_counter() - t0:.0f} s in all")
+    g_ex, g_ch, g_runs_ex, g_runs = gain_false_alarms(records)
+    lines.append(f"the gain rule's own false alarms: {g_ex} of {g_ch} channels whose true "
+                 f"relative gain is 1 have a 95 % interval excluding 1 ({g_runs_ex} of "
+                 f"{g_runs} clean runs have one such channel); not counted above")
     lines.append("")
     lines.append("| hidden effect | parameter | truth | median [95 %] |")
     lines.append("|---|---|---|---|")
@@ -225,6 +266,10 @@ def main(argv=None):
     from bayescal.core.posterior import write_json
     write_json(args.out, {"runs": records, "table": rows, "right_name_fraction": right,
                    "false_alarm_fraction": false, "markdown": text,
+                   "gain_rule_false_alarms": {"channels_excluding_1": g_ex,
+                                              "channels_checked": g_ch,
+                                              "clean_runs_with_one": g_runs_ex,
+                                              "clean_runs": g_runs},
                    "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
                                 "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean,
                                 "regime": args.regime, "gain_off": args.gain_off}})
