@@ -191,7 +191,8 @@ def gain_false_alarms(records):
     """The gain rule's own false-alarm rate: channels whose true relative gain
     is 1 (every channel of a clean run, the other two of a gain-error run)
     with a 95 % interval that excludes 1. Returns (channels excluding 1,
-    channels checked, clean runs with any such channel, clean runs)."""
+    channels checked, clean runs with any such channel, clean runs with a
+    channel checked)."""
     n_ex = n_ch = runs_ex = runs = 0
     for r in records:
         if r["truth"] not in ("none", "gain_error") or "relative_gains" not in r:
@@ -199,7 +200,7 @@ def gain_false_alarms(records):
         ex = [not lo <= 1.0 <= hi for g in r["relative_gains"].values()
               if g["truth"] == 1.0 for lo, hi in [g["ci95"]]]
         n_ex, n_ch = n_ex + sum(ex), n_ch + len(ex)
-        if r["truth"] == "none":
+        if r["truth"] == "none" and ex:     # (with --gain-off no channel's truth is 1)
             runs, runs_ex = runs + 1, runs_ex + any(ex)
     return n_ex, n_ch, runs_ex, runs
 
