@@ -22,11 +22,13 @@ record, band 0.02-1 Hz unless said         azimuth, dip: z sd (in 90 %
 quiet``; gains' z sd 1.00-1.13 in all four; ``benchmarks/short_records.py``.)
 
 So a fit says when its record holds fewer than :data:`MIN_PERIODS` periods
-of the band's lower edge; it does not widen the intervals (the cause is not
-isolated well enough to model: shorter segments, more of them, bring the
-dips and gains back near 1 (z sd 1.08, 1.07 at 1024 samples) but not the
-azimuths (1.18); neither the misfit term nor the noise's cross-channel
-terms explain it; see the doc). The threshold is loosely placed: the 31-
+of the band's lower edge; it does not widen the intervals. The cause is
+mostly the noise model's own sampling error: with the noise model of a
+record ten times longer, 900-s pairs come back near 1 (azimuth z sd 1.18 ->
+1.05, gains 1.16 -> 1.01; ``benchmarks/short_record_oracle.py``), but no
+correction from the record itself is built (shorter segments, more of
+them, bring the dips and gains near 1, z sd 1.08, 1.07 at 1024 samples,
+but not the azimuths, 1.18; see the doc). The threshold is loosely placed: the 31-
 and 38-period cases differ in band as well as in length, and at 31 periods
 the azimuths were inside their band and only the dips' z sd was high (1.20;
 65 of 80 in 90 %, inside the band).

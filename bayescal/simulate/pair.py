@@ -111,18 +111,22 @@ class SimulatedPair:
         return paths
 
 
-def _plane_waves(rng, freqs, n_waves, diffuse):
+def _plane_waves(rng, freqs, n_waves, diffuse, wave_seed=None):
     """(3, F) complex ground-velocity spectrum (NED) and its expected
-    cross-spectral matrix (F, 3, 3) up to the common PSD scale."""
+    cross-spectral matrix (F, 3, 3) up to the common PSD scale. The waves'
+    directions, weights and kinds come from ``rng`` between its per-bin
+    draws, so they change with the record's length; with ``wave_seed`` they
+    come from a generator of their own, the same at any length."""
+    prng = rng if wave_seed is None else np.random.default_rng([wave_seed, 99])
     amp = np.sqrt(ground_spectrum(freqs) / 2.0)
     g = np.zeros((3, freqs.size), complex)
     expected = np.zeros((freqs.size, 3, 3), complex)
     for _ in range(n_waves):
-        phi = rng.uniform(0, 2 * np.pi)
-        w = rng.uniform(0.4, 1.0)
+        phi = prng.uniform(0, 2 * np.pi)
+        w = prng.uniform(0.4, 1.0)
         c = w * amp * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size))
         radial = np.array([np.cos(phi), np.sin(phi), 0.0])
-        if rng.uniform() < 0.7:   # Rayleigh: vertical (up) 90 degrees from radial
+        if prng.uniform() < 0.7:   # Rayleigh: vertical (up) 90 degrees from radial
             pol = radial + np.array([0, 0, -1.0]) * 0.8j
         else:                      # Love: transverse
             pol = np.array([-np.sin(phi), np.cos(phi), 0.0]).astype(complex)
@@ -176,19 +180,24 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
                   ref_response=(120.0, 0.707, 1500.0), n_waves=6, diffuse=0.3,
                   timing_offset_s=0.0, clock_drift_ppm=0.0, extra_pole=None,
                   polarity_reversal=None, channel_swap=None, tilt_noise=0.0,
-                  noise_in_counts=False, network="XX", station="SIM", start=UTCDateTime(2026, 1, 1)):
+                  noise_in_counts=False, network="XX", station="SIM", start=UTCDateTime(2026, 1, 1),
+                  wave_seed=None):
     """Simulate a SUT/reference pair; see the module docstring.
 
     Angles in SEED degrees, responses as (period_s, damping, gain in V per
     m/s); ``sut_response`` per SUT channel is the truth, ``nominal_response``
     what the StationXML says. ``coherence`` is the squared coherence of each
     SUT channel with the true ground motion (its self-noise), likewise
-    ``ref_coherence`` for the reference channels.
+    ``ref_coherence`` for the reference channels. ``wave_seed``: the plane
+    waves' directions, weights and kinds from a generator of their own, so
+    records of any length share one ground field and one noise level
+    (by default they come from ``seed``'s generator between the per-bin
+    draws: one seed at two durations is two ground fields).
     """
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
-    g, expected = _plane_waves(rng, freqs, n_waves, diffuse)
+    g, expected = _plane_waves(rng, freqs, n_waves, diffuse, wave_seed)
     bc = band_code(fs)
     v_sut = unit_vector(sut_azimuth, sut_dip)
     ref_az, ref_dip = (0.0, 90.0, 0.0), (0.0, 0.0, -90.0)
@@ -265,6 +274,8 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
         "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
                     "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
                     "channel_swap": channel_swap, "tilt_noise": tilt_noise}}
+    if wave_seed is not None:
+        truth["wave_seed"] = wave_seed
     return SimulatedPair(
         sut=stream(sut_t, "10", sut_codes), ref=stream(ref_t, "00", ref_codes),
         sut_inventory=inventory("10", sut_codes, nominal_azimuth, nominal_dip,
@@ -276,7 +287,7 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
 def self_noise_psd(freqs, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
                    ref_coherence=0.9999, sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                    sut_response=((30.0, 0.707, 750.0),) * 3, ref_response=(120.0, 0.707, 1500.0),
-                   n_waves=6, diffuse=0.3, noise_in_counts=False, **_ignored):
+                   n_waves=6, diffuse=0.3, noise_in_counts=False, wave_seed=None, **_ignored):
     """The true self-noise of every channel of :func:`simulate_pair` called
     with the same arguments: ``(sut, ref)``, each (3, len(freqs)) one-sided
     velocity PSD in (m/s)^2/Hz at ``freqs`` (Hz), interpolated from the
@@ -286,7 +297,7 @@ def self_noise_psd(freqs, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
     grid = np.fft.rfftfreq(n, 1.0 / fs)
-    _, expected = _plane_waves(rng, grid, n_waves, diffuse)
+    _, expected = _plane_waves(rng, grid, n_waves, diffuse, wave_seed)
     mean_psd = np.real(np.einsum("fii->f", expected)) / 3.0
     k = np.argmin(np.abs(grid - NOISE_REFERENCE_HZ))
 
