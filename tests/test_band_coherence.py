@@ -50,8 +50,14 @@ def demo():
     return simulate_pair(**DEMO)
 
 
-def test_demo_band_and_fit_unchanged(demo):
+def test_demo_band_and_fit_unchanged(demo, monkeypatch):
     from bayescal import calibrate
+    from bayescal.core import plugin
+
+    # the medians were pinned before the plug-in noise model's band weights
+    # (core/plugin.py, which change the likelihood on purpose): without them
+    # the fit must be the one of 16197f7
+    monkeypatch.setattr(plugin, "band_weights", lambda k, inflation, dim: None)
 
     s, r, fs, _ = align(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory, "SUT",
                         "reference", None, None)

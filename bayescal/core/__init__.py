@@ -9,6 +9,7 @@ Modules, in the order data flows through them:
 * :mod:`.bandfold`   per-time-block spectra folded into bands and nodes
 * :mod:`.jacobian`   batched forward-difference Jacobian for least squares
 * :mod:`.likelihood` the Frobenius residual, its noise model, vectorised log-prob
+* :mod:`.plugin`     band weights for the plug-in noise model's own sampling error
 * :mod:`.sampler`    closed-form start, least squares, emcee, convergence control
 * :mod:`.posterior`  samples, summaries, result.json / samples.npz
 * :mod:`.selfnoise`  self-noise of three or more co-located sensors (Sleeman),

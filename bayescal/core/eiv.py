@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import noisescale, refnoise
+from . import noisescale, plugin, refnoise
 from .likelihood import INFLATION_SHRINK, Model, Priors
 
 
@@ -43,10 +43,14 @@ class EIVNoise:
     factor: np.ndarray | None = None   # (B, 2m, 2m) F with W = F F^T
     rank: np.ndarray | None = None     # (B,) directions the statistic varies in
     scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
+    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.plugin)
 
     def cholesky(self):
-        """Factor F with ``W = F F^T`` per band (whitening: ``F^T x``)."""
-        return self.factor
+        """Factor F with ``W = F F^T`` per band (whitening: ``F^T x``), each
+        band's weight folded in."""
+        if self.weight is None:
+            return self.factor
+        return self.factor * np.sqrt(self.weight)[:, None, None]
 
 
 class EIVModel(Model):
@@ -252,7 +256,8 @@ class EIVModel(Model):
         c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
         c = np.maximum(c, 1e-3 * pooled)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
-                              factor=factor / np.sqrt(c)[:, None, None], rank=rank)
+                              factor=factor / np.sqrt(c)[:, None, None], rank=rank,
+                              weight=plugin.band_weights(self._k, c, nu + nr))
         if not data_terms:      # mode estimate: the noise held in the SUT's counts
             self.noise.scale0 = noisescale.noise_scale(ratio, self._band_nodes,
                                                        self._free_rows)[0]

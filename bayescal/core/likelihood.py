@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import misfit_scale, noisescale
+from . import misfit_scale, noisescale, plugin
 from .bandfold import fold
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from .response import TwoPoleFamily, gain_prior_factor
@@ -125,10 +125,16 @@ class NoiseModel:
     sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
     inflation: np.ndarray  # (B,) c_b
     scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
+    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.plugin)
 
     def cholesky(self):
-        """Factors for the whitened residual ``L_A^H R L_B``."""
-        return np.linalg.cholesky(self.A), np.linalg.cholesky(self.B)
+        """Factors for the whitened residual ``L_A^H R L_B`` (each band's
+        weight folded into ``L_A``: its squared norm is the weighted
+        Gaussian ``-log L``)."""
+        la = np.linalg.cholesky(self.A)
+        if self.weight is not None:
+            la = la * np.sqrt(self.weight)[:, None, None]
+        return la, np.linalg.cholesky(self.B)
 
 
 class Model:
@@ -351,7 +357,8 @@ class Model:
         return q, np.full(q.shape[1], float(r.shape[1] * r.shape[3] * r.shape[4]))
 
     def log_likelihood(self, theta):
-        return misfit_scale.band_loglik(*self.band_energy(theta), self.misfit_shape)
+        return misfit_scale.band_loglik(*self.band_energy(theta), self.misfit_shape,
+                                        getattr(self.noise, "weight", None))
 
     def log_prob(self, theta):
         """Vectorised log posterior for emcee: theta (W, ndim) -> (W,)."""
@@ -436,7 +443,8 @@ class Model:
         c = np.maximum(c, 1e-3 * pooled)
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
-                                inflation=c, scale0=scale0)
+                                inflation=c, scale0=scale0,
+                                weight=plugin.band_weights(n_bins, c, nu))
         return self.noise
 
     def adopt_noise(self, noise):
@@ -447,7 +455,8 @@ class Model:
         if b.shape[0] != self.n_time_blocks:
             b = np.linalg.inv(self._srr_g)
         self.noise = NoiseModel(A=noise.A, B=b, sigma=noise.sigma, inflation=noise.inflation,
-                                scale0=getattr(noise, "scale0", None))
+                                scale0=getattr(noise, "scale0", None),
+                                weight=getattr(noise, "weight", None))
         return self.noise
 
     def standardized_band_residuals(self, theta):

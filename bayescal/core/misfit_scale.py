@@ -28,7 +28,7 @@ import numpy as np
 MISFIT_SHAPE = 2.0
 
 
-def band_loglik(q, k, a):
+def band_loglik(q, k, a, weight=None):
     """Sum over bands of the marginalised band term.
 
     Parameters
@@ -36,12 +36,15 @@ def band_loglik(q, k, a):
     q : (W, B) whitened residual energy per band (the Gaussian term is ``-q``).
     k : (B,) complex degrees of freedom of each band's residual.
     a : prior shape; ``inf`` (or None) gives the Gaussian ``-sum q``.
+    weight : (B,) or None, each band's term multiplied by it (the plug-in
+        noise model's sampling error, :mod:`bayescal.core.plugin`).
     """
     q = np.asarray(q, float)
+    w = 1.0 if weight is None else np.asarray(weight, float)
     if a is None or not np.isfinite(a):
-        return -q.sum(axis=1)
+        return -np.sum(w * q, axis=1)
     k = np.asarray(k, float)
-    return -np.sum((a + k) * np.log1p(q / a), axis=1)
+    return -np.sum(w * (a + k) * np.log1p(q / a), axis=1)
 
 
 def band_scale(q, k, a):
