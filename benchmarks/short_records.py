@@ -54,7 +54,7 @@ def _diagonal_noise():
         sigma = noise.sigma * np.eye(noise.sigma.shape[-1])[None]
         inv = np.linalg.inv(sigma) / noise.inflation[:, None, None]
         self.noise = type(noise)(A=inv, B=noise.B, sigma=sigma, inflation=noise.inflation,
-                                 scale0=noise.scale0)
+                                 scale0=noise.scale0, weight=noise.weight)
         return self.noise
     likelihood.Model.estimate_noise = estimate_noise
     return lambda: setattr(likelihood.Model, "estimate_noise", est)
