@@ -9,8 +9,10 @@ it times, in-process, the spectra and the fit (not the imports or the
 simulation), as bench_speed.py does. Runs are alternated; medians of CPU
 seconds over ``--repeats``.
 
-* ``now default``: this tree as ``bayescal fit`` runs it (gains free,
-  ``--ref-noise estimate`` for 3+3, plug-in band weights);
+* ``now default``: this tree's fit as ``bayescal fit`` configures it (gains
+  free, ``--ref-noise estimate`` for 3+3, plug-in band weights), from the
+  spectra of a fixed band: no band choice or coherence gate (the whole
+  command is ``bench_process.py``'s);
 * ``now orientation``: this tree, gains held, reference quiet;
 * ``before orientation``: ``--before DIR`` (e.g. a checkout of 292a089^, the
   tree the issue was filed against), its default, which was orientation
@@ -86,8 +88,10 @@ def main(argv=None):
             print(f"repeat {k + 1}: {name}: {res['cpu_s']:.2f} s CPU ({res['n_params']} parameters)",
                   file=sys.stderr, flush=True)
     med = {name: statistics.median(r["cpu_s"] for r in v) for name, v in runs.items()}
+    head = subprocess.run(["git", "-C", str(trees["before"]), "rev-parse", "HEAD"],
+                          capture_output=True, text=True).stdout.strip() or None
     out = {"command": "python benchmarks/bench_default_cost.py " + " ".join(argv or sys.argv[1:]),
-           "before_tree": str(trees["before"]), "median_cpu_s": med,
+           "before_tree": str(trees["before"]), "before_commit": head, "median_cpu_s": med,
            "ratio_default_to_before_orientation": med["now default"] / med["before orientation"],
            "ratio_default_to_now_orientation": med["now default"] / med["now orientation"],
            "runs": runs}

@@ -146,11 +146,21 @@ class EIVModel(Model):
         f = self._row_factor(ratio)
         if f is not None:
             x0, u = x0 * f, u * f[..., None]
-        w = self.noise.W if w is None else w
         if self.ref_noise == "fixed":
+            w = self.noise.W if w is None else w
             x = x0 + (u * self.known_noise[None, :, None, :]).sum(axis=-1)
             q = (x * refnoise.band_matmul(w, x[..., None])[..., 0]).sum(axis=-1)
             return x, np.zeros((x.shape[0], u.shape[-1], 2)), q
+        weight = getattr(self.noise, "weight", None) if w is None else None
+        if w is None:
+            w = self.noise.W
+        if weight is not None:
+            # profile the coefficients (shared by all bands) out of the
+            # likelihood that is sampled, each band weighted
+            # (bayescal.core.plugin); q is returned unweighted, per band
+            coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
+                                                     w * weight[:, None, None])
+            return x0 + term, coef, q / weight
         coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w)
         return x0 + term, coef, q
 
@@ -257,7 +267,7 @@ class EIVModel(Model):
         c = np.maximum(c, 1e-3 * pooled)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
-                              weight=plugin.band_weights(self._k, c, nu + nr))
+                              weight=plugin.band_weights(plugin.effective_samples(sp), nu + nr))
         if not data_terms:      # mode estimate: the noise held in the SUT's counts
             self.noise.scale0 = noisescale.noise_scale(ratio, self._band_nodes,
                                                        self._free_rows)[0]

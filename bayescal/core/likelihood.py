@@ -444,7 +444,7 @@ class Model:
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
                                 inflation=c, scale0=scale0,
-                                weight=plugin.band_weights(n_bins, c, nu))
+                                weight=plugin.band_weights(plugin.effective_samples(sp), nu))
         return self.noise
 
     def adopt_noise(self, noise):

@@ -3,53 +3,99 @@
 Both likelihoods hold a noise model estimated from the spectra themselves
 (the SUT's residual covariance ``Sigma_b``, n_u x n_u, in the base model; the
 band's whole cross-spectral matrix ``C_b``, (n_u + n_r) square, in the
-errors-in-variables model). Each is a complex-Wishart estimate from the
-band's bins and segments, of about ``nu_b = K_b / c_b`` effective samples
-(``K_b`` bins times segments, ``c_b`` the measured inflation: overlapping Hann
-segments and neighbouring bins are not independent). Treating it as exact
-makes intervals too narrow, by two effects of the same order:
+errors-in-variables model). Each is a complex-Wishart-like estimate from the
+band's bins and segments, worth ``nu_b`` independent samples: fewer than the
+``K_b`` bins times segments it sums, because neighbouring bins of a Hann
+window and overlapping segments are correlated (:func:`effective_samples`,
+the equivalent degrees of freedom of a Welch estimate, from the window and
+the segment layout alone). Treating the estimate as exact makes intervals
+too narrow, by two effects of the same order:
 
 * its inverse is biased: for ``S ~ CW(nu, Sigma) / nu`` of dimension ``p``,
   ``E[S^-1] = Sigma^-1 nu / (nu - p)``, so the plug-in precision is too high;
-* the weights it gives the bands are random, and a weighted combination with
-  random weights scatters more than its nominal variance (the second moment
+* the weights it gives the data are random, and a combination with random
+  weights scatters more than its nominal variance (the second moment
   ``E[S^-1 M S^-1] ~ Sigma^-1 M Sigma^-1 nu^2 / ((nu - p)^2 - 1)``).
 
-For a parameter carried by many bands the two combine to a variance
-``nu^2 / ((nu - p)^2 - 1)`` times the nominal one (the ratio of the second
-moment to the first, each band's share being small); a parameter carried by a
-single band gets only the first, ``nu / (nu - p)``. Each band's likelihood
-term is therefore weighted by
+For a parameter estimated by generalised least squares with such a plug-in,
+the standardised error's variance is ``nu^2 / ((nu - p)^2 - 1)`` when
+several bands carry it; when one band carries it, less (1.46 against 1.63
+at ``nu = 14``, ``p = 3``), so the weight below errs on the wide side there
+(Monte Carlo in ``tests/test_plugin.py``). Each band's likelihood term is
+therefore weighted by the inverse,
 
     w_b = ((nu_b - p)^2 - 1) / nu_b^2
 
-(a tempered, or curvature-adjusted, likelihood: the band counts as ``w_b`` of
-itself), which is near 1 for long records (``nu_b`` in the hundreds) and
-matters where a band holds few segments (a 15-minute record at a 0.02 Hz lower
-edge: ``nu_b`` about 20, ``w_b`` about 0.72 with ``p = 3``). Derivation,
-checks and what it leaves: docs/errors_in_variables.md, "Short records".
+(a tempered, or curvature-adjusted, likelihood: the band counts as ``w_b``
+of itself), near 1 for long records (``nu_b`` in the hundreds) and smaller
+where a band holds few segments (a 15-minute record at a 0.02 Hz lower
+edge: ``nu_b`` about 25 in its lowest band, ``w_b`` about 0.77 with ``p =
+3``). Derivation, checks and what it leaves: docs/errors_in_variables.md,
+"The plug-in's own sampling error: band weights".
 """
 from __future__ import annotations
 
 import numpy as np
+
+from .spectra import hann
 
 #: Smallest weight a band gets (a band with fewer effective samples than the
 #: noise model's dimension carries almost nothing).
 MIN_WEIGHT = 0.05
 
 
-def effective_samples(k, inflation):
-    """(B,) effective complex-Wishart samples of each band's plug-in:
-    ``K_b / c_b`` (``k`` bins times segments, ``inflation`` the band's
-    ``c_b``)."""
-    return np.asarray(k, float) / np.maximum(np.asarray(inflation, float), 1e-12)
+def _bin_correlations(window, offset, n_lags):
+    """|rho_j|^2 for bin lags j = -n_lags..n_lags between a segment and one
+    ``offset`` samples later (0: the same segment), for white noise: the
+    normalised DFT of ``w[n] w[n + offset]``."""
+    w = np.asarray(window, float)
+    n = w.size
+    prod = np.zeros(n)
+    prod[:n - offset] = w[:n - offset] * w[offset:]
+    rho = np.fft.fft(prod) / np.sum(w * w)
+    lags = np.arange(-n_lags, n_lags + 1)
+    return lags, np.abs(rho[lags % n]) ** 2
 
 
-def band_weights(k, inflation, dim):
+def effective_samples(spectra, max_lag=32):
+    """(B,) independent complex samples each band's plug-in rests on.
+
+    For a band of ``m`` contiguous bins summed over segments, a statistic
+    quadratic in white data has variance ``sum |rho|^2`` over all pairs of
+    (segment, bin) where the independent-sample formula counts ``m K``; so
+    ``nu = (m K)^2 / sum_{pairs} |rho|^2`` (the equivalent degrees of freedom
+    of a Welch estimate, halved for complex samples). ``rho`` between bins
+    ``j`` apart of one segment, and of two segments overlapping by
+    ``nperseg - offset`` samples, follows from the window alone (periodic
+    Hann, as :func:`bayescal.core.spectra.cross_spectra` uses). The model's
+    fit does not enter: a band that misfits is not counted as having fewer
+    samples.
+    """
+    window = hann(spectra.nperseg)
+    starts = np.asarray(spectra.segment_starts)
+    k = starts.size
+    offsets = np.diff(starts)
+    offsets = offsets[offsets < spectra.nperseg]
+    m = np.asarray(spectra.bins_per_band, int)
+    lag_max = int(min(max_lag, max(m.max() - 1, 0)))
+    lags, same = _bin_correlations(window, 0, lag_max)
+    overlap = np.zeros_like(same)
+    for off, count in zip(*np.unique(offsets, return_counts=True)):
+        overlap += 2 * count * _bin_correlations(window, int(off), lag_max)[1]
+    out = np.empty(m.size)
+    for b, mb in enumerate(m):
+        pairs = np.clip(mb - np.abs(lags), 0, None)       # bin pairs j apart in the band
+        total = k * np.sum(pairs * same) + np.sum(pairs * overlap)
+        out[b] = (mb * k) ** 2 / total
+    return out
+
+
+def band_weights(nu, dim):
     """(B,) likelihood weight of each band (module docstring): ``((nu - p)^2
-    - 1) / nu^2`` with ``nu = K_b / c_b`` and ``p = dim``, the dimension of the
+    - 1) / nu^2`` with ``nu`` the band's effective samples
+    (:func:`effective_samples`) and ``p = dim``, the dimension of the
     estimated covariance; at least :data:`MIN_WEIGHT`."""
-    nu = effective_samples(k, inflation)
+    nu = np.asarray(nu, float)
     d = nu - float(dim)
     w = np.where(d > 1.0, (d * d - 1.0) / (nu * nu), 0.0)
     return np.clip(w, MIN_WEIGHT, 1.0)
