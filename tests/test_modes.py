@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import io
 import json
-from contextlib import redirect_stdout
 
 import numpy as np
 import pytest

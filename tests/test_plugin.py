@@ -7,7 +7,8 @@
    down to about 90 % of it, when one band does), and 1 once each band is
    weighted (a bias-only correction, ``(nu - p) / nu``, is not enough).
 2. The effective samples of a Welch band against a Monte Carlo of white
-   noise through Hann-windowed, 50 %-overlapping segments.
+   noise through Hann-windowed segments overlapping by 50 % (as the fit
+   cuts them, gaps allowed) and by 75 %.
 3. Both models carry the weights: the base model with ``p = n_u``, the
    errors-in-variables model with ``p = n_u + n_r``; the weighted whitened
    residual's squared norm is the Gaussian ``-log L``.
@@ -80,24 +81,31 @@ def test_weight_limits():
 
 @pytest.mark.parametrize("bins, starts", [(8, [0, 128, 256, 384, 512]),       # 50 % overlap
                                           (3, [0, 128, 256, 384, 512]),
-                                          (8, [0, 256, 512, 640])])          # a gap, then overlap
+                                          (8, [0, 256, 512, 640]),           # a gap, then overlap
+                                          (8, list(range(0, 832, 64)))])     # 75 % overlap
 def test_effective_samples_of_a_welch_band(bins, starts):
     """White noise, Hann segments of 256 samples: the band sum of |X|^2 over
-    ``bins`` bins and the given segments has relative variance 1 / nu."""
+    ``bins`` bins and the given segments has relative variance 1 / nu. At
+    75 % overlap segments two and three apart overlap too (counting only
+    neighbours gave 30.3 where this Monte Carlo gives 29.1)."""
     nperseg, first = 256, 20
     sp = SimpleNamespace(nperseg=nperseg, segment_starts=np.array(starts),
                          bins_per_band=np.array([bins]))
     nu = plugin.effective_samples(sp)[0]
+    shuffled = SimpleNamespace(nperseg=nperseg, bins_per_band=sp.bins_per_band,
+                               segment_starts=np.random.default_rng(0).permutation(starts))
+    assert plugin.effective_samples(shuffled)[0] == pytest.approx(nu, rel=1e-12)
     rng = np.random.default_rng(3)
     win = plugin.hann(nperseg)
     idx = np.array(starts)[:, None] + np.arange(nperseg)
-    totals = np.empty(4000)
-    for r in range(totals.size):
-        x = rng.standard_normal(starts[-1] + nperseg)
-        f = np.fft.rfft(x[idx] * win, axis=1)[:, first:first + bins]
-        totals[r] = np.sum(np.abs(f) ** 2)
+    totals = []
+    for _ in range(8):                                             # 40000 draws
+        x = rng.standard_normal((5000, starts[-1] + nperseg))
+        f = np.fft.rfft(x[:, idx] * win, axis=2)[:, :, first:first + bins]
+        totals.append(np.sum(np.abs(f) ** 2, axis=(1, 2)))
+    totals = np.concatenate(totals)
     measured = totals.mean() ** 2 / totals.var()
-    assert measured == pytest.approx(nu, rel=0.08)                # MC error ~ 3 %
+    assert measured == pytest.approx(nu, rel=0.025)               # MC error ~ 0.8 %
     assert nu < bins * len(starts)                                 # fewer than counted
 
 
@@ -133,6 +141,26 @@ def test_models_carry_the_weights(pair, mode):
     finally:
         model.misfit_shape = saved
     assert np.sum(r ** 2) == pytest.approx(-ll, rel=1e-9)
+    # ... and that is the unweighted bands' energy weighted once, not twice
+    q, _ = model.band_energy(theta[None])
+    assert -ll == pytest.approx(np.sum(expected * q[0]), rel=1e-9)
+    assert not np.allclose(np.sum(expected * q[0]), np.sum(q[0]), rtol=1e-3)
+
+
+def test_diagnosis_reports_its_final_models_weights(pair):
+    """A diagnosis that ends on another model (here the errors-in-variables
+    model after a quiet base fit) reports that model's weights (``p = n_u +
+    n_r``), not the base fit's."""
+    from bayescal.criticism.diagnose import posterior_of
+    from bayescal.io.pipeline import calibrate
+    base = calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+                     band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="quiet")
+    eiv = calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+                    band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="estimate")
+    final = posterior_of(eiv.model, eiv.theta_ls, np.diag(np.full(eiv.model.ndim, 1e-8)),
+                         base.meta, base.not_estimable, "gain", mcmc=False, n_laplace=50)
+    expected = [round(float(v), 4) for v in eiv.model.noise.weight]
+    assert final.meta["plugin_weights"] == expected != base.meta["plugin_weights"]
 
 
 def _short_fits(seeds, mode, weighted):

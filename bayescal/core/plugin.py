@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .selfnoise import effective_dof
 from .spectra import hann
 
 #: Smallest weight a band gets (a band with fewer effective samples than the
@@ -44,20 +45,7 @@ from .spectra import hann
 MIN_WEIGHT = 0.05
 
 
-def _bin_correlations(window, offset, n_lags):
-    """|rho_j|^2 for bin lags j = -n_lags..n_lags between a segment and one
-    ``offset`` samples later (0: the same segment), for white noise: the
-    normalised DFT of ``w[n] w[n + offset]``."""
-    w = np.asarray(window, float)
-    n = w.size
-    prod = np.zeros(n)
-    prod[:n - offset] = w[:n - offset] * w[offset:]
-    rho = np.fft.fft(prod) / np.sum(w * w)
-    lags = np.arange(-n_lags, n_lags + 1)
-    return lags, np.abs(rho[lags % n]) ** 2
-
-
-def effective_samples(spectra, max_lag=32):
+def effective_samples(spectra):
     """(B,) independent complex samples each band's plug-in rests on.
 
     For a band of ``m`` contiguous bins summed over segments, a statistic
@@ -65,29 +53,16 @@ def effective_samples(spectra, max_lag=32):
     (segment, bin) where the independent-sample formula counts ``m K``; so
     ``nu = (m K)^2 / sum_{pairs} |rho|^2`` (the equivalent degrees of freedom
     of a Welch estimate, halved for complex samples). ``rho`` between bins
-    ``j`` apart of one segment, and of two segments overlapping by
-    ``nperseg - offset`` samples, follows from the window alone (periodic
-    Hann, as :func:`bayescal.core.spectra.cross_spectra` uses). The model's
-    fit does not enter: a band that misfits is not counted as having fewer
-    samples.
+    ``j`` apart of one segment, and of every two segments that overlap (not
+    only neighbours: above 50 % overlap segments further apart do too),
+    follows from the window alone (periodic Hann, as
+    :func:`bayescal.core.spectra.cross_spectra` uses); the count is
+    :func:`bayescal.core.selfnoise.effective_dof`'s, which the self-noise
+    bands use. The model's fit does not enter: a band that misfits is not
+    counted as having fewer samples.
     """
-    window = hann(spectra.nperseg)
-    starts = np.asarray(spectra.segment_starts)
-    k = starts.size
-    offsets = np.diff(starts)
-    offsets = offsets[offsets < spectra.nperseg]
-    m = np.asarray(spectra.bins_per_band, int)
-    lag_max = int(min(max_lag, max(m.max() - 1, 0)))
-    lags, same = _bin_correlations(window, 0, lag_max)
-    overlap = np.zeros_like(same)
-    for off, count in zip(*np.unique(offsets, return_counts=True)):
-        overlap += 2 * count * _bin_correlations(window, int(off), lag_max)[1]
-    out = np.empty(m.size)
-    for b, mb in enumerate(m):
-        pairs = np.clip(mb - np.abs(lags), 0, None)       # bin pairs j apart in the band
-        total = k * np.sum(pairs * same) + np.sum(pairs * overlap)
-        out[b] = (mb * k) ** 2 / total
-    return out
+    return effective_dof(hann(spectra.nperseg), spectra.segment_starts,
+                         np.asarray(spectra.bins_per_band, int))
 
 
 def band_weights(nu, dim):
