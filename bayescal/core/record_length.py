@@ -15,10 +15,10 @@ coherence 0.9, reference noise-free, gains free, ``--ref-noise quiet``;
 record, band 0.02-1 Hz unless said         azimuth, dip, gain: z sd, before
 (used: periods of the lower edge)          the band weights -> with them
 =========================================  ==================================
-900 s (614 s used: 12 periods)             1.25, 1.21, 1.13 -> 1.14, 1.11, 1.03
-1800 s (1536 s: 31 periods)                1.00, 1.20, 1.08 -> 0.97, 1.16, 1.05
-3600 s (3379 s: 68 periods)                0.88, 0.97, 1.00 -> 0.87, 0.96, 0.99
-900 s, band 0.05-1 Hz (768 s: 38 periods)  1.06, 1.07, 1.02 -> 1.02, 1.04, 0.99
+900 s (614 s used: 12 periods)             1.25, 1.21, 1.13 -> 1.13, 1.08, 1.01
+1800 s (1536 s: 31 periods)                1.00, 1.20, 1.08 -> 0.96, 1.15, 1.04
+3600 s (3379 s: 68 periods)                0.88, 0.97, 1.00 -> 0.86, 0.96, 0.99
+900 s, band 0.05-1 Hz (768 s: 38 periods)  1.06, 1.07, 1.02 -> 1.02, 1.04, 0.98
 =========================================  ==================================
 
 With the weights every kind is inside its 99 % binomial band in these rows,
