@@ -22,7 +22,7 @@ record, band 0.02-1 Hz unless said         azimuth, dip, gain: z sd, before
 =========================================  ==================================
 
 With the weights every kind is inside its 99 % binomial band in these rows,
-but the short records' angles still scatter 10-15 % more than their
+but the short records' angles still scatter 8-13 % more than their
 intervals say (the approximation behind the weights is a many-band one, and
 the lowest band's segments overlap), so a fit still says when its record
 holds fewer than :data:`MIN_PERIODS` periods of the band's lower edge. The
@@ -49,6 +49,6 @@ def record_length(seconds, lower_edge_hz):
                        f"its lower edge {lower_edge_hz:.3g} Hz (fewer than {MIN_PERIODS:.0f}); the "
                        "noise model rests on few segments: its sampling error is allowed for, but "
                        "on simulations with 12 such periods the angles still scattered about "
-                       "10-15 % more than their intervals; a longer record or a higher lower edge "
+                       "8-13 % more than their intervals; a longer record or a higher lower edge "
                        "(--band) avoids it")
     return out
