@@ -460,7 +460,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "n_segments_possible": spectra.n_segments_possible,
                  "segment_s": spectra.nperseg / spectra.fs,
                  "noise_inflation": model.noise.inflation,
-                 "plugin_weights": _plugin_meta(model),
+                 "plugin_weights": plugin_meta(model),
                  "reference_noise": dict(refnoise.treatment_meta(model, theta_ls),
                                          chosen_by=chosen_by,
                                          **({"separation": separation} if separation else {})),
@@ -494,7 +494,7 @@ def _modes(model, theta_ls, cov, nominal, fitted):
     return best.model, theta_ls, cov, report
 
 
-def _plugin_meta(model):
+def plugin_meta(model):
     """``meta.plugin_weights``: each band's likelihood weight for the plug-in
     noise model's own sampling error (:mod:`bayescal.core.plugin`)."""
     w = getattr(model.noise, "weight", None)

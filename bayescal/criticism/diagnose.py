@@ -36,7 +36,7 @@ import numpy as np
 from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
 from ..core.refnoise import treatment_meta as reference_noise_meta
-from ..core.sampler import _plugin_meta, diagnostics, least_squares_fit, sample
+from ..core.sampler import diagnostics, least_squares_fit, plugin_meta, sample
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
 from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
@@ -98,7 +98,7 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
                      response=resp, samples=samples, names=model.names, log_prob=lp,
                      convergence=conv,
                      meta=dict(meta, effects=[e.name for e in model.effects],
-                               plugin_weights=_plugin_meta(model)),   # the final model's own
+                               plugin_weights=plugin_meta(model)),   # the final model's own
                      not_estimable=not_estimable, trace=trace,
                      diagnostics=diagnostics(model, np.median(samples, axis=0)))
     post.model = model
