@@ -114,15 +114,17 @@ def test_public_api_as_the_readme_shows():
 
 
 def test_fit_path_does_not_import_heavy_modules():
-    """Issue 16's start-up: the modules a pair fit runs through import
-    neither scipy.stats (about 1 s), matplotlib, Dask nor emcee (a
-    chi-square quantile in core/modes.py once pulled scipy.stats back in)."""
+    """Start-up: importing the modules a pair fit runs through, or those that
+    read and report a result, loads neither scipy.stats (about 1 s),
+    matplotlib, Dask nor emcee: emcee (which imports scipy.stats) is
+    imported when sampling starts (bayescal.core.mcmc), by commands that
+    sample."""
     import subprocess
     import sys
 
     code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.sampler, "
             "bayescal.core.modes, bayescal.core.eiv, bayescal.core.separation, "
-            "bayescal.core.pair_noise; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
+            "bayescal.core.pair_noise, bayescal.core.convergence, bayescal.core.posterior; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
             "'dask', 'emcee') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()

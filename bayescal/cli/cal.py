@@ -18,6 +18,11 @@ sut_corrected.xml holding them all.
 (--fit lp only). --kind sine: a single sine; the response's amplitude and
 phase at its frequency against the nominal (no --fit; no sut_corrected.xml:
 one frequency does not fix poles or a gain elsewhere).
+
+Exit codes: 0 success; 2 bad input (one line naming the file and the problem;
+nothing is written to DIR); 3 results written, but a sampler stopped at
+--max-steps before meeting its convergence rule (a NOT CONVERGED line says
+which; its intervals are provisional).
 """
 from __future__ import annotations
 
@@ -28,7 +33,8 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import add_paper_argument
+from .common import (add_paper_argument, add_sampling_argument, convergence_exit,
+                     quiet_convergence_warnings)
 
 HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
 KINDS = ("random", "step", "sine")
@@ -59,6 +65,7 @@ def configure(parser):
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_sampling_argument(parser)
     add_paper_argument(parser)
 
 
@@ -159,16 +166,18 @@ def run(args):
     band = tuple(args.band) if args.band else None
     fits = []
     for i, r in enumerate(runs):
-        kw = dict(seed=args.seed + i, progress=not args.quiet)
-        if args.kind == "random":
-            fits.append(fit_random(r, args.coil_constant, fit=fit, band=band, **kw))
-        elif args.kind == "step":
-            fits.append(fit_step(r, args.coil_constant, fit=fit, **kw))
-        else:
-            fits.append(fit_sine(r, args.coil_constant, **kw))
+        kw = dict(seed=args.seed + i, progress=not args.quiet, max_steps=args.max_steps)
+        with quiet_convergence_warnings():
+            if args.kind == "random":
+                fits.append(fit_random(r, args.coil_constant, fit=fit, band=band, **kw))
+            elif args.kind == "step":
+                fits.append(fit_step(r, args.coil_constant, fit=fit, **kw))
+            else:
+                fits.append(fit_sine(r, args.coil_constant, **kw))
     summaries = write_outputs(fits, inv, args.out, paper=args.paper)
     if not args.quiet:
         for s in summaries:
             _print_summary(s)
         print(f"written to {args.out}")
-    return 0
+    return convergence_exit([(f"the sampler of {s['channel']}", s["convergence"])
+                             for s in summaries])

@@ -72,7 +72,52 @@ def add_pair_arguments(parser):
                         help="no progress display (the band used and the results table are "
                              "still printed)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    add_sampling_argument(parser)
     add_paper_argument(parser)
+
+
+#: Exit code of a run whose results are written but one of whose samplers
+#: stopped at --max-steps before meeting its convergence rule.
+EXIT_NOT_CONVERGED = 3
+#: The exit codes, as each sampling command's --help states them.
+EXIT_CODES = ("Exit codes: 0 success; 2 bad input (one line naming the file and the problem; "
+              "nothing is written to DIR); 3 results written, but a sampler stopped at "
+              "--max-steps before meeting its convergence rule (a NOT CONVERGED line says "
+              "which; its intervals are provisional).")
+
+
+def add_sampling_argument(parser):
+    """``--max-steps N``: the most steps a sampler runs before it stops unconverged."""
+    parser.add_argument("--max-steps", type=int, default=200_000, metavar="N",
+                        help="most steps a sampler runs before it stops without meeting its "
+                             "convergence rule (default 200000; the run then ends with exit "
+                             "code 3 and says so)")
+
+
+@contextlib.contextmanager
+def quiet_convergence_warnings():
+    """The CLI states an unconverged chain in its own line (:func:`convergence_exit`),
+    not as a Python warning."""
+    import warnings
+
+    from ..core.convergence import NotConvergedWarning
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=NotConvergedWarning)
+        yield
+
+
+def convergence_exit(entries, stream=None):
+    """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
+    ``entries``: (label, convergence dict) pairs."""
+    from ..core.convergence import not_converged_line
+
+    code = 0
+    for label, conv in entries:
+        line = not_converged_line(conv, what=label)
+        if line:
+            print(line, file=stream or sys.stdout)
+            code = EXIT_NOT_CONVERGED
+    return code
 
 
 def add_paper_argument(parser):

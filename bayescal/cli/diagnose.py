@@ -17,7 +17,10 @@ Example:
   bayescal diagnose --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed \\
                     --sut-xml SUT.xml --out diag --band 0.02 3
 
-Exit codes: 0 success, 2 bad input (nothing written to DIR).
+Exit codes: 0 success; 2 bad input (one line naming the file and the problem;
+nothing is written to DIR); 3 results written, but a sampler stopped at
+--max-steps before meeting its convergence rule (a NOT CONVERGED line says
+which; its intervals are provisional).
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ import shutil
 import sys
 import tempfile
 
-from .common import add_pair_arguments, publish
+from .common import add_pair_arguments, convergence_exit, publish, quiet_convergence_warnings
 
 HELP = "locate model/recording mismatch, name and model the missing physics"
 
@@ -47,9 +50,8 @@ def configure(parser):
 
 def run(args):
     """Run the diagnosis; returns the exit code."""
-    from ..criticism.diagnose import diagnose
     from ..io.read import InputError
-    from ..io.pipeline import calibrate_files, write_results
+    from ..io.pipeline import write_results
     from ..core.posterior import write_json
 
     out = os.path.abspath(args.out)
@@ -57,16 +59,8 @@ def run(args):
         raise InputError(f"{args.out}: exists and is not a folder")
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr))
     say("bayescal diagnose: base fit ...")
-    base = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
-                           band=tuple(args.band) if args.band else None,
-                           fit_response=args.fit_response, seed=args.seed,
-                           start=args.start, end=args.end, progress=not args.quiet,
-                           sut_id=args.sut_id, ref_id=args.ref_id,
-                           # fit --diagnose: None; a given PSD replaces the quiet default
-                           ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
-                           ref_noise_psd=args.ref_noise_psd)
-    say("searching the catalogue of effects ...")
-    d = diagnose(base, seed=args.seed, progress=not args.quiet, log=say)
+    with quiet_convergence_warnings():
+        base, d = _run_diagnosis(args, say)
     final = d.final
     final.sut_inventory = base.sut_inventory
     parent = os.path.dirname(out) or "."
@@ -91,5 +85,25 @@ def run(args):
     short = final.meta.get("record_length", {}).get("note")
     if short:
         print(f"record: {short}")
+    code = convergence_exit([("the final model's sampler", final.summary()["convergence"])])
     say(f"wrote {out}")
-    return 0
+    return code
+
+
+def _run_diagnosis(args, say):
+    """The base fit and its diagnosis: ``(base, Diagnosis)``."""
+    from ..criticism.diagnose import diagnose
+    from ..io.pipeline import calibrate_files
+
+    base = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+                           band=tuple(args.band) if args.band else None,
+                           fit_response=args.fit_response, seed=args.seed,
+                           start=args.start, end=args.end, progress=not args.quiet,
+                           sut_id=args.sut_id, ref_id=args.ref_id,
+                           # fit --diagnose: None; a given PSD replaces the quiet default
+                           ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
+                           ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps)
+    say("searching the catalogue of effects ...")
+    return base, diagnose(base, seed=args.seed, progress=not args.quiet, log=say,
+                          max_steps=args.max_steps)
+

@@ -27,8 +27,10 @@ Sensors without StationXML that are flat (velocity) in the band: give
 --ref-xml flat / --sut-xml flat (orientation from the channel code: N or 1 =
 north, E or 2 = east, Z = vertical).
 
-Exit codes: 0 success, 2 bad input (one line naming the file and the problem;
-nothing is written to DIR).
+Exit codes: 0 success; 2 bad input (one line naming the file and the problem;
+nothing is written to DIR); 3 results written, but the sampler stopped at
+--max-steps before meeting its convergence rule (a NOT CONVERGED line says so;
+the intervals are provisional).
 """
 from __future__ import annotations
 
@@ -37,7 +39,8 @@ import sys
 import time
 import warnings
 
-from .common import add_pair_arguments, say, staging
+from .common import (add_pair_arguments, convergence_exit, quiet_convergence_warnings, say,
+                     staging)
 
 HELP = "estimate the SUT's orientation and gain (and response) from recordings beside a reference"
 
@@ -121,7 +124,7 @@ def run(args):
     if os.path.exists(out) and not os.path.isdir(out):
         raise InputError(f"{args.out}: exists and is not a folder")
     t_start = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, quiet_convergence_warnings():
         warnings.simplefilter("always", InputWarning)
         say(args, "bayescal fit: reading recordings and metadata ...")
         post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
@@ -129,7 +132,7 @@ def run(args):
                                fit_response=args.fit_response, seed=args.seed,
                                start=args.start, end=args.end, progress=not args.quiet,
                                sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise,
-                               ref_noise_psd=args.ref_noise_psd)
+                               ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)
@@ -150,6 +153,8 @@ def run(args):
                 print(f"bayescal: warning: the report could not be written "
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
     elapsed = time.perf_counter() - t_start
-    print_summary(post.summary())   # --quiet removes the progress display only
+    summary = post.summary()
+    print_summary(summary)   # --quiet removes the progress display only
+    code = convergence_exit([("the sampler", summary["convergence"])])
     say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
-    return 0
+    return code

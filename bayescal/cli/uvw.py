@@ -21,6 +21,11 @@ Everyday use, no calibration: rotate recorded X, Y, Z to the element axes
 U, V, W (or U, V, W back to X, Y, Z) to find a noisy or failed element:
   bayescal uvw --rotate rec.mseed --sensor sts2 --out out/
 writes out/rec_uvw.mseed (or out/rec_xyz.mseed).
+
+Exit codes: 0 success; 2 bad input (one line naming the file and the problem;
+nothing is written to DIR); 3 results written, but a sampler stopped at
+--max-steps before meeting its convergence rule (a NOT CONVERGED line says
+which; its intervals are provisional).
 """
 from __future__ import annotations
 
@@ -31,7 +36,8 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import add_paper_argument
+from .common import (add_paper_argument, add_sampling_argument, convergence_exit,
+                     quiet_convergence_warnings)
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -65,6 +71,7 @@ def configure(parser):
                              "raised when the record is short)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    add_sampling_argument(parser)
     add_paper_argument(parser)
 
 
@@ -205,10 +212,15 @@ def run(args):
                          "(or --rotate FILE)")
     runs, m, source = load_inputs(args)
     band = tuple(args.band) if args.band else None
-    result = coil.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
-                               z_only=args.z_only, seed=args.seed, progress=not args.quiet,
-                               matrix_source=source)
+    with quiet_convergence_warnings():
+        result = coil.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
+                                   z_only=args.z_only, seed=args.seed, progress=not args.quiet,
+                                   matrix_source=source, max_steps=args.max_steps)
     summary = write_outputs(result, args.out, paper=args.paper)
     if not args.quiet:
         _print_summary(summary, args.out)
-    return 0
+    chains = [(f"the sampler of element {e}", v["convergence"])
+              for e, v in summary["elements"].items()]
+    chains += [(f"the sampler of element {e} (Z only)", v["convergence"])
+               for e, v in summary.get("z_only", {}).items()]
+    return convergence_exit(chains)

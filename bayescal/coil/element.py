@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..core.sampler import FitError, sample
+from ..core.mcmc import sample
+from ..core.sampler import FitError
 from ..io.read import InputError
 from ..core.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import SpectraError, cross_spectra
 from .bounded import BoundedPosterior
-from .result import convergence_summary
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
 
@@ -249,7 +249,7 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
     ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the segment windows smooth
     only the nearly flat ratio of true to fitted response),
     ``make_model(spectra, base)``, least squares, then the posterior sampled by
-    :func:`bayescal.core.sampler.sample`. Returns ``(model, chain, spectra,
+    :func:`bayescal.core.mcmc.sample`. Returns ``(model, chain, spectra,
     theta_ls, cov_ls)`` (the second pass's least-squares point and Laplace
     covariance).
     """
@@ -283,6 +283,7 @@ class ElementFit:
     inflation: np.ndarray
     band_hz: tuple
     model: RunModel = field(repr=False, default=None)
+    sampler: dict = field(default_factory=dict)     # what emcee ran (Chain.sampler)
 
     def summary(self):
         out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
@@ -343,8 +344,8 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     app = model.apparent_coefficients(med)
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
-        convergence=convergence_summary(chain), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
+        convergence=chain.summary(), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
         apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
                   for a, v, c in zip(run.axes, app, coef)},
         inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),
-        model=model)
+        model=model, sampler=chain.sampler)

@@ -13,14 +13,6 @@ from ..core.response import evaluate_velocity_response
 SCHEMA = "bayescal.cal/1"
 
 
-def convergence_summary(chain):
-    """The convergence entry of a chain from :func:`bayescal.core.sampler.sample`."""
-    return {"tau_max": float(chain.tau.max()), "ess_min": float(chain.ess.min()),
-            "rhat_max": float(chain.rhat.max()), "n_steps": int(chain.n_steps),
-            "n_walkers": int(chain.n_walkers), "acceptance": float(chain.acceptance),
-            "converged": bool(chain.converged)}
-
-
 def adequacy_summary(model, theta):
     """Band residuals at ``theta`` against their noise model: the mean of
     ``|R_b|^2 / E|R_b|^2`` (about 1 when the model fits) and the chi-square
@@ -55,8 +47,8 @@ class CalFit:
         adequacy = (model.adequacy(med) if hasattr(model, "adequacy")
                     else adequacy_summary(model, med))
         meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
-                "duration_s": run.data.shape[1] / run.fs}
-        return cls(kind, run.ids[0], spec, chain.samples, convergence_summary(chain), adequacy,
+                "duration_s": run.data.shape[1] / run.fs, "sampler": chain.sampler}
+        return cls(kind, run.ids[0], spec, chain.samples, chain.summary(), adequacy,
                    (float(band[0]), float(band[1])), run.responses[0], meta, model)
 
     def physical(self):

@@ -27,9 +27,10 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..core.posterior import interval_summary
-from ..core.sampler import FitError, sample, single_threaded_blas
+from ..core.mcmc import sample
+from ..core.sampler import FitError, single_threaded_blas
 from ..io.read import InputError
-from .result import SCHEMA, convergence_summary
+from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
                          least_squares_time, padding)
 
@@ -163,6 +164,6 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     nominal = complex(run.nominal_response(np.array([f0]))[0, 0])
     meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
             "duration_s": x.size / run.fs, "settle_s": skip / run.fs,
-            "sine_fraction_of_input": frac}
-    return SineFit(run.ids[0], f0, nominal, chain.samples, convergence_summary(chain),
+            "sine_fraction_of_input": frac, "sampler": chain.sampler}
+    return SineFit(run.ids[0], f0, nominal, chain.samples, chain.summary(),
                    model.adequacy(med), run.responses[0], meta, model)

@@ -18,7 +18,8 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.sampler import sample, single_threaded_blas
+from ..core.mcmc import sample
+from ..core.sampler import single_threaded_blas
 from ..io.read import InputError
 from .hf import PZSpec, scale_start
 from .result import CalFit

@@ -270,7 +270,9 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
     mode = "z-only" if z_only else "all-outputs"
     meta = {"coil_constant": coil_constant, "coil_constant_used": c_eff,
             "runs": {e: {"source": r.source, "outputs": r.ids, "sampling_rate": r.fs,
-                         "duration_s": r.data.shape[1] / r.fs} for e, r in runs.items()}}
+                         "duration_s": r.data.shape[1] / r.fs} for e, r in runs.items()},
+            "sampler": {**{e: f.sampler for e, f in fits.items()},
+                        **{f"{e} (Z only)": f.sampler for e, f in z_fits.items()}}}
     return UVWResult(matrix=np.asarray(m, float), matrix_source=matrix_source, fits=fits,
                      z_fits=z_fits if len(z_fits) == 3 else {}, joint=joint, xyz=xyz,
                      freqs=freqs, family=fam, relative_gain=relative, mode=mode, meta=meta)

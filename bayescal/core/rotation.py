@@ -138,7 +138,10 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
                  "band_hz": [float(spectra.band_edges[0]), float(spectra.band_edges[-1])],
                  "band_edges_hz": spectra.band_edges, "n_segments": spectra.n_segments,
                  "n_segments_possible": spectra.n_segments_possible,
-                 "segment_s": spectra.nperseg / spectra.fs, "noise_inflation": [infl]})
+                 "segment_s": spectra.nperseg / spectra.fs, "noise_inflation": [infl],
+                 "sampler": {"library": None, "draws": N_SAMPLES,
+                             "approximation": "exact grid posterior of one rotation angle "
+                                              "(no MCMC)"}})
     sub = spectra.select([i, j])
     diagnostics = {"freqs": sub.freqs, "psd": sub.psd(), "band_edges": sub.band_edges,
                    "multiple_coherence": sub.multiple_coherence(),

@@ -1,28 +1,16 @@
 """From spectra to posterior samples: global closed-form start, least-squares
-refinement, sampling run until converged (emcee's DE moves, or, for a pair
-fit, a DE burn-in followed by independence Metropolis-Hastings with a frozen
-t proposal: :mod:`bayescal.core.independence`).
-
-Convergence rule (all must hold, checked every chunk of steps):
-
-* at least ``n_tau`` (50) integrated autocorrelation times of kept chain for
-  the slowest parameter (tau as :func:`emcee.autocorr.integrated_time`,
-  averaged over walkers);
-* at least ``min_ess`` (1000) effective samples for every parameter;
-* split R-hat below ``rhat_max`` (1.01), computed between the two halves of
-  the kept chain. Walkers of one ensemble are not independent, so R-hat across
-  walkers would not be valid; each half counts its effective (not raw) draws.
+refinement, then emcee run until converged (:func:`bayescal.core.mcmc.sample`,
+a differential-evolution burn-in followed by an independence move with a
+frozen t proposal; the convergence rule is stated there).
 """
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from . import misfit_scale, refnoise
-from .ensemble import Ensemble, integrated_time
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
 from .likelihood import ChannelBlock, Model, Priors
@@ -201,139 +189,6 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     return theta, 0.5 * (cov + cov.T)
 
 
-def split_rhat(chain, ess):
-    """Split R-hat between the two halves of ``chain`` (n, W, ndim), each half
-    flattened over walkers and counted as ``ess / 2`` effective draws."""
-    n = chain.shape[0] // 2
-    a = chain[:n].reshape(-1, chain.shape[2])
-    b = chain[n:2 * n].reshape(-1, chain.shape[2])
-    m_eff = np.maximum(ess / 2.0, 2.0)
-    w = 0.5 * (a.var(axis=0, ddof=1) + b.var(axis=0, ddof=1))
-    between = m_eff * (a.mean(axis=0) - b.mean(axis=0)) ** 2 / 2.0
-    var_plus = (m_eff - 1) / m_eff * w + between / m_eff
-    return np.sqrt(var_plus / w)
-
-
-@dataclass
-class Chain:
-    """Kept (post burn-in, thinned) samples and convergence figures."""
-
-    samples: np.ndarray       # (N, ndim)
-    log_prob: np.ndarray      # (N,)
-    tau: np.ndarray           # (ndim,)
-    ess: np.ndarray           # (ndim,)
-    rhat: np.ndarray          # (ndim,)
-    acceptance: float
-    n_steps: int
-    n_walkers: int
-    burn: int
-    converged: bool
-    trace: np.ndarray         # (steps, W, ndim), thinned for plots
-
-
-def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
-           rhat_max=1.01, max_steps=200_000, progress=True, move="de"):
-    """Run the sampler from around ``theta_start`` until the convergence rule holds.
-
-    Walkers start from a Gaussian with covariance ``cov`` (the least-squares
-    Laplace approximation) around the least-squares point. ``move="de"``:
-    emcee's mixture of differential-evolution moves throughout.
-    ``move="independence"``: :data:`DE_BURN` DE steps find the posterior's
-    scale, then each walker runs independence Metropolis-Hastings with a
-    multivariate-t proposal fitted to those draws, refitted once after
-    :data:`ADAPT` steps and frozen for the kept chain
-    (:mod:`bayescal.core.independence`; about 20 times fewer autocorrelation
-    steps on these near-Gaussian posteriors). The draws made while fitting the
-    proposal count as burn-in; if the proposal accepts less than
-    :data:`MIN_ACCEPTANCE` (a posterior far from Gaussian), the DE moves
-    carry on instead. The convergence rule is the same either way. Seeded
-    and reproducible.
-    """
-    ndim = model.ndim
-    n_walkers = n_walkers or max(32, 4 * ndim)
-    n_walkers += n_walkers % 2
-    rng = np.random.default_rng(seed)
-    p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
-    for _ in range(100):
-        bad = ~np.isfinite(model.log_prob(p0))
-        if not bad.any():
-            break
-        p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
-    # emcee's DEMove (0.8) / DESnookerMove (0.2) mixture, step for step
-    # (bayescal.core.ensemble: the same chain as emcee.EnsembleSampler)
-    sampler = Ensemble(model.log_prob, p0, np.random.RandomState(seed).get_state())
-    chunk, min_burn, min_chunk = 1000, 100, 200
-    bar = _progress(progress, chunk, n_tau, min_ess, rhat_max)
-    pre = np.empty((0, n_walkers, ndim))
-    if move == "independence":
-        frozen = _frozen_proposal(model, sampler, seed, bar)
-        if frozen is not None:
-            pre, sampler = frozen
-            chunk, min_burn, min_chunk = 150, 10, 50
-    elif move != "de":
-        raise ValueError(f"unknown move {move!r}")
-    # (a DE fallback keeps its burn-in steps in its own chain)
-    offset, steps, converged = pre.shape[0], sampler.iteration, False
-    while True:
-        sampler.run(chunk, on_step=bar.step)
-        steps += chunk
-        full = sampler.get_chain()
-        tau_all = integrated_time(full[steps // 2:])
-        burn = int(min(steps // 2, max(min_burn, 5 * np.max(tau_all))))
-        kept = full[burn:]
-        tau = integrated_time(kept)
-        ess = kept.shape[0] * n_walkers / tau
-        rhat = split_rhat(kept, ess)
-        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
-        if kept.shape[0] >= n_tau * tau.max() and ess.min() >= min_ess and rhat.max() < rhat_max:
-            converged = True
-            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
-            break
-        chunk = int(min(max(min_chunk, 1.1 * need - steps), max_steps - steps))
-        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
-        if steps >= max_steps:
-            warnings.warn(f"sampler stopped at {steps} steps without meeting the convergence rule "
-                          f"(tau {tau.max():.0f}, ESS {ess.min():.0f}, R-hat {rhat.max():.3f})")
-            break
-    bar.close()
-    thin = max(1, int(tau.min() / 4))
-    kept_lp = sampler.get_chain(discard=burn, thin=thin, log_prob=True)
-    full = np.concatenate([pre, full]) if offset else full
-    return Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
-                 log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
-                 acceptance=float(np.mean(sampler.acceptance_fraction)),
-                 n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
-                 converged=converged, trace=full[:: max(1, (offset + steps) // 1000)])
-
-
-#: ``move="independence"``: DE steps before the first proposal is fitted (from
-#: their second half), independence steps before it is refitted, and the
-#: acceptance below which the DE moves carry on instead.
-DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
-
-
-def _frozen_proposal(model, ensemble, seed, bar):
-    """DE burn-in, then one adaptation round of the t proposal; returns
-    (burn-in chain, walkers with the frozen proposal), or None (the DE
-    ensemble, advanced by the burn-in, carries on) when the proposal cannot
-    be fitted or accepts too rarely."""
-    from .independence import IndependenceWalkers, TProposal
-    ensemble.run(DE_BURN, on_step=bar.step)
-    rng = np.random.default_rng([seed, 16])
-    try:
-        walk = IndependenceWalkers(model.log_prob, ensemble.coords, ensemble.log_prob,
-                                   TProposal.fit(ensemble.get_chain(discard=DE_BURN // 2,
-                                                                    flat=True)), rng)
-        walk.run(ADAPT, on_step=bar.step)
-        if np.mean(walk.acceptance_fraction) < MIN_ACCEPTANCE:
-            return None
-        final = IndependenceWalkers(model.log_prob, walk.coords, walk.log_prob,
-                                    TProposal.fit(walk.get_chain(flat=True)), rng)
-    except np.linalg.LinAlgError:   # a degenerate spread: no proposal
-        return None
-    return np.concatenate([ensemble.get_chain(), walk.get_chain()]), final
-
-
 def single_threaded_blas():
     """Context limiting BLAS to one thread. The likelihood's products are
     small (walkers x nodes x bands): threaded BLAS only adds latency, and on a
@@ -341,50 +196,6 @@ def single_threaded_blas():
     0.12 ms per call on 2 loaded cores)."""
     from threadpoolctl import threadpool_limits
     return threadpool_limits(limits=1, user_api="blas")
-
-
-class _NoBar:
-    step = None
-
-    def goal(self, *args):
-        pass
-
-    def close(self):
-        pass
-
-
-class _GoalBar:
-    """Progress toward the convergence rule: the bar's total is the current
-    estimate of the steps the rule needs (re-estimated at every check, so
-    the time left is tqdm's estimate toward it), the postfix each target:
-    kept chain in autocorrelation times, smallest ESS and largest R-hat
-    against their goals."""
-
-    def __init__(self, first, n_tau, min_ess, rhat_max):
-        from tqdm.auto import tqdm
-        self.goals = (n_tau, min_ess, rhat_max)
-        self.bar = tqdm(total=first, unit="step", desc="sampling to convergence", leave=False,
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} steps "
-                                   "[{elapsed}<{remaining}]{postfix}")
-        self.bar.set_postfix_str(f"goals: {n_tau} tau, ESS {min_ess}, R-hat < {rhat_max}")
-
-    def step(self):
-        self.bar.update(1)
-
-    def goal(self, need_steps, kept_tau, ess, rhat):
-        """New estimate of the steps needed (the next check of the rule),
-        and where each target stands."""
-        n_tau, min_ess, rhat_max = self.goals
-        self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
-        self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
-                                 f"R-hat {rhat:.3f} (< {rhat_max})")
-
-    def close(self):
-        self.bar.close()
-
-
-def _progress(enabled, first, n_tau, min_ess, rhat_max):
-    return _GoalBar(first, n_tau, min_ess, rhat_max) if enabled else _NoBar()
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
@@ -445,6 +256,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
             separation = gain_separation(model, theta_ls, cov)
         # parameters the data do not constrain are held at nominal (issue 13 item 5)
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
+        from .mcmc import sample
         chain = sample(target, start, cov, seed=seed, progress=progress,
                        **{"move": "independence", **sample_kw})
     full = full_samples(target, chain.samples)
@@ -466,7 +278,8 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                                          **({"separation": separation} if separation else {})),
                  "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
                  "least_squares": dict(zip(model.names, theta_ls)),
-                 "set_by_prior": set_by_prior, "multimodal": multimodal})
+                 "set_by_prior": set_by_prior, "multimodal": multimodal,
+                 "sampler": chain.sampler})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
                      response=resp, samples=chain.samples, names=target.names,
                      log_prob=chain.log_prob,

@@ -36,7 +36,8 @@ import numpy as np
 from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
 from ..core.refnoise import treatment_meta as reference_noise_meta
-from ..core.sampler import diagnostics, least_squares_fit, plugin_meta, sample
+from ..core.mcmc import sample
+from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
 from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
@@ -70,7 +71,7 @@ def reference_shape_caveat(mode):
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
     """A :class:`Posterior` of ``model`` (with effects) from MCMC
-    (:func:`bayescal.core.sampler.sample`, the pair fit's independence
+    (:func:`bayescal.core.mcmc.sample`, the pair fit's independence
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:
@@ -81,6 +82,7 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
                 "acceptance": chain.acceptance, "n_steps": chain.n_steps,
                 "n_walkers": chain.n_walkers, "burn": chain.burn, "converged": chain.converged}
         trace = chain.trace
+        meta = dict(meta, sampler=chain.sampler)
     else:
         rng = np.random.default_rng(seed)
         samples = rng.multivariate_normal(theta, cov, size=n_laplace)
@@ -90,7 +92,9 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
                 "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}
         trace = None
-        meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC")
+        meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC",
+                    sampler={"library": None, "draws": int(len(samples)),
+                             "approximation": "Laplace (Gaussian at the least-squares point)"})
     vecs, _ = model.unpack(samples)
     resp = model.response_values(samples) if free != "none" else {}
     kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]

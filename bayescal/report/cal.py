@@ -89,6 +89,8 @@ def response_page(fit, summary, paper="a4"):
 
 def residuals_page(fit, summary, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
+    from ..core.convergence import describe_sampler, not_converged_line
+
     m = fit.model
     med = np.median(fit.theta, axis=0)
     r = m.residual(med)[0][:, 0]
@@ -110,6 +112,10 @@ def residuals_page(fit, summary, paper="a4"):
                                          for k, v in summary["convergence"].items()),
              "Adequacy: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
                                       for k, v in summary["adequacy"].items()),
+             *([not_converged_line(summary["convergence"])]
+               if not summary["convergence"].get("converged", True) else []),
+             *([f"Sampler: {describe_sampler(summary['meta'].get('sampler'))}"]
+               if summary.get("meta", {}).get("sampler") else []),
              f"Band {summary['band_hz'][0]:.4g}-{summary['band_hz'][1]:.4g} Hz; "
              f"fixed at nominal: {summary['fixed_at_nominal'] or 'nothing'}"]
     for k, (p, e) in enumerate((k, v) for k, v in summary["parameters"].items()

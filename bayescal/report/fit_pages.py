@@ -337,8 +337,12 @@ def page_convergence(ctx):
     tab.auto_set_font_size(False)
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
-    fig.text(0.06, 0.015, "Default convergence rule of bayescal.core.sampler.sample: kept chain >= 50 tau,"
-             "\nESS >= 1000 for every parameter, split R-hat (chain halves) < 1.01.", fontsize=7)
+    from ..core.convergence import describe_sampler
+    sampler = describe_sampler(post.meta.get("sampler"))
+    fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
+             + "Default convergence rule of bayescal.core.mcmc.sample: kept chain >= 50 tau,"
+             " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
+             fontsize=6.5, wrap=True)
     return fig
 
 

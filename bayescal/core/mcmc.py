@@ -1,0 +1,362 @@
+"""Every MCMC posterior of bayescal is sampled here, by emcee.
+
+:func:`sample` starts, runs and checks every chain (pair fits, a diagnosis's
+final model, coil elements, step and sine runs, UVW): an
+:class:`emcee.EnsembleSampler` (``vectorize=True``, one log-probability call
+per sub-ensemble or per step) driven in phases, each phase a new sampler
+started from the last :class:`emcee.State` of the one before, with the
+random stream handed on:
+
+* ``move="de"``: emcee's ``DEMove`` (weight 0.8) and ``DESnookerMove``
+  (weight 0.2) throughout;
+* ``move="independence"`` (pair fits): :data:`DE_BURN` steps of those moves
+  find the posterior's scale; then :class:`IndependenceMove`, an
+  :class:`emcee.moves.MHMove` whose proposal is a multivariate Student t
+  fitted to the DE draws (:class:`TProposal`), runs :data:`ADAPT` steps, is
+  refitted to them and frozen for the kept chain. On the near-Gaussian
+  posteriors of a pair fit it mixes in one or two steps where the DE moves
+  need 30-40. If it accepts less than :data:`MIN_ACCEPTANCE` (a posterior
+  far from Gaussian), the DE sampler carries on from its burn-in instead.
+
+Convergence rule (all must hold, checked after every chunk of steps):
+
+* at least ``n_tau`` (50) integrated autocorrelation times of kept chain for
+  the slowest parameter (tau from :func:`emcee.autocorr.integrated_time`,
+  averaged over walkers);
+* at least ``min_ess`` (1000) effective samples for every parameter;
+* split R-hat below ``rhat_max`` (1.01) between the two halves of the kept
+  chain (:func:`split_rhat`). Walkers of one ensemble are not independent,
+  so R-hat across walkers would not be valid; each half counts its effective
+  (not raw) draws.
+
+A chain that reaches ``max_steps`` first is returned with
+``converged=False`` and a :class:`NotConvergedWarning`. What was run (emcee's
+version, the walkers, each phase's moves with their weights, steps and
+acceptance) is in :attr:`Chain.sampler`.
+
+``import emcee`` imports scipy.stats (through its KDE move), about 0.4-1 s:
+this module is imported only by code that samples.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import emcee
+import numpy as np
+
+from .convergence import NotConvergedWarning, not_converged_line
+
+#: ``move="independence"``: DE steps before the first proposal is fitted (from
+#: their second half), independence steps before it is refitted, and the
+#: acceptance below which the DE moves carry on instead.
+DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
+#: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
+#: for a Gaussian target with the covariance fitted from 3600 draws).
+NU = 10.0
+#: The differential-evolution mixture: (move, weight).
+DE_WEIGHTS = (("DEMove", 0.8), ("DESnookerMove", 0.2))
+
+
+class TProposal:
+    """Multivariate Student t with location ``mean``, scale matrix ``cov`` and
+    ``nu`` degrees of freedom: heavier tails than a near-Gaussian posterior,
+    so the ratio target / proposal stays bounded."""
+
+    def __init__(self, mean, cov, nu=NU):
+        self.mean = np.asarray(mean, float)
+        self.nu = float(nu)
+        self.chol = np.linalg.cholesky(np.atleast_2d(cov))
+        self.ndim = self.mean.size
+
+    @classmethod
+    def fit(cls, draws, nu=NU):
+        """Mean and covariance of ``draws`` (n, ndim)."""
+        draws = np.asarray(draws, float)
+        return cls(draws.mean(axis=0), np.atleast_2d(np.cov(draws, rowvar=False)), nu)
+
+    def draw(self, random, n):
+        """``n`` draws, from a ``numpy.random.RandomState`` (emcee's)."""
+        z = random.standard_normal((n, self.ndim)) @ self.chol.T
+        w = np.sqrt(random.chisquare(self.nu, size=(n, 1)) / self.nu)
+        return self.mean + z / w
+
+    def log_pdf(self, x):
+        """Log density up to a constant (it cancels in the acceptance ratio)."""
+        y = np.linalg.solve(self.chol, (np.atleast_2d(x) - self.mean).T)
+        return -0.5 * (self.nu + self.ndim) * np.log1p(np.sum(y * y, axis=0) / self.nu)
+
+
+class IndependenceMove(emcee.moves.MHMove):
+    """Independence Metropolis-Hastings as an emcee move: every walker
+    proposes a fresh draw ``q`` of a fixed :class:`TProposal` ``g``, whatever
+    its position ``x``; emcee accepts with probability
+    ``min(1, pi(q) g(x) / (pi(x) g(q)))``, which leaves the posterior ``pi``
+    invariant (the proposal's log-ratio ``log g(x) - log g(q)`` is the
+    factor :class:`emcee.moves.MHMove` adds)."""
+
+    def __init__(self, proposal):
+        self.proposal = proposal
+        super().__init__(self._propose, ndim=proposal.ndim)
+
+    def _propose(self, coords, random):
+        q = self.proposal.draw(random, coords.shape[0])
+        return q, self.proposal.log_pdf(coords) - self.proposal.log_pdf(q)
+
+
+def integrated_time(x):
+    """Integrated autocorrelation time per parameter of ``x`` (steps,
+    walkers, ndim): :func:`emcee.autocorr.integrated_time` (c = 5), without
+    its chain-length check (the convergence rule applies its own)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return emcee.autocorr.integrated_time(x, c=5, tol=0)
+
+
+def split_rhat(chain, ess):
+    """Split R-hat between the two halves of ``chain`` (n, W, ndim), each half
+    flattened over walkers and counted as ``ess / 2`` effective draws: the
+    potential scale reduction of Gelman et al. (BDA3, eqs. 11.3-11.4) for two
+    sequences of ``n = ess / 2`` draws, ``sqrt(((n - 1) / n W + B / n) / W)``."""
+    n = chain.shape[0] // 2
+    a = chain[:n].reshape(-1, chain.shape[2])
+    b = chain[n:2 * n].reshape(-1, chain.shape[2])
+    m_eff = np.maximum(ess / 2.0, 2.0)
+    w = 0.5 * (a.var(axis=0, ddof=1) + b.var(axis=0, ddof=1))
+    between = m_eff * (a.mean(axis=0) - b.mean(axis=0)) ** 2 / 2.0
+    var_plus = (m_eff - 1) / m_eff * w + between / m_eff
+    return np.sqrt(var_plus / w)
+
+
+@dataclass
+class Chain:
+    """Kept (post burn-in, thinned) samples and convergence figures."""
+
+    samples: np.ndarray       # (N, ndim)
+    log_prob: np.ndarray      # (N,)
+    tau: np.ndarray           # (ndim,)
+    ess: np.ndarray           # (ndim,)
+    rhat: np.ndarray          # (ndim,)
+    acceptance: float
+    n_steps: int
+    n_walkers: int
+    burn: int
+    converged: bool
+    trace: np.ndarray         # (steps, W, ndim), thinned for plots
+    sampler: dict = field(default_factory=dict)   # what was run: see :func:`sample`
+
+    def summary(self):
+        """The ``convergence`` entry of a result file: the slowest parameter's
+        figures, the run's size, whether the rule held, and the sampler."""
+        return {"tau_max": float(np.max(self.tau)), "ess_min": float(np.min(self.ess)),
+                "rhat_max": float(np.max(self.rhat)), "n_steps": int(self.n_steps),
+                "n_walkers": int(self.n_walkers), "acceptance": float(self.acceptance),
+                "converged": bool(self.converged)}
+
+
+class _Phases:
+    """emcee samplers run one after another on the same walkers: each starts
+    from the last state of the one before and continues its random stream;
+    :meth:`record` lists what each ran."""
+
+    def __init__(self, log_prob, n_walkers, ndim, bar):
+        self.log_prob, self.n_walkers, self.ndim, self.bar = log_prob, n_walkers, ndim, bar
+        self.phases = []
+
+    def new(self, moves, label):
+        """An emcee sampler with ``moves``, a list of (move, weight)."""
+        s = emcee.EnsembleSampler(self.n_walkers, self.ndim, self.log_prob, vectorize=True,
+                                  moves=list(moves))
+        s.bayescal_phase = {"label": label,
+                            "moves": [{"move": _move_name(m), "weight": float(w)}
+                                      for m, w in moves]}
+        s.bayescal_done = (0, np.zeros(self.n_walkers))
+        return s
+
+    def run(self, sampler, state, n_steps):
+        """Advance ``sampler`` ``n_steps`` from ``state``; returns the last state."""
+        for state in sampler.sample(state, iterations=n_steps, skip_initial_state_check=True):
+            if self.bar.step is not None:
+                self.bar.step()
+        return state
+
+    def close(self, sampler, label=None):
+        """Record what ``sampler`` ran since it was last recorded: its moves,
+        steps and mean acceptance."""
+        done_steps, done_acc = sampler.bayescal_done
+        steps = sampler.iteration - done_steps
+        accepted = sampler.backend.accepted - done_acc
+        self.phases.append(dict(sampler.bayescal_phase, label=label or
+                                sampler.bayescal_phase["label"], steps=int(steps),
+                                acceptance=float(np.mean(accepted) / max(steps, 1))))
+        sampler.bayescal_done = (sampler.iteration, sampler.backend.accepted.copy())
+
+    def record(self):
+        return {"library": "emcee", "version": emcee.__version__,
+                "walkers": int(self.n_walkers), "vectorize": True,
+                "steps": int(sum(p["steps"] for p in self.phases)), "phases": self.phases}
+
+
+def _move_name(move):
+    if isinstance(move, IndependenceMove):
+        return f"IndependenceMove (MHMove, multivariate t, nu={move.proposal.nu:g})"
+    return type(move).__name__
+
+
+def _de_moves():
+    return [(emcee.moves.DEMove(), DE_WEIGHTS[0][1]), (emcee.moves.DESnookerMove(),
+                                                       DE_WEIGHTS[1][1])]
+
+
+def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
+           rhat_max=1.01, max_steps=200_000, progress=True, move="de"):
+    """Sample ``model``'s posterior with emcee from around ``theta_start``
+    until the convergence rule holds or ``max_steps`` steps are run.
+
+    Parameters
+    ----------
+    model : object with ``ndim`` and a vectorised ``log_prob((k, ndim)) -> (k,)``.
+    theta_start, cov : the walkers start from a Gaussian with covariance
+        ``cov`` (the least-squares Laplace approximation) around ``theta_start``.
+    seed : the chain is a function of the seed alone (same seed, same chain).
+    n_walkers : default ``max(32, 4 ndim)``, made even.
+    min_ess, n_tau, rhat_max : the convergence rule (module docstring).
+    max_steps : steps of the kept phase after which the chain stops unconverged
+        (it always runs at least one step).
+    progress : a progress bar toward the rule (tqdm, on stderr).
+    move : "de" (emcee's differential-evolution moves throughout) or
+        "independence" (a DE burn-in, then :class:`IndependenceMove`).
+
+    Returns
+    -------
+    Chain
+        Kept samples; ``sampler`` records emcee's version, the walkers and
+        each phase's moves, weights, steps and acceptance. An unconverged
+        chain also raises a :class:`NotConvergedWarning`.
+    """
+    if move not in ("de", "independence"):
+        raise ValueError(f"unknown move {move!r}")
+    ndim = model.ndim
+    n_walkers = n_walkers or max(32, 4 * ndim)
+    n_walkers += n_walkers % 2
+    rng = np.random.default_rng(seed)
+    p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
+    for _ in range(100):
+        bad = ~np.isfinite(model.log_prob(p0))
+        if not bad.any():
+            break
+        p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
+    chunk, min_burn, min_chunk = 1000, 100, 200
+    bar = _progress(progress, chunk, n_tau, min_ess, rhat_max)
+    phases = _Phases(model.log_prob, n_walkers, ndim, bar)
+    sampler = phases.new(_de_moves(), "differential evolution")
+    state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
+    pre = np.empty((0, n_walkers, ndim))
+    if move == "independence":
+        state = phases.run(sampler, state, DE_BURN)
+        frozen = _frozen_proposal(phases, sampler, state)
+        if frozen is not None:
+            pre, sampler, state = frozen
+            chunk, min_burn, min_chunk = 150, 10, 50
+    # (a DE fallback keeps its burn-in steps in its own chain)
+    offset, steps, converged = pre.shape[0], sampler.iteration, False
+    chunk = max(1, min(chunk, max_steps - steps))
+    while True:
+        state = phases.run(sampler, state, chunk)
+        steps += chunk
+        full = sampler.get_chain()
+        tau_all = integrated_time(full[steps // 2:])
+        burn = int(min(steps // 2, max(min_burn, 5 * np.max(tau_all))))
+        kept = full[burn:]
+        tau = integrated_time(kept)
+        ess = kept.shape[0] * n_walkers / tau
+        rhat = split_rhat(kept, ess)
+        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
+        if kept.shape[0] >= n_tau * tau.max() and ess.min() >= min_ess and rhat.max() < rhat_max:
+            converged = True
+            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+            break
+        chunk = int(min(max(min_chunk, 1.1 * need - steps), max_steps - steps))
+        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+        if steps >= max_steps:
+            break
+    bar.close()
+    phases.close(sampler)
+    thin = max(1, int(tau.min() / 4))
+    kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
+    full = np.concatenate([pre, full]) if offset else full
+    chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
+                  log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
+                  acceptance=float(np.mean(sampler.acceptance_fraction)),
+                  n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
+                  converged=converged, trace=full[:: max(1, (offset + steps) // 1000)],
+                  sampler=phases.record())
+    if not converged:
+        warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
+                      stacklevel=2)
+    return chain
+
+
+def _frozen_proposal(phases, de, state):
+    """One adaptation round of the t proposal after the DE burn-in; returns
+    (burn-in chain, the sampler with the frozen proposal, its start state),
+    or None (the DE sampler carries on) when the proposal cannot be fitted or
+    accepts too rarely."""
+    phases.close(de, "differential evolution (burn-in)")
+    try:
+        adapt = phases.new([(IndependenceMove(TProposal.fit(
+            de.get_chain(discard=DE_BURN // 2, flat=True))), 1.0)], "independence (adapting)")
+        last = phases.run(adapt, state, ADAPT)
+        if np.mean(adapt.acceptance_fraction) < MIN_ACCEPTANCE:
+            phases.close(adapt, "independence (adapting; accepted too rarely: the "
+                                "differential-evolution moves carry on)")
+            return None
+        phases.close(adapt)
+        final = phases.new([(IndependenceMove(TProposal.fit(adapt.get_chain(flat=True))), 1.0)],
+                           "independence (frozen proposal)")
+    except np.linalg.LinAlgError:   # a degenerate spread: no proposal
+        return None
+    return np.concatenate([de.get_chain(), adapt.get_chain()]), final, last
+
+
+class _NoBar:
+    step = None
+
+    def goal(self, *args):
+        pass
+
+    def close(self):
+        pass
+
+
+class _GoalBar:
+    """Progress toward the convergence rule: the bar's total is the current
+    estimate of the steps the rule needs (re-estimated at every check, so
+    the time left is tqdm's estimate toward it), the postfix each target:
+    kept chain in autocorrelation times, smallest ESS and largest R-hat
+    against their goals."""
+
+    def __init__(self, first, n_tau, min_ess, rhat_max):
+        from tqdm.auto import tqdm
+        self.goals = (n_tau, min_ess, rhat_max)
+        self.bar = tqdm(total=first, unit="step", desc="sampling to convergence", leave=False,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} steps "
+                                   "[{elapsed}<{remaining}]{postfix}")
+        self.bar.set_postfix_str(f"goals: {n_tau} tau, ESS {min_ess}, R-hat < {rhat_max}")
+
+    def step(self):
+        self.bar.update(1)
+
+    def goal(self, need_steps, kept_tau, ess, rhat):
+        """New estimate of the steps needed (the next check of the rule),
+        and where each target stands."""
+        n_tau, min_ess, rhat_max = self.goals
+        self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
+        self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
+                                 f"R-hat {rhat:.3f} (< {rhat_max})")
+
+    def close(self):
+        self.bar.close()
+
+
+def _progress(enabled, first, n_tau, min_ess, rhat_max):
+    return _GoalBar(first, n_tau, min_ess, rhat_max) if enabled else _NoBar()

@@ -1,0 +1,119 @@
+"""emcee samples every posterior (:mod:`bayescal.core.mcmc`): a chain is
+emcee's own chain for the same moves and seed, the same seed gives the same
+chain, what was run is recorded, the convergence rule has a known answer,
+and a chain that reaches ``max_steps`` says so where a user looks (the
+Python warning, result.json, the console line and exit code 3)."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import emcee
+import numpy as np
+import pytest
+
+from bayescal.core import mcmc
+from bayescal.core.convergence import NotConvergedWarning
+from tests.conftest import SIM_BAND
+
+
+class Gaussian:
+    """A correlated 4-D Gaussian target."""
+
+    ndim = 4
+    cov = np.array([[1.0, 0.6, 0.0, 0.1], [0.6, 2.0, 0.3, 0.0], [0.0, 0.3, 0.5, 0.0],
+                    [0.1, 0.0, 0.0, 3.0]])
+
+    def log_prob(self, x):
+        x = np.atleast_2d(x)
+        return -0.5 * np.einsum("wi,ij,wj->w", x, np.linalg.inv(self.cov), x)
+
+
+def test_de_chain_is_emcees_own():
+    """move="de": the kept samples are those of an emcee.EnsembleSampler with
+    DEMove 0.8 / DESnookerMove 0.2, seeded the same, run as many steps."""
+    t = Gaussian()
+    ch = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=5, progress=False, move="de")
+    p0 = np.random.default_rng(5).multivariate_normal(np.zeros(4), 0.1 * t.cov, size=32)
+    ref = emcee.EnsembleSampler(32, 4, t.log_prob, vectorize=True,
+                                moves=[(emcee.moves.DEMove(), 0.8),
+                                       (emcee.moves.DESnookerMove(), 0.2)])
+    ref.random_state = np.random.RandomState(5).get_state()
+    ref.run_mcmc(p0, ch.n_steps)
+    thin = max(1, int(ch.tau.min() / 4))
+    np.testing.assert_array_equal(ch.samples, ref.get_chain(discard=ch.burn, thin=thin,
+                                                            flat=True))
+    np.testing.assert_array_equal(ch.tau, emcee.autocorr.integrated_time(
+        ref.get_chain(discard=ch.burn), tol=0))
+    assert ch.acceptance == pytest.approx(np.mean(ref.acceptance_fraction))
+    rec = ch.sampler
+    assert rec["library"] == "emcee" and rec["version"] == emcee.__version__
+    assert rec["walkers"] == 32 and rec["steps"] == ch.n_steps
+    assert [m["move"] for m in rec["phases"][0]["moves"]] == ["DEMove", "DESnookerMove"]
+    assert [m["weight"] for m in rec["phases"][0]["moves"]] == [0.8, 0.2]
+    # the chain samples the target: variances within 5 standard errors
+    se = np.diag(t.cov) * np.sqrt(2 / ch.ess)
+    assert np.all(np.abs(ch.samples.var(axis=0) - np.diag(t.cov)) < 5 * se)
+
+
+def test_independence_phases_recorded_and_reproducible():
+    t = Gaussian()
+    a = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=2, progress=False, move="independence")
+    b = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=2, progress=False, move="independence")
+    c = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=3, progress=False, move="independence")
+    np.testing.assert_array_equal(a.samples, b.samples)
+    assert a.samples.shape != c.samples.shape or not np.array_equal(a.samples, c.samples)
+    phases = a.sampler["phases"]
+    assert [p["steps"] for p in phases[:2]] == [mcmc.DE_BURN, mcmc.ADAPT]
+    assert phases[-1]["moves"][0]["move"].startswith("IndependenceMove")
+    assert sum(p["steps"] for p in phases) == a.n_steps == a.sampler["steps"]
+    assert phases[-1]["acceptance"] == pytest.approx(a.acceptance)
+    assert 0.3 < a.acceptance <= 1.0       # the frozen t proposal fits this target
+
+
+def test_split_rhat_known_answer():
+    """Two halves with equal variance W and means d apart, each counted as
+    n = ess / 2 draws: BDA3 eqs. 11.3-11.4 give B = n d^2 / 2 and
+    R = sqrt((n - 1) / n + d^2 / (2 W))."""
+    base = np.tile([-1.0, 1.0, -2.0, 2.0], 50)              # 200 draws, mean 0
+    for d, ess in ((0.0, 400.0), (0.3, 400.0), (1.0, 50.0)):
+        chain = np.concatenate([base, base + d])[:, None, None]
+        n, w = ess / 2, base.var(ddof=1)
+        want = np.sqrt((n - 1) / n + d * d / (2 * w))
+        np.testing.assert_allclose(mcmc.split_rhat(chain, np.array([ess])), want, rtol=1e-12)
+
+
+def test_rule_met_or_stopped_at_max_steps():
+    t = Gaussian()
+    ok = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=1, progress=False, move="de")
+    kept = ok.n_steps - ok.burn
+    assert ok.converged and kept >= 50 * ok.tau.max() and ok.ess.min() >= 1000
+    assert ok.rhat.max() < 1.01
+    for move, pre in (("de", 0), ("independence", mcmc.DE_BURN + mcmc.ADAPT)):
+        with pytest.warns(NotConvergedWarning, match="stopped at"):
+            ch = mcmc.sample(t, np.zeros(4), 0.1 * t.cov, seed=1, progress=False, move=move,
+                             max_steps=40)
+        assert not ch.converged and ch.n_steps == pre + 40
+        assert ch.summary()["converged"] is False and ch.samples.shape[0] > 0
+
+
+def test_cli_unconverged_says_so_and_exits_3(sim_files, tmp_path):
+    out = tmp_path / "out"
+    args = ["--ref", sim_files["ref.mseed"], "--ref-xml", sim_files["ref.xml"], "--sut",
+            sim_files["sut.mseed"], "--sut-xml", sim_files["sut.xml"], "--band", *SIM_BAND]
+    proc = subprocess.run([sys.executable, "-m", "bayescal", "fit", *map(str, args), "--out",
+                           str(out), "--quiet", "--no-report", "--max-steps", "20"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 3, proc.stderr
+    lines = [ln for ln in proc.stdout.splitlines() if "NOT CONVERGED" in ln]
+    steps = mcmc.DE_BURN + mcmc.ADAPT + 20        # the burn-in, adaptation and 20 kept
+    assert len(lines) == 1 and f"stopped at {steps} steps" in lines[0], proc.stdout
+    assert "Warning" not in proc.stderr and "Traceback" not in proc.stderr
+    res = json.loads((out / "result.json").read_text())
+    assert res["convergence"]["converged"] is False
+    assert res["meta"]["sampler"]["library"] == "emcee"
+    for cmd in ("fit", "diagnose", "cal", "uvw"):
+        helptext = subprocess.run([sys.executable, "-m", "bayescal", cmd, "--help"],
+                                  capture_output=True, text=True).stdout
+        assert "3 results written" in " ".join(helptext.split()), cmd
