@@ -43,10 +43,11 @@ sys.path.insert(0, tree)
 sys.path.insert(0, tree + "/examples")
 import numpy as np
 import obspy
-import bayescal.io.pipeline, bayescal.coil, bayescal.criticism.diagnose
+import bayescal.io.pipeline
 t0 = time.process_time()
 import emcee
 t_import = time.process_time() - t0
+import bayescal.coil, bayescal.criticism.diagnose
 try:
     import bayescal.core.mcmc as home
 except ImportError:

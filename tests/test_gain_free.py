@@ -63,8 +63,11 @@ def test_flat_metadata_gives_the_true_relative_gain(tmp_path):
     channels = post.summary()["channels"]
     for cid, e in channels.items():
         rel = e["response"]["relative_gain"]
-        assert rel["median"] == pytest.approx(truth, rel=3e-3), cid
-        assert rel["ci95"][1] - rel["ci95"][0] < 0.01 * truth
+        sd = (rel["ci68"][1] - rel["ci68"][0]) / 2
+        # within 3.5 posterior sd of the truth (level 5e-4 per channel), and
+        # measured (a 95 % width of about 1 %), not set by the gain prior
+        assert abs(rel["median"] - truth) < 3.5 * sd, (cid, rel)
+        assert rel["ci95"][1] - rel["ci95"][0] < 0.02 * truth, (cid, rel)
     write_corrected(inv, post, tmp_path / "c.xml")
     ch = obspy.read_inventory(str(tmp_path / "c.xml")).select(channel="BH1")[0][0][0]
     g = channels["XX.SIM.10.BH1"]["response"]["gain"]["median"]

@@ -117,3 +117,26 @@ def test_cli_unconverged_says_so_and_exits_3(sim_files, tmp_path):
         helptext = subprocess.run([sys.executable, "-m", "bayescal", cmd, "--help"],
                                   capture_output=True, text=True).stdout
         assert "3 results written" in " ".join(helptext.split()), cmd
+
+
+def test_independence_move_accepts_everything_when_the_target_is_its_proposal():
+    """Acceptance is min(1, pi(q) g(x) / (pi(x) g(q))): with pi = g every
+    proposal is accepted, at every step of a batched run (a wrong log g at
+    the walkers' positions, or a proposal paired with another's
+    log-probability, would reject some)."""
+    prop = mcmc.TProposal(np.array([0.5, -1.0, 2.0]), Gaussian.cov[:3, :3])
+
+    class Target:
+        ndim = 3
+
+        def log_prob(self, x):
+            return prop.log_pdf(x) + 7.0
+
+    move = mcmc.IndependenceMove(prop)
+    s = mcmc.VectorSampler(16, 3, Target().log_prob, moves=[move])
+    s.random_state = np.random.RandomState(1).get_state()
+    state = s.run_mcmc(np.random.default_rng(1).standard_normal((16, 3)), 1)
+    move.plan(37)                                   # a batched run (the last step alone)
+    s.run_mcmc(state, 38)
+    assert np.all(s.acceptance_fraction == 1.0)
+    assert len(np.unique(s.get_chain()[:, 0, 0])) == 39      # a new point every step

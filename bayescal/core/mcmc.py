@@ -9,13 +9,14 @@ random stream handed on:
 
 * ``move="de"``: emcee's ``DEMove`` (weight 0.8) and ``DESnookerMove``
   (weight 0.2) throughout;
-* ``move="independence"`` (pair fits): :data:`DE_BURN` steps of those moves
+* ``move="independence"`` (the default, every posterior of bayescal):
+  :data:`DE_BURN` steps of those moves
   find the posterior's scale; then :class:`IndependenceMove`, an
-  :class:`emcee.moves.MHMove` whose proposal is a multivariate Student t
+  :class:`emcee.moves.Move` whose proposal is a multivariate Student t
   fitted to the DE draws (:class:`TProposal`), runs :data:`ADAPT` steps, is
   refitted to them and frozen for the kept chain. On the near-Gaussian
-  posteriors of a pair fit it mixes in one or two steps where the DE moves
-  need 30-40. If it accepts less than :data:`MIN_ACCEPTANCE` (a posterior
+  posteriors of pair and coil fits it mixes in one or two steps where the
+  DE moves need 10-40. If it accepts less than :data:`MIN_ACCEPTANCE` (a posterior
   far from Gaussian), the DE sampler carries on from its burn-in instead.
 
 Convergence rule (all must hold, checked after every chunk of steps):
@@ -51,6 +52,8 @@ from .convergence import NotConvergedWarning, not_converged_line
 #: their second half), independence steps before it is refitted, and the
 #: acceptance below which the DE moves carry on instead.
 DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
+#: Points per log-probability call of :class:`IndependenceMove`'s batches.
+BATCH = 2048
 #: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
 #: for a Gaussian target with the covariance fitted from 3600 draws).
 NU = 10.0
@@ -87,21 +90,72 @@ class TProposal:
         return -0.5 * (self.nu + self.ndim) * np.log1p(np.sum(y * y, axis=0) / self.nu)
 
 
-class IndependenceMove(emcee.moves.MHMove):
+class VectorSampler(emcee.EnsembleSampler):
+    """:class:`emcee.EnsembleSampler` for a vectorised log-probability that
+    returns one float per walker and no blobs: ``compute_log_prob`` checks
+    the coordinates and the result as emcee does (no inf or NaN coordinate,
+    no NaN log-probability) without emcee's per-walker loop for blobs."""
+
+    def __init__(self, nwalkers, ndim, log_prob_fn, moves):
+        super().__init__(nwalkers, ndim, log_prob_fn, moves=moves, vectorize=True)
+
+    def compute_log_prob(self, coords):
+        if not np.all(np.isfinite(coords)):
+            raise ValueError("At least one parameter value was infinite or NaN")
+        log_prob = np.asarray(self.log_prob_fn(coords), dtype=float).reshape(len(coords))
+        if np.any(np.isnan(log_prob)):
+            raise ValueError("Probability function returned NaN")
+        return log_prob, None
+
+
+class IndependenceMove(emcee.moves.Move):
     """Independence Metropolis-Hastings as an emcee move: every walker
     proposes a fresh draw ``q`` of a fixed :class:`TProposal` ``g``, whatever
-    its position ``x``; emcee accepts with probability
+    its position ``x``, accepted with probability
     ``min(1, pi(q) g(x) / (pi(x) g(q)))``, which leaves the posterior ``pi``
-    invariant (the proposal's log-ratio ``log g(x) - log g(q)`` is the
-    factor :class:`emcee.moves.MHMove` adds)."""
+    invariant. Each walker is its own Markov chain.
+
+    Proposals do not depend on the walkers' positions, so the proposals of a
+    run of steps announced by :meth:`plan` are drawn, and their
+    log-probabilities computed through emcee's ``compute_log_prob_fn``, in a
+    few calls of up to :data:`BATCH` points; each ``propose`` (one emcee
+    step) then takes its step's proposals and decides acceptance, as
+    :class:`emcee.moves.MHMove` would."""
 
     def __init__(self, proposal):
         self.proposal = proposal
-        super().__init__(self._propose, ndim=proposal.ndim)
+        self._planned = 1
+        self._queue = []         # [(q, log pi(q), log g(q)) per step]
+        self._lg = None          # log g at the walkers' current positions
 
-    def _propose(self, coords, random):
-        q = self.proposal.draw(random, coords.shape[0])
-        return q, self.proposal.log_pdf(coords) - self.proposal.log_pdf(q)
+    def plan(self, n_steps):
+        """The next run of emcee steps is ``n_steps`` long: draw and evaluate
+        that many steps of proposals at once (proposals left over are dropped)."""
+        self._planned, self._queue = max(1, int(n_steps)), []
+
+    def _refill(self, model, n_walkers):
+        n = self._planned * n_walkers
+        q = self.proposal.draw(model.random, n)
+        lp = np.concatenate([model.compute_log_prob_fn(q[i:i + BATCH])[0]
+                             for i in range(0, n, BATCH)])
+        lg = self.proposal.log_pdf(q)
+        shape = (self._planned, n_walkers)
+        self._queue = list(zip(q.reshape(shape + (-1,)), lp.reshape(shape), lg.reshape(shape)))
+        self._queue.reverse()
+        self._planned = 1
+
+    def propose(self, model, state):
+        """One step: returns the new state and which walkers accepted."""
+        n_walkers = state.coords.shape[0]
+        if not self._queue:
+            self._refill(model, n_walkers)
+        q, lp_q, lg_q = self._queue.pop()
+        if self._lg is None or self._lg.shape[0] != n_walkers:
+            self._lg = self.proposal.log_pdf(state.coords)
+        accepted = np.log(model.random.rand(n_walkers)) < lp_q - state.log_prob + self._lg - lg_q
+        state = self.update(state, emcee.State(q, log_prob=lp_q), accepted)
+        self._lg = np.where(accepted, lg_q, self._lg)
+        return state, accepted
 
 
 def integrated_time(x):
@@ -164,16 +218,19 @@ class _Phases:
 
     def new(self, moves, label):
         """An emcee sampler with ``moves``, a list of (move, weight)."""
-        s = emcee.EnsembleSampler(self.n_walkers, self.ndim, self.log_prob, vectorize=True,
-                                  moves=list(moves))
+        s = VectorSampler(self.n_walkers, self.ndim, self.log_prob, moves=list(moves))
         s.bayescal_phase = {"label": label,
                             "moves": [{"move": _move_name(m), "weight": float(w)}
                                       for m, w in moves]}
         s.bayescal_done = (0, np.zeros(self.n_walkers))
+        s.bayescal_moves = [m for m, _ in moves]
         return s
 
     def run(self, sampler, state, n_steps):
         """Advance ``sampler`` ``n_steps`` from ``state``; returns the last state."""
+        for move in sampler.bayescal_moves:
+            if isinstance(move, IndependenceMove):
+                move.plan(n_steps)
         for state in sampler.sample(state, iterations=n_steps, skip_initial_state_check=True):
             if self.bar.step is not None:
                 self.bar.step()
@@ -198,7 +255,7 @@ class _Phases:
 
 def _move_name(move):
     if isinstance(move, IndependenceMove):
-        return f"IndependenceMove (MHMove, multivariate t, nu={move.proposal.nu:g})"
+        return f"IndependenceMove (multivariate t proposal, nu={move.proposal.nu:g})"
     return type(move).__name__
 
 
@@ -208,7 +265,7 @@ def _de_moves():
 
 
 def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
-           rhat_max=1.01, max_steps=200_000, progress=True, move="de"):
+           rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.
 
@@ -223,8 +280,9 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
     max_steps : steps of the kept phase after which the chain stops unconverged
         (it always runs at least one step).
     progress : a progress bar toward the rule (tqdm, on stderr).
-    move : "de" (emcee's differential-evolution moves throughout) or
-        "independence" (a DE burn-in, then :class:`IndependenceMove`).
+    move : "independence" (the default: a DE burn-in, then
+        :class:`IndependenceMove`; the DE moves carry on where it accepts too
+        rarely) or "de" (emcee's differential-evolution moves throughout).
 
     Returns
     -------

@@ -257,8 +257,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         # parameters the data do not constrain are held at nominal (issue 13 item 5)
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
         from .mcmc import sample
-        chain = sample(target, start, cov, seed=seed, progress=progress,
-                       **{"move": "independence", **sample_kw})
+        chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))

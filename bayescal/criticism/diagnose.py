@@ -75,8 +75,7 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:
-        chain = sample(model, theta, cov, seed=seed, progress=progress,
-                       **{"move": "independence", **sample_kw})
+        chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
         samples, lp = chain.samples, chain.log_prob
         conv = {"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
                 "acceptance": chain.acceptance, "n_steps": chain.n_steps,
