@@ -25,6 +25,10 @@ def build_figure(diagnosis, paper="a4"):
     centres = np.sqrt(edges[:-1] * edges[1:])
     fig = Figure(figsize=page_size(paper))
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
+    from ..core.convergence import not_converged_line
+    warn = not_converged_line(d.final.summary()["convergence"], "the final model's sampler")
+    if warn:
+        text.insert(1, warn)
     if d.before["mismatch"]:
         text.append("Mismatch of the base model: " + "; ".join(
             f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on {', '.join(m['channels'])} "
