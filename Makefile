@@ -11,7 +11,12 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# the package alone for the demo; the test extra only for the tests
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	touch $@
+
+$(VENV)/.installed-test: $(VENV)/.installed
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@
 
@@ -21,13 +26,13 @@ demo: $(VENV)/.installed
 # -n 2 --dist loadfile: two pytest-xdist workers (the CI machine has 2 cores); a
 # whole test file goes to one worker, so a module-scoped fixture (the batch
 # run, the UVW calibration) is computed once, not once per worker.
-test: $(VENV)/.installed
+test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q --durations=20 -n 2 --dist loadfile
 
-reports: $(VENV)/.installed
+reports: $(VENV)/.installed-test
 	$(BIN)/python examples/make_reports.py
 
-bench: $(VENV)/.installed
+bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_speed.py
 
 clean:

@@ -11,7 +11,7 @@ from pathlib import Path
 def parse_args(doc, default_data, default_out, argv=None):
     """``--data``, ``--out``, ``--seed``; exits with a message when the data
     folder is absent."""
-    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p = argparse.ArgumentParser(description=" ".join(doc.split("\n\n")[0].split()))
     p.add_argument("--data", type=Path, default=default_data)
     p.add_argument("--out", default=str(default_out))
     p.add_argument("--seed", type=int, default=0)

@@ -30,7 +30,7 @@ def main():
     from bayescal.simulate.network import write_network
     from bayescal.network.plan import default_options, sds_plan
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--out", default="reports/batch")
     ap.add_argument("--work", help="folder for the archive and the per-pair results")
     ap.add_argument("--workers", type=int, help="Dask workers (default: one per core)")

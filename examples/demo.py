@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import shutil
 import sys
 import time
@@ -37,10 +38,12 @@ def run(out, seed=2026, quiet=False):
     if os.path.exists(fit_dir):
         shutil.rmtree(fit_dir)
     t0 = time.time()
-    code = bayescal_main(["fit", "--ref", paths["ref.mseed"], "--ref-xml", paths["ref.xml"],
-                          "--sut", paths["sut.mseed"], "--sut-xml", paths["sut.xml"],
-                          "--out", fit_dir, "--fit-response", "all", "--band", "0.01", "1.0",
-                          "--seed", str(seed), "--no-report"] + (["--quiet"] if quiet else []))
+    argv = ["fit", "--ref", paths["ref.mseed"], "--ref-xml", paths["ref.xml"],
+            "--sut", paths["sut.mseed"], "--sut-xml", paths["sut.xml"],
+            "--out", fit_dir, "--fit-response", "all", "--band", "0.01", "1.0",
+            "--seed", str(seed), "--no-report"] + (["--quiet"] if quiet else [])
+    print("running: bayescal " + shlex.join(argv), flush=True)
+    code = bayescal_main(argv)
     if code:
         return code
     elapsed = time.time() - t0

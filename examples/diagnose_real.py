@@ -99,7 +99,7 @@ def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     p.add_argument("--data", type=Path, default=DEFAULT_DATA)
     p.add_argument("--out", default=str(ROOT / "reports" / "diagnose"))
     p.add_argument("--case", nargs="*", default=list(CASES))

@@ -102,7 +102,7 @@ CASES = {"simulated": simulated, "simulated_response": simulated_response,
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     p.add_argument("--out", default=str(ROOT / "reports"))
     p.add_argument("--only", nargs="*", choices=sorted(CASES), default=list(CASES))
     p.add_argument("--threshold", type=float, default=5.0, help="flag tolerance (deg)")

@@ -64,4 +64,4 @@ def test_vertical_against_vertical_is_not_given_azimuth_180(sim_files, tmp_path)
                    "XX.SIM.00.BHZ", "--band", *SIM_BAND, out=out)   # default: gain free
     assert proc.returncode == 0, proc.stderr
     az = json.loads((out / "result.json").read_text())["channels"]["XX.SIM.10.BHZ"]["azimuth_deg"]
-    assert az["undefined"] and az["median"] == 0.0
+    assert az["undefined"] and az["median"] is None and az["nominal_deg"] == 0.0

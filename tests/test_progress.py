@@ -26,7 +26,10 @@ class Gaussian:
         return -0.5 * np.einsum("wi,ij,wj->w", x, self.prec, x)
 
 
-def test_bar_shows_goals_and_time_left(capsys):
+def test_bar_shows_goals_and_time_left(capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)     # as on a terminal
     m = Gaussian()
     chain = sample(m, np.zeros(3), 0.1 * np.eye(3), seed=3, min_ess=2000, progress=True)
     err = capsys.readouterr().err
@@ -46,3 +49,14 @@ def test_bar_shows_goals_and_time_left(capsys):
     # the display does not change the chain
     quiet = sample(m, np.zeros(3), 0.1 * np.eye(3), seed=3, min_ess=2000, progress=False)
     np.testing.assert_array_equal(quiet.samples, chain.samples)
+
+
+def test_one_line_in_a_log(capsys):
+    """Without a terminal (stderr to a file or pipe) the sampling writes one
+    whole line when it ends: no carriage-return frames piling up."""
+    chain = sample(Gaussian(), np.zeros(3), 0.1 * np.eye(3), seed=3, min_ess=2000, progress=True)
+    err = capsys.readouterr().err
+    assert "\r" not in err
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("sampling to convergence: "), err
+    assert f"{chain.n_steps} steps" in lines[0] and f"ESS {chain.ess.min():.0f}/2000" in lines[0]

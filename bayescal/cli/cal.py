@@ -33,7 +33,7 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import (add_paper_argument, add_sampling_argument, convergence_exit,
+from .common import (add_paper_argument, add_sampling_argument, convergence_exit, publish,
                      quiet_convergence_warnings)
 
 HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
@@ -124,12 +124,7 @@ def write_outputs(fits, inventory, out, paper="a4"):
         corrected = [f for f in fits if f.spec is not None]
         if corrected:
             write_corrected_cal(inventory, corrected, os.path.join(tmp, "sut_corrected.xml"))
-        os.makedirs(out, exist_ok=True)
-        for name in sorted(os.listdir(tmp)):
-            dest = os.path.join(out, name)
-            if os.path.isdir(dest):
-                shutil.rmtree(dest)
-            os.replace(os.path.join(tmp, name), dest)
+        publish(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return summaries
@@ -137,9 +132,13 @@ def write_outputs(fits, inventory, out, paper="a4"):
 
 def _print_summary(summary):
     p = summary["parameters"]
-    parts = [f"{k} {v['median']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]"
+    units = {"period_s": " s", "gain": f" {summary.get('units', {}).get('gain', '')}".split(" (")[0],
+             "response_amplitude": " counts/(m/s)", "response_phase_deg": " deg",
+             "phase_difference_deg": " deg"}
+    parts = [f"{k} {v['median']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]{units.get(k, '')}"
              for k, v in p.items() if isinstance(v, dict)]
-    print(f"{summary['channel']} ({summary['kind']}, fit {summary['fit']}): " + "; ".join(parts))
+    print(f"{summary['channel']} ({summary['kind']}, fit {summary['fit']}), medians "
+          "[95 % intervals]: " + "; ".join(parts))
     for kind in ("hf_poles", "hf_zeros"):
         for e in p.get(kind, []):
             im = e["imag"].get("median", 0.0)

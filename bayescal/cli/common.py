@@ -96,13 +96,15 @@ def add_sampling_argument(parser):
 
 @contextlib.contextmanager
 def quiet_convergence_warnings():
-    """The CLI states an unconverged chain in its own line (:func:`convergence_exit`),
-    not as a Python warning."""
+    """The CLI states an unconverged chain in its own line (:func:`convergence_exit`)
+    and a failed model check in its summary, not as Python warnings."""
     import warnings
 
+    from ..core.adequacy import ModelMisfitWarning
     from ..core.convergence import NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
+        warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
         yield
 
 
@@ -131,14 +133,50 @@ def say(args, text):
         print(text, file=sys.stderr)
 
 
+#: The list of what bayescal wrote into an output folder (one name a line).
+MANIFEST = ".bayescal-written"
+
+
 def publish(tmp, out):
-    """Move the finished files from ``tmp`` into ``out``."""
+    """Move the finished files from ``tmp`` into ``out``. A rerun into the
+    same folder first removes what the previous run wrote there (the names
+    in its :data:`MANIFEST`) and this run does not write again, so no file
+    of an earlier run can be read as this one's; files bayescal did not
+    write are left alone. The new manifest lists this run's files."""
+    names = sorted(n for n in os.listdir(tmp) if n != MANIFEST)
+    with open(os.path.join(tmp, MANIFEST), "w") as fh:
+        fh.write("".join(f"{n}\n" for n in names))
     if not os.path.exists(out):
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)
         os.replace(tmp, out)
         return
-    for name in os.listdir(tmp):
-        os.replace(os.path.join(tmp, name), os.path.join(out, name))
+    for old in _previous_run(out):
+        if old not in names:
+            path = os.path.join(out, old)
+            if os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path, ignore_errors=True)
+            elif os.path.lexists(path):
+                os.remove(path)
+    for name in names + [MANIFEST]:
+        dest = os.path.join(out, name)
+        if os.path.isdir(dest) and not os.path.islink(dest):
+            shutil.rmtree(dest)
+        os.replace(os.path.join(tmp, name), dest)
     shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _previous_run(out):
+    """Names the previous run listed in ``out``'s manifest (plain names
+    only: nothing outside ``out``)."""
+    try:
+        with open(os.path.join(out, MANIFEST)) as fh:
+            names = [ln.strip() for ln in fh]
+    except OSError:
+        return []
+    return [n for n in names if n and n not in (".", "..", MANIFEST) and os.sep not in n
+            and (os.altsep is None or os.altsep not in n)]
 
 
 @contextlib.contextmanager

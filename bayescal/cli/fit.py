@@ -61,6 +61,12 @@ def _fmt(entry):
     return f"{entry['median']:.3f} (fixed)"
 
 
+def pinned_gains(summary):
+    """SUT channels whose fitted gain sits at a bound of its prior."""
+    return [cid for cid, e in summary["channels"].items()
+            if "pinned" in str((e.get("response") or {}).get("gain", {}).get("reason", ""))]
+
+
 def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
     it says so before any number), then medians and 95 % intervals."""
@@ -79,10 +85,13 @@ def print_summary(summary, stream=None):
         vertical = abs(e["dip_deg"]["median"]) > 89.999 and "ci95" not in az
         az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
+        units = {"period_s": "s", "gain": (e.get("nominal") or {}).get("gain_units", ""),
+                 "relative_gain": "(fitted / metadata gain)"}
         for name, r in e.get("response", {}).items():
             note = f"  SET BY THE PRIOR ({r['action']}): {r['reason']}" if r.get("set_by_prior") \
                 else ""
-            print(f"{'':22s}  {name} {_fmt(r)}{note}", file=stream)
+            unit = f" {units[name]}" if units.get(name) else ""
+            print(f"{'':22s}  {name} {_fmt(r)}{unit}{note}", file=stream)
     for pair, e in summary.get("orthogonality_deg", {}).items():
         print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
               file=stream)
@@ -107,6 +116,11 @@ def print_summary(summary, stream=None):
         print(f"WARNING: {order['message']}", file=stream)
     elif order.get("caution"):
         print(f"sensor order: {order['caution']}", file=stream)
+    pinned = pinned_gains(summary)
+    if pinned and not order.get("message"):
+        print(f"WARNING: the gain of {', '.join(pinned)} is pinned at the bound of its prior: "
+              "the data want a gain further from the metadata than the prior allows. Check the "
+              "metadata gain, and whether --ref and --sut are swapped", file=stream)
     c = summary["convergence"]
     print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
           f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
@@ -156,5 +170,6 @@ def run(args):
     summary = post.summary()
     print_summary(summary)   # --quiet removes the progress display only
     code = convergence_exit([("the sampler", summary["convergence"])])
-    say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in {elapsed:.1f} s")
+    written = sorted(n for n in os.listdir(out) if not n.startswith("."))
+    say(args, f"wrote {out} ({', '.join(written)}) in {elapsed:.1f} s")
     return code

@@ -36,7 +36,7 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import (add_paper_argument, add_sampling_argument, convergence_exit,
+from .common import (add_paper_argument, add_sampling_argument, convergence_exit, publish,
                      quiet_convergence_warnings)
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
@@ -145,23 +145,24 @@ def write_outputs(result, out, quiet=True, paper="a4"):
                   **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()}}
         np.savez(os.path.join(tmp, "uvw_samples.npz"), **arrays)
         write_report(result, tmp, paper=paper)
-        os.makedirs(out, exist_ok=True)
-        for name in sorted(os.listdir(tmp)):
-            os.replace(os.path.join(tmp, name), os.path.join(out, name))
+        publish(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return summary
 
 
 def _print_summary(summary, out):
-    print(f"UVW calibration ({summary['mode']}), gains in {summary['gain_units']}")
+    print(f"UVW calibration ({summary['mode']}), medians [95 % intervals], gains in "
+          f"{summary['gain_units']}")
     for e, entry in summary["elements"].items():
         parts = [f"{p} {entry[p]['median']:.5g} [{entry[p]['ci95'][0]:.5g}, "
                  f"{entry[p]['ci95'][1]:.5g}]" for p in ("period_s", "damping", "gain")]
         print(f"  {e}: " + "; ".join(parts))
     for ax, entry in summary["xyz"].items():
-        print(f"  {ax}: gain {entry['gain']['median']:.5g}, period {entry['period_s']['median']:.5g} s,"
-              f" damping {entry['damping']['median']:.4f}")
+        parts = [f"{p} {entry[p]['median']:.5g} [{entry[p]['ci95'][0]:.5g}, "
+                 f"{entry[p]['ci95'][1]:.5g}]{' s' if p == 'period_s' else ''}"
+                 for p in ("gain", "period_s", "damping")]
+        print(f"  {ax}: " + "; ".join(parts))
     ct = summary["cross_talk_max"]
     print(f"  largest cross-talk {100 * ct['median']:.3g} % "
           f"[{100 * ct['ci95'][0]:.3g}, {100 * ct['ci95'][1]:.3g}] ({summary['cross_talk_max_pair']})")

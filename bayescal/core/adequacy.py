@@ -77,6 +77,11 @@ def from_diagnostics(diagnostics, alpha=ALPHA):
                     len(d["ref_ids"]), alpha)
 
 
+class ModelMisfitWarning(UserWarning):
+    """The fit's model check failed: the recordings differ from the model by
+    more than its noise allows (:func:`describe` says where)."""
+
+
 def describe(verdict):
     """One or two lines for a user: the verdict, the worst cell, and where to
     go next."""

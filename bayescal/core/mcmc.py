@@ -40,6 +40,7 @@ this module is imported only by code that samples.
 """
 from __future__ import annotations
 
+import sys
 import warnings
 from dataclasses import dataclass, field
 
@@ -416,5 +417,27 @@ class _GoalBar:
         self.bar.close()
 
 
+class _LogLine(_NoBar):
+    """Without a terminal (a log file): one line when the sampling ends."""
+
+    def __init__(self, n_tau, min_ess, rhat_max):
+        self.goals, self.state = (n_tau, min_ess, rhat_max), None
+
+    def goal(self, need_steps, kept_tau, ess, rhat):
+        self.state = (need_steps, kept_tau, ess, rhat)
+
+    def close(self):
+        if self.state is not None:
+            steps, kept_tau, ess, rhat = self.state
+            n_tau, min_ess, rhat_max = self.goals
+            print(f"sampling to convergence: {steps:.0f} steps; chain {kept_tau:.0f}/{n_tau} tau, "
+                  f"ESS {ess:.0f}/{min_ess}, R-hat {rhat:.3f} (< {rhat_max})", file=sys.stderr)
+
+
 def _progress(enabled, first, n_tau, min_ess, rhat_max):
-    return _GoalBar(first, n_tau, min_ess, rhat_max) if enabled else _NoBar()
+    """A progress bar on a terminal, one line in a log, or nothing."""
+    if not enabled:
+        return _NoBar()
+    if not getattr(sys.stderr, "isatty", lambda: False)():
+        return _LogLine(n_tau, min_ess, rhat_max)
+    return _GoalBar(first, n_tau, min_ess, rhat_max)

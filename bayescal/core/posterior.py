@@ -103,9 +103,10 @@ class Posterior:
         if self.kinds[k] == "fixed" and abs(med_dip) > NEAR_VERTICAL_DIP_DEG:
             # a vertical fixed to a vertical reference: its azimuth means nothing
             nominal_az = self.meta.get("nominal", {}).get(cid, {}).get("azimuth_deg", 0.0)
-            entry["azimuth_deg"] = {**fixed_summary(nominal_az), "undefined": True,
+            entry["azimuth_deg"] = {**fixed_summary(nominal_az), "median": None,
+                                    "nominal_deg": nominal_az, "undefined": True,
                                     "note": "vertical channel fixed to the reference's axis: "
-                                            "azimuth undefined (nominal value shown)"}
+                                            "azimuth undefined"}
             entry["dip_deg"] = fixed_summary(med_dip)
         elif self.kinds[k] == "fixed":
             entry["azimuth_deg"] = fixed_summary(np.median(az[:, k]))
@@ -115,9 +116,10 @@ class Posterior:
             entry["dip_deg"] = fixed_summary(med_dip)
         elif abs(med_dip) > NEAR_VERTICAL_DIP_DEG:
             tilt, toward = tilt_from_vertical(self.vectors[:, k])
-            entry["azimuth_deg"] = {"median": float(np.median(az[:, k])), "undefined": True,
+            entry["azimuth_deg"] = {"median": None, "undefined": True,
                                     "note": "near-vertical channel: azimuth is not constrained;"
-                                            " see tilt_deg"}
+                                            " see tilt_deg (tilt_toward_azimuth_deg: the "
+                                            "azimuth its axis leans toward)"}
             entry["dip_deg"] = interval_summary(dip[:, k])
             entry["tilt_deg"] = interval_summary(tilt)
             entry["tilt_toward_azimuth_deg"] = float(np.median(unwrap_azimuths(toward)))
@@ -169,9 +171,10 @@ class Posterior:
         return {key: interval_summary(np.degrees(np.arccos(cosine)))}
 
     def summary(self):
-        """The ``result.json`` content (schema ``bayescal.fit/1``)."""
+        """The ``result.json`` content (schema ``bayescal.fit/1``): plain
+        JSON values (dicts, lists, str, float, int, bool, None)."""
         conv = self.convergence
-        return {
+        return _jsonable({
             "schema": SCHEMA,
             "adequacy": from_diagnostics(self.diagnostics),
             "multimodal": self.meta.get("multimodal") or {
@@ -193,8 +196,8 @@ class Posterior:
                             "per_parameter": {n: {"tau": float(t), "ess": float(e), "rhat": float(r)}
                                               for n, t, e, r in zip(self.names, conv["tau"],
                                                                     conv["ess"], conv["rhat"])}},
-            "meta": _jsonable({k: v for k, v in self.meta.items() if k != "multimodal"}),
-        }
+            "meta": {k: v for k, v in self.meta.items() if k != "multimodal"},
+        })
 
     # --- disk ---------------------------------------------------------------
     def save(self, folder):

@@ -27,6 +27,21 @@ import numpy as np
 RESPONSE_PARAMS = ("period_s", "damping", "gain")
 
 
+
+#: SEED/StationXML unit names as users read them.
+_UNIT_WORDS = {"M/S": "m/s", "M/SEC": "m/s", "M/S**2": "m/s^2", "M/S/S": "m/s^2", "M": "m",
+               "V": "V", "VOLTS": "V", "COUNTS": "counts", "COUNT": "counts"}
+
+
+def units_label(output_units, input_units):
+    """A response gain's units as users read them: ``"V/(m/s)"`` from
+    StationXML's ``V`` and ``M/S``."""
+    def word(u):
+        u = str(u).strip()
+        return _UNIT_WORDS.get(u.upper(), u)
+    out, inp = word(output_units), word(input_units)
+    return f"{out}/({inp})" if "/" in inp else f"{out}/{inp}"
+
 class ResponseError(ValueError):
     """A response cannot be used as asked (missing stage, wrong type...)."""
 
@@ -89,7 +104,7 @@ class TwoPoleFamily:
         fn = st.normalization_frequency or (response.instrument_sensitivity.frequency
                                             if response.instrument_sensitivity else 1.0)
         return cls(period_s=2 * np.pi / w0, damping=two_h_w0 / (2 * w0), gain=float(st.stage_gain),
-                   norm_freq=float(fn), gain_units=f"{out}/{unit}")
+                   norm_freq=float(fn), gain_units=units_label(out, unit))
 
     @staticmethod
     def denominator(s, w0, h):
@@ -169,11 +184,11 @@ class ScaleFamily:
             return cls(gain=float(st.stage_gain),
                        norm_freq=float(st.stage_gain_frequency or getattr(sens, "frequency", 0)
                                        or 1.0),
-                       gain_units=f"{st.output_units}/{unit}")
+                       gain_units=units_label(st.output_units, unit))
         if sens is not None and sens.value and len(stages) <= 1:
             # the sensitivity is the first stage's gain only when it is the only stage
             return cls(gain=float(sens.value), norm_freq=float(sens.frequency or 1.0),
-                       gain_units=f"{sens.output_units}/{sens.input_units}")
+                       gain_units=units_label(sens.output_units, sens.input_units))
         raise ResponseError("the response has neither a first-stage gain nor a sensitivity")
 
     gain_only_ratio = TwoPoleFamily.gain_only_ratio

@@ -141,7 +141,19 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
                                                  .get("separation", {}))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
+    _warn_on_misfit(post)
     return post
+
+
+def _warn_on_misfit(post):
+    """A failed model check as a Python warning (:class:`ModelMisfitWarning`),
+    so a script sees it as the console does."""
+    import warnings
+
+    from ..core.adequacy import ModelMisfitWarning, describe, from_diagnostics
+    verdict = from_diagnostics(post.diagnostics)
+    if verdict.get("ok") is False:
+        warnings.warn(describe(verdict), ModelMisfitWarning, stacklevel=3)
 
 
 def _known_reference_noise(psd, ref_noise, spectra):

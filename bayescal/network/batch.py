@@ -34,6 +34,7 @@ import shutil
 import socket
 import time
 import uuid
+import warnings
 
 from ..core.posterior import write_json
 
@@ -65,8 +66,8 @@ def run_item(item, out):
     thread, worker, error); never
     raises for a problem of the item itself.
     """
-    from ..io.pipeline import calibrate, calibrate_files
-    from .plan import read_sds_item
+    from ..core.adequacy import ModelMisfitWarning
+    from ..core.convergence import NotConvergedWarning
     from ..io.stationxml import write_corrected
 
     t, cpu = time.time(), time.thread_time()
@@ -75,18 +76,10 @@ def run_item(item, out):
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
             "fit_response": item["fit_response"], "seed": item["seed"], "progress": False}
     try:
-        if item["kind"] == "files":
-            post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
-                                   start=item.get("start"), end=item.get("end"),
-                                   sut_id=item.get("sut_id"), ref_id=item.get("ref_id"), **opts)
-            sut_inv = post.sut_inventory
-        else:
-            sut, ref, inv, sut_src, ref_src = read_sds_item(item)
-            post = calibrate(sut, inv, ref, inv, start=_time(item.get("start")),
-                             end=_time(item.get("end")), sut_source=sut_src,
-                             ref_source=ref_src, **opts)
-            sut_inv = inv.select(network=item["network"], station=item["station"],
-                                 location=item["sut_location"])
+        with warnings.catch_warnings():      # both recorded in the batch's table instead
+            warnings.filterwarnings("ignore", category=ModelMisfitWarning)
+            warnings.filterwarnings("ignore", category=NotConvergedWarning)
+            post, sut_inv = _fit_item(item, opts)
         post.meta["batch_label"] = item["label"]
         post.save(tmp)
         if sut_inv is not None and not isinstance(sut_inv, str):
@@ -181,7 +174,8 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
             bar = None
             if not quiet:
                 from tqdm.auto import tqdm
-                bar = tqdm(total=len(todo), unit="pair", desc="calibrating")
+                # disable=None: a bar on a terminal, none in a log
+                bar = tqdm(total=len(todo), unit="pair", desc="calibrating", disable=None)
             by_key = {fut.key: it for fut, it in zip(futures, todo)}
             for fut in as_completed(futures):
                 try:
@@ -223,3 +217,21 @@ def read_log(out):
         return []
     with open(path) as fh:
         return [json.loads(line) for line in fh if line.strip()]
+
+
+def _fit_item(item, opts):
+    """The posterior of one plan item and the SUT's inventory (for the
+    corrected StationXML)."""
+    from ..io.pipeline import calibrate, calibrate_files
+    from .plan import read_sds_item
+
+    if item["kind"] == "files":
+        post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
+                               start=item.get("start"), end=item.get("end"),
+                               sut_id=item.get("sut_id"), ref_id=item.get("ref_id"), **opts)
+        return post, post.sut_inventory
+    sut, ref, inv, sut_src, ref_src = read_sds_item(item)
+    post = calibrate(sut, inv, ref, inv, start=_time(item.get("start")),
+                     end=_time(item.get("end")), sut_source=sut_src, ref_source=ref_src, **opts)
+    return post, inv.select(network=item["network"], station=item["station"],
+                            location=item["sut_location"])

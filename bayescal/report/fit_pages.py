@@ -20,7 +20,7 @@ from scipy import stats
 from ..core.adequacy import describe
 from ..core.modes import multimodal_line
 from ..core.geometry import tilt_from_vertical
-from .tables import angle_rows, response_rows, truth_values, wrap180
+from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
 
@@ -50,8 +50,12 @@ def page_summary(ctx):
     y = _table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
                " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
     if resp:
+        gain_only = [c for c, e in ctx.summary["channels"].items() if e.get("response")
+                     and not two_pole_nominal(e.get("nominal") or {})]
         y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
-                   " of nominal)", bool(ctx.truth))
+                   " of nominal)" if not gain_only else
+                   "Response (gain-only metadata, e.g. 'flat': no nominal response to deviate "
+                   "from; the fitted gain is the measurement)", bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
     if verdict["ok"] is False:
         text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"

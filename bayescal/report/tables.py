@@ -162,8 +162,16 @@ def response_rows(summary, truth=None):
             note = ("SET BY THE PRIOR: held at nominal" if entry.get("action") == "held at nominal"
                     else "SET BY THE PRIOR: nominal kept in StationXML"
                     if entry.get("set_by_prior") else "")
+            if not two_pole_nominal(nom):      # gain-only ('flat') metadata: no nominal response
+                dev, note = None, note or "gain-only metadata: no nominal to deviate from"
             rows.append(_interval_row(cid, name, entry, n, dev, note, truth=true))
     return rows
+
+
+def two_pole_nominal(nominal):
+    """Whether a channel's metadata give a two-pole velocity response (a
+    natural period), rather than a gain alone ('flat' or one gain stage)."""
+    return nominal.get("period_s") is not None
 
 
 def truth_values(truth, cid):
