@@ -1,4 +1,5 @@
-"""Shared fixtures: a simulated pair written to disk, and the real data folder."""
+"""Shared fixtures: a simulated pair written to disk, one ``bayescal fit`` run
+of it that the command-line tests share, and the real data folder."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -27,6 +28,34 @@ def sim_files(sim_pair, tmp_path_factory):
     """The simulated pair written as miniSEED + StationXML; dict of paths."""
     folder = tmp_path_factory.mktemp("simpair")
     return {k: Path(v) for k, v in sim_pair.write(str(folder)).items()}
+
+
+@pytest.fixture(scope="session")
+def both_sensors(sim_files, tmp_path_factory):
+    """One miniSEED holding both sensors of the simulated pair (locations 00
+    and 10)."""
+    import obspy
+    st = obspy.read(str(sim_files["sut.mseed"])) + obspy.read(str(sim_files["ref.mseed"]))
+    path = tmp_path_factory.mktemp("both") / "both.mseed"
+    st.write(str(path), format="MSEED", encoding="FLOAT64")
+    return path
+
+
+@pytest.fixture(scope="session")
+def cli_fit(sim_files, both_sensors, tmp_path_factory):
+    """One ``bayescal fit`` of the simulated pair, run as a user runs it (a
+    subprocess, ``--quiet --no-report``, band ``SIM_BAND``, seed 3), both
+    sensors read from one file and chosen by SEED-id patterns. The
+    command-line tests share it: ``proc`` (the finished process), ``out``
+    (its folder), ``result`` (result.json)."""
+    from tests.cli_helpers import read_result, run_fit
+    out = tmp_path_factory.mktemp("cli_fit") / "out"
+    proc = run_fit("--ref", both_sensors, "--ref-xml", sim_files["ref.xml"],
+                   "--sut", both_sensors, "--sut-xml", sim_files["sut.xml"],
+                   "--sut-id", "XX.SIM.10.BH?", "--ref-id", "xx.sim.00.*",
+                   "--band", *SIM_BAND, "--seed", 3, out=out)
+    assert proc.returncode == 0, proc.stderr
+    return {"proc": proc, "out": out, "result": read_result(out)}
 
 
 def _real(name):

@@ -1,39 +1,27 @@
-"""Inputs a new user gets wrong, or needs (issue 14, items 1, 2 and 4):
-channel choice by SEED-id pattern, the same file as both sensors, a
-StationXML epoch that misses the data, and --start/--end windows that
-cannot work. Each ends in one line naming the right thing, exit code 2."""
+"""Inputs a new user gets wrong, or needs: channel choice by SEED-id
+pattern, the same file as both sensors, a StationXML epoch that misses the
+data, and --start/--end windows that cannot work. Each ends in one line
+naming the right thing, exit code 2."""
 from __future__ import annotations
-
-import json
 
 import obspy
 import pytest
 
-from tests.conftest import SIM_BAND
-from tests.test_cli_fit import assert_user_error, base_args, run_fit
+from tests.cli_helpers import Z_001, assert_user_error, base_args, run_fit
 
 
-@pytest.fixture(scope="module")
-def both_sensors(sim_files, tmp_path_factory):
-    """One miniSEED holding both sensors (locations 00 and 10)."""
-    st = obspy.read(str(sim_files["sut.mseed"])) + obspy.read(str(sim_files["ref.mseed"]))
-    path = tmp_path_factory.mktemp("both") / "both.mseed"
-    st.write(str(path), format="MSEED", encoding="FLOAT64")
-    return path
-
-
-def test_channels_chosen_by_seed_id_pattern(sim_files, sim_pair, both_sensors, tmp_path):
-    out = tmp_path / "o"
-    proc = run_fit("--ref", both_sensors, "--ref-xml", sim_files["ref.xml"],
-                   "--sut", both_sensors, "--sut-xml", sim_files["sut.xml"],
-                   "--sut-id", "XX.SIM.10.BH?", "--ref-id", "xx.sim.00.*",
-                   "--band", *SIM_BAND, out=out)
-    assert proc.returncode == 0, proc.stderr
-    res = json.loads((out / "result.json").read_text())
+def test_channels_chosen_by_seed_id_pattern(cli_fit, sim_pair):
+    """The shared run reads both sensors from one file, each chosen by a
+    SEED-id pattern (the reference's in lower case): the SUT's three
+    channels are fitted against the reference's, and BH1's azimuth lies
+    within 3.29 posterior sd of the truth (two-sided level 0.001)."""
+    res = cli_fit["result"]
     assert sorted(res["channels"]) == ["XX.SIM.10.BH1", "XX.SIM.10.BH2", "XX.SIM.10.BHZ"]
+    assert sorted(res["meta"]["reference"]) == ["XX.SIM.00.BHE", "XX.SIM.00.BHN",
+                                                "XX.SIM.00.BHZ"]
     truth = sim_pair.truth["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
     az = res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
-    assert abs(az["median"] - truth) < 3 * az["sd"] and az["sd"] < 0.15
+    assert abs(az["median"] - truth) < Z_001 * az["sd"] and az["sd"] < 0.15
 
 
 def test_pattern_matching_nothing_names_the_file_and_its_ids(sim_files, both_sensors,

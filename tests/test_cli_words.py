@@ -1,4 +1,4 @@
-"""Words users read (issue 14 items 15, 16): no internal design-document
+"""Words users read: no internal design-document
 names ('the seed', 'seed 003') in the README or any --help, and --quiet
 keeps the results table and the band used."""
 from __future__ import annotations
@@ -26,12 +26,8 @@ def test_no_internal_seed_names_in_readme_or_help():
         assert not INTERNAL.findall(text), INTERNAL.findall(text)
 
 
-def test_quiet_keeps_results_table_and_band(sim_files, tmp_path):
-    from tests.conftest import SIM_BAND
-    from tests.test_cli_fit import base_args, run_fit
-
-    proc = run_fit(*base_args(sim_files), "--band", *SIM_BAND, out=tmp_path / "o")
-    assert proc.returncode == 0, proc.stderr
+def test_quiet_keeps_results_table_and_band(cli_fit):
+    proc = cli_fit["proc"]          # the shared run, with --quiet
     assert "band used: 0.03 - 1 Hz" in proc.stderr
     assert "XX.SIM.10.BH1" in proc.stdout and "azimuth deg [95%]" in proc.stdout
 

@@ -102,6 +102,14 @@ def test_different_start_times_give_common_window():
     assert s.data.shape[1] == int(T0 + 15 + 2999 - t0) + 1
 
 
+def ned(azimuth_deg, dip_deg):
+    """A channel's axis in north-east-down from its SEED azimuth and dip
+    (dip positive down), written out here rather than taken from the
+    package."""
+    a, d = np.radians(azimuth_deg), np.radians(dip_deg)
+    return np.array([np.cos(a) * np.cos(d), np.sin(a) * np.cos(d), np.sin(d)])
+
+
 def test_channels_identified_from_codes_and_stationxml():
     st = obspy.Stream([trace([1.0, 2.0], 1.0, T0, cha=c) for c in ("LHN", "LHE", "LHZ", "LH1",
                                                                  "LH2")])
@@ -112,15 +120,44 @@ def test_channels_identified_from_codes_and_stationxml():
     assert inv2.select(channel="LH1")[0][0][0].azimuth == 33.0
     with pytest.raises(InputError, match="orientation"):
         io.orientation_from_code("LHU")
+    # the axes the fit uses follow the orientation given, not the code's
+    fs, n = 10.0, 2000
+    sut = obspy.Stream([trace(tone(0.5, fs, n), fs, T0, cha=c) for c in ("LH1", "LH2")])
+    ref = obspy.Stream([trace(tone(0.5, fs, n), fs, T0, sta="R", cha="LHN")])
+    s, *_ = align(sut, io.flat_inventory(sut, orientations={"LH1": (33.0, 0.0),
+                                                            "LH2": (123.0, 4.0)}),
+                  ref, io.flat_inventory(ref))
+    by_id = dict(zip(s.ids, s.vectors))
+    np.testing.assert_allclose(by_id["XX.A..LH1"], ned(33.0, 0.0), atol=1e-12)
+    np.testing.assert_allclose(by_id["XX.A..LH2"], ned(123.0, 4.0), atol=1e-12)
+
+
+def _turned(inventory, degrees, dip=None):
+    """A copy of ``inventory`` whose channels' StationXML azimuths are turned
+    by ``degrees`` (and dips set to ``dip`` where given: code -> dip)."""
+    import copy
+    inv = copy.deepcopy(inventory)
+    for ch in inv[0][0]:
+        ch.azimuth = (ch.azimuth + degrees) % 360.0
+        if dip and ch.code in dip:
+            ch.dip = dip[ch.code]
+    return inv
 
 
 def test_stationxml_angles_win_over_codes(sim_pair):
-    # the simulated SUT's BH1 has azimuth 0 in its StationXML; a wrong code
-    # letter must not matter: the axis comes from the StationXML
-    s, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory)
-    by_id = dict(zip(s.ids, s.vectors))
-    np.testing.assert_allclose(by_id["XX.SIM.10.BH2"], [0, 1, 0], atol=1e-12)
-    np.testing.assert_allclose(by_id["XX.SIM.10.BHZ"], [0, 0, -1], atol=1e-12)
+    """Each side's StationXML says angles that differ from what its channel
+    codes imply (SUT 1/2/Z, reference N/E/Z): the axes come from the
+    StationXML, on both sides."""
+    sut_inv = _turned(sim_pair.sut_inventory, 30.0, dip={"BH2": 4.0, "BHZ": -85.0})
+    ref_inv = _turned(sim_pair.ref_inventory, 5.0, dip={"BHE": -2.0})
+    s, r, *_ = align(sim_pair.sut, sut_inv, sim_pair.ref, ref_inv)
+    got = dict(zip(s.ids + r.ids, list(s.vectors) + list(r.vectors)))
+    want = {"XX.SIM.10.BH1": ned(30.0, 0.0), "XX.SIM.10.BH2": ned(120.0, 4.0),
+            "XX.SIM.10.BHZ": ned(30.0, -85.0), "XX.SIM.00.BHN": ned(5.0, 0.0),
+            "XX.SIM.00.BHE": ned(95.0, -2.0), "XX.SIM.00.BHZ": ned(5.0, -90.0)}
+    assert set(got) == set(want)
+    for cid, v in want.items():
+        np.testing.assert_allclose(got[cid], v, atol=1e-12, err_msg=cid)
 
 
 def test_bad_data_messages_name_the_file(tmp_path):
@@ -241,14 +278,19 @@ def test_natural_and_coarse_records_are_not_called_clipped():
 
 
 def test_missing_angles_in_stationxml_come_from_the_code(sim_pair):
+    """A reference StationXML without azimuth and dip: the codes N, E, Z give
+    the axes (north, east, up); where the angles are there, turned 5 degrees
+    from the codes' here, they are used instead."""
     import copy
-    inv = copy.deepcopy(sim_pair.ref_inventory)
+    inv = copy.deepcopy(_turned(sim_pair.ref_inventory, 5.0))
     for ch in inv[0][0]:
-        ch.azimuth = ch.dip = None
-    # the reference's channel codes (BHN/BHE/BHZ or 1/2/Z) then give the axes
+        if ch.code != "BHE":
+            ch.azimuth = ch.dip = None
     s, r, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, inv)
-    s2, r2, *_ = align(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory)
-    np.testing.assert_allclose(r.vectors, r2.vectors, atol=1e-12)
+    got = dict(zip(r.ids, r.vectors))
+    np.testing.assert_allclose(got["XX.SIM.00.BHN"], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(got["XX.SIM.00.BHZ"], [0, 0, -1], atol=1e-12)
+    np.testing.assert_allclose(got["XX.SIM.00.BHE"], ned(95.0, 0.0), atol=1e-12)
 
 
 def test_two_channel_reference_gives_horizontal_azimuths_only(sim_pair):
@@ -286,3 +328,38 @@ def test_gap_in_a_trace_to_be_resampled_spreads_over_the_filter_only():
     assert inner.min() >= 2000 - 30 and inner.max() <= 2020 + 30 and inner.size < 100
     ok = np.isfinite(s.data[0])
     assert np.std(s.data[0][ok] - r.data[0][ok]) < 1.0
+
+
+def test_reference_turned_in_its_stationxml_turns_the_sut_azimuths(sim_pair):
+    """The same recordings with the reference's StationXML saying its
+    horizontals point 5 degrees east of north and east: every SUT azimuth
+    moves by those 5 degrees and nothing else changes (the fit is
+    equivariant under a turn about the vertical), to within the Monte Carlo
+    error of two medians (two-sided level 0.001 per number)."""
+    import bayescal
+    from tests.cli_helpers import Z_001, median_mc_error
+    from tests.conftest import SIM_BAND
+
+    kw = dict(band=SIM_BAND, progress=False, seed=1)
+    plain = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
+                               sim_pair.ref_inventory, **kw).summary()
+    turned = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
+                                _turned(sim_pair.ref_inventory, 5.0), **kw).summary()
+    ess = min(plain["convergence"]["ess_min"], turned["convergence"]["ess_min"])
+    for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
+        for key, shift in (("azimuth_deg", 5.0), ("dip_deg", 0.0)):
+            a, b = plain["channels"][cid][key], turned["channels"][cid][key]
+            tol = Z_001 * np.hypot(median_mc_error(a, ess), median_mc_error(b, ess))
+            assert abs(b["median"] - a["median"] - shift) < tol, (cid, key, a, b, tol)
+            assert b["sd"] == pytest.approx(a["sd"], rel=0.1)
+    a, b = plain["channels"]["XX.SIM.10.BHZ"], turned["channels"]["XX.SIM.10.BHZ"]
+    tol = Z_001 * np.hypot(median_mc_error(a["dip_deg"], ess), median_mc_error(b["dip_deg"], ess))
+    assert abs(b["dip_deg"]["median"] - a["dip_deg"]["median"]) < tol
+    # the vertical's lean (its north and east tilt components) turns with the frame too
+    c, s = np.cos(np.radians(5.0)), np.sin(np.radians(5.0))
+    an, ae = a["tilt_north_deg"], a["tilt_east_deg"]
+    for got, (cn, ce) in ((b["tilt_north_deg"], (c, -s)), (b["tilt_east_deg"], (s, c))):
+        want = cn * an["median"] + ce * ae["median"]
+        tol = Z_001 * np.sqrt(median_mc_error(got, ess) ** 2 + (cn * median_mc_error(an, ess)) ** 2
+                              + (ce * median_mc_error(ae, ess)) ** 2)
+        assert abs(got["median"] - want) < tol, (got, want, tol)
