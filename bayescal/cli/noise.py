@@ -1,14 +1,24 @@
 """Self-noise of three or more co-located sensors (Sleeman et al. 2006).
 
-Reads one recording and one StationXML per sensor (same order; sampling
+Reads one recording and one metadata entry per sensor (same order; sampling
 rates may differ; one to three channels per sensor), removes the responses,
 and for every component (Z, N, E) recorded by three or more sensors estimates
-each sensor's self-noise with a 90 % interval. Writes into DIR:
+each sensor's self-noise with a 90 % interval. The metadata are what
+`bayescal fit` takes: StationXML, a RESP file, a GSE2 poles-and-zeros file, or
+'flat' (a flat velocity response of 1 count per m/s, orientation from the
+channel code; that sensor's numbers are then not in ground units).
+
+Prints each sensor's self-noise averaged over a few period bands, in dB re
+1 (m/s^2)^2/Hz with its 90 % interval; where the interval reaches zero power
+the self-noise is below what the data resolve, and the line gives the upper
+bound only ("< X below resolution"). Writes into DIR:
 
   noise.json   {"schema": "bayescal.noise/1", "sensors": {SEED id: {"period_s",
-               "psd_db", "ci90_db": [lower, upper], ...}}, "meta": {...}};
+               "psd_db", "ci90_db": [lower, upper], "below_resolution",
+               "period_bands", ...}}, "meta": {...}};
                PSD in dB re 1 (m/s^2)^2/Hz, null where not estimable
   noise.pdf    one A4 page per component, against Peterson's NLNM and NHNM
+               (below resolution: a downward marker at the upper bound)
   noise_Z.png  (and _N, _E) the same pages as PNG
 
 With more than three sensors each sensor's estimate is the median over all
@@ -18,6 +28,7 @@ sensitive axes (--axis-mismatch; see docs/selfnoise.md).
 
 Example:
   bayescal noise --data A.mseed B.mseed C.mseed --xml A.xml B.xml C.xml --out DIR
+  bayescal noise --data A.mseed B.mseed C.mseed --xml A.xml B.resp flat --out DIR
 
 Exit codes: 0 success, 2 bad input (one line naming the file and the problem;
 nothing is written to DIR).
@@ -39,7 +50,10 @@ def configure(parser):
     parser.add_argument("--data", nargs="+", required=True, metavar="FILE",
                         help="one recording per sensor (miniSEED or any format ObsPy reads)")
     parser.add_argument("--xml", nargs="+", required=True, metavar="XML",
-                        help="one StationXML per sensor, in the same order as --data")
+                        help="one metadata entry per sensor, in the same order as --data: "
+                             "StationXML, a RESP file, a GSE2 .cal poles-and-zeros file, or "
+                             "'flat' (flat velocity response, orientation from the channel "
+                             "code)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="frequency band in Hz (default: periods up to 100 s or a 40th "
@@ -78,7 +92,7 @@ def _check_options(args):
 
 def run(args):
     """Estimate, write noise.json (and the figures) atomically; returns the exit code."""
-    from ..io.noise import AXIS_MISMATCH, self_noise_files, write_json
+    from ..io.noise import AXIS_MISMATCH, self_noise_files, to_json, write_json
     from ..io.read import InputWarning
 
     out = _check_options(args)
@@ -104,6 +118,52 @@ def run(args):
             except Exception as exc:  # the numbers matter more than the figures
                 print(f"bayescal: warning: the figures could not be drawn "
                       f"({type(exc).__name__}: {exc}); noise.json is complete", file=sys.stderr)
+    for line in summary_lines(to_json(result)):
+        print(line)
     say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in "
               f"{time.perf_counter() - t_start:.1f} s")
     return 0
+
+
+def _cell(band, key):
+    lo, hi = band[key]
+    if hi is None:
+        return "not estimable"
+    if band["below_resolution"]:
+        return f"< {hi:.1f} below resolution"
+    psd = "(<= 0)" if band["psd_db"] is None else f"{band['psd_db']:.1f}"
+    return f"{psd} [{lo:.1f}, {hi:.1f}]"
+
+
+def summary_lines(doc):
+    """The console table of a ``bayescal.noise/1`` document: per component,
+    one row per period band, one column per sensor."""
+    sensors = doc["sensors"]
+    level = round(100 * doc["meta"].get("level", 0.9))
+    key = f"ci{level}_db"
+    lines = [f"self-noise, dB re 1 (m/s^2)^2/Hz, mean over each period band [{level} % "
+             f"interval]; '< X below resolution': the interval reaches zero power, X is its "
+             f"upper bound"]
+    by_comp = {}
+    for cid, e in sensors.items():
+        by_comp.setdefault(e["component"], []).append(cid)
+    for comp, ids in by_comp.items():
+        ranges = sorted({tuple(b["period_s"]) for cid in ids for b in sensors[cid]["period_bands"]})
+        if not ranges:
+            continue
+        width = max([26] + [len(c) for c in ids])
+        lines.append(f"component {comp}")
+        lines.append(f"{'period s':>12}  " + "  ".join(f"{c:>{width}}" for c in ids))
+        for r in ranges:
+            cells = []
+            for cid in ids:
+                band = next((b for b in sensors[cid]["period_bands"]
+                             if tuple(b["period_s"]) == r), None)
+                cells.append("-" if band is None else _cell(band, key))
+            lines.append(f"{f'{r[0]:.3g}-{r[1]:.3g}':>12}  "
+                         + "  ".join(f"{c:>{width}}" for c in cells))
+    flat = doc["meta"].get("flat_metadata") or []
+    if flat:
+        lines.append(f"flat metadata: {', '.join(flat)}: numbers in counts through an assumed "
+                     "flat response of 1 count per m/s, not in ground units")
+    return lines

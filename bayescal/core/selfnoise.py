@@ -54,7 +54,7 @@ import numpy as np
 __all__ = ["sleeman", "triplet_estimates", "self_noise", "self_noise_band_sums",
            "effective_dof", "acceleration_band_matrices", "sample_complex_wishart",
            "wishart_interval", "block_bootstrap_interval", "SelfNoise", "estimate_self_noise",
-           "db"]
+           "period_band_weights", "below_resolution", "db"]
 
 
 def db(x):
@@ -249,7 +249,8 @@ def _mismatch_leakage(rng, size, n, signal, axis_mismatch):
     return np.asarray(signal)[None, :, None, None] * E[:, None]
 
 
-def wishart_interval(C, dof, level=0.9, n_boot=1000, seed=0, axis_mismatch=0.0, chunk=250):
+def wishart_interval(C, dof, level=0.9, n_boot=1000, seed=0, axis_mismatch=0.0, chunk=250,
+                     combine=None):
     """Parametric-bootstrap interval of :func:`self_noise`.
 
     ``C`` (B, n, n) band-averaged matrices, ``dof`` (B,). ``axis_mismatch``
@@ -257,8 +258,10 @@ def wishart_interval(C, dof, level=0.9, n_boot=1000, seed=0, axis_mismatch=0.0, 
     horizontal ground motion (PSD taken equal to the mean recorded vertical
     PSD) through sensitive axes that differ between sensors: the model error
     that dominates when the ambient signal is 50-60 dB above the self-noise
-    and that three channels alone cannot identify. Returns ``(lo, hi,
-    reps)``: (B, n) bounds and the (R, B, n) replicates.
+    and that three channels alone cannot identify. ``combine`` (G, B)
+    weights: the interval of the weighted means of the bands' estimates (see
+    :func:`_combine`). Returns ``(lo, hi, reps)``: (B, n) bounds (G, n with
+    ``combine``) and the (R, B, n) (or R, G, n) replicates.
     """
     rng = np.random.default_rng(seed)
     C = np.asarray(C, complex)
@@ -273,17 +276,35 @@ def wishart_interval(C, dof, level=0.9, n_boot=1000, seed=0, axis_mismatch=0.0, 
         if axis_mismatch:
             draw = draw + _mismatch_leakage(rng, m, n, signal, axis_mismatch)
         reps.append(self_noise(draw))
-    reps = np.concatenate(reps)
+    point, reps = _combine(combine, point, np.concatenate(reps))
     lo, hi = _basic_interval(point, reps, level)
     return lo, hi, reps
 
 
-def block_bootstrap_interval(per_segment, level=0.9, n_boot=1000, block=4, seed=0):
+def _combine(combine, point, reps):
+    """``point`` (B, n) and ``reps`` (R, B, n) averaged over groups of bands
+    with the (G, B) weights ``combine`` (unchanged when None).
+
+    The bands' *estimates* are averaged, each replicate's with the same
+    weights, rather than the estimator applied to averaged matrices: the
+    ambient signal can change by tens of dB across a period band, and small
+    band-to-band differences of the sensors' relative responses then leak
+    signal into an estimate from summed matrices, but not into one band's.
+    """
+    if combine is None:
+        return point, reps
+    W = np.asarray(combine, float)
+    return np.einsum("gb,bn->gn", W, point), np.einsum("gb,rbn->rgn", W, reps)
+
+
+def block_bootstrap_interval(per_segment, level=0.9, n_boot=1000, block=4, seed=0,
+                             combine=None):
     """Moving-block bootstrap over time segments.
 
     ``per_segment`` (K, B, n, n) band sums per segment (the ``per_segment`` of
     :class:`bayescal.core.spectra.CrossSpectra`); blocks of ``block`` consecutive
-    segments are drawn with replacement. Returns ``(lo, hi, reps)``.
+    segments are drawn with replacement. ``combine``: see
+    :func:`wishart_interval`. Returns ``(lo, hi, reps)``.
     """
     rng = np.random.default_rng(seed)
     P = np.asarray(per_segment)
@@ -297,6 +318,7 @@ def block_bootstrap_interval(per_segment, level=0.9, n_boot=1000, block=4, seed=
         s = rng.choice(starts, n_blocks)
         idx = (s[:, None] + np.arange(block)[None, :]).ravel()[:K]
         reps[r] = self_noise(P[idx].sum(axis=0))
+    point, reps = _combine(combine, point, reps)
     lo, hi = _basic_interval(point, reps, level)
     return lo, hi, reps
 
@@ -338,7 +360,7 @@ class SelfNoise:
 
 
 def estimate_self_noise(C, dof, freqs, level=0.9, n_boot=1000, seed=0, per_segment=None,
-                        method="wishart", block=4, axis_mismatch=0.0, ids=()):
+                        method="wishart", block=4, axis_mismatch=0.0, ids=(), combine=None):
     """Self-noise estimates with intervals from band-averaged matrices.
 
     ``C`` (B, n, n) band-averaged PSD matrices (already in the units wanted,
@@ -346,25 +368,72 @@ def estimate_self_noise(C, dof, freqs, level=0.9, n_boot=1000, seed=0, per_segme
     (B,) band centres. ``method``: "wishart" (default) or "block", which
     needs ``per_segment`` (K, B, n, n) summing, up to one positive factor per
     band, to ``C``. ``axis_mismatch``: see :func:`wishart_interval`.
+    ``combine`` (G, B) weights (rows summing to 1, e.g. from
+    :func:`period_band_weights`): estimates and intervals of the weighted
+    means of the bands' estimates instead of each band's (:func:`_combine`;
+    then ``freqs``, ``dof``, ``signal`` and ``pair_range`` of the result are
+    the groups' weighted geometric mean frequency, the degrees of freedom of
+    the weighted mean, and the weighted means).
     """
     C = np.asarray(C, complex)
     C = 0.5 * (C + np.conj(np.swapaxes(C, -1, -2)))
+    W = None if combine is None else np.asarray(combine, float)
     pairs = triplet_estimates(C)
     point = np.median(pairs, axis=-1)                     # (B, n)
+    signal = np.real(np.einsum("bii->bi", C))
+    if W is not None:
+        point = np.einsum("gb,bn->gn", W, point)
+        pairs = np.einsum("gb,bnp->gnp", W, pairs)
+        signal = np.einsum("gb,bn->gn", W, signal)
     if method == "wishart":
-        lo, hi, _ = wishart_interval(C, dof, level, n_boot, seed, axis_mismatch)
+        lo, hi, _ = wishart_interval(C, dof, level, n_boot, seed, axis_mismatch, combine=W)
     elif method == "block":
         if per_segment is None:
             raise ValueError("method 'block' needs per_segment")
         P = np.asarray(per_segment)
         scale = np.real(np.einsum("bii->b", C)) / np.real(np.einsum("kbii->b", P))
         lo, hi, _ = block_bootstrap_interval(P * scale[None, :, None, None], level, n_boot,
-                                             block, seed)
+                                             block, seed, combine=W)
     else:
         raise ValueError(f"unknown interval method {method!r}")
+    freqs, dof = np.asarray(freqs, float), np.asarray(dof, float)
+    if W is not None:
+        freqs = np.exp(W @ np.log(freqs) / W.sum(axis=1))
+        dof = W.sum(axis=1) ** 2 / ((W ** 2) @ (1.0 / dof))
     T = lambda a: np.ascontiguousarray(np.moveaxis(a, 0, 1))   # (B, n) -> (n, B)
-    return SelfNoise(freqs=np.asarray(freqs, float), psd=T(np.where(point > 0, point, np.nan)),
-                     lo=T(lo), hi=T(hi), dof=np.asarray(dof, float), level=level, method=method,
-                     signal=T(np.real(np.einsum("bii->bi", C))),
+    return SelfNoise(freqs=freqs, psd=T(np.where(point > 0, point, np.nan)),
+                     lo=T(lo), hi=T(hi), dof=dof, level=level, method=method,
+                     signal=T(signal),
                      pair_range=np.moveaxis(np.stack([pairs.min(-1), pairs.max(-1)], -1), 0, 1),
                      ids=list(ids))
+
+
+def period_band_weights(freqs, edges_s, span_s=None):
+    """Weights that average the bands at ``freqs`` (Hz) over period bands.
+
+    ``edges_s``: increasing period edges (s), e.g. (0.1, 0.3, 1, 3, 10). Each
+    band belongs to the period band holding its centre period; a period band
+    holding no band is left out. Returns ``(W, ranges)``: (G, B) weights, each
+    row an equal-weight mean over its member bands (so, on log-spaced bands,
+    a mean over log frequency of the linear power), and the G (shortest,
+    longest) period edges, clipped to ``span_s`` (shortest, longest period
+    analysed) when given.
+    """
+    f = np.asarray(freqs, float)
+    per = 1.0 / f
+    edges = np.asarray(edges_s, float)
+    rows, ranges = [], []
+    for a, b in zip(edges[:-1], edges[1:]):
+        inside = (per >= a) & (per < b)
+        if not inside.any():
+            continue
+        rows.append(inside / inside.sum())
+        lo, hi = (a, b) if span_s is None else (max(a, span_s[0]), min(b, span_s[1]))
+        ranges.append((float(lo), float(hi)))
+    return np.array(rows).reshape(len(rows), f.size), ranges
+
+
+def below_resolution(lo):
+    """True where an interval's lower bound is zero power: the data cannot
+    tell the self-noise from none, and only the upper bound is a result."""
+    return ~(np.asarray(lo, float) > 0)

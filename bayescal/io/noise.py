@@ -3,8 +3,9 @@
 The shell around :mod:`bayescal.core.selfnoise`, reusing the calibration
 pipeline's pieces:
 
-* :func:`.read.read_waveforms` / :func:`.read.read_metadata` read one
-  recording and one StationXML per sensor;
+* :func:`.read.read_waveforms` reads one recording per sensor and
+  :func:`.pipeline.load_inventory` its metadata, as ``bayescal fit`` does
+  (StationXML, RESP, GSE2 poles and zeros, or ``flat``);
 * :func:`.align.align_sensors` puts every channel of every sensor on one time
   grid at the lowest sampling rate (anti-alias resampling, fractional-delay
   alignment, gap, clip and dead-channel checks);
@@ -16,7 +17,9 @@ pipeline's pieces:
   sums the cross-spectral matrix per log-spaced band and per segment;
 * :func:`bayescal.core.selfnoise.acceleration_band_matrices` turns them into
   acceleration PSD matrices and :func:`bayescal.core.selfnoise.estimate_self_noise`
-  gives the estimates and their 90 % intervals.
+  gives the estimates and their 90 % intervals, per band and as means over
+  a few period bands (:data:`PERIOD_EDGES_S`); an interval that reaches
+  zero power is below resolution: its upper bound is the result.
 
 Horizontal components are only valid when the sensors are aligned with each
 other: a misorientation leaks the other horizontal's ground motion into the
@@ -35,7 +38,7 @@ from scipy.signal.windows import hann
 
 from ..core import selfnoise as core
 from ..core.spectra import cross_spectra
-from .read import InputError, read_metadata, read_waveforms
+from .read import InputError, read_waveforms
 from .align import Side, align_sensors
 
 SCHEMA = "bayescal.noise/1"
@@ -53,6 +56,9 @@ NYQUIST_FRACTION = 0.8
 AXIS_MISMATCH = 1e-3
 #: Components in output order; index = position in the NED unit vector.
 COMPONENTS = "NEZ"
+#: Period edges (s) of the period bands summarised on the console and in
+#: noise.json's ``period_bands`` (half decades).
+PERIOD_EDGES_S = (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0)
 
 
 @dataclass
@@ -67,6 +73,8 @@ class ComponentNoise:
     fraction_used: float
     band_hz: tuple
     matrices: np.ndarray = None        # (B, n, n) acceleration PSD matrices
+    period_bands: core.SelfNoise = None   # means over the period bands
+    period_ranges: list = field(default_factory=list)   # (shortest, longest) s per band
 
 
 @dataclass
@@ -129,17 +137,25 @@ def _check_distinct(data, sources, ids):
 
 
 def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart", block=4,
-                       axis_mismatch=AXIS_MISMATCH):
+                       axis_mismatch=AXIS_MISMATCH, period_edges=None):
     """:class:`bayescal.core.selfnoise.SelfNoise` (acceleration PSD) of the
     channels of ``spectra``: one component of n >= 3 sensors, in velocity.
-    Also returns the (B, n, n) acceleration matrices."""
+    Also returns the (B, n, n) acceleration matrices. With ``period_edges``
+    (s) returns a third and a fourth item: the estimates averaged over those
+    period bands (:func:`bayescal.core.selfnoise.period_band_weights`) and
+    the bands' (shortest, longest) periods."""
     C, fc = core.acceleration_band_matrices(spectra)
     dof = core.effective_dof(hann(spectra.nperseg, sym=False), spectra.segment_starts,
                              spectra.bins_per_band)
-    est = core.estimate_self_noise(C, dof, fc, level=level, n_boot=n_boot, seed=seed,
-                                   per_segment=spectra.per_segment, method=method, block=block,
-                                   axis_mismatch=axis_mismatch, ids=spectra.sut_ids)
-    return est, C
+    kw = dict(level=level, n_boot=n_boot, seed=seed, per_segment=spectra.per_segment,
+              method=method, block=block, axis_mismatch=axis_mismatch, ids=spectra.sut_ids)
+    est = core.estimate_self_noise(C, dof, fc, **kw)
+    if period_edges is None:
+        return est, C
+    edges = spectra.band_edges
+    W, ranges = core.period_band_weights(fc, period_edges, (1.0 / edges[-1], 1.0 / edges[0]))
+    bands = core.estimate_self_noise(C, dof, fc, combine=W, **kw) if len(ranges) else None
+    return est, C, bands, ranges
 
 
 def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=None, start=None,
@@ -181,10 +197,11 @@ def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=No
                                 min_bins=MIN_BINS, sut_ids=ids)
         say(f"component {comp}: {', '.join(ids)}; {spectra.n_segments} segments of "
             f"{spectra.nperseg / fs:.0f} s ({100 * spectra.fraction_used:.0f} % of the record)")
-        est, C = self_noise_spectra(spectra, level, n_boot, seed, method,
-                                    axis_mismatch=axis_mismatch)
+        est, C, bands, ranges = self_noise_spectra(spectra, level, n_boot, seed, method,
+                                                   axis_mismatch=axis_mismatch,
+                                                   period_edges=PERIOD_EDGES_S)
         out.append(ComponentNoise(comp, ids, est, spectra.nperseg, spectra.n_segments,
-                                  spectra.fraction_used, band, C))
+                                  spectra.fraction_used, band, C, bands, ranges))
     t1 = t0 + (n_samples - 1) / fs
     return NoiseResult(out, fs, str(t0), str(t1), list(sources or []),
                        meta={"band_hz": list(band), "method": method, "level": level,
@@ -194,18 +211,31 @@ def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=No
 
 
 def self_noise_files(data_paths, xml_paths, **kw):
-    """:func:`self_noise_streams` from one waveform file and one StationXML per
-    sensor (same order)."""
+    """:func:`self_noise_streams` from one waveform file and one metadata entry
+    per sensor (same order). Each entry is what ``bayescal fit`` takes (see
+    :func:`.pipeline.load_inventory`): a StationXML, RESP or GSE2
+    poles-and-zeros file, an ObsPy Inventory, or ``"flat"`` (a flat velocity
+    response of 1 count per m/s: that sensor's self-noise is then in counts
+    referred through that assumed response, not in ground units; its ids are
+    listed in ``meta["flat_metadata"]``)."""
+    from .pipeline import load_inventory
+
     data_paths, xml_paths = list(data_paths), list(xml_paths)
     if len(data_paths) != len(xml_paths):
         raise InputError(f"{len(data_paths)} waveform files but {len(xml_paths)} StationXML "
-                         "files: give one StationXML per sensor, in the same order")
+                         "(or RESP, GSE2, flat) entries: give one per sensor, in the same order")
     if len(data_paths) < 3:
         raise InputError(f"{', '.join(map(os.fspath, data_paths))}: self-noise needs recordings "
                          f"of at least three co-located sensors, got {len(data_paths)}")
     streams = [read_waveforms(p, side="waveform") for p in data_paths]
-    invs = [read_metadata(p) for p in xml_paths]
-    return self_noise_streams(streams, invs, sources=[os.fspath(p) for p in data_paths], **kw)
+    invs = [load_inventory(x if hasattr(x, "networks") else os.fspath(x), st)
+            for x, st in zip(xml_paths, streams)]
+    flat = sorted({tr.id for x, st in zip(xml_paths, streams)
+                   if isinstance(x, str) and x.lower() == "flat" for tr in st})
+    result = self_noise_streams(streams, invs, sources=[os.fspath(p) for p in data_paths], **kw)
+    estimated = set(result.by_id())
+    result.meta["flat_metadata"] = [cid for cid in flat if cid in estimated]
+    return result
 
 
 # --- output ---------------------------------------------------------------------------------
@@ -224,9 +254,15 @@ def to_json(result):
     ``sensors``: per SEED id, by increasing period, ``period_s``, the
     self-noise ``psd_db`` (dB re 1 (m/s^2)^2/Hz; null where the estimate is
     not positive) and ``ci90_db`` = [lower, upper] (null where unbounded: a
-    lower bound at zero power), plus ``recorded_psd_db`` (the channel's whole
-    PSD), ``pair_range_db`` (min and max over the pairs of other sensors),
-    ``dof``, ``component`` and ``others``. ``meta``: window, files, method.
+    lower bound at zero power), ``below_resolution`` (true where that
+    lower bound is zero power: the upper bound is the result), plus
+    ``recorded_psd_db`` (the channel's whole PSD), ``pair_range_db`` (min
+    and max over the pairs of other sensors), ``dof``, ``component``,
+    ``others`` and ``period_bands``: the same over a few period bands
+    (means of the bands' matrices; see :func:`period_band_summary`).
+    ``meta``: window, files, method; ``flat_metadata`` lists the channels
+    whose response was given as ``flat`` (their numbers are not in ground
+    units).
     """
     sensors = {}
     for comp in result.components:
@@ -235,16 +271,20 @@ def to_json(result):
         psd, ci = e.psd_db()[:, order], e.ci_db()[:, :, order]
         amb = core.db(e.signal)[:, order]
         pr = core.db(e.pair_range)[:, order]
+        below = core.below_resolution(e.lo)[:, order]
+        bands = period_band_summary(comp)
         for i, cid in enumerate(comp.ids):
             sensors[cid] = {
                 "period_s": _nums(e.period_s[order], 5),
                 "psd_db": _nums(psd[i]),
                 f"ci{round(100 * e.level)}_db": [_nums(ci[0, i]), _nums(ci[1, i])],
+                "below_resolution": [bool(b) for b in below[i]],
                 "recorded_psd_db": _nums(amb[i]),
                 "pair_range_db": [_nums(pr[i, :, 0]), _nums(pr[i, :, 1])],
                 "dof": _nums(e.dof[order], 1),
                 "component": comp.component,
                 "others": [o for o in comp.ids if o != cid],
+                "period_bands": bands.get(cid, []),
             }
     interval = ("basic bootstrap on linear power, parametric complex Wishart with the window's "
                 "effective degrees of freedom" if result.meta.get("method") == "wishart"
@@ -258,6 +298,32 @@ def to_json(result):
                      "segments": {c.component: {"nperseg": c.nperseg, "n_segments": c.n_segments,
                                                 "fraction_used": round(c.fraction_used, 3)}
                                   for c in result.components}}}
+
+
+def period_band_summary(comp):
+    """SEED id -> list, by increasing period, of the period-band means of one
+    :class:`ComponentNoise`: ``period_s`` [shortest, longest], ``psd_db``
+    (null where not positive), ``ci<level>_db`` [lower (null: zero power),
+    upper], ``below_resolution`` (the interval reaches zero power: the
+    self-noise is below what the data resolve, and only the upper bound is a
+    result) and ``recorded_psd_db``."""
+    e = comp.period_bands
+    if e is None:
+        return {}
+    key = f"ci{round(100 * e.level)}_db"
+    psd, ci, rec = e.psd_db(), e.ci_db(), core.db(e.signal)
+    below = core.below_resolution(e.lo)
+    order = np.argsort([r[0] for r in comp.period_ranges])
+    out = {}
+    for i, cid in enumerate(comp.ids):
+        out[cid] = [{"period_s": [_num(comp.period_ranges[g][0], 4),
+                                  _num(comp.period_ranges[g][1], 4)],
+                     "psd_db": _num(psd[i, g]),
+                     key: [_num(ci[0, i, g]), _num(ci[1, i, g])],
+                     "below_resolution": bool(below[i, g]),
+                     "recorded_psd_db": _num(rec[i, g])}
+                    for g in order]
+    return out
 
 
 def write_json(result, folder):

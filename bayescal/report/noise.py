@@ -5,8 +5,9 @@ Each page shows every sensor's self-noise estimate with its interval band,
 each channel's recorded PSD (ambient signal plus self-noise, dotted), and
 Peterson's NLNM and NHNM (ObsPy ``get_nlnm``/``get_nhnm``), in dB re
 1 (m/s^2)^2/Hz against period; below, a table of the estimates at a few
-periods. Where an estimate is not positive no point is drawn and the band
-runs from the bottom of the axes to the upper bound (an upper bound only).
+periods. Where an estimate is below resolution (its interval reaches zero
+power) no point is drawn: a downward caret sits on the upper bound and the
+band runs from the bottom of the axes to it (an upper bound only).
 Drawn with matplotlib's object API (no display, no pyplot state).
 """
 from __future__ import annotations
@@ -16,18 +17,23 @@ import textwrap
 
 import numpy as np
 
-from ..core.selfnoise import db
+from ..core.selfnoise import below_resolution, db
 from .layout import A4, LINESTYLES, MARKERS, style
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
 #: Periods (s) of the table under the figure (nearest band; outside the band left out).
 TABLE_PERIODS = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 30.0, 100.0)
 PNG_DPI = 90
+#: Marker of an upper bound (matplotlib's CARETDOWNBASE: a downward caret
+#: whose base sits on the bound).
+UPPER_BOUND_MARKER = 11
 
 
 def _cell(value, lo, hi):
     def f(x):
         return "-inf" if x == -np.inf else ("nan" if not np.isfinite(x) else f"{x:.1f}")
+    if lo == -np.inf and np.isfinite(hi):
+        return f"< {hi:.1f} below resolution"
     head = "  (<= 0)" if not np.isfinite(value) else f"{value:7.1f}"
     return f"{head} [{f(lo)}, {f(hi)}]"
 
@@ -53,7 +59,11 @@ def draw_estimates(ax, e, ids):
     NHNM, in dB re 1 (m/s^2)^2/Hz against period. ``e`` a
     :class:`bayescal.core.selfnoise.SelfNoise` (or anything with its
     ``period_s``, ``psd``, ``lo``, ``hi``, ``signal``, ``level``), ``ids``
-    its channel labels. Also used by the pair fit's self-noise page."""
+    its channel labels. Also used by the pair fit's self-noise page.
+
+    Where an interval reaches zero power (below resolution) the estimate is
+    not drawn as a point: a downward caret (:data:`UPPER_BOUND_MARKER`) marks
+    the upper bound."""
     from obspy.signal.spectral_estimation import get_nhnm, get_nlnm
 
     order = np.argsort(e.period_s)
@@ -72,9 +82,15 @@ def draw_estimates(ax, e, ids):
         lo = np.where(np.isfinite(lo_db[i, order]), lo_db[i, order], bottom)
         hi = np.where(np.isfinite(hi_db[i, order]), hi_db[i, order], top)
         ax.fill_between(per, lo, hi, color=c, alpha=0.22, lw=0)
-        ax.semilogx(per, db(e.psd[i, order]), color=c, ls=ls, lw=1.3,
+        below = below_resolution(np.asarray(e.lo)[i, order])
+        ax.semilogx(per, np.where(below, np.nan, db(e.psd[i, order])), color=c, ls=ls, lw=1.3,
                     marker=MARKERS[i % len(MARKERS)], ms=2.5,
                     label=f"{cid} self-noise, {round(100 * e.level)} % band")
+        bound = below & np.isfinite(hi_db[i, order]) & (hi_db[i, order] > bottom)
+        if bound.any():
+            ax.semilogx(per[bound], hi_db[i, order][bound], ls="none",
+                        marker=UPPER_BOUND_MARKER, ms=6, color=c,
+                        label=f"{cid} below resolution: upper bound")
     ax.set_xlim(per.min() * 0.9, per.max() * 1.1)
     ax.set_ylim(bottom, top)
     ax.set_xlabel("period (s)")
@@ -107,7 +123,8 @@ def figure_component(comp, result=None):
     fig.text(0.04, 0.945, "\n".join(textwrap.fill(t, 125) for t in sub), fontsize=7.5,
              va="top")
     lines = ["Self-noise, dB re 1 (m/s^2)^2/Hz, [90 % interval] at the band nearest each "
-             "period; (<= 0): the estimate is not positive, only an upper bound.", ""]
+             "period; '< X below resolution': the interval reaches zero power, X is its upper "
+             "bound.", ""]
     lines += _table_lines(comp)
     fig.text(0.04, 0.34, "\n".join(lines), family="monospace", fontsize=6.5, va="top")
     return fig
