@@ -8,10 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-PY = sys.executable
+from tests.tolerance import Z_001, median_mc_error  # noqa: F401  (re-exported)
 
-#: Standard normal quantile of a two-sided check at level 0.001.
-Z_001 = 3.2905
+PY = sys.executable
 
 
 def run_fit(*args, out):
@@ -46,9 +45,3 @@ def assert_user_error(proc, out, name, what):
     assert what in lines[0], lines[0]
     assert not Path(out).exists()
     assert not [p for p in Path(out).parent.iterdir() if ".tmp-" in p.name]
-
-
-def median_mc_error(entry, ess):
-    """Monte Carlo standard error of a posterior median from ``ess``
-    effective draws: sqrt(pi / 2) sd / sqrt(ESS) (asymptotic, Gaussian)."""
-    return 1.2533 * entry["sd"] / ess ** 0.5

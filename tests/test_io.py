@@ -336,15 +336,15 @@ def test_reference_turned_in_its_stationxml_turns_the_sut_azimuths(sim_pair):
     moves by those 5 degrees and nothing else changes (the fit is
     equivariant under a turn about the vertical), to within the Monte Carlo
     error of two medians (two-sided level 0.001 per number)."""
-    import bayescal
-    from tests.cli_helpers import Z_001, median_mc_error
     from tests.conftest import SIM_BAND
+    from tests.fitting import fit_pair
+    from tests.tolerance import Z_001, median_mc_error
 
     kw = dict(band=SIM_BAND, progress=False, seed=1)
-    plain = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                               sim_pair.ref_inventory, **kw).summary()
-    turned = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                                _turned(sim_pair.ref_inventory, 5.0), **kw).summary()
+    plain = fit_pair(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory,
+                     **kw).summary()
+    turned = fit_pair(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
+                      _turned(sim_pair.ref_inventory, 5.0), **kw).summary()
     ess = min(plain["convergence"]["ess_min"], turned["convergence"]["ess_min"])
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
         for key, shift in (("azimuth_deg", 5.0), ("dip_deg", 0.0)):
