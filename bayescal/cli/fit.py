@@ -61,6 +61,15 @@ def _fmt(entry):
     return f"{entry['median']:.3f} (fixed)"
 
 
+def _tilt_text(tilt):
+    """A near-vertical channel's tilt at 95 %: an upper bound when the
+    credible region of its lean holds the vertical, else an interval."""
+    lo, hi = tilt["ci95"]
+    if tilt.get("holds_zero", False):
+        return f"tilt < {hi:.3f} deg, 95 % (vertical within it)"
+    return f"tilt {tilt['median']:.3f} [{lo:.3f}, {hi:.3f}] deg, 95 %"
+
+
 def pinned_gains(summary):
     """SUT channels whose fitted gain sits at a bound of its prior."""
     return [cid for cid, e in summary["channels"].items()
@@ -85,6 +94,8 @@ def print_summary(summary, stream=None):
         vertical = abs(e["dip_deg"]["median"]) > 89.999 and "ci95" not in az
         az_text = "- (vertical)" if vertical or az.get("undefined") else _fmt(az)
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
+        if "ci95" in e.get("tilt_deg", {}):
+            print(f"{'':22s}  {_tilt_text(e['tilt_deg'])}", file=stream)
         units = {"period_s": "s", "gain": (e.get("nominal") or {}).get("gain_units", ""),
                  "relative_gain": "(fitted / metadata gain)"}
         for name, r in e.get("response", {}).items():

@@ -5,7 +5,9 @@ figures, and the ``result.json`` / ``samples.npz`` pair on disk.
 Intervals are equal-tailed: ``ci68`` = [16, 84] %, ``ci90`` = [5, 95] %,
 ``ci95`` = [2.5, 97.5] % quantiles of the samples. Azimuths are unwrapped
 around their circular mean first, so an interval crossing north stays
-contiguous (e.g. [-0.4, 0.6]).
+contiguous (e.g. [-0.4, 0.6]). A near-vertical channel's tilt and dip
+intervals come from the credible region of its two lean components instead
+(:func:`vertical_summaries`).
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from .modes import mark_channel
 from .unconstrained import by_channel
 from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
+from .tilt_region import REGION_NOTE, tilt_intervals
 
 SCHEMA = "bayescal.fit/1"
 QUANTILES = {"ci68": (16.0, 84.0), "ci90": (5.0, 95.0), "ci95": (2.5, 97.5)}
@@ -32,6 +35,21 @@ def interval_summary(x):
     for key, (lo, hi) in QUANTILES.items():
         out[key] = [float(np.percentile(x, lo)), float(np.percentile(x, hi))]
     return out
+
+
+def vertical_summaries(vectors, dip, tilt):
+    """Dip and tilt summaries of a near-vertical channel: medians, means and
+    sds of the samples, with 68/90/95 % intervals taken from the credible
+    regions of the lean north/east components
+    (:func:`bayescal.core.tilt_region.tilt_intervals`), since an
+    equal-tailed interval of a magnitude never holds 0. The tilt's
+    ``holds_zero`` says whether the 95 % region holds the vertical, and then
+    ``upper95`` is the bound of "tilt < upper95"."""
+    t_ci, d_ci, holds = tilt_intervals(vectors, {k: (hi - lo) / 100.0
+                                                 for k, (lo, hi) in QUANTILES.items()})
+    tilt_entry = {**interval_summary(tilt), **t_ci, "holds_zero": holds["ci95"],
+                  "upper95": t_ci["ci95"][1] if holds["ci95"] else None, "interval": REGION_NOTE}
+    return {**interval_summary(dip), **d_ci, "interval": REGION_NOTE}, tilt_entry
 
 
 def fixed_summary(value):
@@ -120,8 +138,8 @@ class Posterior:
                                     "note": "near-vertical channel: azimuth is not constrained;"
                                             " see tilt_deg (tilt_toward_azimuth_deg: the "
                                             "azimuth its axis leans toward)"}
-            entry["dip_deg"] = interval_summary(dip[:, k])
-            entry["tilt_deg"] = interval_summary(tilt)
+            entry["dip_deg"], entry["tilt_deg"] = vertical_summaries(self.vectors[:, k],
+                                                                     dip[:, k], tilt)
             entry["tilt_toward_azimuth_deg"] = float(np.median(unwrap_azimuths(toward)))
             north, east = tilt_components(self.vectors[:, k])
             entry["tilt_north_deg"] = interval_summary(north)

@@ -106,8 +106,9 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             tilt = ch["tilt_deg"]
             dev = None if ntilt is None else tilt["median"] - ntilt
             ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
-            rows.append(_interval_row(cid, "tilt", tilt, ntilt, dev,
-                                      f"toward az {ch['tilt_toward_azimuth_deg']:.1f}", ttilt))
+            lean = ("vertical within the 95 % region" if tilt.get("holds_zero")
+                    else f"toward az {ch['tilt_toward_azimuth_deg']:.1f}")
+            rows.append(_interval_row(cid, "tilt", tilt, ntilt, dev, lean, ttilt))
             if dev is not None and abs(dev) > tolerance_deg and not msgs:
                 msgs.append(f"TILT OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         else:
