@@ -29,7 +29,7 @@ def main(argv=None):
 
     p = simulate_pair(seed=0, sut_azimuth=(3.0, 93.0, 0.0))
     t0 = time.perf_counter()
-    post = calibrate(p.sut, p.sut_inventory, p.ref, p.ref_inventory, progress=False)
+    post = calibrate(sut=p.sut, sut_xml=p.sut_inventory, ref=p.ref, ref_xml=p.ref_inventory, progress=False)
     fit_s = time.perf_counter() - t0
     times = []
     for _ in range(args.repeats):

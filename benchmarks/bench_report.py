@@ -27,7 +27,7 @@ def make_result(folder, response):
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0),
                         sut_response=((28.0, 0.68, 780.0), (31.0, 0.72, 730.0),
                                       (30.0, 0.70, 760.0)))
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), fit_response="all" if response else "none",
                               progress=False)
     post.save(folder)

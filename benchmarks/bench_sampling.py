@@ -65,7 +65,13 @@ def timed(*args, **kw):
 for mod in list(sys.modules.values()):
     if getattr(mod, "sample", None) is original:
         mod.sample = timed
-from bayescal.io.pipeline import calibrate_files
+import inspect
+from bayescal.io.pipeline import calibrate_files as _cf
+if "ref_xml" in inspect.signature(_cf).parameters:      # keywords (this tree)
+    def calibrate_files(sut, sut_xml, ref, ref_xml, **kw):
+        return _cf(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, **kw)
+else:                                                   # positional (older trees)
+    calibrate_files = _cf
 if case.startswith("orientation") or case == "joint":
     p = json.load(open(folder + "/paths.json"))
     kw = {"orientation": {}, "orientation_quiet": {"ref_noise": "quiet"},

@@ -198,7 +198,7 @@ def worst_case(seed):
     sim = simulate_pair(duration=7200, fs=20, seed=seed, sut_response=((360.0, 0.707, 750.0),) * 3,
                         nominal_response=(360.0, 0.707, 750.0))
     t0 = time.perf_counter()
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, fit_response="all",
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, fit_response="all",
                      seed=seed, progress=False)
     total = time.perf_counter() - t0
     c = post.summary()["convergence"]

@@ -109,7 +109,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
     t0 = time.perf_counter()
     from bayescal.io.read import InputError
     try:
-        post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+        post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                                   band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
                                   ref_noise=ref_noise)
     except InputError as exc:

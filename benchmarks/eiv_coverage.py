@@ -66,7 +66,7 @@ def run_pair(seed, ratio, pair_coherence, fit, mode, duration=3600.0, fs=10.0,
                         sut_azimuth=azs, sut_dip=dips, sut_response=resp,
                         nominal_response=NOMINAL, noise_in_counts=noise_in_counts)
     t0 = time.process_time()
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.02, 1.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.02, 1.0),
                      fit_response=fit, seed=seed, progress=False, ref_noise=mode)
     cpu = time.process_time() - t0
     c90 = coverage_checks(post, azs, dips, resp, level=90.0)

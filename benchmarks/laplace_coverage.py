@@ -71,7 +71,7 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coher
                         sut_dip=dips, sut_response=resp, nominal_response=NOMINAL)
     sm.least_squares_fit = stop
     try:
-        calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
+        calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=band,
                   fit_response="all", seed=seed, progress=False, **kw)
         raise RuntimeError("the fit did not reach least squares")
     except _Stop as got:

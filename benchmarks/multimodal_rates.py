@@ -41,7 +41,7 @@ def run(kind, seed):
         ref, free = sim.ref.select(channel="BH[NE]"), "none"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")     # the short sampler warns that it did not converge
-        post = calibrate(sim.sut, sim.sut_inventory, ref, sim.ref_inventory, band=(0.02, 1.0),
+        post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=ref, ref_xml=sim.ref_inventory, band=(0.02, 1.0),
                          fit_response=free, progress=False, **SHORT)
     mm = post.summary()["multimodal"]
     return mm["detected"], [m["mass_fraction"] for m in mm["modes"]]

@@ -34,7 +34,7 @@ def main():
         counts = kw.pop("noise_in_counts", False)
         p = simulate_pair(**SIM, seed=seed, coherence=coh, ref_coherence=rcoh,
                           noise_in_counts=counts)
-        return p, calibrate(p.sut, p.sut_inventory, p.ref, p.ref_inventory, band=(0.02, 1.0),
+        return p, calibrate(sut=p.sut, sut_xml=p.sut_inventory, ref=p.ref, ref_xml=p.ref_inventory, band=(0.02, 1.0),
                             progress=False, **kw)
 
     # every fit names its settings: the defaults moved (gains free since

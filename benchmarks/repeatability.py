@@ -106,7 +106,7 @@ def run(recordings, misfit_shape, log=print):
         per = {}
         for k, (t0, t1) in enumerate(windows):
             t = time.perf_counter()
-            post = calibrate(sut, sut_inv, ref, ref_inv, band=band, fit_response=free, seed=k,
+            post = calibrate(sut=sut, sut_xml=sut_inv, ref=ref, ref_xml=ref_inv, band=band, fit_response=free, seed=k,
                              start=t0, end=t1, progress=False, misfit_shape=misfit_shape)
             q = quantities(post)
             ok = post.summary()["adequacy"].get("ok")

@@ -44,7 +44,7 @@ def main(argv=None):
                                     ref_coherence=cr, sut_azimuth=azs, sut_dip=dips,
                                     sut_response=resp, nominal_response=NOMINAL,
                                     noise_in_counts=counts)
-                post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+                post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                                  band=(0.02, 1.0), fit_response="gain", seed=seed,
                                  progress=False, min_ess=300, n_tau=20)
                 zg = [v[1] for k, v in coverage_checks(post, azs, dips, resp).items()

@@ -71,7 +71,7 @@ def least_squares_point(sim, seed, nperseg, noise=None, which="both"):
 
     sm.least_squares_fit = stop
     try:
-        ec.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.02, 1.0),
+        ec.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.02, 1.0),
                      fit_response="gain", seed=seed, progress=False, ref_noise="quiet",
                      nperseg=nperseg)
     except _Stop as got:

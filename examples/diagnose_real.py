@@ -86,7 +86,8 @@ def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
         inputs = huddle_inputs(data, os.path.join(folder, "inputs"))
         window = {}
     t0 = time.perf_counter()
-    base = bayescal.calibrate(*inputs, band=spec["band"], fit_response=spec["free"], seed=seed,
+    sut, sut_xml, ref, ref_xml = inputs
+    base = bayescal.calibrate(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, band=spec["band"], fit_response=spec["free"], seed=seed,
                               progress=False, ref_noise="quiet", **window, **sample_kw)
     d = diagnose(base, seed=seed, mcmc=mcmc, log=lambda s: print(s, flush=True))
     summary = d.summary()

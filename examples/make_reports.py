@@ -42,7 +42,7 @@ def _simulated_fit(folder, sim_kw, fit_kw):
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(**sim_kw)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               progress=False, **fit_kw)
     post.save(folder)
     with open(os.path.join(folder, "truth.json"), "w") as fh:

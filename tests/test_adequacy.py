@@ -90,7 +90,7 @@ def test_clean_simulations_pass_at_the_level():
         # the verdict is the misfit at the posterior median: a shorter chain
         # (as tests/test_diagnose.py uses) moves that median by a few per cent
         # of a standard deviation, which the level check does not depend on
-        post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+        post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                          band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
         verdict = post.summary()["adequacy"]
         fails += not verdict["ok"]

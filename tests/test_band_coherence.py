@@ -54,7 +54,7 @@ def test_demo_band_and_fit_find_the_truth(demo):
     s, r, fs, _ = align(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory, "SUT",
                         "reference", None, None)
     _check_coherence(s, r, fs, DEMO_BAND)
-    post = calibrate(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory,
+    post = calibrate(sut=demo.sut, sut_xml=demo.sut_inventory, ref=demo.ref, ref_xml=demo.ref_inventory,
                      progress=False)
     assert tuple(post.meta["band_hz"]) == DEMO_BAND
     # every angle within 3.5 posterior sd (half the 68 % interval) of the

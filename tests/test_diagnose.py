@@ -18,7 +18,7 @@ AZ = (5.0, 95.0, 0.0)
 def _diagnose(band=(0.05, 3.0), seed=1, coherence=0.99, fit_response="gain", **effect):
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=AZ,
                         nominal_azimuth=(3.0, 93.0, 0.0), **effect)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=band,
                               progress=False, min_ess=200, n_tau=20, fit_response=fit_response,
                               ref_noise="quiet")
     return diagnose(post, mcmc=False)

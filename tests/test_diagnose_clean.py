@@ -17,7 +17,7 @@ def _diagnose(**effect):
                         ref_coherence=COHERENCE, noise_in_counts=True,
                         sut_azimuth=(40.0, 130.0, 0.0), nominal_azimuth=(38.0, 131.0, 0.0),
                         **effect)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 3.0), progress=False, seed=1000, min_ess=200, n_tau=20,
                               ref_noise="quiet")
     return diagnose(post, mcmc=False)
@@ -95,7 +95,7 @@ def _harness_spectra(seed, tilt_level=0.0):
                         sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip,
                         sut_response=tuple((30.0, 0.707, 750.0 * (1 + o)) for o in off),
                         tilt_noise=tilt_level, **h.regime_kw("equal-counts", coherence))
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=h.BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
                               ref_noise="quiet")
     return post.model.spectra

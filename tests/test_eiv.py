@@ -128,7 +128,7 @@ def test_eiv_model_in_model_criticism_and_one_channel_refusal():
     # the fitted axes explain the data far better than a reversed channel
     assert at_fit - held_orientation_loglik(setup.model, theta, flipped) > 100
     with pytest.raises(FitError, match="one-channel"):
-        calibrate(sim.sut, sim.sut_inventory, sim.ref.select(channel="BHN"), sim.ref_inventory,
+        calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref.select(channel="BHN"), ref_xml=sim.ref_inventory,
                   band=(0.02, 1.0), progress=False, ref_noise="estimate")
 
 
@@ -154,7 +154,7 @@ def test_default_mode_and_gain_separation_note(capsys):
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=11, coherence=0.99,
                         sut_azimuth=(3.0, 93.0, 0.0), sut_dip=(0.0, 0.5, -89.5),
                         sut_response=((30.0, 0.707, 750.0 * 1.02),) * 3)
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.3, 2.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.3, 2.0),
                      progress=False, min_ess=200, n_tau=20)
     rn = post.meta["reference_noise"]
     assert rn["mode"] == "estimate" and rn["chosen_by"] == "default"
@@ -169,8 +169,8 @@ def test_default_mode_and_gain_separation_note(capsys):
     assert "reference noise: in this band (0.3-2 Hz)" in out
     assert "reference noise: estimate (the reference's self-noise estimated" in out
     assert "the default for this pair)" in out
-    one = calibrate(sim.sut.select(channel="BHZ"), sim.sut_inventory,
-                    sim.ref.select(channel="BHZ"), sim.ref_inventory, band=(0.05, 1.0),
+    one = calibrate(sut=sim.sut.select(channel="BHZ"), sut_xml=sim.sut_inventory,
+                    ref=sim.ref.select(channel="BHZ"), ref_xml=sim.ref_inventory, band=(0.05, 1.0),
                     progress=False, min_ess=200, n_tau=20)
     assert one.meta["reference_noise"]["mode"] == "quiet"
     assert one.meta["reference_noise"]["chosen_by"] == "default"

@@ -18,7 +18,7 @@ def high_coherence_fit():
     resp = ((30.0, 0.707, 757.0), (30.0, 0.707, 745.0), (30.0, 0.707, 752.0))
     sim = simulate_pair(duration=7200, fs=10, seed=11, coherence=0.995, sut_azimuth=(3.0, 93.2, 0.0),
                         sut_dip=(0.2, -0.3, -89.6), sut_response=resp)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), fit_response="gain", seed=3, progress=False)
     return sim, post
 
@@ -53,7 +53,7 @@ def test_turned_swapped_and_reversed_sensor_found_without_nominal_help():
     # metadata say N, E, up; truth: turned by 180 deg, horizontals swapped, vertical reversed
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(273.0, 183.0, 0.0),
                         sut_dip=(0.0, 0.0, 90.0))
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), seed=1, progress=False)
     ch = post.summary()["channels"]
     az = [ch[f"XX.SIM.10.BH{c}"]["azimuth_deg"]["median"] for c in "12"]
@@ -65,8 +65,8 @@ def test_non_orthogonal_channels_and_reproducible():
     sim = simulate_pair(duration=3600, fs=10, seed=7, coherence=0.99, sut_azimuth=(10.0, 97.0, 0.0),
                         sut_dip=(0.0, 1.5, -90.0))
     kw = dict(band=(0.03, 1.0), seed=4, progress=False)
-    a = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, **kw)
-    b = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, **kw)
+    a = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, **kw)
+    b = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, **kw)
     assert np.array_equal(a.samples, b.samples)
     ch = a.summary()["channels"]
     # 87 degrees between the horizontals, the second dipping 1.5 degrees
@@ -80,7 +80,7 @@ def test_joint_response_recovered(tmp_path):
     resp = ((27.0, 0.66, 770.0),) * 3
     sim = simulate_pair(duration=3600, fs=10, seed=2, coherence=0.995, sut_response=resp,
                         sut_azimuth=(5.0, 95.0, 0.0))
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.01, 1.0), fit_response="all", seed=2, progress=False)
     post.save(tmp_path)
     again = bayescal.Posterior.load(tmp_path).summary()["channels"]

@@ -24,7 +24,7 @@ def gains_off():
 
 
 def _fit(sim, **kw):
-    return bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    return bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=SIM_BAND, progress=False, **kw)
 
 
@@ -59,7 +59,7 @@ def test_flat_metadata_gives_the_true_relative_gain(tmp_path):
     # the reference is 100 times quieter than the SUT here: --ref-noise quiet
     # (the default, estimate, cannot separate its noise from the gains in
     # this narrow band and says so: tests/test_eiv.py)
-    post = bayescal.calibrate(sim.sut, inv, sim.ref, sim.ref_inventory, band=(0.3, 2.0),
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=inv, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.3, 2.0),
                               progress=False, ref_noise="quiet")
     truth = 750.0 * DIGITIZER_GAIN
     channels = post.summary()["channels"]
@@ -83,7 +83,7 @@ def test_flat_metadata_refuses_period_and_damping():
 
     sim = simulate_pair(**dict(SIM_KW, duration=1200.0))
     with pytest.raises(FitError, match="poles-and-zeros"):
-        bayescal.calibrate(sim.sut, flat_inventory(sim.sut), sim.ref, sim.ref_inventory,
+        bayescal.calibrate(sut=sim.sut, sut_xml=flat_inventory(sim.sut), ref=sim.ref, ref_xml=sim.ref_inventory,
                            band=SIM_BAND, progress=False, fit_response="all")
 
 
@@ -94,7 +94,7 @@ def test_vertical_only_pair_gives_its_relative_gain():
                                sut_response=((30.0, 0.707, 750.0),) * 2
                                + ((30.0, 0.707, 765.0),)))
     sut, ref = sim.sut.select(channel="BHZ"), sim.ref.select(channel="BHZ")
-    post = bayescal.calibrate(sut, sim.sut_inventory, ref, sim.ref_inventory, band=SIM_BAND,
+    post = bayescal.calibrate(sut=sut, sut_xml=sim.sut_inventory, ref=ref, ref_xml=sim.ref_inventory, band=SIM_BAND,
                               progress=False)
     rel = post.summary()["channels"]["XX.SIM.10.BHZ"]["response"]["relative_gain"]
     assert rel["ci95"][0] <= 1.02 <= rel["ci95"][1]
@@ -106,8 +106,8 @@ def test_one_horizontal_reference_channel_holds_the_gains(gains_off):
     default; the gains are held (the result says so) and no relative gain is
     reported, since one channel cannot tell them from the rotation."""
     ref = gains_off.ref.select(channel="BHN")
-    post = bayescal.calibrate(gains_off.sut, gains_off.sut_inventory, ref,
-                              gains_off.ref_inventory, band=SIM_BAND, progress=False)
+    post = bayescal.calibrate(sut=gains_off.sut, sut_xml=gains_off.sut_inventory, ref=ref,
+                              ref_xml=gains_off.ref_inventory, band=SIM_BAND, progress=False)
     s = post.summary()
     assert "gains are held at the metadata values" in s["meta"]["assumption"]
     assert all("response" not in e for e in s["channels"].values())

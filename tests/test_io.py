@@ -216,7 +216,7 @@ def test_messy_simulated_pair_still_recovers_the_orientation(sim_pair):
         tr.stats.starttime += frac + 200 / (2 * fs)
     gapped = ref.copy()
     gapped.cutout(ref[0].stats.starttime + 1200, ref[0].stats.starttime + 1500)
-    post = bayescal.calibrate(sut, sim_pair.sut_inventory, gapped, sim_pair.ref_inventory,
+    post = bayescal.calibrate(sut=sut, sut_xml=sim_pair.sut_inventory, ref=gapped, ref_xml=sim_pair.ref_inventory,
                               band=SIM_BAND, progress=False)
     summ = post.summary()
     truth = sim_pair.truth["channels"]
@@ -257,7 +257,7 @@ def test_acceleration_response_is_not_misscaled(sim_pair):
     s_acc, *_ = align(sim_pair.sut, acc, sim_pair.ref, sim_pair.ref_inventory)
     f = np.geomspace(0.01, 4, 50)
     np.testing.assert_allclose(s_acc.response_fn()(f), s_vel.response_fn()(f), rtol=1e-6)
-    post = bayescal.calibrate(sim_pair.sut, acc, sim_pair.ref, sim_pair.ref_inventory,
+    post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=acc, ref=sim_pair.ref, ref_xml=sim_pair.ref_inventory,
                               band=SIM_BAND, progress=False)
     truth = sim_pair.truth["channels"]
     for cid in ("XX.SIM.10.BH1", "XX.SIM.10.BH2"):
@@ -302,7 +302,7 @@ def test_two_channel_reference_gives_horizontal_azimuths_only(sim_pair):
     ref = sim_pair.ref.copy()
     for tr in [t for t in ref if t.stats.channel.endswith("Z")]:
         ref.remove(tr)
-    post = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, ref, sim_pair.ref_inventory,
+    post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=ref, ref_xml=sim_pair.ref_inventory,
                               band=SIM_BAND, progress=False)
     summ = post.summary()
     assert list(summ["not_estimable"]) == ["XX.SIM.10.BHZ"]

@@ -14,8 +14,8 @@ def test_batched_jacobian_matches_scipy(sim_pair):
     import bayescal
     from bayescal.criticism.effects import ClockDrift
 
-    post = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                              sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
+    post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
+                              ref_xml=sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
                               min_ess=200, n_tau=20)
     m0 = post.model
     drift = ClockDrift(range(m0.spectra.n_u), m0.spectra)
@@ -51,8 +51,8 @@ def test_batched_jacobian_errors_in_variables(sim_pair):
     import bayescal
     from bayescal.core.eiv import EIVModel
 
-    post = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                              sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
+    post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
+                              ref_xml=sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
                               min_ess=200, n_tau=20, ref_noise="estimate")
     m = post.model
     assert isinstance(m, EIVModel)

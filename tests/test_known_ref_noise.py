@@ -33,8 +33,8 @@ def test_known_reference_noise_removes_the_one_channel_bias():
     fits = {}
     for name, extra in (("quiet", {}), ("fixed", {"ref_noise_psd": table}),
                         ("equal", {"ref_noise": "equal"})):
-        post = calibrate(p.sut.select(channel="BHZ"), p.sut_inventory,
-                         p.ref.select(channel="BHZ"), p.ref_inventory, band=(0.02, 1.0),
+        post = calibrate(sut=p.sut.select(channel="BHZ"), sut_xml=p.sut_inventory,
+                         ref=p.ref.select(channel="BHZ"), ref_xml=p.ref_inventory, band=(0.02, 1.0),
                          progress=False, seed=4, min_ess=400, n_tau=20, **extra)
         assert post.meta["reference_noise"]["mode"] == name
         fits[name] = post.summary()["channels"]["XX.SIM.10.BHZ"]["response"]["relative_gain"]

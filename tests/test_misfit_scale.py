@@ -39,7 +39,7 @@ def test_gaussian_limit_and_variance_factor():
 def _gain_sds(sim, shapes):
     out = []
     for a in shapes:
-        post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.05, 1.0),
+        post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.05, 1.0),
                          fit_response="gain", seed=3, progress=False, misfit_shape=a)
         assert post.summary()["convergence"]["converged"]
         out.append(np.std(post.samples, axis=0))

@@ -99,7 +99,7 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=0, coherence=0.99, n_waves=1, diffuse=0.0,
                         sut_azimuth=(30.0, 120.0, 0.0))
     ref = sim.ref.select(channel="BH[NE]")
-    post = calibrate(sim.sut, sim.sut_inventory, ref, sim.ref_inventory, band=(0.02, 1.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=ref, ref_xml=sim.ref_inventory, band=(0.02, 1.0),
                      fit_response="none", progress=False, ref_noise="quiet")
     write_results(post, str(tmp_path))
     res = json.loads((tmp_path / "result.json").read_text())
@@ -144,7 +144,7 @@ def test_normal_pair_is_not_flagged():
 
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=3, coherence=0.99,
                         sut_azimuth=(3.0, 93.0, 0.0), sut_dip=(0.0, 0.5, -89.5))
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.03, 1.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.03, 1.0),
                      progress=False)
     res = post.summary()
     mm = res["multimodal"]
@@ -163,8 +163,8 @@ def test_cowi_is_not_flagged(cowi_data):
     from bayescal.io.pipeline import calibrate_files
 
     d = cowi_data
-    post = calibrate_files(str(d / "C100823215422_COWI.LHx"), "flat",
-                           [str(d / "DT000110.LH1"), str(d / "DT000110.LH2")], "flat",
+    post = calibrate_files(sut=str(d / "C100823215422_COWI.LHx"), sut_xml="flat",
+                           ref=[str(d / "DT000110.LH1"), str(d / "DT000110.LH2")], ref_xml="flat",
                            band=(0.125, 1 / 3), start="2010-08-24T02:00:00",
                            end="2010-08-24T13:00:00", progress=False)
     mm = post.summary()["multimodal"]
@@ -220,7 +220,7 @@ def test_a_stalled_start_does_not_outweigh_the_real_optimum():
     sim = simulate_pair(duration=3600, fs=10, seed=452, coherence=cu, ref_coherence=cr,
                         sut_azimuth=azs, sut_dip=dips, sut_response=resp,
                         nominal_response=ec.NOMINAL, noise_in_counts=True)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 1.0), fit_response="gain", seed=452, progress=False,
                               ref_noise="quiet")
     s = post.summary()

@@ -80,11 +80,32 @@ def test_rerun_removes_what_the_previous_run_wrote_and_nothing_else(sim_files, t
 
 # --- the Python API --------------------------------------------------------------------
 
+def test_data_are_keywords_named_as_the_cli_options(sim_pair, sim_files):
+    """A positional call (the old order put the SUT first) is refused with a
+    message naming the keywords, never run with the sensors swapped."""
+    from bayescal import calibrate, calibrate_files
+
+    with pytest.raises(TypeError, match=r"ref=\.\.\., ref_xml=\.\.\., sut=\.\.\., sut_xml="):
+        calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory)
+    with pytest.raises(TypeError, match="keywords"):
+        calibrate_files(str(sim_files["sut.mseed"]), str(sim_files["sut.xml"]),
+                        str(sim_files["ref.mseed"]), str(sim_files["ref.xml"]))
+    post = calibrate_files(ref=str(sim_files["ref.mseed"]), ref_xml=str(sim_files["ref.xml"]),
+                           sut=str(sim_files["sut.mseed"]), sut_xml=str(sim_files["sut.xml"]),
+                           band=SIM_BAND, progress=False, fit_response="none")
+    assert post.channel_ids[0].startswith("XX.SIM.10.")          # the SUT is the SUT
+    # calibrate takes metadata as an Inventory or as the CLI does (a path, 'flat')
+    post = calibrate(ref=sim_pair.ref, ref_xml=str(sim_files["ref.xml"]), sut=sim_pair.sut,
+                     sut_xml=sim_pair.sut_inventory, band=SIM_BAND, progress=False,
+                     fit_response="none")
+    assert post.channel_ids[0].startswith("XX.SIM.10.")
+
+
 def test_summary_is_plain_json_and_a_vertical_has_no_azimuth(sim_pair):
     from bayescal import calibrate
 
-    post = calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref, sim_pair.ref_inventory,
-                     band=SIM_BAND, progress=False)
+    post = calibrate(ref=sim_pair.ref, ref_xml=sim_pair.ref_inventory, sut=sim_pair.sut,
+                     sut_xml=sim_pair.sut_inventory, band=SIM_BAND, progress=False)
     s = post.summary()
     assert json.loads(json.dumps(s, allow_nan=False)) == s       # plain values, no NaN
     z = s["channels"]["XX.SIM.10.BHZ"]
@@ -102,13 +123,15 @@ def test_a_failed_model_check_is_a_python_warning():
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999,
                         sut_response=((20.0, 0.707, 750.0),) * 3)
     with pytest.warns(ModelMisfitWarning, match="MODEL DOES NOT FIT"):
-        post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+        post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
+                         sut_xml=sim.sut_inventory,
                          band=(0.02, 1.0), progress=False)
     assert post.summary()["adequacy"]["ok"] is False
     clean = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelMisfitWarning)
-        calibrate(clean.sut, clean.sut_inventory, clean.ref, clean.ref_inventory,
+        calibrate(ref=clean.ref, ref_xml=clean.ref_inventory, sut=clean.sut,
+                  sut_xml=clean.sut_inventory,
                   band=(0.02, 1.0), progress=False)
 
 

@@ -13,7 +13,7 @@ from tests.conftest import SIM_BAND, SIM_KW
 def test_non_orthogonal_horizontals_are_measured():
     pair = simulate_pair(**{**SIM_KW, "sut_azimuth": (3.0, 94.5, 0.0),
                             "sut_dip": (0.0, 0.0, -89.5)})
-    post = bayescal.calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+    post = bayescal.calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                               band=SIM_BAND, progress=False)
     summary = post.summary()
     e = summary["orthogonality_deg"]["XX.SIM.10.BH1/XX.SIM.10.BH2"]

@@ -29,7 +29,7 @@ def gain_result(tmp_path_factory):
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0))
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), progress=False, fit_response="gain")
     folder = tmp_path_factory.mktemp("paper") / "result"
     post.save(str(folder))
@@ -103,8 +103,8 @@ def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800, fs=10, seed=7, coherence=0.99)
-    post = bayescal.calibrate(sim.sut.select(channel="BHZ"), sim.sut_inventory,
-                              sim.ref.select(channel="BHZ"), sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut.select(channel="BHZ"), sut_xml=sim.sut_inventory,
+                              ref=sim.ref.select(channel="BHZ"), ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), progress=False, fit_response="gain")
     folder = tmp_path / "z"
     post.save(str(folder))

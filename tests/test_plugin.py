@@ -123,7 +123,7 @@ def pair():
 @pytest.mark.parametrize("mode", ["quiet", "estimate", "equal"])
 def test_models_carry_the_weights(pair, mode):
     from bayescal.io.pipeline import calibrate
-    post = calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+    post = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise=mode)
     model = post.model
     sp = model.spectra
@@ -153,9 +153,9 @@ def test_diagnosis_reports_its_final_models_weights(pair):
     n_r``), not the base fit's."""
     from bayescal.criticism.diagnose import posterior_of
     from bayescal.io.pipeline import calibrate
-    base = calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+    base = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="quiet")
-    eiv = calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+    eiv = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                     band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="estimate")
     final = posterior_of(eiv.model, eiv.theta_ls, np.diag(np.full(eiv.model.ndim, 1e-8)),
                          base.meta, base.not_estimable, "gain", mcmc=False, n_laplace=50)

@@ -97,8 +97,8 @@ def test_cowi_band_chosen_from_coherence(cowi_data):
     agree with ASL."""
     from bayescal.io.pipeline import calibrate_files
 
-    post = calibrate_files(cowi_data / "C100823215422_COWI.LHx", "flat",
-                           [cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], "flat",
+    post = calibrate_files(sut=cowi_data / "C100823215422_COWI.LHx", sut_xml="flat",
+                           ref=[cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], ref_xml="flat",
                            start="2010-08-24T02:00:00", end="2010-08-24T13:00:00",
                            progress=False)
     lo, hi = post.meta["band_hz"]

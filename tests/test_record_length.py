@@ -24,7 +24,7 @@ def test_threshold_in_periods_of_the_lower_edge():
 def test_fit_says_so_in_result_and_console(band, short, capsys):
     from bayescal.cli.fit import print_summary
     sim = simulate_pair(duration=900, fs=10, seed=3, coherence=0.95, noise_in_counts=True)
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=band,
                               progress=False, seed=3, min_ess=100, n_tau=20)
     rl = post.summary()["meta"]["record_length"]
     # the segments used: at most the record, at least the 4-segment minimum

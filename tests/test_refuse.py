@@ -51,7 +51,7 @@ def test_one_dead_channel_is_not_estimable_with_its_figure():
     rng = np.random.default_rng(0)
     tr = sim.sut[1]
     tr.data = rng.standard_normal(tr.data.size) * np.std(tr.data)
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.05, 1.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.05, 1.0),
                      progress=False)
     assert post.channel_ids == ["XX.SIM.10.BH1", "XX.SIM.10.BHZ"]
     why = post.not_estimable["XX.SIM.10.BH2"]

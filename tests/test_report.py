@@ -26,7 +26,7 @@ TRUE_DIP = (0.0, 0.0, -89.5)
 
 
 def _fit(tmp, name, sim, ref=None, **kw):
-    post = bayescal.calibrate(sim.sut, sim.sut_inventory, ref or sim.ref, sim.ref_inventory,
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=ref or sim.ref, ref_xml=sim.ref_inventory,
                               band=BAND, progress=False, **kw)
     folder = str(tmp / name)
     post.save(folder)

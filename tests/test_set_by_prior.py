@@ -57,7 +57,7 @@ def test_gain_pinned_at_the_prior_bound_keeps_nominal(tmp_path):
     nominal = (30.0, 0.707, 750.0)
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=6, coherence=0.99,
                         sut_response=((30.0, 0.707, 20 * 750.0),) * 3, nominal_response=nominal)
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=(0.03, 1.0),
+    post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.03, 1.0),
                      fit_response="gain", progress=False)
     s = post.summary()
     for cid, e in s["channels"].items():

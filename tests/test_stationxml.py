@@ -16,8 +16,8 @@ from tests.conftest import SIM_BAND
 
 @pytest.fixture(scope="module")
 def orientation_post(sim_pair):
-    return bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                              sim_pair.ref_inventory, band=SIM_BAND, progress=False)
+    return bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
+                              ref_xml=sim_pair.ref_inventory, band=SIM_BAND, progress=False)
 
 
 def _channel(inv, code):
@@ -92,8 +92,8 @@ def test_fitted_response_written_and_sensitivity_recalculated(tmp_path):
     truth = (27.0, 0.68, 780.0)
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99,
                         sut_response=((30.0, 0.707, 750.0),) * 2 + (truth,))
-    post = bayescal.calibrate(sim.sut.select(channel="BHZ"), sim.sut_inventory, sim.ref,
-                              sim.ref_inventory, band=SIM_BAND, fit_response="all",
+    post = bayescal.calibrate(sut=sim.sut.select(channel="BHZ"), sut_xml=sim.sut_inventory, ref=sim.ref,
+                              ref_xml=sim.ref_inventory, band=SIM_BAND, fit_response="all",
                               progress=False)
     out = tmp_path / "c.xml"
     write_corrected(sim.sut_inventory, post, out)
@@ -138,7 +138,7 @@ def test_tilted_vertical_gets_the_azimuth_it_leans_toward_and_provenance(tmp_pat
     from tests.conftest import SIM_KW
 
     pair = simulate_pair(**{**SIM_KW, "sut_azimuth": (3.0, 93.0, 40.0)})
-    post = bayescal.calibrate(pair.sut, pair.sut_inventory, pair.ref, pair.ref_inventory,
+    post = bayescal.calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                               band=SIM_BAND, progress=False)
     write_corrected(pair.sut_inventory, post, tmp_path / "c.xml")
     inv = obspy.read_inventory(str(tmp_path / "c.xml"))
@@ -157,8 +157,8 @@ def test_gain_interval_kept_and_flat_metadata_marked(sim_pair, tmp_path):
     bayescal invented."""
     from bayescal.io.read import flat_inventory
 
-    post = bayescal.calibrate(sim_pair.sut, sim_pair.sut_inventory, sim_pair.ref,
-                              sim_pair.ref_inventory, band=SIM_BAND, fit_response="gain",
+    post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
+                              ref_xml=sim_pair.ref_inventory, band=SIM_BAND, fit_response="gain",
                               progress=False)
     write_corrected(sim_pair.sut_inventory, post, tmp_path / "g.xml")
     ch = _channel(obspy.read_inventory(str(tmp_path / "g.xml")), "BH1")

@@ -95,7 +95,8 @@ def _run_diagnosis(args, say):
     from ..criticism.diagnose import diagnose
     from ..io.pipeline import calibrate_files
 
-    base = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+    base = calibrate_files(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
+                           sut_xml=args.sut_xml,
                            band=tuple(args.band) if args.band else None,
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,

@@ -152,7 +152,8 @@ def run(args):
     with warnings.catch_warnings(record=True) as caught, quiet_convergence_warnings():
         warnings.simplefilter("always", InputWarning)
         say(args, "bayescal fit: reading recordings and metadata ...")
-        post = calibrate_files(args.sut, args.sut_xml, args.ref, args.ref_xml,
+        post = calibrate_files(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
+                               sut_xml=args.sut_xml,
                                band=tuple(args.band) if args.band else None,
                                fit_response=args.fit_response, seed=args.seed,
                                start=args.start, end=args.end, progress=not args.quiet,

@@ -4,13 +4,14 @@ From files (any waveform format ObsPy reads, StationXML), the same as
 ``bayescal fit``::
 
     >>> from bayescal.io.pipeline import calibrate_files, write_results
-    >>> post = calibrate_files("sut.mseed", "sut.xml", "ref.mseed", "ref.xml", band=(0.05, 1))
+    >>> post = calibrate_files(ref="ref.mseed", ref_xml="ref.xml", sut="sut.mseed",
+    ...                        sut_xml="sut.xml", band=(0.05, 1))
     >>> write_results(post, "out")   # result.json, samples.npz, diagnostics.npz, sut_corrected.xml
 
 From ObsPy objects::
 
-    >>> post = bayescal.calibrate(sut_stream, sut_inventory, ref_stream, ref_inventory,
-    ...                           band=(0.05, 1.0), fit_response="gain")
+    >>> post = bayescal.calibrate(ref=ref_stream, ref_xml=ref_inventory, sut=sut_stream,
+    ...                           sut_xml=sut_inventory, band=(0.05, 1.0), fit_response="gain")
 """
 from __future__ import annotations
 
@@ -30,18 +31,31 @@ def _describe_files(side):
     return ", ".join(files)
 
 
-def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="gain", seed=0,
-              priors=Priors(), nperseg=None, start=None, end=None, progress=True,
-              sut_source="SUT", ref_source="reference", ref_noise=None, ref_noise_psd=None,
-              **sample_kw):
+#: How :func:`calibrate` and :func:`calibrate_files` take their data.
+KEYWORDS = "ref=..., ref_xml=..., sut=..., sut_xml=..."
+
+
+def _keywords_only(name, args):
+    if args:
+        raise TypeError(f"{name}() takes its data as keywords, named as bayescal fit's "
+                        f"options: {name}({KEYWORDS}) (the reference first; positional "
+                        "arguments are refused so that the two sensors cannot be swapped)")
+
+
+def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
+              fit_response="gain", seed=0, priors=Priors(), nperseg=None, start=None, end=None,
+              progress=True, sut_source="SUT", ref_source="reference", ref_noise=None,
+              ref_noise_psd=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings.
 
     Parameters
     ----------
-    sut, ref : ObsPy ``Stream`` of the sensor under test and of the reference.
-    sut_inventory, ref_inventory : ObsPy ``Inventory`` with both sensors'
-        channels (azimuth, dip, response).
+    ref, sut : ObsPy ``Stream`` of the reference and of the sensor under
+        test (keywords only, as ``--ref`` and ``--sut``).
+    ref_xml, sut_xml : their metadata (azimuth, dip, response): an ObsPy
+        ``Inventory``, a StationXML, RESP or GSE2 poles-and-zeros path, or
+        ``"flat"`` (as ``--ref-xml`` and ``--sut-xml``).
     band : (fmin, fmax) in Hz; None chooses it from the data where the two
         sensors are coherent (:func:`bayescal.io.band.choose_band`); the band
         used is in ``posterior.meta["band_hz"]`` and how it was chosen in
@@ -68,6 +82,11 @@ def calibrate(sut, sut_inventory, ref, ref_inventory, band=None, fit_response="g
         or a period / dB text file): the remedy for a one-channel pair.
     start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
     """
+    _keywords_only("calibrate", args)
+    if any(x is None for x in (ref, ref_xml, sut, sut_xml)):
+        raise TypeError(f"calibrate() needs {KEYWORDS}")
+    sut_inventory = load_inventory(sut_xml, sut, "SUT StationXML")
+    ref_inventory = load_inventory(ref_xml, ref, "reference StationXML")
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
     check_distinct(sut, ref)
     s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
@@ -215,12 +234,13 @@ def load_inventory(spec, stream, side="StationXML"):
     return read_metadata(spec, side, stream=stream)
 
 
-def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_response="gain",
-                    seed=0, start=None, end=None, progress=True, sut_id=None, ref_id=None,
-                    **kw):
-    """:func:`calibrate` from file paths: ``sut_files``/``ref_files`` one path
-    or a list (any waveform format ObsPy reads); ``sut_xml``/``ref_xml`` a
-    StationXML, RESP or GSE2 poles-and-zeros path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
+def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
+                    fit_response="gain", seed=0, start=None, end=None, progress=True,
+                    sut_id=None, ref_id=None, **kw):
+    """:func:`calibrate` from file paths, keywords only as ``bayescal fit``'s
+    options: ``ref``/``sut`` one path or a list (any waveform format ObsPy
+    reads); ``ref_xml``/``sut_xml`` a StationXML, RESP or GSE2
+    poles-and-zeros path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
     ``start``/``end`` may be ISO strings; ``sut_id``/``ref_id`` SEED-id
     patterns (``"XX.SIM.10.BH?"``, one or a list) choose each sensor's channels
     from files holding several (see :func:`bayescal.io.channels.select_channels`).
@@ -228,6 +248,10 @@ def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_respo
     ``posterior.sut_inventory`` attached, for the corrected StationXML)."""
     from obspy import UTCDateTime
 
+    _keywords_only("calibrate_files", args)
+    if any(x is None for x in (ref, ref_xml, sut, sut_xml)):
+        raise TypeError(f"calibrate_files() needs {KEYWORDS}")
+    sut_files, ref_files = sut, ref
     sut = select_channels(read_waveforms(sut_files, "SUT waveform"), sut_id, "SUT")
     ref = select_channels(read_waveforms(ref_files, "reference waveform"), ref_id, "reference")
     sut_inv = load_inventory(sut_xml, sut, "SUT StationXML")
@@ -236,7 +260,8 @@ def calibrate_files(sut_files, sut_xml, ref_files, ref_xml, band=None, fit_respo
     end = UTCDateTime(end) if end is not None else None
     sut_name = sut_xml if isinstance(sut_xml, str) else "SUT StationXML"
     ref_name = ref_xml if isinstance(ref_xml, str) else "reference StationXML"
-    return calibrate(sut, sut_inv, ref, ref_inv, band=band, fit_response=fit_response,
+    return calibrate(ref=ref, ref_xml=ref_inv, sut=sut, sut_xml=sut_inv, band=band,
+                     fit_response=fit_response,
                      seed=seed, start=start, end=end, progress=progress,
                      sut_source=str(sut_name), ref_source=str(ref_name), **kw)
 

@@ -226,12 +226,13 @@ def _fit_item(item, opts):
     from .plan import read_sds_item
 
     if item["kind"] == "files":
-        post = calibrate_files(item["sut"], item["sut_xml"], item["ref"], item["ref_xml"],
+        post = calibrate_files(ref=item["ref"], ref_xml=item["ref_xml"], sut=item["sut"],
+                               sut_xml=item["sut_xml"],
                                start=item.get("start"), end=item.get("end"),
                                sut_id=item.get("sut_id"), ref_id=item.get("ref_id"), **opts)
         return post, post.sut_inventory
     sut, ref, inv, sut_src, ref_src = read_sds_item(item)
-    post = calibrate(sut, inv, ref, inv, start=_time(item.get("start")),
+    post = calibrate(ref=ref, ref_xml=inv, sut=sut, sut_xml=inv, start=_time(item.get("start")),
                      end=_time(item.get("end")), sut_source=sut_src, ref_source=ref_src, **opts)
     return post, inv.select(network=item["network"], station=item["station"],
                             location=item["sut_location"])

@@ -26,7 +26,10 @@ def build_figure(diagnosis, paper="a4"):
     fig = Figure(figsize=page_size(paper))
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
     from ..core.convergence import not_converged_line
-    warn = not_converged_line(d.final.summary()["convergence"], "the final model's sampler")
+    conv = getattr(d.final, "convergence", None) or {}
+    warn = None if conv.get("converged", True) else not_converged_line(
+        {"converged": False, "n_steps": conv["n_steps"], "ess_min": float(np.min(conv["ess"])),
+         "rhat_max": float(np.max(conv["rhat"]))}, "the final model's sampler")
     if warn:
         text.insert(1, warn)
     if d.before["mismatch"]:

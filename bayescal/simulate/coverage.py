@@ -40,7 +40,8 @@ def run_case(seed, duration, fs, band, fit_response, **calibrate_kw):
         resp = tuple((NOMINAL[0], NOMINAL[1], r[2]) for r in resp)
     sim = simulate_pair(duration=duration, fs=fs, seed=seed, coherence=coh, sut_azimuth=azs,
                         sut_dip=dips, sut_response=resp, nominal_response=NOMINAL)
-    post = calibrate(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory, band=band,
+    post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
+                     sut_xml=sim.sut_inventory, band=band,
                      fit_response=fit_response, seed=seed, progress=False, **calibrate_kw)
     return post, azs, dips, resp, coh
 
