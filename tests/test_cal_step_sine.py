@@ -18,6 +18,7 @@ from bayescal.coil.timedomain import Predictor, ar_fit, coil_transfer, padding
 from bayescal.core.response import TwoPoleFamily
 from bayescal.simulate.cal import simulate_sine_cal, simulate_step_cal
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ
+from tests.tolerance import Z_001
 
 COIL = 1e-9
 TRUE_LP = (122.0, 0.69, 1510.0)
@@ -149,13 +150,40 @@ def test_cli_step(tmp_path):
     assert fam.period_s == pytest.approx(TRUE_LP[0], rel=0.005)
 
 
+def _two_pole(f, period_s, damping, gain):
+    """Velocity response (V per m/s) of a two-pole pendulum with two zeros at
+    the origin, ``gain`` at 1 Hz, written out here (s^2 / (s^2 + 2 h w0 s +
+    w0^2), normalised at 1 Hz)."""
+    def shape(s):
+        w0 = 2 * np.pi / period_s
+        return s * s / (s * s + 2 * damping * w0 * s + w0 * w0)
+    return gain * shape(2j * np.pi * f) / abs(shape(2j * np.pi * NORM_FREQ))
+
+
 def test_cli_sine(tmp_path):
+    """A 0.5 Hz sine through a sensor whose truth (122 s, 0.69, 1510 V/(m/s))
+    differs from its metadata (120 s, 0.707, 1500): the response amplitude
+    (counts per m/s), its phase, and the amplitude ratio and phase
+    difference against the metadata each lie within 3.29 posterior sd of
+    the closed-form values (two-sided level 0.001 each); the amplitude ratio
+    (1.0067) lies more than 5 sd from 1, where a fit reporting the metadata
+    would put it."""
     rc, out = _cli(tmp_path, simulate_sine_cal(0.5, truth=TRUE_LP, seed=42), "sine")
     assert rc == 0
     s = json.loads((out / "cal.json").read_text())
     assert s["kind"] == "sine" and s["frequency_hz"] == pytest.approx(0.5, rel=1e-6)
     assert {"amplitude_ratio", "phase_difference_deg"} <= set(s["parameters"])
     assert (out / "cal_timeseries.png").exists() and not (out / "sut_corrected.xml").exists()
+    true, nominal = _two_pole(0.5, *TRUE_LP), _two_pole(0.5, 120.0, 0.707, 1500.0)
+    want = {"response_amplitude": abs(true) * DIGITIZER_GAIN,
+            "response_phase_deg": np.degrees(np.angle(true)),
+            "amplitude_ratio": abs(true) / abs(nominal),
+            "phase_difference_deg": np.degrees(np.angle(true) - np.angle(nominal))}
+    for name, value in want.items():
+        e = s["parameters"][name]
+        assert abs(e["median"] - value) < Z_001 * e["sd"], (name, e, value)
+    r = s["parameters"]["amplitude_ratio"]
+    assert abs(want["amplitude_ratio"] - 1.0) > 5 * r["sd"], r
 
 
 @pytest.mark.parametrize("kind, sim, extra, words", [
