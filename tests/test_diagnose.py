@@ -123,16 +123,33 @@ def test_cli_end_to_end(tmp_path):
     assert np.isfinite(doc["final"]["convergence"]["ess_min"])
 
 
-def test_cli_bad_input_writes_nothing(tmp_path, capsys):
+@pytest.mark.parametrize("side", ["--sut", "--ref"])
+def test_cli_bad_input_one_line_naming_the_file(sim_files, tmp_path, capsys, side):
+    """An unreadable waveform file on either side (the other side's files
+    good): exit code 2, exactly one line on stderr, ``bayescal: error:``
+    followed by that file's path and what is wrong with it, no traceback,
+    nothing written; a missing file likewise, the side named."""
     from bayescal.cli import main
 
     bad = tmp_path / "bad.mseed"
     bad.write_text("not a waveform")
-    out = tmp_path / "out"
-    code = main(["diagnose", "--ref", str(bad), "--ref-xml", "flat", "--sut", str(bad),
-                 "--sut-xml", "flat", "--out", str(out), "--quiet"])
-    assert code == 2
-    assert not out.exists()
+    files = {"--ref": sim_files["ref.mseed"], "--sut": sim_files["sut.mseed"]}
+    named = {"--ref": "reference", "--sut": "SUT"}[side]
+    for path, what in ((bad, "not a waveform file ObsPy can read ("),
+                       (tmp_path / "missing.mseed", f"{named} waveform file not found")):
+        out = tmp_path / "out"
+        args = dict(files, **{side: path})
+        code = main(["diagnose", "--ref", str(args["--ref"]), "--ref-xml", str(sim_files["ref.xml"]),
+                     "--sut", str(args["--sut"]), "--sut-xml", str(sim_files["sut.xml"]),
+                     "--out", str(out), "--quiet"])
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert code == 2
+        assert len(lines) == 1, lines
+        assert lines[0].startswith(f"bayescal: error: {path}: {what}"), lines[0]
+        assert "Traceback" not in captured.err and captured.out == ""
+        assert not out.exists()
+        assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.tmp")]
 
 
 def test_misfit_sentence_says_rises_when_it_rose():
