@@ -144,8 +144,9 @@ def _print_summary(summary):
             im = e["imag"].get("median", 0.0)
             print(f"  {kind[3:-1]} near {e['frequency_hz']:.4g} Hz: {e['real']['median']:.5g} "
                   f"+ {im:.5g}i rad/s (nominal {e['nominal'][0]:.5g} + {e['nominal'][1]:.5g}i)")
-    print(f"  adequacy: misfit {summary['adequacy']['misfit']:.3g}, p {summary['adequacy']['p_value']:.3g};"
-          f" converged {summary['convergence']['converged']}")
+    ad, conv = summary["adequacy"], summary["convergence"]["converged"]
+    print(f"  model check: mean standardised misfit {ad['misfit']:.3g} (about 1 when the model fits "
+          f"the run; p {ad['p_value']:.3g}); sampler {'converged' if conv else 'NOT CONVERGED'}")
 
 
 def run(args):

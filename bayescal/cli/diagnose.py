@@ -104,7 +104,8 @@ def _run_diagnosis(args, say):
                            # fit --diagnose: None; a given PSD replaces the quiet default
                            ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
                            ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps)
-    say("searching the catalogue of effects ...")
+    say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
+        "gain above 10, strong evidence; docs/diagnose.md) ...")
     return base, diagnose(base, seed=args.seed, progress=not args.quiet, log=say,
                           max_steps=args.max_steps)
 

@@ -24,7 +24,7 @@ bound only ("< X below resolution"). Writes into DIR:
 With more than three sensors each sensor's estimate is the median over all
 pairs of the others. Horizontal sensors must be aligned with each other. The
 interval allows by default for 1 mrad rms differences between the sensors'
-sensitive axes (--axis-mismatch; see docs/selfnoise.md).
+sensitive axes (--axis-mismatch; see docs/noise.md).
 
 Example:
   bayescal noise --data A.mseed B.mseed C.mseed --xml A.xml B.xml C.xml --out DIR

@@ -83,7 +83,7 @@ def acceleration_prefilter(family, fs):
     at 0 Hz in counts (the response's high-pass), which an autoregression,
     all poles, cannot represent; fitted to such noise it puts several times
     too much power below the pendulum's corner and too little just above it,
-    where a step's information sits (docs/cal.md, "Step coverage"). In
+    where a step's information sits (docs/validation/coil.md, "Step runs"). In
     acceleration the noise has no zero (the digitizer's white noise becomes
     red, a pole at 0 Hz, which it can represent)."""
     w0 = 2 * np.pi / family.period_s

@@ -83,18 +83,19 @@ class ModelMisfitWarning(UserWarning):
 
 
 def describe(verdict):
-    """One or two lines for a user: the verdict, the worst cell, and where to
-    go next."""
+    """One line for a user: the verdict, where the model misses most, and
+    what to do next. The test itself is described in the documentation
+    (docs/science.md, "The model check")."""
     if verdict.get("ok") is None:
         return f"model check: {verdict.get('note', 'not computed')}"
     w = verdict["worst"]
     where = (f"{w['misfit']:.3g} in {w['band_hz'][0]:.4g}-{w['band_hz'][1]:.4g} Hz on "
-             f"{w['channel']} (p = {w['p']:.2g}; {verdict['cells']} band-channel cells, "
-             f"level {verdict['alpha']:g} family-wise)")
+             f"{w['channel']}")
     if verdict["ok"]:
-        return f"model check: passed; largest standardised misfit {where}"
-    return (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, expected about 1. "
-            "Where a fit uses the per-band noise scale (bayescal fit does) its intervals "
-            "widen with the misfit, but a systematic error the model leaves out can still "
-            "move the estimates; run "
-            "`bayescal diagnose` with the same arguments to locate and name the cause.")
+        return (f"model check: passed: the recordings agree with the model within their noise "
+                f"(largest standardised misfit {where}; about 1 is a fit within the noise)")
+    return (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, where about 1 is a fit "
+            "within the noise (more than noise explains; docs/science.md, \"The model check\"). "
+            "The intervals are widened where the model misses, but an effect the model leaves "
+            "out can still shift the estimates: run `bayescal diagnose` with the same arguments "
+            "to find and name the cause.")

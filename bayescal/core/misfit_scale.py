@@ -1,5 +1,5 @@
 """A per-band noise scale, marginalised: intervals that widen where the
-residual is larger than the noise model allows (issue 13, item 2).
+residual is larger than the noise model allows.
 
 The Gaussian likelihood of band b is ``-q_b`` with ``q_b`` the whitened
 residual energy (complex form: ``q_b = tr(A_b R_b B_b R_b^H)``; real form:
@@ -17,14 +17,14 @@ band fits (``q_b ~ k_b``, the Gaussian back) and ``k_b / q_b``-like where the
 misfit is large, i.e. the band's variance is scaled by about its own
 ``q_b / k_b`` (a per-band Birge ratio) and the intervals widen with it.
 ``a = inf`` is the Gaussian. Derivation, choice of ``a`` and measurements:
-docs/misfit_scale.md.
+docs/validation/misfit_scale.md.
 """
 from __future__ import annotations
 
 import numpy as np
 
 #: Shape (and scale) of the inverse-gamma prior on each band's noise scale
-#: used by a fit (docs/misfit_scale.md says why this value).
+#: used by a fit (docs/validation/misfit_scale.md says why this value).
 MISFIT_SHAPE = 2.0
 
 
@@ -64,7 +64,7 @@ def describe(a, q=None, k=None):
            "model": "Gaussian noise model (no misfit scale)" if gaussian else
                     f"per-band noise scale s_b ~ InverseGamma({a:g}, {a:g}), marginalised: each "
                     "band's term is -(a + k_b) log(1 + q_b / a); bands whose residual exceeds "
-                    "the noise model are down-weighted and intervals widen (docs/misfit_scale.md)"}
+                    "the noise model are down-weighted and intervals widen (docs/validation/misfit_scale.md)"}
     if q is not None:
         out["band_variance_factor"] = [round(float(v), 4) for v in band_scale(q, k, a)]
     return out

@@ -1,4 +1,4 @@
-"""Several optima of one posterior: searched, weighed, reported (issue 13 item 4).
+"""Several optima of one posterior: searched, weighed, reported.
 
 The sampler starts from one least-squares optimum and explores the mode it
 starts in; a second mode the walkers never reach would be missed and the
@@ -394,10 +394,12 @@ def describe(report, marked=None):
         return None
     masses = ", ".join(f"{100 * m['mass_fraction']:.0f} %" for m in modes)
     where = "; ".join(f"{cid}: {', '.join(q)}" for cid, q in (marked or {}).items() if q)
-    return (f"MULTIMODAL POSTERIOR: {len(modes)} modes hold {masses} of the mass (Laplace); the "
-            "intervals are of the most probable mode only"
-            + (f" and exclude another mode's value for {where}" if where else "")
-            + "; see \"multimodal\" in result.json for every mode's values")
+    return (f"MULTIMODAL POSTERIOR: {len(modes)} modes hold {masses} of the probability: the "
+            "data fit more than one set of values, and the intervals printed are those of the "
+            "most probable set only"
+            + (f"; another set lies outside them for {where}" if where else "")
+            + "; every set's values are under \"multimodal\" in result.json (how modes are "
+            "found: docs/validation/multimodal.md)")
 
 
 def multimodal_line(summary):

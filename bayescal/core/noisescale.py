@@ -9,7 +9,7 @@ residual's noise once was, a larger gain shrinks the residual against an
 unchanged noise and is preferred: the gains came out high by about
 ``dim * sd^2`` in relative terms (``dim`` the residual's real dimension per
 channel, ``sd`` the gain's relative standard deviation), +0.6 sd at coherence
-0.9 (docs/errors_in_variables.md). Comparing row ``i`` of the residual with
+0.9 (docs/validation/errors_in_variables.md). Comparing row ``i`` of the residual with
 the plug-in noise after multiplying it by ``|rho_b,i(a0)| / |rho_b,i(a)|``
 (the row in the counts of the plug-in point) removes that.
 """

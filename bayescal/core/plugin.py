@@ -30,7 +30,7 @@ therefore weighted by the inverse,
 of itself), near 1 for long records (``nu_b`` in the hundreds) and smaller
 where a band holds few segments (a 15-minute record at a 0.02 Hz lower
 edge: ``nu_b`` about 25 in its lowest band, ``w_b`` about 0.77 with ``p =
-3``). Derivation, checks and what it leaves: docs/errors_in_variables.md,
+3``). Derivation, checks and what it leaves: docs/validation/errors_in_variables.md,
 "The plug-in's own sampling error: band weights".
 """
 from __future__ import annotations

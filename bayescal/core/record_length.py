@@ -1,33 +1,32 @@
-"""Is the record long enough for the band's lower edge? (a stated limit of
-the plug-in noise model).
+"""Is the record long enough for the band's lower edge?
 
 The noise model of a fit is measured from the record's own segments, band by
 band. Where the record holds few periods of the band's lower edge, the
-lowest bands rest on few segments of few cycles each. Their sampling error
-is now allowed for (:mod:`bayescal.core.plugin`, a weight per band), which
-brought the intervals of such records back near their nominal coverage; on
-simulations (``docs/errors_in_variables.md``, "Short records"; 40 pairs
-each, seeds 800-839 of ``benchmarks/eiv_coverage.py``'s draws at 10 Hz,
-coherence 0.9, reference noise-free, gains free, ``--ref-noise quiet``;
-``benchmarks/short_records.py``):
+lowest bands rest on few segments of few cycles each. The sampling error of
+that noise model is allowed for (:mod:`bayescal.core.plugin`, a weight per
+band); on simulations (docs/validation/errors_in_variables.md, "Short records"; 40 pairs
+each at 10 Hz, coherence 0.9, reference noise-free, gains free,
+``--ref-noise quiet``; ``python benchmarks/short_records.py``, stored in
+``reports/eiv/short_records_weighted.json``) the standardised errors'
+standard deviations are:
 
 =========================================  ==================================
-record, band 0.02-1 Hz unless said         azimuth, dip, gain: z sd, before
-(used: periods of the lower edge)          the band weights -> with them
+record, band 0.02-1 Hz unless said         azimuth, dip, gain: z sd
+(used: periods of the lower edge)          (1 for intervals of the right width)
 =========================================  ==================================
-900 s (614 s used: 12 periods)             1.25, 1.21, 1.13 -> 1.13, 1.08, 1.01
-1800 s (1536 s: 31 periods)                1.00, 1.20, 1.08 -> 0.96, 1.15, 1.04
-3600 s (3379 s: 68 periods)                0.88, 0.97, 1.00 -> 0.86, 0.96, 0.99
-900 s, band 0.05-1 Hz (768 s: 38 periods)  1.06, 1.07, 1.02 -> 1.02, 1.04, 0.98
+900 s (614 s used: 12 periods)             1.13, 1.08, 1.01
+1800 s (1536 s: 31 periods)                0.96, 1.15, 1.04
+3600 s (3379 s: 68 periods)                0.86, 0.96, 0.99
+900 s, band 0.05-1 Hz (768 s: 38 periods)  1.02, 1.04, 0.98
 =========================================  ==================================
 
-With the weights every kind is inside its 99 % binomial band in these rows,
-but the short records' angles still scatter 8-13 % more than their
-intervals say (the approximation behind the weights is a many-band one, and
-the lowest band's segments overlap), so a fit still says when its record
-holds fewer than :data:`MIN_PERIODS` periods of the band's lower edge. The
-threshold is loosely placed: the 31- and 38-period cases differ in band as
-well as in length.
+Every kind is inside its 99 % binomial band in these rows, but the short
+records' angles scatter 8-13 % more than their intervals say (the
+approximation behind the weights is a many-band one, and the lowest band's
+segments overlap), so a fit says when its record holds fewer than
+:data:`MIN_PERIODS` periods of the band's lower edge. The threshold is
+loosely placed: the 31- and 38-period cases differ in band as well as in
+length.
 """
 from __future__ import annotations
 
@@ -47,8 +46,8 @@ def record_length(seconds, lower_edge_hz):
     if periods < MIN_PERIODS:
         out["note"] = (f"short record for the band: {seconds:.0f} s hold {periods:.1f} periods of "
                        f"its lower edge {lower_edge_hz:.3g} Hz (fewer than {MIN_PERIODS:.0f}); the "
-                       "noise model rests on few segments: its sampling error is allowed for, but "
-                       "on simulations with 12 such periods the angles still scattered about "
-                       "8-13 % more than their intervals; a longer record or a higher lower edge "
-                       "(--band) avoids it")
+                       "noise level is then measured from few segments and the intervals may be "
+                       "somewhat too narrow (angles by about 10 % on simulated records of 12 such "
+                       "periods: docs/validation/errors_in_variables.md); a longer record or a higher lower "
+                       "edge (--band) avoids it")
     return out

@@ -247,14 +247,14 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
     with single_threaded_blas():
         theta_ls, cov = least_squares_fit(model, setup.theta0)
-        # other optima (issue 13 item 4): the most probable mode is sampled
+        # other optima: the most probable mode is sampled
         model, theta_ls, cov, multimodal = _modes(model, theta_ls, cov, sut_nominal_vectors,
                                                   setup.fitted)
         separation = {}
         if getattr(model, "ref_noise", None) == "estimate":
             from .separation import gain_separation
             separation = gain_separation(model, theta_ls, cov)
-        # parameters the data do not constrain are held at nominal (issue 13 item 5)
+        # parameters the data do not constrain are held at nominal
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
         from .mcmc import sample
         chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)

@@ -3,7 +3,7 @@
 
 Plain numpy, no file I/O. The files-to-estimates shell is
 :mod:`bayescal.io.noise`; the method, its checks and its limits are in
-docs/selfnoise.md.
+docs/noise.md.
 
 Model and convention
 --------------------
@@ -42,7 +42,7 @@ interval on the linear power scale, ``[N - q_hi, N - q_lo]`` of
 ``d* = N* - N`` (which removes the estimator's bias to first order; see
 :func:`_basic_interval` for why linear). :func:`block_bootstrap_interval`
 resamples blocks of segments instead (no Gaussian or stationarity
-assumption, coarser with few segments; it under-covers, docs/selfnoise.md).
+assumption, coarser with few segments; it under-covers, docs/noise.md).
 """
 from __future__ import annotations
 

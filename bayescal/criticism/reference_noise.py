@@ -96,12 +96,12 @@ def reference_noise_test(model, theta, bic_keep=10.0):
                                                            1e-30 * srr), axis=0)
         out["noise_to_signal"] = {c: float(v) for c, v in zip(sp.ref_ids or range(sp.n_r), nsr)}
         out["explanation"] = (
-            f"the reference's own self-noise is not negligible (delta BIC {dbic:.0f} for "
+            f"the reference's own self-noise is not negligible (BIC gain {dbic:.0f} for "
             f"modelling it, median noise-to-signal ratio "
             + ", ".join(f"{v:.2g}" for v in nsr) + "): the diagnosis judges every effect "
             "against the model with the reference's noise (as --ref-noise estimate); it is "
             "noise, not a response error")
         return out, eiv, th_e, cov_e
-    out["explanation"] = (f"the reference's self-noise is negligible (delta BIC {dbic:.1f} "
+    out["explanation"] = (f"the reference's self-noise is negligible (BIC gain {dbic:.1f} "
                           f"<= {bic_keep:g} for modelling it)")
     return out, None, None, None

@@ -268,7 +268,7 @@ def _search(model, theta, free, log, drift):
             s = score(cur, th, fit[0], fit[1])
             tried.append({"effect": key, **s, "fit": fit})
             if log:
-                log(f"  {key:18s} dBIC {s['delta_bic']:10.1f}")
+                log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
         good = [t for t in tried if t.get("delta_bic") is not None]
         best = max(good, key=lambda t: t["delta_bic"], default=None)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
@@ -279,7 +279,7 @@ def _search(model, theta, free, log, drift):
             # clock drift nests a constant offset: it must beat it, not only the current model
             s = score(timing["fit"][0], timing["fit"][1], best["fit"][0], best["fit"][1])
             if log:
-                log(f"  clock_drift over timing_offset dBIC {s['delta_bic']:10.1f}")
+                log(f"  clock_drift over timing_offset BIC gain {s['delta_bic']:10.1f}")
             if s["delta_bic"] <= BIC_KEEP and timing["delta_bic"] > BIC_KEEP:
                 best = timing
         cur, th, cov = best["fit"]

@@ -58,12 +58,12 @@ from ..core.spectra import make_bands
 #: ``g theta`` on a horizontal's acceleration, so its velocity PSD is
 #: ``g^2 S_theta(f) / (2 pi f)^2``: at least ``f^-2`` for any tilt spectrum
 #: that does not rise with frequency (observed tilt is red, steeper still).
-#: The lower bound 1 leaves room for a tilt spectrum rising as ``f^1``. It
-#: was 0.5; on pairs whose reference is as noisy as the SUT the nearly flat
-#: alternative then absorbed a channel-dependent noise-to-signal shape that
-#: is not tilt (the harness's equal-noise false alarm, seed 1030, delta BIC
-#: 13.0 at alpha 0.5; -3.3 with the bound at 1, tilt of level 5-20 hidden in
-#: the same pair still found, delta BIC 16.7-72.8).
+#: The lower bound 1 leaves room for a tilt spectrum rising as ``f^1``. A
+#: lower bound of 0.5 lets a nearly flat alternative absorb a
+#: channel-dependent noise-to-signal shape that is not tilt on pairs whose
+#: reference is as noisy as the SUT (the harness's equal-noise pair of seed
+#: 1030: BIC gain 13.0 at alpha 0.5, -3.3 with the bound at 1; tilt of level
+#: 5-20 hidden in the same pair is still found, BIC gain 16.7-72.8).
 ALPHA_RANGE = (1.0, 8.0)
 #: Bounds of the log tilt NSR in the lowest band (the lower one is the null).
 LEVEL_RANGE = (-15.0, 8.0)
@@ -178,8 +178,8 @@ def nsr_data(sp, pool=True, fine=FINE_BANDS, debias=True):
     # the band's fixed transfer give only its NSR -> 0 limit. Negligible at
     # high coherence; dominant in bands where the pair records mostly
     # self-noise (a reference as noisy as the SUT, self-noise white in counts
-    # against a peaked ground spectrum), where the tilt term used to absorb
-    # the unexplained scatter (alpha at its bound, false alarms)
+    # against a peaked ground spectrum), where the tilt term would otherwise
+    # absorb the unexplained scatter (alpha at its bound, false alarms)
     var = var * (1.0 + p_inc / p_coh)
     return {"y": np.log(p_inc / p_coh), "sd": np.sqrt(np.maximum(var, 1e-8)),
             "p_coh": p_coh, "p_inc": p_inc, "edges": np.asarray(edges),
@@ -395,7 +395,7 @@ def explain(out):
         return f"tilt noise not tested: {out['reason']}"
     if not out["kept"] or not out["channels"]:
         return (f"no tilt noise found: long-period noise on the horizontals does not improve the "
-                f"fit enough (delta BIC {out['delta_bic']:.1f} <= {out['bic_keep']:g})")
+                f"fit enough (BIC gain {out['delta_bic']:.1f} <= {out['bic_keep']:g})")
     parts = []
     for i in out["channels"]:
         c = out["per_channel"][str(i)]
@@ -406,4 +406,4 @@ def explain(out):
     return (f"long-period noise on {', '.join(out['channel_ids'])} that the reference does not "
             f"see, its {what} rising as f^-{out['alpha']['median']:.1f} toward long periods (tilt "
             f"coupling of gravity): in the {lo_f:.2g}-{hi_f:.2g} Hz band it is {'; '.join(parts)} "
-            f"times the signal the reference explains (delta BIC {out['delta_bic']:.0f})")
+            f"times the signal the reference explains (BIC gain {out['delta_bic']:.0f})")

@@ -25,7 +25,7 @@ from ..core.coherence import welch_multiple_coherence
 DEFAULT_THRESHOLD = 0.9
 #: Below this band-mean multiple coherence a SUT channel shares too little
 #: with the reference to be estimated (less than a tenth of its power): a fit
-#: would be set by its own noise (issue 13: azimuths of a dead sensor, at
+#: would be set by its own noise (azimuths of a dead sensor, at
 #: coherence 0.002, scattered from 34 to 381 degrees between windows, each
 #: with a +-13 degree interval).
 MIN_COHERENCE = 0.1
