@@ -1,11 +1,12 @@
 # Two commands do all set-up on a fresh machine:
 #   make demo   -> virtual environment, install, run the main job on embedded example data
 #   make test   -> same environment plus the test extra, run the test suite
+#   make docs   -> same environment plus the docs extra, build docs/_build/html (warnings are errors)
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 
-.PHONY: demo test reports bench clean
+.PHONY: demo test docs reports bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +21,10 @@ $(VENV)/.installed-test: $(VENV)/.installed
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@
 
+$(VENV)/.installed-docs: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	touch $@
+
 demo: $(VENV)/.installed
 	$(BIN)/python examples/demo.py --out reports/demo
 
@@ -29,6 +34,11 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q --durations=20 -n 2 --dist loadfile
 
+# the documentation site: user guide, command reference (from the argparse
+# parsers), API reference, science, gallery, validation; nothing is fetched
+docs: $(VENV)/.installed-docs
+	$(BIN)/python -m sphinx -W --keep-going -q -b html docs docs/_build/html
+
 reports: $(VENV)/.installed-test
 	$(BIN)/python examples/make_reports.py
 
@@ -36,4 +46,4 @@ bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/bench_speed.py
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info docs/_build docs/generated

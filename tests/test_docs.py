@@ -1,0 +1,222 @@
+"""The documentation: its examples run, its words are about the software and
+the science, and its build is wired.
+
+* Every fenced code block of README.md and the user-guide pages (docs/*.md)
+  is run, in the order a reader meets them, in one scratch folder: ``python``
+  blocks in one interpreter namespace, ``bash`` blocks by bash with this
+  environment's ``bayescal`` and ``python`` first on the PATH. A ``text``
+  block is output (or a file's content) and is not run; when it follows a
+  block that ran, each of its lines, numbers masked, must appear in what
+  that block printed (a line ``...`` stands for lines left out). A block
+  after ``<!-- skip: REASON -->`` is not run (the few commands that set up
+  this very environment); one after ``<!-- needs: PATH -->`` runs only when
+  ``PATH`` (relative to the repository's parent, e.g. ``../shared/data``)
+  exists. The same block text met again (a guide page repeating the
+  README's example) is run once.
+* No words about how the software was made (issue numbers, commit hashes,
+  rounds and sessions, dated reruns, the machine and its load) in the
+  README, the docs or the package's docstrings and comments.
+* The docs build is wired: the ``docs`` extra, ``make docs`` with warnings
+  as errors, ``.ci/run`` building the docs after the tests, and a
+  configuration that imports and fetches nothing over the network.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import re
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+#: README, then the user-guide pages in the order of the docs' table of contents.
+GUIDE = ["index", "install", "fit", "report", "diagnose", "noise", "cal", "uvw", "batch",
+         "python", "science", "gallery"]
+PAGES = [ROOT / "README.md", *[DOCS / f"{name}.md" for name in GUIDE]]
+
+LANGS = {"python", "bash", "text"}
+NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def blocks(path):
+    """(lang, body, skip reason or None, needed path or None, line) of each
+    fenced code block of ``path``; MyST directives (```{toctree}) are not
+    code and are left out."""
+    out, lines, i = [], path.read_text().splitlines(), 0
+    while i < len(lines):
+        m = re.match(r"^(`{3,})(.*)$", lines[i])
+        if not m:
+            i += 1
+            continue
+        fence, info, start = m.group(1), m.group(2).strip(), i
+        j = i + 1
+        while j < len(lines) and lines[j].strip() != fence:
+            j += 1
+        if not info.startswith("{"):
+            marks = lines[start - 1] if start else ""        # the line just above
+            skip = re.search(r"<!-- skip: ([^>]*?) -->", marks)
+            needs = re.search(r"<!-- needs: ([^>]*?) -->", marks)
+            out.append((info, "\n".join(lines[start + 1:j]) + "\n", skip and skip.group(1),
+                        needs and needs.group(1), start + 1))
+        i = j + 1
+    return out
+
+
+def _mask(line):
+    return " ".join(NUMBER.sub("#", line).split())
+
+
+def _shown_lines_appear(shown, printed, where):
+    have = {_mask(ln) for ln in printed.splitlines()}
+    for ln in shown.splitlines():
+        if ln.strip() in ("", "...") or ln.lstrip().startswith("$ "):
+            continue
+        assert _mask(ln) in have, f"{where}: shown output line not printed:\n{ln}\n--- printed:\n{printed}"
+
+
+def test_every_block_is_marked():
+    """Only python, bash and text fences; every page of the guide exists."""
+    for page in PAGES:
+        assert page.is_file(), page
+        for lang, _, _, _, line in blocks(page):
+            assert lang in LANGS, f"{page.name}:{line}: fence language {lang!r}"
+
+
+def test_examples_run(tmp_path):
+    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+               MPLBACKEND="Agg", PYTHONPATH=str(ROOT))
+    namespace = {"__name__": "__docs__"}
+    printed_by = {}               # block text -> what it printed (run once)
+    skipped = []
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        for page in PAGES:
+            last = None           # what the previous runnable block printed
+            for lang, body, skip, needs, line in blocks(page):
+                where = f"{page.relative_to(ROOT)}:{line}"
+                if lang == "text":
+                    if last is not None:
+                        _shown_lines_appear(body, last, where)
+                    last = None
+                    continue
+                if skip:
+                    skipped.append((where, skip))
+                    last = None
+                    continue
+                if needs and not (ROOT.parent / needs.removeprefix("../")).exists():
+                    skipped.append((where, f"{needs} absent"))
+                    last = None
+                    continue
+                code = body.replace("../shared/", f"{ROOT.parent}/shared/")
+                if body not in printed_by:
+                    if lang == "python":
+                        buf = io.StringIO()
+                        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+                            exec(compile(code, where, "exec"), namespace)
+                        printed_by[body] = buf.getvalue()
+                    else:
+                        proc = subprocess.run(["bash", "-e", "-c", code], capture_output=True,
+                                              text=True, env=env, timeout=600)
+                        assert proc.returncode == 0, f"{where}:\n{code}\n{proc.stderr}"
+                        printed_by[body] = proc.stdout + proc.stderr
+                last = printed_by[body]
+    finally:
+        os.chdir(cwd)
+    # the only commands not run: those that set up this environment or need data
+    for where, why in skipped:
+        assert why.startswith(("sets up", "runs this test", "builds the docs")) or \
+            why.endswith("absent"), (where, why)
+
+
+# --- no history in user-facing text ----------------------------------------------------------
+
+#: How the software was made belongs in commit messages, not in what users read.
+HISTORY = [r"\bissues? #?\d+", r"\bitems? \d+\b",
+           r"(?<![\w./-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,40}(?![\w./-])",
+           r"\b(previous|this|last|earlier|next|second|first) (round|session)\b",
+           r"\bsessions?\b", r"\b(?:on|of|at) 20\d\d-\d\d-\d\d\b(?!T)", r"\bload average\b",
+           r"\bon this machine\b", r"\b(shared|loaded|slower|faster|idle|project) machine\b",
+           r"\b2-core machine\b", r"\bother (engineers?|agents?|jobs)\b", r"\bthe brief\b",
+           r"\bbefore the fix\b", r"\bnew-user round\b", r"\bcommits? [0-9a-f]{7}",
+           r"\btoday('s)?\b", r"\byesterday\b", r"\bthis tree\b", r"\bwas rerun\b"]
+HISTORY_RX = re.compile("|".join(f"(?:{p})" for p in HISTORY), re.IGNORECASE)
+
+
+def _user_facing_files():
+    yield ROOT / "README.md"
+    for pattern in ("**/*.md", "**/*.rst"):
+        yield from (p for p in DOCS.glob(pattern) if "_build" not in p.parts
+                    and "generated" not in p.parts)
+    yield from (ROOT / "bayescal").rglob("*.py")
+
+
+def test_no_history_in_user_facing_text():
+    hits = []
+    for path in _user_facing_files():
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            hits += [f"{path.relative_to(ROOT)}:{n}: {m.group(0)!r}: {line.strip()[:100]}"
+                     for m in HISTORY_RX.finditer(line)]
+    assert not hits, "\n".join(hits)
+
+
+def test_history_patterns_catch_what_they_should():
+    for text in ["as issue 13 asked", "item 4 of the list", "commit 50a0aac", "the previous "
+                 "round", "rerun on 2026-11-26", "load average 4.0", "on the 2-core machine",
+                 "this session's rerun", "today's defaults"]:
+        assert HISTORY_RX.search(text), text
+    for text in ["--start 2010-08-24T02:00:00", "relative gain 1.015", "seeds 5000-5299",
+                 "1e-9 m/s^2 per count", "each item's result", "the SUT's StationXML"]:
+        assert not HISTORY_RX.search(text), text
+
+
+# --- the docs build is wired -------------------------------------------------------------------
+
+def test_docs_build_is_wired():
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["docs"]
+    names = {re.split(r"[<>=!~ \[]", r, maxsplit=1)[0].lower() for r in extra}
+    assert {"sphinx", "sphinx-argparse", "numpydoc", "myst-parser"} <= names
+    assert names & {"furo", "pydata-sphinx-theme"}
+    make = (ROOT / "Makefile").read_text()
+    rule = make[make.index("\ndocs:"):]
+    rule = rule[:rule.find("\n\n")]
+    assert "-W" in rule and "--keep-going" in rule and "docs/_build/html" in rule
+    ci = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()
+          if ln.strip() and not ln.startswith("#")]
+    assert ci.index("make test") < ci.index("make docs")
+    conf = (DOCS / "conf.py").read_text()
+    assert "sphinx.ext.intersphinx" not in conf and "intersphinx_mapping" not in conf
+    assert "http" not in conf            # nothing fetched while building
+    for ext in ("sphinxarg.ext", "numpydoc", "sphinx.ext.autosummary", "myst_parser"):
+        assert f'"{ext}"' in conf, ext
+    assert "build_parser" in (DOCS / "cli.rst").read_text()
+
+
+def test_docs_conf_and_toctree():
+    """conf.py executes, and every page under docs/ is in a table of contents
+    (a page left out is a build warning, hence an error)."""
+    pytest.importorskip("sphinx")
+    ns = {"__file__": str(DOCS / "conf.py")}
+    cwd = os.getcwd()
+    os.chdir(DOCS)
+    try:
+        exec(compile((DOCS / "conf.py").read_text(), "conf.py", "exec"), ns)
+    finally:
+        os.chdir(cwd)
+    assert ns["html_theme"] in ("furo", "pydata_sphinx_theme")
+    listed = set()
+    for page in [*DOCS.glob("*.md"), *DOCS.glob("*.rst"), *DOCS.glob("validation/*.md")]:
+        for m in re.finditer(r"```\{toctree\}\n(.*?)```", page.read_text(), re.DOTALL):
+            base = page.parent.relative_to(DOCS)
+            listed |= {str(base / ln.strip()) for ln in m.group(1).splitlines()
+                       if ln.strip() and not ln.startswith(":")}
+    pages = {str(p.relative_to(DOCS).with_suffix("")) for p in
+             [*DOCS.glob("*.md"), *DOCS.glob("*.rst"), *DOCS.glob("validation/*.md")]}
+    assert pages - {"index"} <= listed, sorted(pages - {"index"} - listed)
