@@ -3,7 +3,7 @@
 :class:`EIVModel` is :class:`~bayescal.core.likelihood.Model` with the
 reference's self-noise put back into the residual and the residual's exact
 covariance (see :mod:`bayescal.core.refnoise` for the statistic and its
-derivation, docs/errors_in_variables.md for the reasoning and the checks).
+derivation, docs/validation/errors_in_variables.md for the reasoning and the checks).
 Parameters, priors, response ratios and the sampler are the base model's;
 what changes is the residual, its noise model and the likelihood:
 

@@ -45,7 +45,7 @@ which give the covariance of ``x = [Re vec R; Im vec R]``. The second term
 vanishes for the plain residual (``A C B = E[R]/K = 0``: the base model's
 ``Sigma (x) S_rr^T``) but not once the SUT's own noise enters (mode
 ``equal``): then ``Re R`` and ``Im R`` have different variances and some
-combinations are identically zero. See docs/errors_in_variables.md.
+combinations are identically zero. See docs/validation/errors_in_variables.md.
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ MODES = ("quiet", "estimate", "equal")
 
 #: The mode for pairs of two or more channels on each side, and the default
 #: of :func:`bayescal.calibrate` and ``bayescal fit`` there
-#: (docs/errors_in_variables.md, "Evidence"): unbiased whatever the split of
+#: (docs/validation/errors_in_variables.md): unbiased whatever the split of
 #: noise, at about 1.5 times the CPU of ``quiet`` (see :func:`recommended_mode`).
 RECOMMENDED = "estimate"
 

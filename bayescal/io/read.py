@@ -177,7 +177,7 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
     ``orientations`` maps channel codes to (azimuth, dip); channels not in it
     get :func:`orientation_from_code`. With no poles and zeros this is a flat
     velocity response: the way to run sensors that are flat in the band and
-    have no StationXML (see docs/real_data.md). Every channel carries a
+    have no StationXML (see docs/validation/real_data.md). Every channel carries a
     Comment (:data:`PLACEHOLDER_NOTE`, then ``note``) marking what is invented.
     """
     from obspy import UTCDateTime
