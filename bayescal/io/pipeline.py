@@ -47,40 +47,61 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
               progress=True, sut_source="SUT", ref_source="reference", ref_noise=None,
               ref_noise_psd=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
-    recordings.
+    recordings: what ``bayescal fit`` computes, from ObsPy objects.
 
     Parameters
     ----------
-    ref, sut : ObsPy ``Stream`` of the reference and of the sensor under
-        test (keywords only, as ``--ref`` and ``--sut``).
-    ref_xml, sut_xml : their metadata (azimuth, dip, response): an ObsPy
-        ``Inventory``, a StationXML, RESP or GSE2 poles-and-zeros path, or
-        ``"flat"`` (as ``--ref-xml`` and ``--sut-xml``).
-    band : (fmin, fmax) in Hz; None chooses it from the data where the two
+    ref, sut : obspy.Stream
+        Recordings of the reference and of the sensor under test (keywords
+        only, as ``--ref`` and ``--sut``).
+    ref_xml, sut_xml : obspy.Inventory, str or "flat"
+        Their metadata (azimuth, dip, response): an ObsPy ``Inventory``, a
+        StationXML, RESP or GSE2 poles-and-zeros path, or ``"flat"`` (as
+        ``--ref-xml`` and ``--sut-xml``).
+    band : (float, float) or None
+        (fmin, fmax) in Hz; None chooses it from the data where the two
         sensors are coherent (:func:`bayescal.io.band.choose_band`); the band
         used is in ``posterior.meta["band_hz"]`` and how it was chosen in
         ``posterior.meta["band_choice"]``.
-    fit_response : "gain" (the default: angles and each SUT channel's gain,
-        reported also as a relative gain, fitted / metadata, which is what a
+    fit_response : {"gain", "none", "all"}
+        "gain" (the default: angles and each SUT channel's gain, reported
+        also as a relative gain, fitted / metadata, which is what a
         relative-gain experiment measures; works with ``flat`` metadata too),
         "all" (period, damping and gain per channel; needs a poles-and-zeros
         first stage) or "none" (angles only, gains held at their metadata
         values). With a one-channel horizontal reference the gains are held
         whatever is asked short of "all" (see :mod:`bayescal.core.rotation`).
-    seed : random seed (results are reproducible).
-    ref_noise : how the reference's own self-noise is treated: "quiet"
-        (negligible next to the SUT's), "estimate" (estimated from the data:
-        white in ground units plus white in its counts) or "equal" (the same
-        as the SUT's in ground units); None (the default): "estimate" with
-        two or more channels on each side (unbiased whatever the split of
-        noise), "quiet" otherwise (a one-channel pair cannot separate the
+    seed : int
+        Random seed (results are reproducible).
+    ref_noise : {None, "estimate", "quiet", "equal"}
+        How the reference's own self-noise is treated: "quiet" (negligible
+        next to the SUT's), "estimate" (estimated from the data: white in
+        ground units plus white in its counts) or "equal" (the same as the
+        SUT's in ground units); None (the default): "estimate" with two or
+        more channels on each side (unbiased whatever the split of noise),
+        "quiet" otherwise (a one-channel pair cannot separate the
         reference's noise); see :mod:`bayescal.core.refnoise`. The mode used
         is in ``posterior.meta["reference_noise"]``.
-    ref_noise_psd : the reference's self-noise as known (mode "fixed"): a
-        file path or :func:`bayescal.io.refnoise_file.read_reference_noise`'s
-        table (``bayescal noise``'s noise.json from a third co-located sensor,
-        or a period / dB text file): the remedy for a one-channel pair.
-    start, end : ObsPy ``UTCDateTime`` limits of the analysis window.
+    ref_noise_psd : str, dict or None
+        The reference's self-noise as known (mode "fixed"): a file path or
+        :func:`bayescal.io.refnoise_file.read_reference_noise`'s table
+        (``bayescal noise``'s noise.json from a third co-located sensor, or a
+        period / dB text file): the remedy for a one-channel pair.
+    start, end : obspy.UTCDateTime or None
+        Limits of the analysis window.
+
+    Returns
+    -------
+    Posterior
+        Samples, their summary (``.summary()``, the content of
+        ``result.json``) and what was run (``.meta``).
+
+    Warns
+    -----
+    ModelMisfitWarning
+        When the model check fails (:mod:`bayescal.core.adequacy`).
+    NotConvergedWarning
+        When the sampler stopped before meeting its convergence rule.
     """
     _keywords_only("calibrate", args)
     if any(x is None for x in (ref, ref_xml, sut, sut_xml)):
@@ -238,14 +259,31 @@ def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=
                     fit_response="gain", seed=0, start=None, end=None, progress=True,
                     sut_id=None, ref_id=None, **kw):
     """:func:`calibrate` from file paths, keywords only as ``bayescal fit``'s
-    options: ``ref``/``sut`` one path or a list (any waveform format ObsPy
-    reads); ``ref_xml``/``sut_xml`` a StationXML, RESP or GSE2
-    poles-and-zeros path, an Inventory, or ``"flat"`` (see :func:`load_inventory`).
-    ``start``/``end`` may be ISO strings; ``sut_id``/``ref_id`` SEED-id
-    patterns (``"XX.SIM.10.BH?"``, one or a list) choose each sensor's channels
-    from files holding several (see :func:`bayescal.io.channels.select_channels`).
-    Returns the Posterior (with
-    ``posterior.sut_inventory`` attached, for the corrected StationXML)."""
+    options.
+
+    Parameters
+    ----------
+    ref, sut : str or list of str
+        One path or a list per side (any waveform format ObsPy reads).
+    ref_xml, sut_xml : str or obspy.Inventory
+        A StationXML, RESP or GSE2 poles-and-zeros path, an Inventory, or
+        ``"flat"`` (see :func:`load_inventory`).
+    start, end : str, obspy.UTCDateTime or None
+        Limits of the analysis window (ISO strings accepted).
+    sut_id, ref_id : str, list of str or None
+        SEED-id patterns (``"XX.SIM.10.BH?"``) that choose each sensor's
+        channels from files holding several (see
+        :func:`bayescal.io.channels.select_channels`).
+    **kw
+        Every other keyword of :func:`calibrate` (``band``,
+        ``fit_response``, ``seed``, ``ref_noise``, ...).
+
+    Returns
+    -------
+    Posterior
+        As :func:`calibrate`, with ``posterior.sut_inventory`` attached for
+        the corrected StationXML.
+    """
     from obspy import UTCDateTime
 
     _keywords_only("calibrate_files", args)
@@ -268,10 +306,23 @@ def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=
 
 def write_results(posterior, folder):
     """Write everything ``bayescal fit`` writes (without the report) into
-    ``folder``: ``result.json``, ``samples.npz``, ``diagnostics.npz`` and,
-    when the posterior came from :func:`calibrate_files` (or has a
-    ``sut_inventory`` attribute), ``sut_corrected.xml``. Each file is written
-    atomically. Returns the list of paths written."""
+    ``folder``.
+
+    Parameters
+    ----------
+    posterior : Posterior
+        From :func:`calibrate` or :func:`calibrate_files`.
+    folder : str
+        Output folder (created when missing).
+
+    Returns
+    -------
+    list of str
+        The paths written: ``result.json``, ``samples.npz``,
+        ``diagnostics.npz`` and, when the posterior came from
+        :func:`calibrate_files` (or has a ``sut_inventory`` attribute),
+        ``sut_corrected.xml``. Each file is written atomically.
+    """
     import os
 
     from .stationxml import write_corrected
