@@ -334,6 +334,9 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     if per_segment.shape[0] < 4:
         raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
                            " too little data for the band")
+    if not np.all(np.isfinite(total)):
+        raise SpectraError("the cross-spectra overflow: samples or responses far beyond any "
+                           "recording's (a corrupted file or metadata value?)")
     power = [np.ones((x.shape[0], freqs.size)) if fn is None else np.abs(fn(freqs)) ** 2
              for fn, x in ((sut_response, sut), (ref_response, ref))]
     return CrossSpectra(

@@ -2,6 +2,7 @@
 
 * :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros),
                       ``InputError``
+* :mod:`.validate`    checks of every metadata value a fit uses, as written and as read
 * :mod:`.align`       two or more sensors' recordings on one time grid
 * :mod:`.band`        choice of the band where the sensors are coherent
 * :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior

@@ -25,6 +25,10 @@ DELAY_HALF_LENGTH = 16
 CLIP_MIN_SAMPLES = 5
 CLIP_MIN_FRACTION = 1e-5
 CLIP_MIN_DISTINCT = 50
+#: Samples larger than this are no recording (a 32-bit digitizer gives at
+#: most 2^31 counts; data in physical units are smaller still): a channel
+#: holding one is refused as corrupted.
+MAX_SAMPLE = 1e20
 
 
 @dataclass
@@ -137,6 +141,10 @@ def _check_channel(x, tid, source):
         raise InputError(f"{source}: channel {tid} has no valid sample in the analysis window "
                          "(all missing or NaN)")
     vals = x[finite]
+    peak = float(np.max(np.abs(vals)))
+    if peak > MAX_SAMPLE:
+        raise InputError(f"{source}: channel {tid} holds samples of size {peak:.3g}, far beyond "
+                         "any recording's (a corrupted file?)")
     if np.all(vals == 0):
         raise InputError(f"{source}: channel {tid} is all zeros in the analysis window "
                          "(dead channel)")

@@ -18,7 +18,13 @@ What real recordings need, and what this module does about it:
 * channels are identified by their StationXML azimuth and dip; when those
   are missing, from the SEED component code (N/E/Z; 1/2 need StationXML);
 * data checks: a channel with no finite sample or all zeros is an error, NaN
-  samples are gaps, clipped samples warn and are treated as gaps.
+  samples are gaps, clipped samples warn and are treated as gaps; a trace
+  whose sampling rate is not a positive number is an error;
+* metadata checks: every value of a channel the fit uses (azimuth, dip,
+  sample rate, sensitivity, stage gains, poles and zeros, normalisation,
+  decimation, coefficients) must be a finite number in range, as written in
+  the file and as read (:mod:`bayescal.io.validate`), and the response must
+  evaluate; a channel that fails is named with the file and the value.
 
 Errors are raised as :class:`InputError` with one sentence naming the file
 and the problem; the command line turns them into a message and exit code 2.
@@ -71,6 +77,10 @@ def read_waveforms(paths, side="waveform"):
         if len(st) == 0:
             raise InputError(f"{path}: the file holds no traces")
         for tr in st:
+            sr = tr.stats.sampling_rate
+            if not (np.isfinite(sr) and sr > 0):
+                raise InputError(f"{path}: trace {tr.id} has sampling rate {sr!r}, not a positive "
+                                 "number")
             tr.stats.bayescal_source = path
         out += st
     return out
@@ -125,19 +135,36 @@ def read_metadata(path, side="StationXML", stream=None):
                 orientation_from_code(tr.stats.channel)
             except InputError:
                 unknown[tr.stats.channel] = (None, None)
-        return paz_inventory(stream, zeros=zeros, poles=poles, gain=gain, normalize=False,
-                             orientations=unknown,
-                             note=f"the response is the GSE2 poles and zeros of {path} (read "
-                                  "as ObsPy's rel_calib_stack reads them: velocity, gain "
-                                  f"{gain:g} counts per m/s, A0 = 1), applied to every channel")
+        inv = paz_inventory(stream, zeros=zeros, poles=poles, gain=gain, normalize=False,
+                            orientations=unknown,
+                            note=f"the response is the GSE2 poles and zeros of {path} (read "
+                                 "as ObsPy's rel_calib_stack reads them: velocity, gain "
+                                 f"{gain:g} counts per m/s, A0 = 1), applied to every channel")
+        return _mark_read(inv, path, {})
+    import warnings
+
+    from .validate import scan_stationxml
     try:
-        if kind == "RESP":
-            return obspy.read_inventory(path, format="RESP")
-        return obspy.read_inventory(path)
+        with warnings.catch_warnings():
+            # numbers ObsPy cannot convert are reported by the checks, per channel
+            warnings.filterwarnings("ignore", message=".*(could not be converted|value of NaN)")
+            if kind == "RESP":
+                inv = obspy.read_inventory(path, format="RESP")
+            else:
+                inv = obspy.read_inventory(path)
     except Exception as exc:
         what = "RESP" if kind == "RESP" else "StationXML (or other metadata)"
         raise InputError(f"{path}: not a {what} file ObsPy can read "
                          f"({type(exc).__name__})") from None
+    return _mark_read(inv, path, scan_stationxml(path) if kind is None else {})
+
+
+def _mark_read(inventory, path, problems):
+    """Keep on ``inventory`` the file it was read from and the numbers of
+    its channel epochs that are not finite as written (see
+    :func:`_channel_meta`)."""
+    inventory.bayescal_read = {"path": path, "problems": problems, "checked": set()}
+    return inventory
 
 
 def read_gse2_paz(path):
@@ -242,6 +269,24 @@ def two_pole_inventory(stream, period_s, damping, gain, norm_freq=1.0, orientati
 
 
 # --- channel metadata ------------------------------------------------------------
+def _check_values(inventory, ch, tr, source):
+    """Raise :class:`InputError` naming the metadata file when a value of
+    channel ``ch`` that the fit uses is not a finite number in range
+    (:mod:`bayescal.io.validate`)."""
+    from .validate import channel_problem, epoch_key
+
+    info = getattr(inventory, "bayescal_read", None) or {}
+    key = epoch_key(tr.id, ch.start_date)
+    if key in info.get("checked", ()):
+        return
+    problem = (info.get("problems", {}).get(key)
+               or channel_problem(ch, tr.stats.sampling_rate))
+    if problem:
+        raise InputError(f"{info.get('path', source)}: channel {tr.id}: {problem}")
+    if "checked" in info:
+        info["checked"].add(key)
+
+
 def _channel_meta(inventory, tr, source):
     """The StationXML channel of trace ``tr`` and its (azimuth, dip)."""
     try:
@@ -259,6 +304,7 @@ def _channel_meta(inventory, tr, source):
                              f"covers the data starting {tr.stats.starttime} (epochs: {spans})"
                              ) from None
         raise InputError(f"{source}: channel {tr.id} is not in the StationXML") from None
+    _check_values(inventory, ch, tr, source)
     az, dip = ch.azimuth, ch.dip
     if az is None or dip is None:
         try:
