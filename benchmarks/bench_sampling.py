@@ -67,11 +67,11 @@ for mod in list(sys.modules.values()):
         mod.sample = timed
 import inspect
 from bayescal.io.pipeline import calibrate_files as _cf
-if "ref_xml" in inspect.signature(_cf).parameters:      # keywords (this tree)
+if "sut_files" in inspect.signature(_cf).parameters:    # positional, SUT first (older trees)
+    calibrate_files = _cf
+else:                                                   # keywords (this tree)
     def calibrate_files(sut, sut_xml, ref, ref_xml, **kw):
         return _cf(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, **kw)
-else:                                                   # positional (older trees)
-    calibrate_files = _cf
 if case.startswith("orientation") or case == "joint":
     p = json.load(open(folder + "/paths.json"))
     kw = {"orientation": {}, "orientation_quiet": {"ref_noise": "quiet"},

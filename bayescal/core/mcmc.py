@@ -315,7 +315,12 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         frozen = _frozen_proposal(phases, sampler, state)
         if frozen is not None:
             pre, sampler, state = frozen
-            chunk, min_burn, min_chunk = 150, 10, 50
+            min_burn, min_chunk = 10, 50
+            # the first run: what the rule needs at the adaptation's mixing
+            # (its tau, at least 1), with a fifth to spare; then as below
+            tau0 = max(1.0, float(np.max(integrated_time(pre[-ADAPT:]))))
+            chunk = int(np.ceil(1.2 * (min_burn + max(n_tau, min_ess / n_walkers) * tau0)))
+            chunk = min(max(chunk, min_chunk), 150)
     # (a DE fallback keeps its burn-in steps in its own chain)
     offset, steps, converged = pre.shape[0], sampler.iteration, False
     chunk = max(1, min(chunk, max_steps - steps))
@@ -340,7 +345,7 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
             break
     bar.close()
     phases.close(sampler)
-    thin = max(1, int(tau.min() / 4))
+    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1   # a very short chain
     kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
     full = np.concatenate([pre, full]) if offset else full
     chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),

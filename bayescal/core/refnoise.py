@@ -99,6 +99,9 @@ def treatment_meta(model, theta):
                     "units plus white in its counts",
         "fixed": "the reference's self-noise as given (a third sensor or the user's model)"
         }[mode]}
+    if getattr(model, "_upper", None) is not None:
+        out["bounded"] = ("the spectra cannot tell the reference's self-noise from the SUT's "
+                          "here: it is kept within the incoherent power they show")
     if mode != "quiet":
         psd = model.reference_noise_psd(theta)                      # (m/s)^2/Hz per band
         w2 = (2 * np.pi * model.spectra.band_centres) ** 2
@@ -206,7 +209,97 @@ def band_matmul(w, x):
     return (w @ xt).reshape(nb, n, nw, k).transpose(2, 0, 1, 3)
 
 
-def profile_columns(x0, u, shapes, w):
+#: Sweeps over the reference channels of the bounded profile (:func:`_bounded_minimum`).
+BOUNDED_SWEEPS = 50
+
+
+def incoherent_power(spectra):
+    """(B, n_r) the upper bound of the reference's self-noise the spectra
+    allow: each reference channel's band power not coherent with the SUT's
+    channels (``S_rr,kk - S_ru S_uu^-1 S_ur``, band sums; a regression on the
+    ``n_u`` SUT channels leaves ``K_b - n_u`` of the band's ``K_b`` complex
+    degrees of freedom, bins times segments, so it is scaled by
+    ``K_b / (K_b - n_u)`` to be unbiased), plus three standard errors of that
+    estimate (relative ``1 / sqrt(K_b - n_u)``). Whatever the split of the
+    incoherent power between the two sensors, neither sensor's noise
+    exceeds it."""
+    s = spectra.band_sums()
+    nu = spectra.n_u
+    suu, sur = s[:, :nu, :nu], s[:, :nu, nu:]
+    explained = np.einsum("bik,bil->bkl", sur.conj(), np.linalg.solve(suu, sur))
+    inc = np.real(np.einsum("bkk->bk", s[:, nu:, nu:]) - np.einsum("bkk->bk", explained))
+    k = (spectra.bins_per_band * spectra.n_segments).astype(float)
+    left = np.maximum(k - nu, 1.0)
+    return np.maximum(inc, 0.0) * (k / left * (1.0 + 3.0 / np.sqrt(left)))[:, None]
+
+
+def _polygon_edges(a, b):
+    """The lines of the polygon ``a x <= b`` (``a`` (L, 2), ``b`` (L,)): a
+    point ``x0`` on each, its direction ``v`` and the feasible range of
+    ``t`` on ``x0 + t v`` (``lo``, ``hi``), and whether the line touches the
+    polygon at all."""
+    norm2 = np.einsum("li,li->l", a, a)
+    x0 = a * (b / norm2)[:, None]                                           # (L, 2) on line l
+    v = np.stack([-a[:, 1], a[:, 0]], axis=1)                               # along line l
+    av = a @ v.T                                                            # (M, L)
+    room = b[:, None] - a @ x0.T                                            # (M, L)
+    crossing = np.abs(av) > 1e-12 * norm2[:, None]          # not parallel (a line and itself are)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = room / av
+    lo = np.max(np.where(crossing & (av < 0), bound, -np.inf), axis=0)      # (L,)
+    hi = np.min(np.where(crossing & (av > 0), bound, np.inf), axis=0)
+    tol = 1e-12 * (np.abs(b).max() + 1e-300)
+    usable = (lo <= hi) & np.all(crossing | (room >= -tol), axis=0)
+    return a, b, x0, v, lo, hi, usable
+
+
+def _polygon_minimum(h, g, edges):
+    """``argmin x^T h x + 2 g^T x`` (``h`` positive definite) over the
+    polygon of :func:`_polygon_edges` (which holds 0; it may be unbounded),
+    per walker: ``h`` (W, 2, 2), ``g`` (W, 2). The minimum is the free one
+    when feasible, else on an edge: each line is searched (the 1-D minimum
+    clipped to the line's feasible segment) and the best point kept."""
+    a, b, x0, v, lo, hi, usable = edges
+    tol = 1e-12 * (np.abs(b).max() + 1e-300)
+    free = -np.linalg.solve(h, g[..., None])[..., 0]                       # (W, 2)
+    ok = np.all(free @ a.T <= b + tol, axis=1)
+    hv, hx0 = h @ v.T, h @ x0.T                                             # (W, 2, L)
+    curv = np.sum(v.T[None] * hv, axis=1)                                   # (W, L)
+    slope = np.sum(v.T[None] * hx0, axis=1) + g @ v.T
+    f0 = np.sum(x0.T[None] * hx0, axis=1) + 2 * (g @ x0.T)
+    t = np.clip(-slope / curv, lo, hi)
+    f = np.where(usable[None], f0 + 2 * t * slope + t * t * curv, np.inf)
+    best = np.argmin(f, axis=1)
+    rows = np.arange(h.shape[0])
+    edge = x0[best] + t[rows, best][:, None] * v[best]
+    return np.where(ok[:, None], free, edge)
+
+
+def _bounded_minimum(h, grad, c, shapes, upper):
+    """Minimise ``c^T h c + 2 grad^T c`` with each channel's noise ``d_b,k =
+    sum_j c_kj shapes_bkj`` within ``[-upper_b,k, upper_b,k]``: block
+    coordinate descent over
+    the reference channels, each block (its two coefficients, a polygon)
+    solved exactly; the constraints do not couple channels, so this
+    converges to the minimum. ``c`` (W, n_r, 2) a feasible start."""
+    nw, nr, _ = c.shape
+    c = c.copy()
+    hb = h.reshape(nw, nr, 2, nr, 2)
+    polygons = [_polygon_edges(np.concatenate([-shapes[:, k, :], shapes[:, k, :]], axis=0),
+                               np.concatenate([upper[:, k], upper[:, k]])) for k in range(nr)]
+    for _ in range(BOUNDED_SWEEPS):
+        before = c.copy()
+        for k in range(nr):
+            g = grad.reshape(nw, nr, 2)[:, k] + np.einsum("wilj,wlj->wi", hb[:, k], c) \
+                - np.einsum("wij,wj->wi", hb[:, k, :, k], c[:, k])
+            c[:, k] = _polygon_minimum(hb[:, k, :, k], g, polygons[k])
+        scale = np.maximum(np.abs(c).max(axis=(1, 2)), 1e-300)
+        if nr == 1 or np.all(np.abs(c - before).max(axis=(1, 2)) <= 1e-10 * scale):
+            break
+    return c
+
+
+def profile_columns(x0, u, shapes, w, upper=None):
     """The reference's noise profiled out of the statistic ``x0 + G c``.
 
     Column ``(k, j)`` of the design ``G`` is ``u[..., k] * shapes[b, k, j]``
@@ -218,9 +311,47 @@ def profile_columns(x0, u, shapes, w):
     statistic comes from the same Gram matrix.
 
     ``x0`` (W, B, 2m), ``u`` (W, B, 2m, n_r), ``shapes`` (B, n_r, 2), ``w``
-    (B, 2m, 2m) symmetric. Returns ``(c, G c, q)``: (W, n_r, 2), (W, B, 2m)
-    and ``q_b = x_b^T W_b x_b`` of ``x = x0 + G c``, (W, B).
+    (B, 2m, 2m) symmetric. ``upper`` (B, n_r) or None: each channel's
+    noise ``d_b,k`` is kept within ``[-upper_b,k, upper_b,k]``
+    (:func:`incoherent_power`): no noise larger than the incoherent power
+    the spectra show, and
+    no negative excursion larger than that either
+    (about a quiet reference's zero the estimate scatters both ways; a
+    bound at zero would bias the gains high). Returns ``(c, G c, q)``: (W,
+    n_r, 2), (W, B, 2m) and ``q_b = x_b^T W_b x_b`` of ``x = x0 + G c``,
+    (W, B).
     """
+    nw, nb, _, nr = u.shape
+    gram, h, grad = _profile_system(x0, u, shapes, w)
+    m_kl, gx = gram[..., 1:, 1:], gram[..., 0, 1:]
+    c = -np.linalg.solve(h, grad[..., None])[..., 0].reshape(nw, nr, 2)
+    if upper is not None:
+        d = (shapes[None] * c[:, None]).sum(axis=-1)                   # (W, B, nr)
+        out = np.any(np.abs(d) > upper[None], axis=(1, 2))
+        if out.any():                                   # from zero noise, which is feasible
+            c[out] = _bounded_minimum(h[out], grad[out], np.zeros_like(c[out]), shapes, upper)
+    per_band = (shapes[None] * c[:, None]).sum(axis=-1)                # (W, B, nr)
+    q = (gram[..., 0, 0] + 2.0 * (gx * per_band).sum(axis=-1)
+         + ((m_kl @ per_band[..., None])[..., 0] * per_band).sum(axis=-1))
+    return c, (u * per_band[..., None, :]).sum(axis=-1), q
+
+
+def noise_spread(x0, u, shapes, w):
+    """(B, n_r) the standard deviation of the profiled noise ``d_b,k`` at one
+    point (``x0`` (1, B, 2m), ``u`` (1, B, 2m, n_r)): from the profile's
+    curvature, ``cov(c) = h^-1`` (``-log L = q / 2``). Where it exceeds the
+    incoherent power, the spectra cannot tell the reference's noise from
+    the SUT's, and the profile is bounded (:func:`profile_columns`)."""
+    _, h, _ = _profile_system(x0, u, shapes, w)
+    nr = shapes.shape[1]
+    cov = np.linalg.inv(h[0]).reshape(nr, 2, nr, 2)
+    var = np.einsum("bkj,kjki,bki->bk", shapes, cov, shapes)
+    return np.sqrt(np.maximum(var, 0.0))
+
+
+def _profile_system(x0, u, shapes, w):
+    """The Gram matrix of ``[x0, u]`` per band and the profile's normal
+    equations ``h c = -grad`` (``h`` with its relative ridge)."""
     nw, nb, _, nr = u.shape
     xu = np.concatenate([x0[..., None], u], axis=-1)                   # (W, B, 2m, 1+nr)
     gram = np.swapaxes(xu, -1, -2) @ band_matmul(w, xu)                # (W, B, 1+nr, 1+nr)
@@ -234,9 +365,4 @@ def profile_columns(x0, u, shapes, w):
     grad = np.ascontiguousarray(gx.transpose(2, 0, 1)) @ shapes.transpose(1, 0, 2)  # (nr, W, 2)
     grad = grad.transpose(1, 0, 2).reshape(nw, 2 * nr)
     scale = np.trace(h, axis1=1, axis2=2)[:, None, None] / h.shape[-1]
-    h = h + RIDGE * scale * np.eye(h.shape[-1])
-    c = -np.linalg.solve(h, grad[..., None])[..., 0].reshape(nw, nr, 2)
-    per_band = (shapes[None] * c[:, None]).sum(axis=-1)                # (W, B, nr)
-    q = (gram[..., 0, 0] + 2.0 * (gx * per_band).sum(axis=-1)
-         + ((m_kl @ per_band[..., None])[..., 0] * per_band).sum(axis=-1))
-    return c, (u * per_band[..., None, :]).sum(axis=-1), q
+    return gram, h + RIDGE * scale * np.eye(h.shape[-1]), grad

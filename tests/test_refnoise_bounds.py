@@ -1,0 +1,115 @@
+"""The reference's noise is estimated within what the spectra admit: never
+above the incoherent power the spectra show (with its sampling error), and
+no negative excursion beyond it. The bound is the closed form of a known
+case, and the bounded profile is the constrained minimum scipy finds."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from bayescal.core import refnoise
+
+
+class _Spectra:
+    """Band sums of a pair with the SUT seeing the ground g and the reference
+    seeing g plus its own noise n: S_uu = G, S_ur = G, S_rr = G + N."""
+
+    def __init__(self, g, n, bins=(12, 30), segments=40):
+        nb = len(bins)
+        self.n_u, self.n_r = g.shape[0], g.shape[0]
+        top = np.concatenate([g, g], axis=1)
+        bottom = np.concatenate([g, g + n], axis=1)
+        self._s = np.stack([np.concatenate([top, bottom], axis=0) * (b * segments) for b in bins])
+        self.bins_per_band = np.array(bins)
+        self.n_segments = segments
+        assert self._s.shape[0] == nb
+
+    def band_sums(self):
+        return self._s
+
+
+def test_incoherent_power_is_the_reference_noise_when_the_sut_is_quiet():
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((2, 2)) + 1j * rng.standard_normal((2, 2))
+    g = a @ a.conj().T + np.eye(2)
+    n = np.diag([0.3, 0.05])
+    sp = _Spectra(g, n)
+    got = refnoise.incoherent_power(sp)
+    k = sp.bins_per_band * sp.n_segments
+    left = k - sp.n_u
+    # exact band sums (no sampling error): the noise itself, scaled as an
+    # estimate from K - n_u degrees of freedom is, plus three standard errors
+    want = np.diag(n)[None] * k[:, None] * (k / left * (1 + 3 / np.sqrt(left)))[:, None]
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+
+
+def _problem(seed, nw=6, nb=4, nu=2, nr=2):
+    rng = np.random.default_rng(seed)
+    m = nu * nr
+    x0 = rng.standard_normal((nw, nb, 2 * m))
+    u = rng.standard_normal((nw, nb, 2 * m, nr))
+    a = rng.standard_normal((nb, 2 * m, 2 * m))
+    w = a @ a.transpose(0, 2, 1) + 0.5 * np.eye(2 * m)
+    shapes = rng.uniform(0.2, 1.0, (nb, nr, 2))
+    upper = rng.uniform(0.3, 1.5, (nb, nr))
+    return x0, u, shapes, w, upper
+
+
+def _objective(c, x0, u, shapes, w):
+    d = (shapes * c.reshape(-1, 2)[None]).sum(axis=-1)               # (B, nr)
+    x = x0 + (u * d[:, None, :]).sum(axis=-1)
+    return float(np.einsum("bi,bij,bj->", x, w, x))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_bounded_profile_is_the_constrained_minimum(seed):
+    x0, u, shapes, w, upper = _problem(seed)
+    c, _, q = refnoise.profile_columns(x0, u, shapes, w, upper)
+    nr = shapes.shape[1]
+    free, _, q_free = refnoise.profile_columns(x0, u, shapes, w)
+    for k in range(x0.shape[0]):
+        d = (shapes * c[k][None]).sum(axis=-1)
+        assert np.all(np.abs(d) <= upper * (1 + 1e-9))
+
+        def noise(v):
+            return (shapes * v.reshape(nr, 2)[None]).sum(axis=-1).ravel()
+        cons = [{"type": "ineq", "fun": lambda v: upper.ravel() - noise(v)},
+                {"type": "ineq", "fun": lambda v: upper.ravel() + noise(v)}]
+        best = min((minimize(_objective, start, args=(x0[k], u[k], shapes, w),
+                             constraints=cons, method="SLSQP",
+                             options={"ftol": 1e-14, "maxiter": 500})
+                    for start in (np.zeros(2 * nr), np.full(2 * nr, 0.1))),
+                   key=lambda r: r.fun)
+        ours = _objective(c[k].ravel(), x0[k], u[k], shapes, w)
+        assert ours == pytest.approx(q[k].sum(), rel=1e-9)
+        assert ours <= best.fun * (1 + 1e-6) + 1e-9, (ours, best.fun)
+        # the bounded minimum is never below the free one
+        assert q[k].sum() >= q_free[k].sum() - 1e-9 * abs(q_free[k].sum())
+    # the cases include walkers whose free minimum breaks a bound
+    d_free = (shapes[None] * free[:, None]).sum(axis=-1)
+    assert np.any(np.abs(d_free) > upper[None])
+
+
+def test_polygon_minimum_matches_scipy():
+    """The exact 2-D block solve: the free minimum when feasible, else the
+    best point on the polygon's edges, as SLSQP finds it (100 random cases,
+    a centrally symmetric polygon, bounded or not, as the profile builds)."""
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        a = rng.standard_normal((2, 2))
+        h = a @ a.T + 0.1 * np.eye(2)
+        g = 3 * rng.standard_normal(2)
+        s = rng.uniform(0.2, 1.0, (4, 2))
+        up = rng.uniform(0.3, 1.5, 4)
+        rows = np.concatenate([-s, s])
+        rhs = np.concatenate([up, up])
+        x = refnoise._polygon_minimum(h[None], g[None], refnoise._polygon_edges(rows, rhs))[0]
+
+        def f(v):
+            return v @ h @ v + 2 * g @ v
+        ref = minimize(f, np.zeros(2), constraints=[{"type": "ineq",
+                                                     "fun": lambda v: rhs - rows @ v}],
+                       method="SLSQP", options={"ftol": 1e-15})
+        assert np.all(rows @ x <= rhs + 1e-9)
+        assert f(x) <= ref.fun + 1e-7 * abs(ref.fun) + 1e-9
