@@ -153,7 +153,7 @@ def test_cli_bad_input_one_line_naming_the_file(sim_files, tmp_path, capsys, sid
 
 
 def test_misfit_sentence_says_rises_when_it_rose():
-    """Issue 14 item 13: median 8.55e3 -> 1.46e4 was reported as 'falls'."""
+    """A misfit whose median rose (8.55e3 -> 1.46e4) is said to rise, not fall."""
     import numpy as np
 
     from bayescal.criticism.diagnose import misfit_change

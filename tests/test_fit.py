@@ -1,6 +1,6 @@
 """End-to-end inference on simulated pairs with known truth.
 
-Single-seed tests assert the issue's accuracy thresholds and that each truth
+Single-seed tests assert the accuracy targets (0.1 degree, 0.3 %) and that each truth
 lies within 4 posterior sd of the median (a 95 % check on many parameters
 would fail by chance); calibration of the intervals themselves is a
 statistical claim, tested over many seeds in test_coverage.py."""
@@ -32,7 +32,7 @@ def test_recovery_high_coherence(high_coherence_fit):
         got = summary[cid]
         if truth["dip_deg"] > -80:
             err = unwrap_azimuths(np.r_[got["azimuth_deg"]["median"], truth["azimuth_deg"]])
-            assert abs(err[0] - err[1]) < 0.1                       # issue: < 0.1 degree
+            assert abs(err[0] - err[1]) < 0.1                       # target: < 0.1 degree
             assert abs(err[0] - err[1]) < 4 * got["azimuth_deg"]["sd"]
             assert abs(got["dip_deg"]["median"] - truth["dip_deg"]) < 4 * got["dip_deg"]["sd"]
         else:
@@ -40,7 +40,7 @@ def test_recovery_high_coherence(high_coherence_fit):
             assert abs(t["median"] - (90 + truth["dip_deg"])) < 4 * t["sd"]
             assert got["azimuth_deg"]["undefined"] and "ci95" not in got["azimuth_deg"]
         g = got["response"]["gain"]
-        assert abs(g["median"] / truth["gain"] - 1) < 0.003         # issue: within 0.3 %
+        assert abs(g["median"] / truth["gain"] - 1) < 0.003         # target: within 0.3 %
         assert abs(g["median"] - truth["gain"]) < 4 * g["sd"]
 
 

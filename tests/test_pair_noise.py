@@ -218,7 +218,7 @@ def test_normal_pair_has_no_swap_message():
 def test_sensor_order_with_free_gains(case):
     """The default fit (gains free, --ref-noise quiet): the fitted gains
     absorb the reference's noise, so the order is judged at the metadata
-    gains +-3 % (issue 14 item 5). Before this check the swapped pair gave
+    gains +-3 %. Judged at the fitted gains instead, the swapped pair gave
     no warning (margin -inf at the fitted gains). ``swapped``: reference
     coherence 0.9 against the SUT's 0.999 (noise 11 % of the signal, over
     the 3 % a gain error can fake): the warning, margin 6.5 dB at seed 3.
