@@ -39,7 +39,7 @@ WINDOWS = ("02", "03", "06", "09", "12")
 def prepare(folder):
     """Write the simulated inputs; returns {case: (argv, result file)}."""
     sys.path.insert(0, str(ROOT))
-    from bayescal.simulate.cal import simulate_random_cal
+    from bayescal.simulate.cal import HF_NOMINAL, simulate_random_cal
     from bayescal.simulate.pair import simulate_pair
 
     cases = {}
@@ -51,9 +51,11 @@ def prepare(folder):
     cases["one_channel"] = (["fit", *pair, "--sut-id", "XX.SIM.10.BHZ", "--ref-id",
                              "XX.SIM.00.BHZ", "--band", "0.05", "2"], "result.json")
     cal = simulate_random_cal(truth=(120.0, 0.707, 1500.0), nominal=(120.0, 0.707, 1500.0),
-                              duration=3600.0, fs=100.0, seed=3).write(os.path.join(folder, "cal"))
+                              hf_true=HF_NOMINAL, hf_nominal=HF_NOMINAL, duration=3600.0,
+                              fs=200.0, seed=3).write(os.path.join(folder, "cal"))
     cases["coil_hf"] = (["cal", "--cal", cal["cal"], "--sut-xml", cal["xml"], "--coil-constant",
-                         "1e-9", "--output-channel", "BHZ", "--fit", "all"], "cal.json")
+                         "1e-9", "--input-channel", "BC0", "--output-channel", "HHZ", "--fit",
+                         "all"], "cal.json")
     if COWI.is_dir():
         for h in WINDOWS:
             cases[f"cowi_10min_{h}"] = (
@@ -101,10 +103,13 @@ def main(argv=None):
     ap.add_argument("--before", required=True, help="another source tree")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", default=str(ROOT / "reports" / "benchmarks" / "hard.json"))
+    ap.add_argument("--cases", nargs="+", help="only these cases (the others kept from --out)")
     a = ap.parse_args(argv)
     trees = {"after": ROOT, "before": Path(a.before).resolve()}
     with tempfile.TemporaryDirectory() as folder:
         cases = prepare(folder)
+        if a.cases:
+            cases = {c: v for c, v in cases.items() if c in a.cases}
         rows = {(t, c): [] for t in trees for c in cases}
         for k in range(a.repeats):
             for c, (argv_, result) in cases.items():
@@ -125,6 +130,10 @@ def main(argv=None):
                             wall_s=statistics.median(x["wall_s"] for x in r))
         out["cases"][c] = entry
     os.makedirs(os.path.dirname(a.out), exist_ok=True)
+    if a.cases and Path(a.out).is_file():
+        old = json.loads(Path(a.out).read_text())
+        out["cases"] = {**old.get("cases", {}), **out["cases"]}
+        out["command"] = old.get("command", "") + " ; " + out["command"]
     Path(a.out).write_text(json.dumps(out, indent=1) + "\n")
     for c, e in out["cases"].items():
         print(f"{c:16s} before {e['before']['cpu_s']:6.1f} s ({e['before'].get('n_steps')} steps)"
