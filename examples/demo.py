@@ -70,7 +70,8 @@ def run(out, seed=2026, quiet=False):
     c = result["convergence"]
     print(f"convergence: ESS min {c['ess_min']:.0f}, tau max {c['tau_max']:.0f}, "
           f"R-hat max {c['rhat_max']:.4f}, {c['n_steps']} steps")
-    print(f"outputs in {fit_dir}: " + ", ".join(sorted(os.listdir(fit_dir))))
+    print(f"outputs in {fit_dir}: " + ", ".join(sorted(n for n in os.listdir(fit_dir)
+                                                      if not n.startswith("."))))
     if written:
         print(f"report: {written[0]}")
     return 0
