@@ -10,8 +10,9 @@ script:
    tree's tracked and untracked, not ignored, files instead);
 2. runs every listed test once on the unbroken copy (all must pass, or a
    failure under a breakage would prove nothing);
-3. for each breakage: applies its patch (``git apply``), runs its tests,
-   records each test's outcome, reverts the patch;
+3. for each breakage: applies its patch (``git apply``; with one line of
+   context if the package has moved on around the changed line), runs its
+   tests, records each test's outcome, reverts the patch;
 4. writes ``results.json`` and ``results.md`` beside this script: for each
    breakage, caught (at least one of its tests failed) or not, and by which.
 
@@ -173,18 +174,26 @@ def main(argv=None):
             patch = HERE / "patches" / f"{b['name']}.patch"
             entry = {"name": b["name"], "what": b["what"], "patch": f"patches/{patch.name}",
                      "tests": b["tests"]}
+            context = []
             try:
                 _git("apply", str(patch), cwd=copy)
-            except subprocess.CalledProcessError as exc:
-                entry.update(caught=False, apply_error=exc.stderr.strip(), outcomes={},
-                             seconds=0.0)
-                results.append(entry)
-                print(f"{b['name']}: the patch does not apply: {exc.stderr.strip()}", flush=True)
-                continue
+            except subprocess.CalledProcessError:
+                # the package moved on around the changed line: one line of context
+                try:
+                    context = ["-C1"]
+                    _git("apply", *context, str(patch), cwd=copy)
+                    entry["applied_with"] = "one line of context (-C1)"
+                except subprocess.CalledProcessError as exc:
+                    entry.update(caught=False, apply_error=exc.stderr.strip(), outcomes={},
+                                 seconds=0.0)
+                    results.append(entry)
+                    print(f"{b['name']}: the patch does not apply: {exc.stderr.strip()}",
+                          flush=True)
+                    continue
             try:
                 outcomes, secs, _ = run_tests(copy, b["tests"], args.workers, report)
             finally:
-                _git("apply", "-R", str(patch), cwd=copy)
+                _git("apply", "-R", *context, str(patch), cwd=copy)
             caught = any(o in ("failed", "error") for o in outcomes.values())
             entry.update(caught=caught, outcomes=outcomes, seconds=round(secs, 1))
             results.append(entry)
