@@ -95,10 +95,20 @@ class VectorSampler(emcee.EnsembleSampler):
     """:class:`emcee.EnsembleSampler` for a vectorised log-probability that
     returns one float per walker and no blobs: ``compute_log_prob`` checks
     the coordinates and the result as emcee does (no inf or NaN coordinate,
-    no NaN log-probability) without emcee's per-walker loop for blobs."""
+    no NaN log-probability) without emcee's per-walker loop for blobs.
 
-    def __init__(self, nwalkers, ndim, log_prob_fn, moves):
+    ``moves`` is a list of (move, weight) or of moves (equal weights);
+    ``label`` names the phase it runs in the sampler's record, and
+    ``recorded`` holds the steps and per-walker
+    acceptances already recorded (:class:`_Phases`)."""
+
+    def __init__(self, nwalkers, ndim, log_prob_fn, moves, label=""):
+        moves = [m if isinstance(m, tuple) else (m, 1.0) for m in moves]
         super().__init__(nwalkers, ndim, log_prob_fn, moves=moves, vectorize=True)
+        self.move_list = [m for m, _ in moves]
+        self.phase = {"label": label,
+                      "moves": [{"move": _move_name(m), "weight": float(w)} for m, w in moves]}
+        self.recorded = (0, np.zeros(nwalkers))
 
     def compute_log_prob(self, coords):
         if not np.all(np.isfinite(coords)):
@@ -219,17 +229,11 @@ class _Phases:
 
     def new(self, moves, label):
         """An emcee sampler with ``moves``, a list of (move, weight)."""
-        s = VectorSampler(self.n_walkers, self.ndim, self.log_prob, moves=list(moves))
-        s.bayescal_phase = {"label": label,
-                            "moves": [{"move": _move_name(m), "weight": float(w)}
-                                      for m, w in moves]}
-        s.bayescal_done = (0, np.zeros(self.n_walkers))
-        s.bayescal_moves = [m for m, _ in moves]
-        return s
+        return VectorSampler(self.n_walkers, self.ndim, self.log_prob, moves, label)
 
     def run(self, sampler, state, n_steps):
         """Advance ``sampler`` ``n_steps`` from ``state``; returns the last state."""
-        for move in sampler.bayescal_moves:
+        for move in sampler.move_list:
             if isinstance(move, IndependenceMove):
                 move.plan(n_steps)
         for state in sampler.sample(state, iterations=n_steps, skip_initial_state_check=True):
@@ -240,13 +244,13 @@ class _Phases:
     def close(self, sampler, label=None):
         """Record what ``sampler`` ran since it was last recorded: its moves,
         steps and mean acceptance."""
-        done_steps, done_acc = sampler.bayescal_done
+        done_steps, done_acc = sampler.recorded
         steps = sampler.iteration - done_steps
         accepted = sampler.backend.accepted - done_acc
-        self.phases.append(dict(sampler.bayescal_phase, label=label or
-                                sampler.bayescal_phase["label"], steps=int(steps),
+        self.phases.append(dict(sampler.phase, label=label or sampler.phase["label"],
+                                steps=int(steps),
                                 acceptance=float(np.mean(accepted) / max(steps, 1))))
-        sampler.bayescal_done = (sampler.iteration, sampler.backend.accepted.copy())
+        sampler.recorded = (sampler.iteration, sampler.backend.accepted.copy())
 
     def record(self):
         return {"library": "emcee", "version": emcee.__version__,
