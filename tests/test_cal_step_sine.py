@@ -76,7 +76,7 @@ def test_step_recovers_period_damping_gain_within_half_a_percent(seed):
     """20-minute step run at 10 Hz, self-noise 1 % of the step's acceleration
     (white, so the output noise is red). The truth is within 3.5 posterior sd
     (fails by chance about once in 2000 per parameter; the 95 % coverage is
-    measured in benchmarks/cal_coverage.py)."""
+    measured in validation/studies/cal_coverage.py)."""
     sim = simulate_step_cal(truth=TRUE_LP, seed=seed, noise_ratio=0.01, **SHORT)
     s = fit_step(_run(sim), COIL, seed=seed, **FAST).summary()
     assert s["kind"] == "step" and s["fit"] == "lp"
@@ -209,7 +209,8 @@ def test_step_noise_model_right_where_the_information_is():
     the means' sd are about 0.18 and 0.08; the bounds are about 3 sd).
     Whitening the counts directly (the AR alone, all poles) gave about 0.2
     and 1.45 here: the output noise has a zero at 0 Hz that an
-    autoregression cannot represent (docs/cal.md, "Step coverage")."""
+    autoregression cannot represent (docs/cal.md, "Model (step and sine kinds):
+    time domain"; docs/validation/coil.md, "Step and sine runs")."""
     th = np.array([np.log(TRUE_LP[0]), TRUE_LP[1], np.log(TRUE_LP[2])])
     power = [[], []]
     for seed in range(51, 57):

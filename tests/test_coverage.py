@@ -3,9 +3,9 @@ spanning coherence 0.9 to 0.999 (truths drawn at random: azimuths, dips,
 gains), the angles' and gains' credible intervals hold the truth at their
 nominal rates, for each kind of quantity on its own.
 
-This is the small in-suite version of benchmarks/coverage_study.py (which runs
+This is the small in-suite version of validation/studies/coverage_study.py (which runs
 100 pairs with the full 15-parameter joint posterior; its table and plot are in
-reports/coverage/)."""
+validation/results/coverage/)."""
 import numpy as np
 
 from bayescal.simulate.coverage import coverage_checks, run_case

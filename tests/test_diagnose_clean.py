@@ -15,6 +15,20 @@ from bayescal.simulate.pair import simulate_pair
 COHERENCE = 0.945
 
 
+def _harness_run(seed, regime, gain_off, ref_noise="quiet"):
+    """One clean run of the diagnosis harness (validation/studies/diagnose_harness.py):
+    the same pair, base fit and diagnosis; returns the diagnosis."""
+    from bayescal.simulate.harness import concealed_pair
+
+    run = concealed_pair(seed, 1.0, regime, gain_off)
+    assert run.kind == "none"
+    sim = run.sim
+    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
+                              band=(0.02, 3.0), progress=False, seed=seed, min_ess=200, n_tau=20,
+                              ref_noise=ref_noise)
+    return diagnose(post, seed=seed, mcmc=False)
+
+
 def _diagnose(**effect):
     sim = simulate_pair(duration=3600, fs=10, seed=1000, coherence=COHERENCE,
                         ref_coherence=COHERENCE, noise_in_counts=True,
@@ -151,19 +165,14 @@ def test_mismatch_left_with_a_noisy_reference_names_the_noise_model_as_suspect()
     microseism bands (BHZ, 0.084-0.171 Hz, misfit 5.3 times its expectation)
     is reported as unexplained, with the caveat that a reference noise of
     another shape leaves such a mismatch."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import diagnose_harness as h
-
     from bayescal.criticism.diagnose import REFERENCE_SHAPE_CAVEAT
 
-    rec = h.run_one(1001, 1.0, "equal", 0.03)
-    assert rec["outcome"] == "clean" and rec["named"] == [], rec
-    assert rec["reference_noise_delta_bic"] > 100
-    assert rec["unexplained"] and "BHZ" in rec["unexplained"][0], rec["unexplained"]
-    assert REFERENCE_SHAPE_CAVEAT in rec["sentences"]
+    d = _harness_run(1001, "equal", 0.03)
+    assert d.effects == [], d.sentences()
+    assert d.signatures["reference_noise"]["delta_bic"] > 100
+    unexplained = d.unexplained()
+    assert unexplained and "BHZ" in unexplained[0], unexplained
+    assert REFERENCE_SHAPE_CAVEAT in d.sentences()
 
 
 def test_caveat_also_when_the_user_chose_the_reference_noise_model():
@@ -171,18 +180,13 @@ def test_caveat_also_when_the_user_chose_the_reference_noise_model():
     diagnosis then has nothing to test: the reference's noise is already
     modelled): the mismatch left carries the caveat too. ``equal`` has a
     caveat of its own; ``quiet`` and ``fixed`` have none."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import diagnose_harness as h
-
     from bayescal.criticism.diagnose import (EQUAL_SHAPE_CAVEAT, REFERENCE_SHAPE_CAVEAT,
                                              reference_shape_caveat)
 
-    rec = h.run_one(1001, 1.0, "equal", 0.03, ref_noise="estimate")
-    assert rec["outcome"] == "clean" and rec["named"] == [], rec
-    assert rec["reference_noise_delta_bic"] is None          # not tested: already modelled
-    assert rec["unexplained"] and REFERENCE_SHAPE_CAVEAT in rec["sentences"]
+    d = _harness_run(1001, "equal", 0.03, ref_noise="estimate")
+    assert d.effects == [], d.sentences()
+    # not tested: already modelled
+    assert (d.signatures.get("reference_noise") or {}).get("delta_bic") is None
+    assert d.unexplained() and REFERENCE_SHAPE_CAVEAT in d.sentences()
     assert reference_shape_caveat("equal") == EQUAL_SHAPE_CAVEAT
     assert reference_shape_caveat("quiet") is None and reference_shape_caveat("fixed") is None

@@ -197,7 +197,7 @@ def test_newton_peak_is_checked_against_the_posterior():
 
 
 def test_a_stalled_start_does_not_outweigh_the_real_optimum():
-    """Seeded pair 452 of ``benchmarks/eiv_coverage.py`` (1 h, coherence 0.99,
+    """Seeded pair 452 of ``validation/studies/eiv_coverage.py`` (1 h, coherence 0.99,
     reference noise-free, gains fitted, nominal axes of the simulator: BH1 0,
     BH2 90 against true azimuths 177.1 and 268.0). The start from the nominal
     axes stalls 527 log units below the first fit on a flat ridge of the
@@ -206,20 +206,14 @@ def test_a_stalled_start_does_not_outweigh_the_real_optimum():
     179.95 [179.86, 180.08] at the chart's edge, without converging. Checked
     against the posterior, the stalled start weighs nothing and the first
     fit is sampled (converged, BH1 176.6 [176.2, 177.0])."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import eiv_coverage as ec
-
     import bayescal
-    from bayescal.simulate import simulate_pair
+    from bayescal.simulate import harness, simulate_pair
 
-    azs, dips, resp = ec.draw_truth(452, "gain")
-    cu, cr = ec.coherences(0.99, 0)
+    azs, dips, resp = harness.draw_truth(452, "gain")
+    cu, cr = harness.coherences(0.99, 0)
     sim = simulate_pair(duration=3600, fs=10, seed=452, coherence=cu, ref_coherence=cr,
                         sut_azimuth=azs, sut_dip=dips, sut_response=resp,
-                        nominal_response=ec.NOMINAL, noise_in_counts=True)
+                        nominal_response=harness.NOMINAL, noise_in_counts=True)
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 1.0), fit_response="gain", seed=452, progress=False,
                               ref_noise="quiet")

@@ -11,7 +11,8 @@ import pytest
 
 from bayescal.core import pair_noise
 from bayescal.io.pipeline import calibrate, write_results
-from bayescal.simulate.pair import self_noise_psd, simulate_pair
+from bayescal.simulate.harness import band_noise_truth
+from bayescal.simulate.pair import simulate_pair
 from tests.fitting import fit_pair, fit_sim
 
 SIM = dict(duration=3600.0, fs=10.0)
@@ -51,16 +52,6 @@ def test_fewer_sut_channels_leave_reference_unidentified():
     eu, er = pair_noise.noise_from_t(c, t)
     np.testing.assert_allclose(eu, 0.3, rtol=1e-10)
     assert np.isnan(er).all()
-
-
-def _band_truth(spectra, kw):
-    """True self-noise of every channel (SUT then reference) per band, as
-    the estimator defines it: band-mean velocity PSD over band-mean 1/omega^2."""
-    tu, tr = self_noise_psd(spectra.freqs, **kw)
-    tru = np.concatenate([tu, tr])
-    iw = 1.0 / (2 * np.pi * spectra.freqs) ** 2
-    return np.stack([tru[:, spectra.band_of == b].mean(1) / iw[spectra.band_of == b].mean()
-                     for b in range(spectra.n_bands)], axis=1)
 
 
 #: Pairs per arm of the coverage test (seeds fixed before any result).
@@ -106,7 +97,7 @@ def test_interval_covers_known_self_noise(arm):
         post = fit_sim(p, band=(0.02, 1.0), progress=False,
                        **({"fit_response": "none"} if held else {}))
         sp = post.model.spectra
-        truth = _band_truth(sp, kw)
+        truth = band_noise_truth(sp, kw)
         r = pair_noise.pair_self_noise(post.model, np.median(post.full_samples, axis=0),
                                        post.full_samples)
         per_pair.append((r["psd"], r["sd"], truth))
@@ -142,7 +133,7 @@ def _margin_range(post, kw, n=20000, seed=0):
     standard error, and the true margin: what the statistic is expected to
     read given the truth."""
     sp = post.model.spectra
-    truth = _band_truth(sp, kw)[list(range(sp.n_u)) + [3 + k for k in range(sp.n_r)]]
+    truth = band_noise_truth(sp, kw)[list(range(sp.n_u)) + [3 + k for k in range(sp.n_r)]]
     theta = np.median(post.full_samples, axis=0)
     res = pair_noise.pair_self_noise(post.model, theta, post.full_samples)
     along = list(np.argmax(np.abs(pair_noise.transfer(post.model, theta)[0][0, 0]), axis=0))

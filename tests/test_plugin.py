@@ -16,21 +16,18 @@
 
 Whether the weighted fits' intervals cover on short records is the pair
 coverage studies' question (tests/test_coverage.py in the suite, the
-benchmarks' for short records): given 1 and 3, a fit without the weights
-fails here.
+studies in validation/studies/ for short records): given 1 and 3, a fit
+without the weights fails here.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from bayescal.core import plugin
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from bayescal.simulate import harness
 
 
 def _gls_z(rng, nu, p, bands, reps):
@@ -113,13 +110,12 @@ def test_effective_samples_of_a_welch_band(bins, starts):
 
 @pytest.fixture(scope="module")
 def pair():
-    import eiv_coverage as ec
     from bayescal.simulate import simulate_pair
-    azs, dips, resp = ec.draw_truth(3001, "gain")
-    cu, cr = ec.coherences(0.99, 1.0)
+    azs, dips, resp = harness.draw_truth(3001, "gain")
+    cu, cr = harness.coherences(0.99, 1.0)
     return simulate_pair(duration=900.0, fs=10, seed=3001, coherence=cu, ref_coherence=cr,
                          sut_azimuth=azs, sut_dip=dips, sut_response=resp,
-                         nominal_response=ec.NOMINAL, noise_in_counts=True)
+                         nominal_response=harness.NOMINAL, noise_in_counts=True)
 
 
 @pytest.mark.parametrize("mode", ["quiet", "estimate", "equal"])

@@ -1,4 +1,4 @@
-"""The reduced chi-square of window medians (benchmarks/repeatability.py)
+"""The reduced chi-square of window medians (validation/studies/repeatability.py)
 on numbers with a known answer."""
 import numpy as np
 import pytest

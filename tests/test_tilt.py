@@ -4,8 +4,6 @@ coherence-ratio rule misses is found on both horizontals with the simulator's
 exponent (its tilt power falls as f^-2), its level scales with the simulated
 level, and the test declines when it cannot be done."""
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,15 +11,13 @@ import pytest
 from bayescal.criticism import effects
 from bayescal.criticism.locate import band_coherence
 from bayescal.criticism.tilt import nsr_data, tilt_test
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from tilt_power import pair_spectra  # noqa: E402  (the benchmark's simulated spectra)
+from bayescal.simulate.harness import tilt_pair_spectra  # the tilt study's simulated spectra
 
 HORIZONTAL = np.array([True, True, False])
 
 
 def _spectra(seed, coherence, level, azimuth=30.0, band=(0.02, 3.0), **effects):
-    return pair_spectra(seed, coherence, azimuth, level, band, **effects)
+    return tilt_pair_spectra(seed, coherence, azimuth, level, band, **effects)
 
 
 def _old_rule(sp):
@@ -67,7 +63,7 @@ WEAK = [(301, 0.90, 10.0), (302, 0.93, 7.0), (303, 0.96, 12.0), (304, 0.92, 20.0
 
 def test_weak_tilt_missed_by_old_rule_is_found():
     """Levels 7-20 at coherence 0.90-0.96, where the old rule misses. The
-    benchmark (benchmarks/tilt_power.py, 200 seeds) finds all 40 runs at
+    benchmark (validation/studies/tilt_power.py, 200 seeds) finds all 40 runs at
     levels 5-10 and all 57 at 10-20, the old rule 7 and 12. Here at least 5
     of 6 must be found on both horizontals, each with the simulated exponent
     inside its interval (the weakest, level 8 at coherence 0.91, has delta

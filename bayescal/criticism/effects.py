@@ -25,7 +25,7 @@ where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
   :func:`bayescal.criticism.diagnose.orientation_score`).
 * ``tilt_noise``: noise, not a response error, modelled in the noise
   spectra by :mod:`bayescal.criticism.tilt`. :func:`tilt_signature` is the earlier
-  coherence-ratio rule, kept as the baseline of benchmarks/tilt_power.py.
+  coherence-ratio rule, kept as the baseline of validation/studies/tilt_power.py.
 """
 from __future__ import annotations
 

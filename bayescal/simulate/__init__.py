@@ -6,10 +6,12 @@
 * :mod:`.network`   an SDS archive of pairs over stations and days
 * :mod:`.selfnoise` three co-located sensors with known self-noise
 * :mod:`.coverage`  the uncertainty check: simulate, fit, count the truths inside
+* :mod:`.harness`   seeded draws the validation studies and the tests share
 
 The generators import only :mod:`bayescal.core` (:mod:`.selfnoise` builds
 its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` also runs
-:mod:`bayescal.io.pipeline` on what it simulates (it is not imported here).
+:mod:`bayescal.io.pipeline` on what it simulates, and :mod:`.harness` computes
+a pair's cross-spectra with :mod:`bayescal.io.align` (neither is imported here).
 """
 from .coil import simulate_calibration
 from .network import write_network

@@ -1,7 +1,7 @@
 """Uncertainty checks on simulated noise: draw pairs with known truth, fit
 them, and count how often each truth falls inside its credible interval.
 
-Used by ``benchmarks/coverage_study.py`` (the full study) and the test suite
+Used by ``validation/studies/coverage_study.py`` (the full study) and the test suite
 (a smaller one); users can run the same check for their own configuration
 (record length, band, sampling rate) before trusting intervals.
 """

@@ -5,29 +5,25 @@ simulator's default, and white in counts; gains held and the default fit),
 sensor-order margins of equal-noise pairs, and the swap check under each
 fit mode. About 1 minute.
 
-    python benchmarks/pair_noise_study.py
+    python validation/studies/pair_noise_study.py
 
 Pairs: simulate_pair, 1 h at 10 Hz, band 0.02-1 Hz.
 """
 from __future__ import annotations
 
-import os
-import sys
-
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 
-
+#: the pairs' record (as tests/test_pair_noise.py simulates them)
+SIM = dict(duration=3600.0, fs=10.0)
 #: seeds of the standardised-error rows
 SEEDS = (3, 5, 6, 7, 8, 9)
 
 
 def main():
-    from test_pair_noise import SIM, _band_truth
-
     from bayescal.core import pair_noise
     from bayescal.io.pipeline import calibrate
+    from bayescal.simulate.harness import band_noise_truth
     from bayescal.simulate.pair import simulate_pair
 
     def fit(seed, coh, rcoh, **kw):
@@ -37,9 +33,9 @@ def main():
         return p, calibrate(sut=p.sut, sut_xml=p.sut_inventory, ref=p.ref, ref_xml=p.ref_inventory, band=(0.02, 1.0),
                             progress=False, **kw)
 
-    # every fit names its settings: the defaults moved (gains free since
-    # issue 12 item 5, --ref-noise estimate for 3+3 pairs since), and an
-    # empty keyword set would silently measure the new default
+    # every fit names its settings (the fit's defaults are gains free and
+    # --ref-noise estimate for 3+3 pairs), so a change of default does not
+    # silently change what a row measures
     for counts in (False, True):
         for label, kw in [("gains held, quiet", {"fit_response": "none", "ref_noise": "quiet"}),
                           ("gains held, estimate", {"fit_response": "none",
@@ -49,7 +45,7 @@ def main():
             for seed in SEEDS:
                 sim = dict(SIM, seed=seed, coherence=0.99, ref_coherence=0.99)
                 p, post = fit(seed, 0.99, 0.99, noise_in_counts=counts, **kw)
-                truth = _band_truth(post.model.spectra,
+                truth = band_noise_truth(post.model.spectra,
                                     dict(sim, noise_in_counts=True) if counts else sim)
                 r = pair_noise.pair_self_noise(post.model, np.median(post.full_samples, 0),
                                                post.full_samples)

@@ -1,5 +1,5 @@
 """Repeatability on real recordings: do the reported intervals match the
-scatter between time windows of one record? (issue 13, item 3)
+scatter between time windows of one record?
 
 Each shared real recording (../shared/data, see its README) is split into
 windows; each window is fitted with :func:`bayescal.calibrate` as a user
@@ -17,10 +17,10 @@ against the STS-2, 0.1-2 Hz, gain, 6 windows of 10 min) and the II.XPFO
 verticals (each pair among 00, 10, 60, the first as reference, 0.1-1 Hz,
 gain, 6 windows of 20 min).
 
-    python benchmarks/repeatability.py                      # the default likelihood
-    python benchmarks/repeatability.py --misfit-shape inf   # Gaussian (before issue 13 item 2)
+    python validation/studies/repeatability.py                      # the default likelihood
+    python validation/studies/repeatability.py --misfit-shape inf   # the Gaussian likelihood
 
-Writes reports/repeatability/table.json (or ``--out``) and prints a markdown
+Writes validation/results/repeatability/table.json (or ``--out``) and prints a markdown
 table.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ import numpy as np
 from bayescal.core.geometry import unwrap_azimuths
 from bayescal.core.repeatability import reduced_chi_square, sd_from_ci68
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "real"
 
 
@@ -146,7 +146,7 @@ def main(argv=None):
     ap.add_argument("--misfit-shape", type=float, default=None,
                     help="shape a of the per-band noise-scale prior (inf: Gaussian); "
                          "default: the fit's default")
-    ap.add_argument("--out", default=str(ROOT / "reports" / "repeatability" / "table.json"))
+    ap.add_argument("--out", default=str(ROOT / "validation" / "results" / "repeatability" / "table.json"))
     a = ap.parse_args(argv)
     if not a.data.is_dir():
         sys.exit(f"data folder {a.data} not found (see ../shared/data/README.md)")
@@ -159,7 +159,7 @@ def main(argv=None):
     shape = MISFIT_SHAPE if a.misfit_shape is None else a.misfit_shape
     ratios = [r["ratio"] for r in rows]
     out = {"misfit_shape": None if not np.isfinite(shape) else shape,
-           "command": "python benchmarks/repeatability.py"
+           "command": "python validation/studies/repeatability.py"
                       + ("" if a.misfit_shape is None else f" --misfit-shape {a.misfit_shape:g}"),
            "median_ratio": float(np.median(ratios)), "max_ratio": float(np.max(ratios)),
            "seconds": time.perf_counter() - t0, "rows": rows}

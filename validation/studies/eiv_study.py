@@ -6,19 +6,19 @@ Each pair: 1 h at 10 Hz, band 0.02-1 Hz, SUT at a random azimuth, gains off
 their metadata by up to 3 %, self-noise white in counts and the same on every
 channel of a sensor (SUT 30 s, reference 120 s nominal responses), seeded.
 
-    python benchmarks/eiv_study.py --n 12        # about 2 minutes per mode and regime
+    python validation/studies/eiv_study.py --n 12        # about 2 minutes per mode and regime
 
-Writes reports/eiv/study.json and prints the table quoted in the README.
+Writes validation/results/eiv/study.json and prints the table quoted in the README.
 
 With ``--mcmc`` the posterior is sampled as ``bayescal fit`` does, over
-regimes of noise ratio and pair coherence (``benchmarks/eiv_coverage.py``);
+regimes of noise ratio and pair coherence (``validation/studies/eiv_coverage.py``);
 seeds ``--seed0 .. --seed0 + n - 1`` per regime, rows appended to
-``reports/eiv/coverage.json`` (so chunks run one after another add up), and
+``validation/results/eiv/coverage.json`` (so chunks run one after another add up), and
 the per-regime, per-kind table printed:
 
-    python benchmarks/eiv_study.py --mcmc --fit gain --modes estimate --n 3
-    python benchmarks/eiv_study.py --mcmc --fit all --modes estimate --n 2
-    python benchmarks/eiv_study.py --mcmc --table      # the table of what is there
+    python validation/studies/eiv_study.py --mcmc --fit gain --modes estimate --n 3
+    python validation/studies/eiv_study.py --mcmc --fit all --modes estimate --n 2
+    python validation/studies/eiv_study.py --mcmc --table      # the table of what is there
 """
 from __future__ import annotations
 
@@ -35,10 +35,8 @@ from bayescal.core.spectra import cross_spectra
 from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 
-try:
-    from eiv_coverage import run_pair, summarise, table
-except ImportError:      # run from elsewhere
-    from benchmarks.eiv_coverage import run_pair, summarise, table
+import study_results                                   # the sibling module, run as a script
+from eiv_coverage import run_pair, summarise, table    # the sibling study, run as a script
 
 #: (label, SUT coherence, reference coherence): reference noise-free, as noisy
 #: as the SUT, ten times noisier.
@@ -82,7 +80,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=12, help="pairs per mode and regime")
     ap.add_argument("--modes", nargs="+", default=["quiet", "estimate"])
-    ap.add_argument("--out", default=None, help="reports/eiv/study.json or coverage.json")
+    ap.add_argument("--out", default=None, help="validation/results/eiv/study.json or coverage.json")
     ap.add_argument("--mcmc", action="store_true", help="MCMC coverage over regimes")
     ap.add_argument("--fit", default="gain", choices=["gain", "all"])
     ap.add_argument("--ratios", nargs="+", type=float, default=[0.0, 1.0, 10.0])
@@ -99,7 +97,7 @@ def main():
     args = ap.parse_args()
     if args.mcmc:
         return mcmc(args)
-    args.out = args.out or "reports/eiv/study.json"
+    args.out = args.out or "validation/results/eiv/study.json"
     rows = []
     print(f"{'regime':28s} {'mode':9s} {'gain z mean':>11s} {'sd':>5s} {'in 90%':>7s} "
           f"{'az z mean':>9s} {'sd':>5s} {'in 90%':>7s}")
@@ -124,19 +122,20 @@ def main():
                   f"{row['az_z_sd']:5.2f} {row['az_in90']:3d}/{za.size:<3d}", flush=True)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as fh:
-        json.dump({"command": "python benchmarks/eiv_study.py --n %d --seed0 %d" % (args.n, args.seed0),
+        json.dump({"command": "python validation/studies/eiv_study.py --n %d --seed0 %d" % (args.n, args.seed0),
                    "rows": rows},
                   fh, indent=1)
 
 
 def mcmc(args):
     """Coverage rows appended to ``args.out`` and the summary table printed."""
-    out = args.out or "reports/eiv/coverage.json"
-    old = json.load(open(out)) if os.path.exists(out) else {}
+    out = args.out or "validation/results/eiv/coverage.json"
+    # earlier chunks' rows: from the per-run file (the summary alone has none)
+    old = study_results.read(out) if study_results.runs_path(out).exists() else {}
     rows = old.get("rows", [])
     commands = old.get("commands", [old["command"]] if "command" in old else [])
     if not args.table:
-        commands.append("python benchmarks/eiv_study.py " + " ".join(sys.argv[1:]))
+        commands.append("python validation/studies/eiv_study.py " + " ".join(sys.argv[1:]))
     noise = "signal" if args.signal_noise else "counts"
     done = {(r["seed"], r["ratio"], r["pair_coherence"], r["fit"], r["mode"],
              r.get("noise", "counts"), r.get("duration_s", 3600.0)) for r in rows}
@@ -151,10 +150,8 @@ def mcmc(args):
                     rows.append(r)
                     print(f"ratio {ratio:g} coh {coh} {args.fit} {mode} {noise} seed {seed}: "
                           f"{r['cpu_s']:.1f} s cpu, converged {r['converged']}", flush=True)
-                    os.makedirs(os.path.dirname(out), exist_ok=True)
-                    with open(out, "w") as fh:
-                        json.dump({"commands": commands, "rows": rows,
-                                   "summary": summarise(rows)}, fh, indent=1)
+                    study_results.write(out, {"commands": commands, "rows": rows,
+                                              "summary": summarise(rows)})
     summary = summarise(rows)
     print(table(summary))
     cpu = {}

@@ -1,5 +1,5 @@
 """MCMC coverage of the errors-in-variables fits over regimes of the
-reference's self-noise (``benchmarks/eiv_study.py --mcmc`` runs this).
+reference's self-noise (``validation/studies/eiv_study.py --mcmc`` runs this).
 
 Each pair: 1 h at 10 Hz, band 0.02-1 Hz, self-noise white in counts (SUT 30 s,
 reference 120 s nominal responses), SUT at a random azimuth with horizontals
@@ -18,40 +18,14 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import brentq
 
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate import simulate_pair
+# NOMINAL and coherences are the studies' built on this one (ec.NOMINAL, ...)
+from bayescal.simulate.harness import NOMINAL, coherences, draw_truth  # noqa: F401
 from bayescal.simulate.coverage import binomial_band, coverage_checks
 
-NOMINAL = (30.0, 0.707, 750.0)
 KINDS = ("azimuth", "dip", "tilt_north", "tilt_east", "gain", "period", "damping")
-
-
-def coherences(pair_coherence, ratio):
-    """(SUT, reference) squared coherence with the ground for a pair
-    coherence ``c_u c_r`` and a reference/SUT noise-power ratio ``ratio``
-    (noise-to-signal ``x`` and ``ratio * x``); ratio 0: reference noise-free
-    (coherence 0.99999)."""
-    if ratio == 0:
-        return pair_coherence / 0.99999, 0.99999
-    x = brentq(lambda x: (1 + x) * (1 + ratio * x) - 1 / pair_coherence, 0, 10)
-    return 1 / (1 + x), 1 / (1 + ratio * x)
-
-
-def draw_truth(seed, fit):
-    """Random orientation and response of one pair (seeded)."""
-    rng = np.random.default_rng(20_000 + seed)
-    az = rng.uniform(0, 360)
-    azs = (az, az + 90 + rng.normal(0, 1), rng.uniform(0, 360))
-    dips = (rng.normal(0, 1), rng.normal(0, 1), -90 + abs(rng.normal(0, 1)))
-    gains = NOMINAL[2] * (1 + rng.uniform(-0.03, 0.03, 3))
-    if fit == "all":
-        per = NOMINAL[0] * (1 + rng.uniform(-0.05, 0.05, 3))
-        damp = NOMINAL[1] * (1 + rng.uniform(-0.05, 0.05, 3))
-    else:
-        per, damp = np.full(3, NOMINAL[0]), np.full(3, NOMINAL[1])
-    return azs, dips, tuple(zip(per, damp, gains))
 
 
 def run_pair(seed, ratio, pair_coherence, fit, mode, duration=3600.0, fs=10.0,

@@ -15,9 +15,9 @@ Coverage is counted at every 4th band of 16 per decade (a quarter decade apart,
 so counted bands share no correlated bins), for each sensor and seed, with a
 binomial 95 % range for the nominal 90 %. The three sensors' estimates in one
 band come from one matrix and are correlated, so that range is a little too
-narrow. Writes reports/selfnoise/coverage.json.
+narrow. Writes validation/results/selfnoise/coverage.json.
 
-    python benchmarks/selfnoise_coverage.py [--seeds 60] [--n-boot 400]
+    python validation/studies/selfnoise_coverage.py [--seeds 60] [--n-boot 400]
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ from scipy import stats
 from bayescal.core.selfnoise import db
 from bayescal.simulate.selfnoise import estimate_and_truth, simulate_colocated
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 THIN = 4
 LEVEL = 0.9
 SCENARIOS = {"ideal": (0.0, {"wishart": dict(method="wishart"),
@@ -63,7 +63,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=60)
     p.add_argument("--n-boot", type=int, default=400)
-    p.add_argument("--out", default=str(ROOT / "reports" / "selfnoise" / "coverage.json"))
+    p.add_argument("--out", default=str(ROOT / "validation" / "results" / "selfnoise" / "coverage.json"))
     a = p.parse_args(argv)
     t_start = time.time()
     summary = {"level": LEVEL, "n_seeds": a.seeds, "n_boot": a.n_boot,

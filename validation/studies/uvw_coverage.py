@@ -6,7 +6,7 @@ all outputs and from Z only, and record whether the truth lies in the 68, 90
 and 95 % intervals. Prints the covered fractions with Clopper-Pearson 95 %
 binomial intervals, recovery errors and the time per fit.
 
-    .venv/bin/python benchmarks/uvw_coverage.py --n 120 --out reports/uvw/coverage_benchmark.json
+    .venv/bin/python validation/studies/uvw_coverage.py --n 120 --out validation/results/uvw/coverage.json
 """
 from __future__ import annotations
 

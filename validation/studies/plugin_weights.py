@@ -1,13 +1,13 @@
 """The plug-in noise model's band weights (``bayescal/core/plugin.py``),
 before and after, on the same seeds.
 
-Each cell fits the same seeded pairs of ``benchmarks/eiv_coverage.py`` (10
+Each cell fits the same seeded pairs of ``validation/studies/eiv_coverage.py`` (10
 Hz, band 0.02-1 Hz, gains 3 % off their metadata and fitted, self-noise
 white in counts) by MCMC as ``bayescal fit`` does, with the weights and with
 them switched off, and reports per parameter kind the z sd and the count
 inside the 90 % intervals, plus the range of the weights the fits used.
 
-    python benchmarks/plugin_weights.py --out reports/eiv/plugin_weights.json     # about 4 min
+    python validation/studies/plugin_weights.py --out validation/results/eiv/plugin_weights.json     # about 4 min
 
 Cells: record 900 s and 3600 s; ``quiet`` with a noise-free reference and
 ``estimate`` at reference/SUT noise ratios 0, 1 and 10; pairs at coherence
@@ -21,10 +21,9 @@ import os
 import sys
 import time
 
+import eiv_coverage as ec                      # the sibling study, run as a script
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import eiv_coverage as ec                      # noqa: E402
-from bayescal.core import plugin              # noqa: E402
+from bayescal.core import plugin
 
 CELLS = [(mode, ratio, duration) for duration in (900.0, 3600.0)
          for mode, ratio in (("quiet", 0.0), ("estimate", 0.0), ("estimate", 1.0),
@@ -60,7 +59,7 @@ def run_cell(mode, ratio, duration, n, weighted):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=24, help="pairs per coherence")
-    ap.add_argument("--out", default="reports/eiv/plugin_weights.json")
+    ap.add_argument("--out", default="validation/results/eiv/plugin_weights.json")
     args = ap.parse_args(argv)
     out, t0 = [], time.time()
     for mode, ratio, duration in CELLS:
@@ -85,7 +84,7 @@ def main(argv=None):
               + f" ({time.time() - t0:.0f} s)", flush=True)
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     with open(args.out, "w") as fh:
-        json.dump({"command": "python benchmarks/plugin_weights.py " + " ".join(argv or sys.argv[1:]),
+        json.dump({"command": "python validation/studies/plugin_weights.py " + " ".join(argv or sys.argv[1:]),
                    "n_per_coherence": args.n, "coherences": COHERENCES, "cells": out,
                    "seconds": time.time() - t0}, fh, indent=1, default=float)
 

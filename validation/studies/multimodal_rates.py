@@ -1,4 +1,4 @@
-"""How often the multimodal flag is raised (docs/multimodal.md).
+"""How often the multimodal flag is raised (docs/validation/multimodal.md).
 
 Seeded simulated pairs, 30 min at 10 Hz, random SUT azimuth:
 
@@ -11,7 +11,7 @@ Seeded simulated pairs, 30 min at 10 Hz, random SUT azimuth:
 The search runs before sampling and does not depend on it, so the sampler
 is run short (its intervals are not used here).
 
-    python benchmarks/multimodal_rates.py --n 10 normal polar:0 polar:0.02
+    python validation/studies/multimodal_rates.py --n 10 normal polar:0 polar:0.02
 """
 from __future__ import annotations
 

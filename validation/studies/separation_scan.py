@@ -3,14 +3,14 @@ regime where the reference's self-noise cannot be told from the SUT's gains?
 
 48 seeded pairs (seeds 700-707; 1 h at 10 Hz, band 0.02-1 Hz, pair
 coherence 0.99, metadata gains off by up to 3 %, as
-``benchmarks/eiv_coverage.py``): self-noise white in counts (mode
+``validation/studies/eiv_coverage.py``): self-noise white in counts (mode
 ``estimate``'s model) or shaped like the ground motion (not identifiable by
 a pair), reference/SUT noise-power ratio 0, 1, 10, each fitted with the
 default (``--ref-noise estimate``). Per pair: the largest gain sd ratio
 (estimate over quiet, the check's statistic) and the mean standardised
 gain error. About 6 minutes.
 
-    python benchmarks/separation_scan.py [--out reports/eiv/separation_scan.json]
+    python validation/studies/separation_scan.py [--out validation/results/eiv/separation_scan.json]
 """
 from __future__ import annotations
 
@@ -21,10 +21,8 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from eiv_coverage import NOMINAL, coherences, draw_truth  # noqa: E402
-
-from bayescal.core.separation import WIDE_RATIO  # noqa: E402
+from bayescal.core.separation import WIDE_RATIO
+from bayescal.simulate.harness import NOMINAL, coherences, draw_truth
 from bayescal.io.pipeline import calibrate  # noqa: E402
 from bayescal.simulate import simulate_pair  # noqa: E402
 from bayescal.simulate.coverage import coverage_checks  # noqa: E402
@@ -32,7 +30,7 @@ from bayescal.simulate.coverage import coverage_checks  # noqa: E402
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="reports/eiv/separation_scan.json")
+    ap.add_argument("--out", default="validation/results/eiv/separation_scan.json")
     a = ap.parse_args(argv)
     rows = []
     for counts in (False, True):
@@ -63,7 +61,7 @@ def main(argv=None):
                   f"{np.mean([x['gain_z_mean'] for x in sel]):+.2f}")
     os.makedirs(os.path.dirname(a.out), exist_ok=True)
     with open(a.out, "w") as fh:
-        json.dump({"command": "python benchmarks/separation_scan.py", "threshold": WIDE_RATIO,
+        json.dump({"command": "python validation/studies/separation_scan.py", "threshold": WIDE_RATIO,
                    "rows": rows}, fh, indent=1)
 
 

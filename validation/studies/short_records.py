@@ -1,14 +1,14 @@
 """Short records: where the angles' intervals come out too narrow, and what
-it is not (the table of ``docs/errors_in_variables.md``, "Short records", and
+it is not (the table of ``docs/validation/errors_in_variables.md``, "Short records", and
 of :mod:`bayescal.core.record_length`).
 
-Each variant fits the same 40 seeded pairs of ``benchmarks/eiv_coverage.py``
+Each variant fits the same 40 seeded pairs of ``validation/studies/eiv_coverage.py``
 (10 Hz, coherence 0.9, reference noise-free, self-noise white in counts,
 gains off their metadata by up to 3 % and fitted, ``--ref-noise quiet``) by
 MCMC as ``bayescal fit`` does, and reports the z sd and the 90 % coverage per
 parameter kind, with the periods of the band's lower edge in the record used.
 
-    python benchmarks/short_records.py --out reports/eiv/short_records.json     # about 15 min
+    python validation/studies/short_records.py --out validation/results/eiv/short_records.json     # about 15 min
 
 Variants: the record (900, 1800, 3600 s) and band (0.02-1, 0.05-1 Hz);
 at 900 s over 0.02-1 Hz also 1024-sample segments, the Gaussian likelihood
@@ -26,8 +26,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import eiv_coverage as ec                      # noqa: E402
+import eiv_coverage as ec                      # the sibling study, run as a script
+import study_results                          # the sibling module
 
 #: name -> (duration s, calibrate keywords, simulate_pair keywords, diagonal noise)
 VARIANTS = {
@@ -78,7 +78,7 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=40)
     ap.add_argument("--seed0", type=int, default=800)
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS))
-    ap.add_argument("--out", default="reports/eiv/short_records.json")
+    ap.add_argument("--out", default="validation/results/eiv/short_records.json")
     args = ap.parse_args(argv)
     out, t0 = {}, time.time()
     for name in args.variants:
@@ -88,10 +88,8 @@ def main(argv=None):
         line = ", ".join(f"{k} z sd {v['z_sd']:.2f} in90 {v['in90']}/{v['n']} {v['band90']}"
                          for k, v in kinds.items())
         print(f"{name}: {line} ({time.time() - t0:.0f} s)", flush=True)
-    os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
-    with open(args.out, "w") as fh:
-        json.dump({"variants": out, "seconds": time.time() - t0, "n": args.n,
-                   "seed0": args.seed0}, fh, indent=1, default=float)
+    study_results.write(args.out, {"variants": out, "seconds": time.time() - t0, "n": args.n,
+                                   "seed0": args.seed0})
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 old coherence-ratio rule (:func:`bayescal.effects.tilt_signature`), on the
 same simulated pairs.
 
-Each of ``--n`` seeds draws, as ``benchmarks/diagnose_harness.py`` does, a
+Each of ``--n`` seeds draws, as ``diagnose_harness.py`` does, a
 coherence uniform in 0.9-0.995, a random azimuth and a tilt-noise level
 log-uniform in 5-100, and simulates the pair twice (3600 s at 10 Hz, band
 0.02-3 Hz): clean and with tilt noise on SUT channels 0 and 1 (same seed, so
@@ -14,7 +14,7 @@ the tilt power as the power law) and the old rule; also the recovered exponent a
 (truth 2 for the ``psd`` shape: the simulator's tilt noise power falls as
 f^-2) and how often its 95 % interval covers 2.
 
-    python benchmarks/tilt_power.py --n 40 --out reports/diagnose/tilt_power.json
+    python validation/studies/tilt_power.py --n 200 --out validation/results/diagnose/tilt_power.json
 """
 from __future__ import annotations
 
@@ -24,6 +24,9 @@ import sys
 import time
 
 import numpy as np
+import study_results                          # the sibling module, run as a script
+
+from bayescal.simulate.harness import tilt_pair_spectra as pair_spectra
 
 BAND = (0.02, 3.0)
 LEVEL_BINS = (5, 7, 10, 20, 50, 100)
@@ -32,22 +35,6 @@ HORIZONTAL = np.array([True, True, False])
 #: brief's form (tilt noise-to-signal ratio, not tilt power, ~ f^-alpha).
 VARIANTS = {"psd": {}, "coarse": {"fine": None}, "nsr": {"shape": "nsr"}}
 RULES = tuple(VARIANTS) + ("old",)
-
-
-def pair_spectra(seed, coherence, azimuth, level, band=BAND, **effects):
-    """Cross-spectra of one simulated pair (3600 s at 10 Hz, SUT turned by
-    ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
-    the pipeline does; ``effects`` go to ``simulate_pair``. Also used by
-    tests/test_tilt.py."""
-    from bayescal.io.align import align
-    from bayescal.simulate.pair import simulate_pair
-    from bayescal.core.spectra import cross_spectra
-
-    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence,
-                        sut_azimuth=(azimuth, azimuth + 90, 0.0), tilt_noise=level, **effects)
-    s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
-    return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band,
-                         sut_ids=s.ids, ref_ids=r.ids)
 
 
 def judge(sp):
@@ -128,9 +115,8 @@ def main(argv=None):
     ap.add_argument("--first-seed", type=int, default=5000)
     ap.add_argument("--levels", type=float, nargs=2, default=(5.0, 100.0),
                     help="tilt levels drawn log-uniform between these (5 100)")
-    ap.add_argument("--out", default="reports/diagnose/tilt_power.json")
+    ap.add_argument("--out", default="validation/results/diagnose/tilt_power.json")
     args = ap.parse_args(argv)
-    from bayescal.core.posterior import write_json
 
     t0 = time.perf_counter()
     records = []
@@ -147,8 +133,7 @@ def main(argv=None):
     s = summarise(records, bins)
     text = markdown(s, seconds)
     print(text)
-    os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
-    write_json(args.out, {"runs": records, "summary": s, "markdown": text, "seconds": seconds,
+    study_results.write(args.out, {"runs": records, "summary": s, "markdown": text, "seconds": seconds,
                           "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
                                        "level": f"log-uniform {args.levels[0]:g}-"
                                                 f"{args.levels[1]:g}",

@@ -20,7 +20,7 @@ a channel whose true relative gain is 1 (on a clean run, or the other two of
 a gain-error run) with a 95 % interval excluding 1 (about 5 % of channels
 expected when the intervals are right).
 
-    python benchmarks/diagnose_harness.py --runs 60 --out reports/diagnose/harness.json
+    python validation/studies/diagnose_harness.py --runs 100 --out validation/results/diagnose/harness.json
 """
 from __future__ import annotations
 
@@ -31,58 +31,11 @@ import time
 
 import numpy as np
 
-KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
-         "channel_swap", "tilt_noise"]
+import study_results                          # the sibling module, run as a script
+
+from bayescal.simulate.harness import KINDS, REGIMES, concealed_pair
+
 BAND = (0.02, 3.0)
-#: Noise regimes of the runs: (reference coherence, self-noise white in counts).
-#: "default": a reference 100x quieter than the SUT's quietest draw (the base
-#: model's assumption); "equal": the reference as noisy as the SUT (a huddle of
-#: two sensors of one class), noise shaped like the ground; "equal-counts": the
-#: same, white in counts (rising in velocity below each sensor's corner, as
-#: real self-noise does); "ref10x": the reference 10x quieter than the SUT.
-REGIMES = ("default", "equal", "equal-counts", "ref10x")
-
-
-def regime_kw(regime, coherence):
-    """simulate_pair keyword arguments of a noise regime at SUT ``coherence``."""
-    if regime == "default":
-        return {}
-    if regime == "ref10x":
-        return {"ref_coherence": 1.0 / (1.0 + 0.1 * (1.0 - coherence) / coherence)}
-    if regime in ("equal", "equal-counts"):
-        return {"ref_coherence": coherence, "noise_in_counts": regime == "equal-counts"}
-    raise ValueError(f"unknown regime {regime!r}; one of {REGIMES}")
-
-
-def draw(rng, p_clean):
-    """(kind, simulate_pair keyword arguments, truth size) for one run."""
-    if rng.uniform() < p_clean:
-        return "none", {}, None
-    kind = KINDS[rng.integers(len(KINDS))]
-    sign = rng.choice([-1, 1])
-    if kind == "timing_offset":
-        s = sign * rng.uniform(0.01, 0.5)
-        return kind, {"timing_offset_s": s}, {"seconds": s}
-    if kind == "clock_drift":
-        p = sign * rng.uniform(5, 100)
-        return kind, {"clock_drift_ppm": p}, {"ppm": p}
-    if kind == "extra_pole":
-        which = str(rng.choice(["sut", "ref"]))
-        fc = float(np.exp(rng.uniform(np.log(0.3), np.log(3.0))))
-        return kind, {"extra_pole": (which, fc)}, {"corner_hz": fc, "which": which}
-    if kind == "gain_error":
-        ch, frac = int(rng.integers(3)), sign * rng.uniform(0.01, 0.1)
-        resp = [(30.0, 0.707, 750.0)] * 3
-        resp[ch] = (30.0, 0.707, 750.0 * (1 + frac))
-        return kind, {"sut_response": tuple(resp)}, {"fraction": frac, "row": ch}
-    if kind == "polarity_reversal":
-        ch = int(rng.integers(3))
-        return kind, {"polarity_reversal": ch}, {"row": ch}
-    if kind == "channel_swap":
-        pair = tuple(sorted(int(x) for x in rng.choice(3, 2, replace=False)))
-        return kind, {"channel_swap": pair}, {"rows": list(pair)}
-    level = float(np.exp(rng.uniform(np.log(5), np.log(100))))
-    return kind, {"tilt_noise": level}, {"level": level}
 
 
 def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
@@ -90,22 +43,9 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
     base fit's (the diagnosis's default base is ``quiet``)."""
     import bayescal
     from bayescal.criticism.diagnose import diagnose
-    from bayescal.simulate.pair import simulate_pair
 
-    rng = np.random.default_rng(seed)
-    kind, kw, truth = draw(rng, p_clean)
-    a = rng.uniform(0, 360)
-    coherence = float(rng.uniform(0.9, 0.995))
-    az, dip = (a, a + 90, 0.0), (0.0, 0.0, -90.0)
-    nom_az = tuple(x + rng.uniform(-3, 3) for x in az[:2]) + (0.0,)
-    extra = regime_kw(regime, coherence)
-    if gain_off and "sut_response" not in kw:
-        # each SUT gain off its metadata by up to gain_off (the fit's free gains absorb it);
-        # its own generator so the runs' other draws match gain_off = 0
-        off = np.random.default_rng([seed, 7]).uniform(-gain_off, gain_off, 3)
-        kw = dict(kw, sut_response=tuple((30.0, 0.707, 750.0 * (1 + o)) for o in off))
-    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=az,
-                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip, **extra, **kw)
+    run = concealed_pair(seed, p_clean, regime, gain_off)
+    sim, kind, kw, truth, coherence = run.sim, run.kind, run.kw, run.truth, run.coherence
     t0 = time.perf_counter()
     from bayescal.io.read import InputError
     try:
@@ -219,7 +159,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=60)
     ap.add_argument("--p-clean", type=float, default=0.3)
     ap.add_argument("--first-seed", type=int, default=1000)
-    ap.add_argument("--out", default="reports/diagnose/harness.json")
+    ap.add_argument("--out", default="validation/results/diagnose/harness.json")
     ap.add_argument("--regime", choices=REGIMES, default="default",
                     help="noise regime of the runs (reference coherence, noise shape)")
     ap.add_argument("--gain-off", type=float, default=0.0,
@@ -230,8 +170,7 @@ def main(argv=None):
     for k in range(args.runs):
         rec = run_one(args.first_seed + k, args.p_clean, args.regime, args.gain_off)
         records.append(rec)
-        from bayescal.core.posterior import write_json
-        write_json(args.out + ".partial", {"runs": records})
+        study_results.checkpoint(args.out, {"runs": records})
         print(f"{k + 1:3d} seed {rec['seed']} {rec['truth']:18s} -> {rec['outcome']:11s} "
               f"{rec['named']} {rec['seconds']:.1f} s", file=sys.stderr, flush=True)
     cols, rows = table(records)
@@ -263,17 +202,15 @@ def main(argv=None):
                          f"[{s['ci95'][0]:.4g}, {s['ci95'][1]:.4g}] |")
     text = "\n".join(lines)
     print(text)
-    os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
-    from bayescal.core.posterior import write_json
-    write_json(args.out, {"runs": records, "table": rows, "right_name_fraction": right,
-                   "false_alarm_fraction": false, "markdown": text,
-                   "gain_rule_false_alarms": {"channels_excluding_1": g_ex,
-                                              "channels_checked": g_ch,
-                                              "clean_runs_with_one": g_runs_ex,
-                                              "clean_runs": g_runs},
-                   "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
-                                "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean,
-                                "regime": args.regime, "gain_off": args.gain_off}})
+    study_results.write(args.out, {
+        "runs": records, "table": rows, "right_name_fraction": right,
+        "false_alarm_fraction": false, "markdown": text,
+        "gain_rule_false_alarms": {"channels_excluding_1": g_ex, "channels_checked": g_ch,
+                                   "clean_runs_with_one": g_runs_ex, "clean_runs": g_runs},
+        "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
+                     "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean,
+                     "regime": args.regime, "gain_off": args.gain_off}})
+    study_results.done(args.out)
     return 0
 
 

@@ -5,12 +5,13 @@ vertical), random true responses (period, damping, gain off nominal by a few
 per cent), a coherence drawn log-uniformly in 1 - coherence from [0.001, 0.1]
 (coherence 0.9 to 0.999); the joint posterior (angles and response: 15
 parameters) is sampled with the default convergence rule and each truth is
-checked against its 90 % interval. Writes a table (JSON) and a plot into
-reports/coverage/.
+checked against its 90 % interval. Writes a table (``coverage.json``, its
+per-seed records in ``coverage.runs.json`` beside it) and a plot into
+validation/results/coverage/.
 
-    python benchmarks/coverage_study.py --n 100            # the full study
-    python benchmarks/coverage_study.py --n 20 --out /tmp/cov
-    python benchmarks/coverage_study.py --n 50 --ref-noise zero --out /tmp/cov0   # noise coefficients held at zero
+    python validation/studies/coverage_study.py --n 100            # the full study
+    python validation/studies/coverage_study.py --n 20 --out /tmp/cov
+    python validation/studies/coverage_study.py --n 50 --ref-noise zero --out /tmp/cov0   # noise coefficients held at zero
 
 Truth for a channel's axis is checked as azimuth and dip for horizontals and
 as tilt from vertical for the near-vertical channel.
@@ -23,6 +24,7 @@ import os
 import time
 
 import numpy as np
+import study_results                          # the sibling module, run as a script
 
 from bayescal.simulate.coverage import coverage_checks, run_case, summarise
 
@@ -34,7 +36,7 @@ def main(argv=None):
     ap.add_argument("--fs", type=float, default=10.0)
     ap.add_argument("--band", type=float, nargs=2, default=(0.01, 1.0))
     ap.add_argument("--fit-response", default="all", choices=("none", "gain", "all"))
-    ap.add_argument("--out", default="reports/coverage")
+    ap.add_argument("--out", default="validation/results/coverage")
     ap.add_argument("--ref-noise", default="default", choices=("default", "quiet", "estimate", "zero"),
                     help="the reference's noise treatment: the fit's default, a mode, or 'zero' "
                          "(the errors-in-variables statistic with the noise held at zero: "
@@ -78,9 +80,9 @@ def _study(args, kw):
               f"({time.time() - t0:.0f} s)", flush=True)
     table = summarise(rows)
     plot(rows, table, os.path.join(args.out, "coverage.png"))
-    with open(os.path.join(args.out, "coverage.json"), "w") as fh:
-        json.dump({"table": table, "config": vars(args), "seconds": time.time() - t0,
-                   "runs": rows}, fh, indent=1)
+    study_results.write(os.path.join(args.out, "coverage.json"),
+                        {"table": table, "config": vars(args), "seconds": time.time() - t0,
+                         "runs": rows})
     print(json.dumps(table, indent=1))
 
 

@@ -1,7 +1,7 @@
 """Response-parameter z at the least-squares point, no sampling: a fast probe
-of the coverage study (docs/damping_coverage.md).
+of the coverage study (docs/validation/damping_coverage.md).
 
-For each seed of ``benchmarks/coverage_study.py`` (same cases, same spectra)
+For each seed of ``validation/studies/coverage_study.py`` (same cases, same spectra)
 the fit stops after the least-squares step; ``z = (theta_ls - truth) / sd``
 with ``sd`` the Laplace (inverse Fisher) standard deviation, for log period,
 damping and log gain of each channel. With the Gaussian likelihood the
@@ -9,9 +9,9 @@ posterior is this Laplace approximation to a few hundredths of an sd, so a
 ``z`` sd above 1 here is in the likelihood, not in the sampler or in the
 per-band noise scale. About 1.5-2.5 s per seed (sampling: 4-6 s).
 
-    python benchmarks/laplace_coverage.py --seeds 0 100 --out /tmp/ls_base.json
-    python benchmarks/laplace_coverage.py --seeds 0 100 --variant norescale
-    python benchmarks/laplace_coverage.py --case 15 --coherence 0.9 --seeds 1000 1060
+    python validation/studies/laplace_coverage.py --seeds 0 100 --out /tmp/ls_base.json
+    python validation/studies/laplace_coverage.py --seeds 0 100 --variant norescale
+    python validation/studies/laplace_coverage.py --case 15 --coherence 0.9 --seeds 1000 1060
     (variants, combinable with '+': norescale, nodes<N>, bpd<N>m<M>, shrink<X>, nperseg<N>)
 """
 from __future__ import annotations
@@ -21,6 +21,7 @@ import functools
 import json
 
 import numpy as np
+import study_results                          # the sibling module, run as a script
 
 
 class _Stop(Exception):
@@ -124,8 +125,7 @@ def main(argv=None):
     for k, v in table.items():
         print(f"{k:24s} {v}")
     if args.out:
-        with open(args.out, "w") as fh:
-            json.dump({"variant": args.variant, "table": table, "runs": runs}, fh, indent=1)
+        study_results.write(args.out, {"variant": args.variant, "table": table, "runs": runs})
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Step runs of ``benchmarks/cal_coverage.py`` under the exact noise model:
+"""Step runs of ``validation/studies/cal_coverage.py`` under the exact noise model:
 is the step intervals' excess scatter the AR noise model's doing?
 
 For each seeded step run (the truths and seeds of ``cal_coverage.py``'s
@@ -17,7 +17,7 @@ Under a correct model both have sd 1 over many runs. Also printed: the AR
 innovations' power at the *truth* per frequency band over its nominal value
 (1 where the AR spectrum is right), averaged over the runs.
 
-    python benchmarks/step_oracle.py --first 0 --last 100
+    python validation/studies/step_oracle.py --first 0 --last 100
 """
 from __future__ import annotations
 
@@ -28,10 +28,9 @@ import sys
 import numpy as np
 from scipy.fft import rfft
 
-sys.path.insert(0, os.path.dirname(__file__))
-from cal_coverage import COIL, _step_run  # noqa: E402
+from cal_coverage import COIL, _step_run  # the sibling study, run as a script
 
-from bayescal.coil.step import least_squares_step  # noqa: E402
+from bayescal.coil.step import least_squares_step
 from bayescal.core.response import paz_velocity_response  # noqa: E402
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ  # noqa: E402
 

@@ -1,7 +1,7 @@
 """Short records: is the plug-in noise model what makes the intervals narrow?
 
 On 900-s pairs over 0.02-1 Hz (2048-sample segments, 5 of them; the
-"Short records" case of ``docs/errors_in_variables.md``) each pair is fitted
+"Short records" case of ``docs/validation/errors_in_variables.md``) each pair is fitted
 to its least-squares point three times, with the angles' and gains'
 standardised errors taken from the Laplace (inverse Fisher) sd, which the
 MCMC intervals follow to within the per-band misfit term (about 1.0-1.2
@@ -26,7 +26,7 @@ Also printed: per band, ``tr(S_short^-1 S_long) / 3`` averaged over pairs
 (1 for a right covariance; a complex-Wishart covariance of ``n`` samples
 gives ``n / (n - 3)``).
 
-    python benchmarks/short_record_oracle.py --out reports/eiv/short_record_oracle.json   # 100 pairs, about 10 min
+    python validation/studies/short_record_oracle.py --out validation/results/eiv/short_record_oracle.json   # 100 pairs, about 10 min
 """
 from __future__ import annotations
 
@@ -38,8 +38,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import eiv_coverage as ec                      # noqa: E402
+import eiv_coverage as ec                      # the sibling study, run as a script
 
 
 class _Stop(Exception):

@@ -17,11 +17,11 @@
 
 Counts the truths inside the 95 % intervals (with the 99 % binomial band for
 a true 95 %) and the median relative error per parameter. Writes
-``reports/cal/coverage.json``; a kind run with ``--n-KIND 0`` keeps its
+``validation/results/cal/coverage.json``; a kind run with ``--n-KIND 0`` keeps its
 section from an existing file (the runs are seeded, so a section does not
 change unless its arguments do).
 
-    python benchmarks/cal_coverage.py --n-lp 20 --n-hf 6 --n-step 20 --n-sine 12
+    python validation/studies/cal_coverage.py --n-lp 20 --n-hf 6 --n-step 20 --n-sine 12
 """
 from __future__ import annotations
 
@@ -170,7 +170,7 @@ def main():
     ap.add_argument("--hours", type=float, default=3.0)
     ap.add_argument("--noise-ratio", type=float, default=0.05,
                     help="sensor self-noise rms over the coil signal's rms (default 0.05)")
-    ap.add_argument("--out", default="reports/cal")
+    ap.add_argument("--out", default="validation/results/cal")
     args = ap.parse_args()
     path = os.path.join(args.out, "coverage.json")
     previous = {}
