@@ -176,6 +176,31 @@ def test_history_patterns_catch_what_they_should():
         assert not HISTORY_RX.search(text), text
 
 
+#: A repository path as the README and the docs cite it (a stored result, a
+#: study's or an example's script, a gallery image).
+CITED = re.compile(r"(?<![\w/.-])((?:\.\./)*(?:validation|reports|benchmarks|examples|tests)/"
+                   r"[\w./*-]+)")
+
+
+def test_cited_files_exist():
+    """Every stored result, script and image the README and the docs cite is
+    in the repository (``*`` as a glob); outputs a command writes on the
+    reader's machine (``reports/demo/``) and page references (``{doc}``, a
+    table of contents' entries) are not files."""
+    missing = []
+    for page in [ROOT / "README.md", *(p for p in DOCS.rglob("*.md") if "_build" not in p.parts)]:
+        for n, line in enumerate(page.read_text().splitlines(), 1):
+            for m in CITED.finditer(line):
+                cited = m.group(1).rstrip(".,")
+                if (line[:m.start()].endswith("{doc}`") or line.strip() == cited      # a page
+                        or cited.startswith("reports/demo/")):
+                    continue
+                base = page.parent if cited.startswith("..") else ROOT
+                if not list(base.glob(cited)):
+                    missing.append(f"{page.relative_to(ROOT)}:{n}: {cited}")
+    assert not missing, "\n".join(missing)
+
+
 # --- the docs build is wired -------------------------------------------------------------------
 
 def test_docs_build_is_wired():
