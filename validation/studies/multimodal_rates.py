@@ -12,13 +12,18 @@ The search runs before sampling and does not depend on it, so the sampler
 is run short (its intervals are not used here).
 
     python validation/studies/multimodal_rates.py --n 10 normal polar:0 polar:0.02
+
+prints its table and writes it to ``--out`` (validation/results/multimodal/rates.json).
 """
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 import warnings
 
 import numpy as np
+import study_results                          # the sibling module, run as a script
 
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair
@@ -52,12 +57,21 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("kinds", nargs="+")
     ap.add_argument("--n", type=int, default=10)
+    ap.add_argument("--out", default="validation/results/multimodal/rates.json")
     args = ap.parse_args(argv)
+    out, t0 = {}, time.time()
     for kind in args.kinds:
         res = [run(kind, s) for s in range(args.n)]
         second = [max(f[1:], default=0.0) for _, f in res]
+        out[kind] = {"pairs": args.n, "flagged": int(sum(d for d, _ in res)),
+                     "flagged_seeds": [s for s, (d, _) in enumerate(res) if d],
+                     "second_mode_mass": second}
         print(f"{kind}: flagged {sum(d for d, _ in res)} / {args.n}; second mode's mass "
               + ", ".join(f"{x:.3g}" for x in second), flush=True)
+    study_results.write(args.out, {
+        "command": "python validation/studies/multimodal_rates.py " + " ".join(
+            argv if argv is not None else sys.argv[1:]),
+        "kinds": out, "seconds": time.time() - t0})
 
 
 if __name__ == "__main__":
