@@ -1,6 +1,6 @@
 """What today's default fit costs against the orientation fit of an older
-source tree, measured in the same run (issue 12: "the speed benchmark, 1.5 s
-for orientation on the 2-hour, 20-Hz pair, no more than 1.5 times slower").
+source tree, measured in the same run (the goal: the default no more than
+1.5 times the orientation fit's 1.5 s on the 2-hour, 20-Hz pair).
 
 The pair is ``benchmarks/bench_speed.py``'s (2 h at 20 Hz, 3+3 channels,
 coherence 0.995, responses a few per cent off nominal), band 0.03-1 Hz.

@@ -1,4 +1,4 @@
-"""Whole-process speed of ``bayescal`` as a user meets it (issue 16).
+"""Whole-process speed of ``bayescal`` as a user meets it.
 
 Every command runs as a fresh subprocess (start-up included), all commands
 alternated within each repeat, medians over ``--repeats`` (>= 5) runs:

@@ -1,5 +1,5 @@
-"""Rendering time of a calibration report for a saved result (issue 4 asks
-for under 10 s).
+"""Rendering time of a calibration report for a saved result (the goal:
+under 10 s).
 
 Fits a simulated pair once (not timed), saves it, then renders the report
 ``--repeats`` times and prints the median wall-clock and CPU time per render

@@ -1,9 +1,9 @@
-"""Speed of the core inference (issue: 2-hour, 20 Hz, 3+3 channel pair).
+"""Speed of the core inference (a 2-hour, 20 Hz, 3+3 channel pair).
 
 Times, spectra included:
   * orientation-only posterior (6 parameters, ESS >= 1000, 50 tau, R-hat < 1.01);
   * joint posterior (15 parameters: 6 angles + period, damping, gain per channel);
-the worst case of issue 13 (a 360-s sensor, 2 h at 20 Hz, period, damping
+the worst case (a 360-s sensor, 2 h at 20 Hz, period, damping
 and gain free, band chosen; goal: at most 60 s), and, to show that sampling cost does not grow with record length, the
 orientation-only fit on 1, 2 and 8 hour records: spectra time grows with the
 record, likelihood evaluations cost the same (they touch per-band matrices and
@@ -69,7 +69,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", default="reports/benchmarks/speed.json")
     ap.add_argument("--worst-only", action="store_true",
-                    help="only the worst case of issue 13 (360-s sensor, --fit-response all)")
+                    help="only the worst case (360-s sensor, --fit-response all)")
     ap.add_argument("--default-mode", action="store_true",
                     help="only the default fit (gains free) against the old default (gains "
                          "held, orientation only), 2 h at 20 Hz, runs alternated")
@@ -128,7 +128,7 @@ def main(argv=None):
 
 
 def default_mode(repeats):
-    """Issue 12 item 5: the default fit frees each SUT channel's gain (9
+    """The default fit frees each SUT channel's gain (9
     parameters) where it held them (6). Both on the same 2-hour, 20 Hz pair
     (gains 0.8-1.5 % off their metadata), runs alternated, band 0.03-1 Hz;
     medians of the in-process time (spectra and fit) and their ratio."""
@@ -149,9 +149,9 @@ def default_mode(repeats):
 
 
 def ref_noise_cost(repeats):
-    """Issue 12 item 7: the default ``--ref-noise`` became ``estimate`` (3+3
+    """The default ``--ref-noise`` is ``estimate`` (3+3
     pairs); its cost against ``quiet`` on the same 2-hour, 20 Hz pair, for
-    the orientation-only fit (the issue's 1.5 s, goal at most 1.5 times) and
+    the orientation-only fit (1.5 s; goal: at most 1.5 times) and
     the default gain fit. CPU seconds (``time.process_time``: steadier than
     wall time on a shared machine) of spectra + fit, runs alternated."""
     s, r, fs, _ = prepare(2)
@@ -190,7 +190,7 @@ WORST_HELD = {}
 
 
 def worst_case(seed):
-    """Issue 13's worst case: a 360-s sensor (truth = nominal), 2 h at 20 Hz,
+    """The worst case: a 360-s sensor (truth = nominal), 2 h at 20 Hz,
     period, damping and gain of every channel free, band chosen from the
     data; the whole of :func:`bayescal.calibrate` is timed."""
     from bayescal.io.pipeline import calibrate
