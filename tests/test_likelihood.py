@@ -3,6 +3,7 @@ form suffers at low coherence while bayescal's form does not."""
 import numpy as np
 import pytest
 
+from bayescal.core import pendulum
 from bayescal.core.sampler import build_model, least_squares_fit
 from bayescal.io.align import align
 from bayescal.core.spectra import cross_spectra
@@ -18,11 +19,13 @@ def _spectra(seed, coherence, band=(0.03, 1.0), **kw):
 def test_node_interpolation_matches_per_bin_sum():
     sp, s, r = _spectra(0, 0.99, band=(0.01, 1.0))
     model = build_model(sp, r.vectors, s.vectors, s.families(), free="all").model
-    # per channel: two tangent-plane angles, log period, damping, log gain
-    theta = np.array([0.01, -0.02, np.log(27.0), 0.65, np.log(760.0)] * 3)
+    # per channel: two tangent-plane angles, the pendulum's relative
+    # coefficients (period 27 s, damping 0.65) and log gain
+    fam = model.blocks[0].family
+    c0, c1 = pendulum.from_physical(27.0, 0.65, fam.period_s, fam.damping)
+    theta = np.array([0.01, -0.02, c0, c1, np.log(760.0)] * 3)
     assert theta.size == model.ndim
     # exact: the deconvolution factor evaluated at every bin
-    fam = model.blocks[0].family
     exact_rho = 1.0 / fam.ratio(sp.freqs, 27.0, 0.65, 760.0)[0]
     nu = sp.n_u
     exact = np.einsum("f,fb,fj->bj", exact_rho, np.eye(sp.n_bands)[sp.band_of], sp.total[:, 0, nu:])

@@ -77,7 +77,7 @@ def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):
     assert rc == 0
     res = json.loads((out / "result.json").read_text())
     r = res["channels"]["CA.0438..EHZ"]["response"]
-    assert set(r) == {"period_s", "damping", "gain", "relative_gain"}
+    assert set(r) == {"period_s", "damping", "damping_over_period", "gain", "relative_gain"}
     nominal = res["channels"]["CA.0438..EHZ"]["nominal"]["gain"]
     assert r["relative_gain"]["median"] == pytest.approx(r["gain"]["median"] / nominal, rel=1e-3)
     med, lo, hi = fitted_amplitude(str(out), sut_xml)

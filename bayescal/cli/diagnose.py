@@ -29,7 +29,8 @@ import shutil
 import sys
 import tempfile
 
-from .common import add_pair_arguments, convergence_exit, publish, quiet_convergence_warnings
+from .common import (add_pair_arguments, convergence_exit, priors_from, publish,
+                     quiet_convergence_warnings)
 
 HELP = "locate model/recording mismatch, name and model the missing physics"
 
@@ -103,7 +104,8 @@ def _run_diagnosis(args, say):
                            sut_id=args.sut_id, ref_id=args.ref_id,
                            # fit --diagnose: None; a given PSD replaces the quiet default
                            ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
-                           ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps)
+                           ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps,
+                           priors=priors_from(args))
     say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
         "gain above 10, strong evidence; docs/diagnose.md) ...")
     return base, diagnose(base, seed=args.seed, progress=not args.quiet, log=say,

@@ -39,8 +39,8 @@ import sys
 import time
 import warnings
 
-from .common import (add_pair_arguments, convergence_exit, quiet_convergence_warnings, say,
-                     staging)
+from .common import (add_pair_arguments, convergence_exit, priors_from,
+                     quiet_convergence_warnings, say, staging)
 
 HELP = "estimate the SUT's orientation and gain (and response) from recordings beside a reference"
 
@@ -76,6 +76,42 @@ def pinned_gains(summary):
             if "pinned" in str((e.get("response") or {}).get("gain", {}).get("reason", ""))]
 
 
+def response_lines(entry):
+    """A channel's response lines: measured values with 95 % intervals; a
+    value the prior sets is named as such, never printed as a measurement,
+    and then the combination the data fix (damping / period) is given."""
+    resp = entry.get("response", {})
+    nominal = entry.get("nominal") or {}
+    units = {"period_s": " s", "gain": f" {nominal.get('gain_units', '')}".rstrip(),
+             "relative_gain": " (fitted / metadata gain)"}
+    out = []
+    for name, r in resp.items():
+        if name == "damping_over_period":
+            continue
+        if r.get("set_by_prior") and r.get("action", "").startswith("held"):
+            out.append(f"{name} {_fmt(r)}{units.get(name, '')}  held at its nominal value: "
+                       "the data do not constrain it")
+        elif r.get("set_by_prior") and name in ("period_s", "damping"):
+            nom = nominal.get(name)
+            nom_text = f" (nominal {nom:.6g}{units.get(name, '')})" if nom is not None else ""
+            out.append(f"{name}: set by the prior, not measured{nom_text}")
+        elif r.get("set_by_prior"):
+            out.append(f"{name} {_fmt(r)}{units.get(name, '')}  SET BY THE PRIOR: {r['reason']}")
+        else:
+            out.append(f"{name} {_fmt(r)}{units.get(name, '')}")
+    combo = resp.get("damping_over_period")
+    prior_set = [n for n in ("period_s", "damping") if resp.get(n, {}).get("set_by_prior")]
+    if combo and prior_set:
+        if combo.get("set_by_prior"):
+            out.append("damping/period: also set by the prior; the data fix neither")
+        else:
+            lo, hi = combo["ci95"]
+            words = " and ".join({"period_s": "period"}.get(n, n) for n in prior_set)
+            out.append(f"the data fix damping/period = {combo['median']:.4g} [{lo:.4g}, "
+                       f"{hi:.4g}] 1/s; {words} separately set by the prior")
+    return out
+
+
 def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
     it says so before any number), then medians and 95 % intervals."""
@@ -96,13 +132,8 @@ def print_summary(summary, stream=None):
         print(f"{cid:22s}  {az_text:28s}  {_fmt(e['dip_deg'])}", file=stream)
         if "ci95" in e.get("tilt_deg", {}):
             print(f"{'':22s}  {_tilt_text(e['tilt_deg'])}", file=stream)
-        units = {"period_s": "s", "gain": (e.get("nominal") or {}).get("gain_units", ""),
-                 "relative_gain": "(fitted / metadata gain)"}
-        for name, r in e.get("response", {}).items():
-            note = f"  SET BY THE PRIOR ({r['action']}): {r['reason']}" if r.get("set_by_prior") \
-                else ""
-            unit = f" {units[name]}" if units.get(name) else ""
-            print(f"{'':22s}  {name} {_fmt(r)}{unit}{note}", file=stream)
+        for line in response_lines(e):
+            print(f"{'':22s}  {line}", file=stream)
     for pair, e in summary.get("orthogonality_deg", {}).items():
         print(f"{'angle ' + pair:46s}  {_fmt(e)}{' (assumed)' if e.get('assumed') else ''}",
               file=stream)
@@ -158,7 +189,8 @@ def run(args):
                                fit_response=args.fit_response, seed=args.seed,
                                start=args.start, end=args.end, progress=not args.quiet,
                                sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise,
-                               ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps)
+                               ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps,
+                               priors=priors_from(args))
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)

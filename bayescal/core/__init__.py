@@ -4,6 +4,7 @@ Modules, in the order data flows through them:
 
 * :mod:`.geometry`   angles <-> unit vectors (NED), SEED conventions, manifolds
 * :mod:`.response`   parametric two-pole responses, evaluation of ObsPy responses
+* :mod:`.pendulum`   the pendulum's sampling coordinates, its prior, what the data fix
 * :mod:`.spectra`    streamed Welch cross-spectra and per-band matrices
 * :mod:`.coherence`  Welch multiple coherence alone (the band choice's)
 * :mod:`.bandfold`   per-time-block spectra folded into bands and nodes

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import misfit_scale, noisescale, plugin
+from . import misfit_scale, noisescale, pendulum, plugin
 from .bandfold import fold
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from .response import TwoPoleFamily, gain_prior_factor
@@ -74,17 +74,22 @@ INFLATION_SHRINK = 50.0
 
 @dataclass(frozen=True)
 class Priors:
-    """Explicit, documented priors (wide by default).
+    """Explicit, documented priors.
 
     Orientation: uniform on the sphere (or on the circle of a two-channel
-    reference). Natural period: log-uniform in ``[T_nom / period_factor,
-    T_nom * period_factor]``. Damping: uniform in ``damping_range``. Gain:
-    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``.
+    reference). Natural period and damping (pair fits): each log-normal
+    around its nominal value with relative standard deviation
+    ``period_tolerance`` and ``damping_tolerance`` (the manufacturer's
+    tolerance; :mod:`bayescal.core.pendulum`). Gain: log-uniform in
+    ``[G_nom / gain_factor, G_nom * gain_factor]``. Coil fits bound period
+    and damping by ``period_factor`` and ``damping_range``.
     """
 
     period_factor: float = 10.0
     damping_range: tuple = (0.02, 2.0)
     gain_factor: float = 10.0
+    period_tolerance: float = pendulum.PERIOD_TOLERANCE
+    damping_tolerance: float = pendulum.DAMPING_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -93,7 +98,9 @@ class ChannelBlock:
 
     ``manifold`` (from :mod:`bayescal.core.geometry`) holds its orientation
     parameters; ``free`` is ``"none"``, ``"gain"`` or ``"all"`` (period,
-    damping, gain); ``family`` is the channel's parametric response.
+    damping, gain: sampled as ``c0_rel``, ``c1_rel``, ``log_gain``, see
+    :mod:`bayescal.core.pendulum`); ``family`` is the channel's parametric
+    response.
     """
 
     channel_id: str
@@ -111,7 +118,7 @@ class ChannelBlock:
 
     def param_names(self):
         orient = {2: ["orient_a", "orient_b"], 1: ["azimuth_rad"], 0: []}[self.manifold.n_params]
-        resp = {"none": [], "gain": ["log_gain"], "all": ["log_period", "damping", "log_gain"]}[self.free]
+        resp = {"none": [], "gain": ["log_gain"], "all": [*pendulum.NAMES, "log_gain"]}[self.free]
         return [f"{self.channel_id}:{p}" for p in orient + resp]
 
 
@@ -239,7 +246,7 @@ class Model:
                     ratio[:, k] = 1.0 / b.family.gain_only_ratio(np.exp(r[:, 0]))
             elif b.free == "all":
                 with np.errstate(all="ignore"):    # wild least-squares steps; the prior rejects them
-                    ratio[:, k] = self._inverse[k](np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2]))
+                    ratio[:, k] = self._inverse[k](*self._period_damping(b, r), np.exp(r[:, 2]))
         for e, sl in zip(self.effects, self.effect_slices):
             if not e.blocked:
                 ratio[:, e.rows] *= e.factor(self.nodes, theta[:, sl])
@@ -270,9 +277,17 @@ class Model:
             if b.free == "gain":
                 vals[:, 2] = np.exp(r[:, 0])
             elif b.free == "all":
-                vals[:, 0], vals[:, 1], vals[:, 2] = np.exp(r[:, 0]), r[:, 1], np.exp(r[:, 2])
+                vals[:, 0], vals[:, 1] = self._period_damping(b, r)
+                vals[:, 2] = np.exp(r[:, 2])
             out[b.channel_id] = vals
         return out
+
+    @staticmethod
+    def _period_damping(block, r):
+        """(period, damping) from a block's ``(c0_rel, c1_rel, ...)`` columns."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return pendulum.to_physical(r[:, 0], r[:, 1], block.family.period_s,
+                                        block.family.damping)
 
     def log_prior(self, theta):
         theta = np.atleast_2d(theta)
@@ -286,9 +301,8 @@ class Model:
             lg = r[:, -1] - np.log(b.family.gain)
             bad = np.abs(lg) > np.log(gain_prior_factor(b.family, pr))
             if b.free == "all":
-                lt = r[:, 0] - np.log(b.family.period_s)
-                bad |= np.abs(lt) > np.log(pr.period_factor)
-                bad |= (r[:, 1] < pr.damping_range[0]) | (r[:, 1] > pr.damping_range[1])
+                lp += pendulum.log_prior(r[:, 0], r[:, 1], pr.period_tolerance,
+                                         pr.damping_tolerance)
             lp[bad] = -np.inf
         for e, sl in zip(self.effects, self.effect_slices):
             lp += e.log_prior(theta[:, sl])

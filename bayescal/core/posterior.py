@@ -152,6 +152,9 @@ class Posterior:
             entry["response"] = {name: interval_summary(r[:, j])
                                  for j, name in enumerate(("period_s", "damping", "gain"))
                                  if self.meta.get("free_response") == "all" or name == "gain"}
+            if self.meta.get("free_response") == "all":
+                # what a band above the corner fixes (bayescal.core.pendulum)
+                entry["response"]["damping_over_period"] = interval_summary(r[:, 1] / r[:, 0])
             for name, why in by_channel(self.meta.get("set_by_prior")).get(cid, {}).items():
                 if name not in entry["response"]:
                     continue

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import misfit_scale, refnoise
+from . import misfit_scale, pendulum, refnoise
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
 from .likelihood import ChannelBlock, Model, Priors
@@ -128,7 +128,7 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         if free == "gain":
             theta0.append(np.log(fam.gain * norm))
         elif free == "all":
-            theta0.extend([np.log(fam.period_s), fam.damping, np.log(fam.gain * norm)])
+            theta0.extend([1.0, 1.0, np.log(fam.gain * norm)])     # nominal c0_rel, c1_rel
         blocks.append(ChannelBlock(channel_id=str(sub.sut_ids[len(blocks)]) if sub.sut_ids
                                    else str(i), manifold=manifold, family=fam, free=free))
     if ref_noise in (None, "quiet"):
@@ -261,6 +261,8 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
+    sensitivity = _prior_sensitivity(model, np.median(full, axis=0))
+    set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     vecs, _ = model.unpack(full)
     resp = model.response_values(full) if free != "none" else {}
     kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
@@ -278,6 +280,11 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
                  "least_squares": dict(zip(model.names, theta_ls)),
                  "set_by_prior": set_by_prior, "multimodal": multimodal,
+                 **({"prior_sensitivity": sensitivity,
+                     "response_prior": {"period_tolerance": priors.period_tolerance,
+                                        "damping_tolerance": priors.damping_tolerance,
+                                        "shape": "log-normal around the metadata values"}}
+                    if sensitivity else {}),
                  "sampler": chain.sampler})
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
                      response=resp, samples=chain.samples, names=target.names,
@@ -304,6 +311,20 @@ def _modes(model, theta_ls, cov, nominal, fitted):
         return model, theta_ls, cov, report
     theta_ls, cov = least_squares_fit(best.model, best.theta)
     return best.model, theta_ls, cov, report
+
+
+def _prior_sensitivity(model, theta):
+    """:func:`bayescal.core.pendulum.prior_sensitivity` of every channel whose
+    period and damping are free, at the posterior's median ``theta``."""
+    from .unconstrained import information
+
+    blocks = {b.channel_id: (sr.start, sr.start + 1)
+              for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
+    if not blocks:
+        return {}
+    pr = model.priors
+    return pendulum.prior_sensitivity(information(model, theta), theta, blocks,
+                                      pr.period_tolerance, pr.damping_tolerance)
 
 
 def plugin_meta(model):

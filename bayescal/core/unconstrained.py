@@ -1,21 +1,18 @@
-"""Response parameters the data do not constrain: found early, held at their
-nominal value, and said so ("set by the prior").
+"""A gain the data do not constrain: found early, held at its nominal value,
+and said so ("set by the prior"). Period and damping have a stated prior
+and their own test (:mod:`bayescal.core.pendulum`); this module concerns the
+parameters with a box prior, the log-uniform gain.
 
 Two checks, both against the prior's own spread (the standard deviation of
-the uniform prior on ``log period``, ``damping`` or ``log gain``):
+the uniform prior on ``log gain``):
 
 * **before sampling**, from the least-squares curvature: the Laplace standard
-  deviation of each response parameter, the other free parameters
-  marginalised, at the nominal response (the prior's centre; angles as
-  fitted). A sensor far from its nominal values in a region where the data
-  would constrain it can thus be held wrongly: the model check
-  (:mod:`.adequacy`) then shows the misfit. When it is at least ``EARLY_RATIO`` of the prior's, the data
-  hardly narrow the prior; the least constrained such parameter is held at
-  its nominal value, the others' curvature is recomputed given it, and so on.
-  Far above a sensor's corner only the combination ``damping / period`` is
-  seen: one of the two is held, the other then carries that combination (and
-  is reported as conditional on the held one). Held parameters cost the
-  sampler nothing (their ridge was what made it slow);
+  deviation of each gain, the other free parameters marginalised, at the
+  nominal response (the prior's centre; angles as fitted). When it is at
+  least ``EARLY_RATIO`` of the prior's, the data hardly narrow the prior;
+  the least constrained such parameter is held at its nominal value, the
+  others' curvature is recomputed given it, and so on. Held parameters cost
+  the sampler nothing;
 * **after sampling**, for what was sampled: a posterior standard deviation of
   at least ``LATE_RATIO`` of the prior's, or a 95 % interval reaching within
   ``BOUND_FRACTION`` of the prior's width from a bound (a gain pinned at 10
@@ -38,7 +35,7 @@ LATE_RATIO = 0.5
 #: A 95 % interval this close to a prior bound (fraction of the prior's width) is pinned.
 BOUND_FRACTION = 0.01
 #: Response parameter names in model coordinates -> physical names.
-PHYSICAL = {"log_period": "period_s", "damping": "damping", "log_gain": "gain"}
+PHYSICAL = {"log_gain": "gain"}
 
 
 def prior_box(model):
@@ -54,7 +51,7 @@ def nominal_theta(model):
         if b.free == "gain":
             out[idx[0]] = np.log(b.family.gain)
         elif b.free == "all":
-            out[idx] = [np.log(b.family.period_s), b.family.damping, np.log(b.family.gain)]
+            out[idx] = [1.0, 1.0, np.log(b.family.gain)]
     return out
 
 
@@ -103,10 +100,8 @@ def prior_bounds(model):
         g = np.log(b.family.gain)
         wide = np.log(gain_prior_factor(b.family, pr))
         lo[idx[-1]], hi[idx[-1]] = g - wide, g + wide
-        if b.free == "all":
-            t = np.log(b.family.period_s)
-            lo[idx[0]], hi[idx[0]] = t - np.log(pr.period_factor), t + np.log(pr.period_factor)
-            lo[idx[1]], hi[idx[1]] = pr.damping_range
+        if b.free == "all":       # c0_rel, c1_rel: positive (their prior is not a box)
+            lo[idx[:2]] = 0.0
     return lo, hi
 
 

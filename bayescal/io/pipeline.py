@@ -89,6 +89,11 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         period / dB text file): the remedy for a one-channel pair.
     start, end : obspy.UTCDateTime or None
         Limits of the analysis window.
+    priors : bayescal.core.likelihood.Priors
+        The priors; with ``fit_response="all"`` its ``period_tolerance`` and
+        ``damping_tolerance`` (relative standard deviations of the log-normal
+        priors on period and damping, default 0.05) are the manufacturer's
+        tolerance (:mod:`bayescal.core.pendulum`).
 
     Returns
     -------

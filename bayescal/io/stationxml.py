@@ -17,8 +17,10 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   comment with the relative gain (fitted / metadata) and its interval
   (StationXML's Gain has no error fields);
 * except that a response parameter the data do not constrain ("set by the
-  prior", :mod:`bayescal.core.unconstrained`) keeps its nominal value, and
-  the comment says why;
+  prior", :mod:`bayescal.core.unconstrained`, :mod:`bayescal.core.pendulum`)
+  keeps its nominal value, and the comment says why; when the data fix
+  damping/period but neither separately, the period stays nominal and the
+  damping carries the measured damping/period (:func:`written_period_damping`);
 * a tilted vertical's azimuth by the azimuth its axis leans toward;
 * and adds to every changed channel a Comment saying where the values come
   from (:func:`provenance_comment`).
@@ -74,6 +76,23 @@ def _pole_with_errors(samples):
                                     upper_uncertainty=complex(re[2] - re[1], im[2] - im[1]))
 
 
+def written_period_damping(summary, family):
+    """The period and damping the corrected StationXML holds (None, None when
+    it keeps the nominal pair): a measured value as measured, one the prior
+    sets at nominal, except that when the data fix damping/period
+    (:mod:`bayescal.core.pendulum`) the damping carries it: the poles' real
+    part ``-h w0`` is then the measured one, their modulus the written
+    period's."""
+    prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
+    period = family.period_s if "period_s" in prior else summary["period_s"]["median"]
+    combo = summary.get("damping_over_period")
+    if prior & {"period_s", "damping"} and combo and not combo.get("set_by_prior"):
+        return period, combo["median"] * period
+    if {"period_s", "damping"} <= prior:
+        return None, None
+    return period, family.damping if "damping" in prior else summary["damping"]["median"]
+
+
 def _update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
     from ..core.response import response_family
@@ -85,9 +104,8 @@ def _update_response(channel, samples, free, summary):
     scale = 1.0 / (2 * np.pi) if hertz else 1.0
     # a parameter set by the prior keeps its nominal value (the comment says why)
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
-    if free == "all" and not {"period_s", "damping"} <= prior:
-        period = fam.period_s if "period_s" in prior else summary["period_s"]["median"]
-        damping = fam.damping if "damping" in prior else summary["damping"]["median"]
+    period, damping = written_period_damping(summary, fam) if free == "all" else (None, None)
+    if period is not None:
         new = _pendulum_poles([period], [damping])[0]
         pole_samples = _pendulum_poles(samples[:, 0], samples[:, 1])
         current = [complex(p) / scale for p in stage.poles]
@@ -196,10 +214,19 @@ def provenance_comment(posterior, entry):
     if meta.get("assumption"):
         text += f" Assumed: {meta['assumption']}."
     prior = {n: e for n, e in entry.get("response", {}).items() if e.get("set_by_prior")}
+    combo = entry.get("response", {}).get("damping_over_period")
     for name, e in prior.items():
         nominal = (entry.get("nominal") or {}).get(name, e.get("median"))
-        text += (f" {name} kept at its nominal value {nominal:.6g}: set by the prior, "
-                 f"not by the data ({e['reason']}).")
+        if name == "damping" and combo and not combo.get("set_by_prior"):
+            lo95, hi95 = combo["ci95"]
+            text += (f" damping set by the prior, not measured; the data fix damping/period = "
+                     f"{combo['median']:.5g} 1/s (95 % [{lo95:.5g}, {hi95:.5g}]), which the "
+                     "written damping carries with the written period.")
+        elif name == "damping_over_period":
+            continue
+        else:
+            text += (f" {name} kept at its nominal value {nominal:.6g}: set by the prior, "
+                     f"not by the data ({e['reason']}).")
     gain = entry.get("response", {}).get("gain")
     if gain and "gain" not in prior:
         g_lo, g_hi = gain["ci68"]

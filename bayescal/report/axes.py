@@ -60,8 +60,8 @@ def psd_label(meta, ids):
 def trace_in_user_units(name, values, nominal=None):
     """A sampler coordinate's trace in the units of the rest of the report:
     ``(values, label)``. Tangent-plane orientation coordinates become the
-    angle (deg) from the chain's start direction, azimuths degrees, log
-    period seconds, log gain percent off the metadata gain (or the gain when
+    angle (deg) from the chain's start direction, azimuths degrees, the
+    pendulum's coefficients period (s) and damping/period (1/s), log gain percent off the metadata gain (or the gain when
     no metadata gain is known); anything else is returned as it is."""
     kind = name.split(":")[-1]
     values = np.asarray(values, float)
@@ -69,8 +69,12 @@ def trace_in_user_units(name, values, nominal=None):
         return np.degrees(np.arctan(values)), "deg (tangent plane)"
     if kind == "azimuth_rad":
         return np.degrees(values), "azimuth (deg)"
-    if kind == "log_period":
-        return np.exp(values), "period (s)"
+    nom = nominal or {}
+    if kind == "c0_rel" and nom.get("period_s"):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return nom["period_s"] / np.sqrt(values), "period (s)"
+    if kind == "c1_rel" and nom.get("period_s"):
+        return values * nom["damping"] / nom["period_s"], "damping/period (1/s)"
     if kind == "log_gain":
         g = (nominal or {}).get("gain")
         if g:

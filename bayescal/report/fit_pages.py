@@ -68,9 +68,13 @@ def page_summary(ctx):
             text.append(f"  {cid}: {msg}")
     for cid, params in ctx.summary.get("set_by_prior", {}).items():
         for name, why in params.items():
-            text += textwrap.wrap(f"  {cid}: {name} SET BY THE PRIOR, not by the data: {why};"
-                                  " the corrected StationXML keeps its nominal value", 130,
+            text += textwrap.wrap(f"  {cid}: {name} SET BY THE PRIOR, not measured: {why}", 130,
                                   subsequent_indent="    ")
+        combo = ctx.summary["channels"].get(cid, {}).get("response", {}).get("damping_over_period")
+        if combo and not combo.get("set_by_prior") and {"period_s", "damping"} & set(params):
+            text.append(f"  {cid}: the data fix damping/period = {combo['median']:.4g} "
+                        f"[{combo['ci95'][0]:.4g}, {combo['ci95'][1]:.4g}] 1/s (95 %), which "
+                        "the corrected StationXML's poles carry")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
     note = ctx.summary.get("meta", {}).get("reference_noise", {}).get("separation", {}).get("note")

@@ -27,10 +27,12 @@ GREYS = ("0.0", "0.35", "0.55", "0.15", "0.45", "0.65")
 QUANTITY_UNITS = {"azimuth": "deg", "dip": "deg", "tilt": "deg", "orthogonality": "deg",
                   "period_s": "s",
                   "damping": "-", "gain": "stage-1 units per m/s",
-                  "relative_gain": "fitted / metadata"}
-QUANTITY_NAMES = {"period_s": "period", "relative_gain": "relative gain"}
+                  "relative_gain": "fitted / metadata", "damping_over_period": "1/s"}
+QUANTITY_NAMES = {"period_s": "period", "relative_gain": "relative gain",
+                  "damping_over_period": "damping/period"}
 PARAM_UNITS = {"orient_a": "gnomonic, ~rad", "orient_b": "gnomonic, ~rad",
-               "azimuth_rad": "rad", "log_period": "ln s", "damping": "dimensionless",
+               "azimuth_rad": "rad", "c0_rel": "(T_nom/T)^2", "c1_rel": "(h/h_nom)(T_nom/T)",
+               "damping": "dimensionless",
                "log_gain": "ln of gain"}
 
 

@@ -159,12 +159,19 @@ def response_rows(summary, truth=None):
             if name == "relative_gain":        # fitted / metadata gain: nominal 1
                 n = 1.0
                 true = tru["gain"] / nom["gain"] if "gain" in tru and nom.get("gain") else None
+            elif name == "damping_over_period" and nom.get("period_s"):
+                n = nom["damping"] / nom["period_s"]
+                true = tru["damping"] / tru["period_s"] if "period_s" in tru else None
             dev = None if not n else 100.0 * (entry["median"] / n - 1.0)
             note = ("SET BY THE PRIOR: held at nominal" if entry.get("action") == "held at nominal"
-                    else "SET BY THE PRIOR: nominal kept in StationXML"
+                    else "SET BY THE PRIOR: not measured"
                     if entry.get("set_by_prior") else "")
             if not two_pole_nominal(nom):      # gain-only ('flat') metadata: no nominal response
                 dev, note = None, note or "gain-only metadata: no nominal to deviate from"
+            if entry.get("set_by_prior") and entry.get("action", "").startswith("not measured"):
+                # the prior's value is not a measurement: no number is shown
+                rows.append(Row(cid, name, None, None, None, n, None, note, true))
+                continue
             rows.append(_interval_row(cid, name, entry, n, dev, note, truth=true))
     return rows
 
