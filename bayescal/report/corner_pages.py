@@ -73,9 +73,16 @@ def response_columns(ctx):
         drawn = [("period_s", "damping", "gain")[j] for j in idx]
         if not idx:
             continue
-        out.append((cid, post.response[cid][:, idx],
-                    [f"{n.replace('_s', '')} ({units[n]})" for n in drawn],
-                    [_truth_or_nan(tru.get(n)) for n in drawn]))
+        data = post.response[cid][:, idx]
+        labels = [f"{n.replace('_s', '')} ({units[n]})" for n in drawn]
+        truths = [_truth_or_nan(tru.get(n)) for n in drawn]
+        if {"period_s", "damping"} <= set(drawn):
+            # what a band above the corner fixes (bayescal.core.pendulum)
+            r = post.response[cid]
+            data = np.column_stack([data[:, :2], r[:, 1] / r[:, 0], data[:, 2:]])
+            labels.insert(2, "h/T0 (1/s)")
+            truths.insert(2, tru["damping"] / tru["period_s"] if "period_s" in tru else np.nan)
+        out.append((cid, data, labels, truths))
     return out
 
 
@@ -159,5 +166,8 @@ def page_corner_response(ctx):
         sf.text(0.5, 1 - 0.12 / sub_h, cid, ha="center", va="top", fontweight="bold")
     _header(fig, "Posterior of the response parameters, per channel",
             _corner_note(drawn, []) + "\nGain: first-stage sensitivity in the StationXML's"
-            " stage-1 output units (e.g. V) per m/s.", ctx.page[0])
+            " stage-1 output units (e.g. V) per m/s."
+            + ("\nh/T0: damping over period, what a band above the corner fixes; a period or"
+               " damping set by the prior spreads along it." if any(
+                   "h/T0 (1/s)" in b[2] for b in blocks) else ""), ctx.page[0])
     return fig
