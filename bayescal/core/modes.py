@@ -122,11 +122,11 @@ def _polish(model, theta, factors):
 
 
 def _least_squares(model, theta, factors, lo, hi):
-    res = least_squares(model.whitened_residual, theta, jac=_jacobian(model), args=(factors,),
-                        method="lm")
+    fun, jac = model.least_squares_objective(_jacobian(model))
+    res = least_squares(fun, theta, jac=jac, args=(factors,), method="lm")
     if np.any(res.x < lo) or np.any(res.x > hi):
-        res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
-                            jac=_jacobian(model), args=(factors,), bounds=(lo, hi), method="trf")
+        res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac, args=(factors,),
+                            bounds=(lo, hi), method="trf")
     return res.x
 
 

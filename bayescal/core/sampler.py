@@ -150,11 +150,15 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     times the base model's; the columns agree to rounding).
 
     Returns ``(theta, covariance)``; the covariance is the inverse Fisher
-    information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm).
+    information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm),
+    the pendulum priors' included (:meth:`Model.least_squares_objective`):
+    along a direction the data hardly fix, the point stays where the prior
+    puts it.
     """
     if jac is None:
         from .jacobian import forward_jacobian
         jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
+    fun, jac = model.least_squares_objective(jac)
     lo, hi = _bounds(model)
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     model.estimate_noise(theta)
@@ -168,19 +172,17 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
         # the response (exp of a large log-gain); its residual is rejected by
         # LM and the box check below, so those warnings are noise
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            res = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,),
-                                method="lm", **tol)
+            res = least_squares(fun, theta, jac=jac, args=(fac,), method="lm", **tol)
         if np.any(res.x < lo) or np.any(res.x > hi):
-            res = least_squares(model.whitened_residual, np.clip(res.x, lo + 1e-9, hi - 1e-9),
-                                jac=jac, args=(fac,), bounds=(lo, hi), method="trf", **tol)
+            res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac, args=(fac,),
+                                bounds=(lo, hi), method="trf", **tol)
         if not np.isfinite(res.x).all():
             raise FitError("least squares left the finite parameter range (a non-finite "
                            "residual); check the responses and the band")
         theta = res.x
         model.estimate_noise(theta)
     fac = model.noise.cholesky()
-    jac = least_squares(model.whitened_residual, theta, jac=jac, args=(fac,), method="lm",
-                        max_nfev=1).jac
+    jac = least_squares(fun, theta, jac=jac, args=(fac,), method="lm", max_nfev=1).jac
     fisher = 2.0 * jac.T @ jac
     try:
         cov = np.linalg.inv(fisher)
