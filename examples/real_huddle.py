@@ -88,18 +88,9 @@ def main(argv=None):
     res = json.load(open(os.path.join(a.out, "fit", "result.json")))
     (cid, ch), = res["channels"].items()
     print(f"{cid}: fitted in {elapsed:.1f} s (band {BAND[0]}-{BAND[1]} Hz)")
-    for name, e in ch["response"].items():
-        if "ci68" not in e:     # set by the prior: held at its nominal value
-            print(f"  {name:9s} {e['median']:.4g} held at nominal ({e.get('reason', 'fixed')})")
-            continue
-        print(f"  {name:9s} median {e['median']:.4g}  68 % [{e['ci68'][0]:.4g}, {e['ci68'][1]:.4g}]"
-              f"  95 % [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]")
-    from bayescal import Posterior
-    s = Posterior.load(os.path.join(a.out, "fit")).response[cid]
-    hf = 2 * s[:, 1] / s[:, 0]
-    print(f"  2 h / T0 (what a band well above the corner constrains: phase lead 2 h f0 / f) "
-          f"median {np.median(hf):.4g} Hz, 95 % [{np.percentile(hf, 2.5):.4g}, "
-          f"{np.percentile(hf, 97.5):.4g}]")
+    from bayescal.cli.fit import response_lines
+    for line in response_lines(ch):     # a value the prior sets is not printed as measured
+        print(f"  {line}")
     med, lo, hi = fitted_amplitude(os.path.join(a.out, "fit"), sut_xml)
     print(f"  |H_unknown| median over {COMPARE_BAND[0]}-{COMPARE_BAND[1]} Hz: {med:.1f} "
           f"counts/(m/s), 95 % [{lo:.1f}, {hi:.1f}]")
