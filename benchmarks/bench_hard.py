@@ -11,8 +11,11 @@ system time; the trees alternated within each repeat, medians over
   at 02, 03, 06, 09 and 12 h (needs ``../shared/data``);
 * ``long_period``: a 360-s sensor seen from above its corner, 2 hours at
   20 Hz, ``--fit-response all``, band chosen from the data;
-* ``coil_hf``: a random coil run at 100 Hz (1 hour) of a 120-s sensor,
-  ``bayescal cal --fit all``;
+* ``coil_hf``: a random coil run at 200 Hz (1 hour) of a 120-s sensor,
+  ``bayescal cal --fit all`` (the band reaches below the corner);
+* ``coil_hf_20min``: the same for 20 minutes with the truth at 123 s and
+  0.688: the band starts 6 times above the corner, so the run fixes
+  damping/period and not period or damping;
 * ``one_channel``: a vertical-only pair (one reference channel), gain fit.
 
     python benchmarks/bench_hard.py --before /path/to/older/tree [--repeats 3]
@@ -56,6 +59,12 @@ def prepare(folder):
     cases["coil_hf"] = (["cal", "--cal", cal["cal"], "--sut-xml", cal["xml"], "--coil-constant",
                          "1e-9", "--input-channel", "BC0", "--output-channel", "HHZ", "--fit",
                          "all"], "cal.json")
+    short = simulate_random_cal(truth=(123.0, 0.688, 1510.0), nominal=(120.0, 0.707, 1500.0),
+                                hf_true=HF_NOMINAL, hf_nominal=HF_NOMINAL, duration=1200.0,
+                                fs=200.0, seed=3).write(os.path.join(folder, "cal_short"))
+    cases["coil_hf_20min"] = (["cal", "--cal", short["cal"], "--sut-xml", short["xml"],
+                               "--coil-constant", "1e-9", "--input-channel", "BC0",
+                               "--output-channel", "HHZ", "--fit", "all"], "cal.json")
     if COWI.is_dir():
         for h in WINDOWS:
             cases[f"cowi_10min_{h}"] = (
@@ -93,9 +102,22 @@ def run(tree, argv, result, folder):
                                for k, v in e.get("response", {}).items() if "ci95" in v}
                             for cid, e in res["channels"].items()}
     else:
-        row["estimates"] = {k: [round(v["median"], 4)] + [round(x, 4) for x in v["ci95"]]
+        row["estimates"] = {k: [round(v["median"], 6)] + [round(x, 6) for x in v["ci95"]]
+                            + (["set by the prior"] if v.get("set_by_prior") else [])
                             for k, v in res["parameters"].items() if isinstance(v, dict)}
     return row
+
+
+def _commit(tree):
+    """The commit a tree is at (with ``+`` when its files differ from it), or None."""
+    try:
+        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(tree), "status", "--porcelain", "--",
+                                "bayescal"], capture_output=True, text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return head + ("+" if dirty else "")
 
 
 def main(argv=None):
@@ -128,10 +150,14 @@ def main(argv=None):
             ok = [x for x in r if "error" not in x]
             entry[t] = dict(ok[0] if ok else r[0], cpu_s=statistics.median(x["cpu_s"] for x in r),
                             wall_s=statistics.median(x["wall_s"] for x in r))
+        entry["before_tree"] = {"path": str(trees["before"]), "commit": _commit(trees["before"])}
+        entry["after_commit"] = _commit(ROOT)
         out["cases"][c] = entry
     os.makedirs(os.path.dirname(a.out), exist_ok=True)
     if a.cases and Path(a.out).is_file():
         old = json.loads(Path(a.out).read_text())
+        for entry in old.get("cases", {}).values():     # each case keeps its own baseline
+            entry.setdefault("before_tree", {"path": old.get("before"), "commit": None})
         out["cases"] = {**old.get("cases", {}), **out["cases"]}
         out["command"] = old.get("command", "") + " ; " + out["command"]
     Path(a.out).write_text(json.dumps(out, indent=1) + "\n")

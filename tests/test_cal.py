@@ -14,6 +14,7 @@ from obspy import read_inventory
 from bayescal import cli, coil
 from bayescal.coil.hf import PZSpec, hf_items
 from bayescal.coil.random import fit_random
+from bayescal.core import pendulum
 from bayescal.core.geometry import STS2_UVW
 from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
 from bayescal.simulate.cal import HF_NOMINAL, LP_NOMINAL, paz_response, simulate_random_cal
@@ -46,13 +47,34 @@ def test_ratio_matches_obspy_responses():
     nom = paz_response(*LP_NOMINAL, hf_poles=HF_NOMINAL, sample_rate=200.0)
     true = paz_response(*TRUE_LP, hf_poles=TRUE_HF, sample_rate=200.0)
     spec = PZSpec.from_response(nom, "all", 80.0)
-    theta = np.r_[np.log(TRUE_LP[0]), TRUE_LP[1], np.log(TRUE_LP[2]),
+    theta = np.r_[pendulum.from_physical(*TRUE_LP[:2], *LP_NOMINAL[:2]), np.log(TRUE_LP[2]),
                   [v / abs(n) for t, n in zip(TRUE_HF, HF_NOMINAL)
                    for v in ((t.real, t.imag) if np.imag(n) else (t.real,))]]
     f = np.geomspace(0.002, 90.0, 200)
     want = evaluate_velocity_response(true, f) / evaluate_velocity_response(nom, f)
     np.testing.assert_allclose(spec.ratio(f, theta)[0], want, rtol=1e-9)
     np.testing.assert_allclose(spec.ratio(f, spec.nominal_theta())[0], 1.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("fit", ["all", "hf", "lp"])
+def test_band_model_is_the_ratio_summed_over_each_band(fit):
+    """The likelihood's fast band sums (real polynomials at i omega) equal
+    PZSpec.ratio over the deconvolution times the input's power, summed
+    over each band, at parameters away from nominal and from the base."""
+    from bayescal.coil.element import run_spectra
+    from bayescal.coil.random import PZModel, default_cal_band
+
+    sim = simulate_random_cal(truth=TRUE_LP, hf_true=TRUE_HF, hf_nominal=HF_NOMINAL,
+                              duration=600.0, fs=100.0, seed=5)
+    run = _run(sim)
+    band = default_cal_band(run, fit)
+    spec = PZSpec.from_response(run.responses[0], fit, band[1])
+    sp = run_spectra(run, COIL, band)
+    t0 = spec.nominal_theta()
+    model = PZModel(sp, spec, base=spec.ratio(sp.freqs, t0 + 0.01))
+    theta = t0 + 0.03 * np.random.default_rng(0).standard_normal((8, t0.size))
+    want = np.add.reduceat(model.mu(theta)[:, 0] * model._saa, model._starts, axis=1)
+    np.testing.assert_allclose(model.band_model(theta), want, rtol=1e-12)
 
 
 # --- recovery ----------------------------------------------------------------------
@@ -80,6 +102,121 @@ def test_hf_recovers_high_frequency_poles():
             assert e["imag"]["ci95"][0] <= t.imag <= e["imag"]["ci95"][1], (e, t)
     g = s["parameters"]["gain"]
     assert g["ci95"][0] <= TRUE_LP[2] <= g["ci95"][1]
+
+
+#: A truth off nominal (120 s, 0.707) whose damping/period is 5 % below the
+#: nominal's, 0.7 of the stated prior's sd for that combination.
+TRUE_OFF = (123.0, 0.688, 1510.0)
+
+
+def _hf_all(duration, seed):
+    """A random run at 100 Hz of a 120-s sensor with its high-frequency poles
+    (as benchmarks/bench_hard.py's coil case), ``fit="all"``, default band;
+    returns the fit and the nominal inventory."""
+    sim = simulate_random_cal(truth=TRUE_OFF, hf_true=HF_NOMINAL, hf_nominal=HF_NOMINAL,
+                              duration=duration, fs=100.0, seed=seed)
+    return fit_random(_run(sim), COIL, fit="all", n_walkers=16, min_ess=400), sim.inventory
+
+
+@pytest.fixture(scope="module")
+def hf_fit():
+    """20 minutes: the band starts 6 times above the corner (0.049 Hz)."""
+    return _hf_all(1200.0, 3)
+
+
+def test_high_frequency_run_leaves_period_and_damping_to_the_prior(hf_fit):
+    """Seen from 6 times above its corner the run fixes damping/period (its
+    sd about 2 %, against the stated prior's 7 % for that combination) and
+    neither period nor damping: those two are flagged as set by the prior,
+    the combination is not, and its 95 % interval holds the truth, its
+    median within 3.29 sd (two-sided level 0.001)."""
+    s = hf_fit[0].summary()
+    p = s["parameters"]
+    assert p["period_s"]["set_by_prior"] and p["damping"]["set_by_prior"], s["meta"]
+    assert not p["damping_over_period"].get("set_by_prior"), s["meta"]["prior_sensitivity"]
+    assert set(s["set_by_prior"]) == {"period_s", "damping"}
+    combo, truth = p["damping_over_period"], TRUE_OFF[1] / TRUE_OFF[0]
+    assert combo["ci95"][0] <= truth <= combo["ci95"][1], (combo, truth)
+    assert abs(combo["median"] - truth) < Z_001 * combo["sd"], (combo, truth)
+    prior_sd = np.hypot(0.05, 0.05)
+    assert combo["sd"] / combo["median"] < 0.5 * prior_sd, combo
+    g = p["gain"]
+    assert not g.get("set_by_prior") and g["ci95"][0] <= TRUE_OFF[2] <= g["ci95"][1], g
+
+
+def test_coil_prior_is_the_stated_prior_on_period_and_damping(hf_fit):
+    """The coil model's prior alone, sampled by emcee in its own coordinates
+    (c0_rel, c1_rel; gain and high-frequency poles at their medians) with
+    tolerances of 3 % (period) and 8 % (damping): ln(T/T_nom) and
+    ln(h/h_nom) come out normal with those sds (Kolmogorov-Smirnov at the
+    suite's level on thinned draws; the prior's Jacobian left out, or the
+    tolerances swapped, fails it)."""
+    import copy
+
+    import emcee
+    from scipy import stats
+
+    from bayescal.core.likelihood import Priors
+    from tests.tolerance import LEVEL
+
+    model = copy.copy(hf_fit[0].model)
+    model.priors = Priors(period_tolerance=0.03, damping_tolerance=0.08)
+    rest = np.median(hf_fit[0].theta, axis=0)
+
+    def log_prob(c):
+        theta = np.repeat(rest[None], c.shape[0], axis=0)
+        theta[:, :2] = c
+        return model.log_prior(theta)
+
+    sampler = emcee.EnsembleSampler(32, 2, log_prob, vectorize=True)
+    sampler.random_state = np.random.RandomState(5).get_state()
+    start = 1 + 0.01 * np.random.default_rng(4).standard_normal((32, 2))
+    sampler.run_mcmc(start, 3000, progress=False)
+    draws = sampler.get_chain(discard=500, thin=30, flat=True)
+    x, y = pendulum.log_deviations(draws[:, 0], draws[:, 1])
+    assert stats.kstest(x / 0.03, "norm").pvalue > LEVEL
+    assert stats.kstest(y / 0.08, "norm").pvalue > LEVEL
+
+
+def test_high_frequency_run_console_and_corrected_xml_say_what_was_measured(hf_fit, capsys):
+    """The console names period and damping as set by the prior without a
+    number and gives the damping/period the data fix; the corrected
+    StationXML keeps the nominal period and writes the measured
+    damping/period into the damping."""
+    from bayescal.cli.cal import _print_summary
+    from bayescal.coil.calxml import corrected_cal_inventory
+
+    fit, inventory = hf_fit
+    s = fit.summary()
+    _print_summary(s)
+    out = capsys.readouterr().out
+    assert "period_s: set by the prior, not measured (nominal 120 s)" in out, out
+    assert "damping: set by the prior, not measured" in out, out
+    assert "the data fix damping/period = " in out and "period_s 1" not in out, out
+    combo = s["parameters"]["damping_over_period"]["median"]
+    inv = corrected_cal_inventory(inventory, [fit])
+    fam = TwoPoleFamily.from_response(inv[0][0][0].response)
+    assert fam.period_s == pytest.approx(LP_NOMINAL[0], rel=1e-9)
+    assert fam.damping / fam.period_s == pytest.approx(combo, rel=1e-9)
+    comment = inv[0][0][0].comments[-1].value
+    assert "period_s kept at its nominal value 120: set by the prior" in comment, comment
+    assert "the data fix damping/period" in comment, comment
+
+
+def test_run_reaching_below_the_corner_flags_nothing():
+    """An hour at 100 Hz: the band starts at half the natural frequency, the
+    data fix period, damping and their ratio; nothing is flagged and each
+    95 % interval holds the truth."""
+    s = _hf_all(3600.0, 3)[0].summary()
+    p = s["parameters"]
+    assert s["set_by_prior"] == {} and s["band_hz"][0] < 0.5 / LP_NOMINAL[0] + 1e-9
+    truth = dict(zip(("period_s", "damping", "gain"), TRUE_OFF),
+                 damping_over_period=TRUE_OFF[1] / TRUE_OFF[0])
+    for name, t in truth.items():
+        e = p[name]
+        assert not e.get("set_by_prior") and e["ci95"][0] <= t <= e["ci95"][1], (name, e, t)
+    # measured, not the prior's: the period's interval is a tenth of the prior's width
+    assert p["period_s"]["sd"] / p["period_s"]["median"] < 0.005
 
 
 #: Simulated runs of the coverage test, seeds 0-89 (fixed before any result).
@@ -114,7 +251,7 @@ def test_coverage_of_90_and_68_percent_intervals(coverage_hits):
     (tests/tolerance.py: each side at level 0.0005, 0.001 per parameter).
     Catches one parameter's intervals 1.5 times too narrow with power 0.89
     (1.4 times: 0.69) and 1.5 times too wide with power 0.76. The narrow
-    side of period and damping is the next test (known to fail)."""
+    side of period and damping is the next test."""
     lo, hi = interval_bounds(N_COVERAGE)
     assert (lo, hi) == (71, 75)
     assert interval_power(N_COVERAGE, 1 / 1.5) > 0.85 and interval_power(N_COVERAGE, 1.5) > 0.75
@@ -125,14 +262,13 @@ def test_coverage_of_90_and_68_percent_intervals(coverage_hits):
         assert in68[j] <= hi, (p, "too wide", in68[j], hi)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "long-period random-coil intervals of period and damping are too narrow on these "
-    "2-hour runs: over these 90 runs (median - truth) / sd has sd 1.33 (period) and 1.16 "
-    "(damping), 1.14-1.36 and 1.16-1.21 over 60-run checks at 2-3 h, 4-20 Hz; the "
-    "gain's is 0.94-1.19"))
 def test_period_and_damping_intervals_not_too_narrow(coverage_hits):
     """The narrow side of the coverage test for period and damping: at
-    least lo90 of 90 truths inside their 90 % intervals."""
+    least lo90 of 90 truths inside their 90 % intervals. Over these 90 runs
+    71 periods (the bound itself) and 76 dampings are inside; (median -
+    truth) / sd has sd 1.32 (period), 1.12 (damping) and 0.93 (gain), so the
+    period's intervals may still be about 1.3 times too narrow, which this
+    count catches with power 0.45 only (1.5 times: 0.89)."""
     lo, _ = interval_bounds(N_COVERAGE)
     in90 = coverage_hits[:, 0].sum(axis=0)
     assert lo <= in90[0] and lo <= in90[1], (in90, lo)
@@ -158,7 +294,9 @@ def test_cli_writes_schema_and_corrected_xml(cli_lp):
     assert cli_lp["rc"] == 0
     assert s["schema"] == "bayescal.cal/1" and s["kind"] == "random"
     assert s["channel"] == "XX.CAL.00.BHZ"
-    assert set(s["parameters"]) == {"period_s", "damping", "gain", "hf_poles", "hf_zeros"}
+    assert set(s["parameters"]) == {"period_s", "damping", "gain", "damping_over_period",
+                                    "hf_poles", "hf_zeros"}
+    assert s["set_by_prior"] == {} and s["meta"]["response_prior"]["period_tolerance"] == 0.05
     for p in ("period_s", "damping", "gain"):
         e = s["parameters"][p]
         assert e["ci95"][0] < e["ci68"][0] < e["median"] < e["ci68"][1] < e["ci95"][1]

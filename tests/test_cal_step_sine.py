@@ -15,6 +15,7 @@ from bayescal.coil.hf import PZSpec
 from bayescal.coil.sine import fit_sine, sine_frequency
 from bayescal.coil.step import StepModel, fit_step, least_squares_step
 from bayescal.coil.timedomain import Predictor, ar_fit, coil_transfer, padding
+from bayescal.core import pendulum
 from bayescal.core.response import TwoPoleFamily
 from bayescal.simulate.cal import simulate_sine_cal, simulate_step_cal
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ
@@ -47,7 +48,8 @@ def test_step_model_matches_analytic_step_response():
     x, u = run.data[0], run.input
     model = StepModel(x, run.fs, Predictor(u, run.fs, coil_transfer(run, COIL),
                                            padding(spec.family, run.fs)), spec)
-    theta = np.array([np.log(130.0), 0.65, np.log(1400.0)])
+    theta = np.r_[pendulum.from_physical(130.0, 0.65, spec.family.period_s, spec.family.damping),
+                  np.log(1400.0)]
     got = model.predict(theta)[0]
     w0 = 2 * np.pi / 130.0
     wd = w0 * np.sqrt(1 - 0.65 ** 2)
@@ -211,11 +213,12 @@ def test_step_noise_model_right_where_the_information_is():
     and 1.45 here: the output noise has a zero at 0 Hz that an
     autoregression cannot represent (docs/cal.md, "Model (step and sine kinds):
     time domain"; docs/validation/coil.md, "Step and sine runs")."""
-    th = np.array([np.log(TRUE_LP[0]), TRUE_LP[1], np.log(TRUE_LP[2])])
     power = [[], []]
     for seed in range(51, 57):
         sim = simulate_step_cal(truth=TRUE_LP, seed=seed, noise_ratio=0.01, **SHORT)
-        m, _, _, _ = least_squares_step(_run(sim), COIL)
+        m, spec, _, _ = least_squares_step(_run(sim), COIL)
+        th = np.r_[pendulum.from_physical(*TRUE_LP[:2], spec.family.period_s, spec.family.damping),
+                   np.log(TRUE_LP[2])]
         e = m.innovations(th[None])[0]
         p = np.abs(np.fft.rfft(e)) ** 2 / e.size
         f = np.fft.rfftfreq(e.size, 1.0 / m.fs)

@@ -13,6 +13,7 @@ from tests.tolerance import interval_bounds
 
 from bayescal import cli, coil
 from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
+from bayescal.core import pendulum
 from bayescal.core.geometry import STS2_UVW, TRILLIUM_UVW
 from bayescal.io.read import InputError
 from bayescal.core.response import paz_velocity_response
@@ -119,9 +120,12 @@ def test_run_model_ratio_is_the_two_pole_family():
     base = np.stack([f.ratio(sp.freqs, 119.0, 0.69, 1501.0)[0] for f in run.families])
     model = coil.RunModel(sp, run.coefficients(STS2_UVW), run.families, run.families[-1],
                          base=base)
-    theta = np.array([[np.log(118.0), 0.70, np.log(1490.0)], [np.log(125.0), 0.6, np.log(1400.0)]])
-    want = np.stack([f.ratio(sp.freqs, np.exp(theta[:, 0]), theta[:, 1], np.exp(theta[:, 2]))
-                     for f in run.families], axis=1) / base[None]
+    period, damping, gain = np.array([118.0, 125.0]), np.array([0.70, 0.6]), np.array([1490.0, 1400.0])
+    nom = run.families[-1]
+    theta = np.column_stack([*pendulum.from_physical(period, damping, nom.period_s, nom.damping),
+                             np.log(gain)])
+    want = np.stack([f.ratio(sp.freqs, period, damping, gain) for f in run.families],
+                    axis=1) / base[None]
     np.testing.assert_allclose(model.ratio(theta), want, rtol=1e-12)
 
 

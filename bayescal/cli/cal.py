@@ -33,8 +33,8 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import (add_paper_argument, add_sampling_argument, convergence_exit, publish,
-                     quiet_convergence_warnings)
+from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
+                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
 
 HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
 KINDS = ("random", "step", "sine")
@@ -63,6 +63,7 @@ def configure(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: lp 0.5/T0 to min(25/T0, fs/4), "
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
+    add_tolerance_arguments(parser, "with --fit lp or all (random, step)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
     add_sampling_argument(parser)
@@ -130,15 +131,30 @@ def write_outputs(fits, inventory, out, paper="a4"):
     return summaries
 
 
+def _fmt(entry):
+    return f"{entry['median']:.6g} [{entry['ci95'][0]:.6g}, {entry['ci95'][1]:.6g}]"
+
+
 def _print_summary(summary):
+    from .fit import response_lines
+
     p = summary["parameters"]
-    units = {"period_s": " s", "gain": f" {summary.get('units', {}).get('gain', '')}".split(" (")[0],
+    gain_units = summary.get("units", {}).get("gain", "").split(" (")[0]
+    units = {"period_s": " s", "gain": f" {gain_units}",
              "response_amplitude": " counts/(m/s)", "response_phase_deg": " deg",
              "phase_difference_deg": " deg"}
-    parts = [f"{k} {v['median']:.6g} [{v['ci95'][0]:.6g}, {v['ci95'][1]:.6g}]{units.get(k, '')}"
-             for k, v in p.items() if isinstance(v, dict)]
+    if "period_s" in p or "gain" in p:
+        # a value the prior sets is named as such, never printed as a measurement
+        lines = response_lines({"response": {k: p[k] for k in ("period_s", "damping", "gain",
+                                                                 "damping_over_period") if k in p},
+                                "nominal": dict(summary.get("nominal", {}),
+                                                gain_units=gain_units)}, fmt=_fmt)
+    else:
+        lines = [f"{k} {_fmt(v)}{units.get(k, '')}" for k, v in p.items() if isinstance(v, dict)]
     print(f"{summary['channel']} ({summary['kind']}, fit {summary['fit']}), medians "
-          "[95 % intervals]: " + "; ".join(parts))
+          "[95 % intervals]:")
+    for line in lines:
+        print(f"  {line}")
     for kind in ("hf_poles", "hf_zeros"):
         for e in p.get(kind, []):
             im = e["imag"].get("median", 0.0)
@@ -169,9 +185,11 @@ def run(args):
         kw = dict(seed=args.seed + i, progress=not args.quiet, max_steps=args.max_steps)
         with quiet_convergence_warnings():
             if args.kind == "random":
-                fits.append(fit_random(r, args.coil_constant, fit=fit, band=band, **kw))
+                fits.append(fit_random(r, args.coil_constant, fit=fit, band=band,
+                                       priors=priors_from(args), **kw))
             elif args.kind == "step":
-                fits.append(fit_step(r, args.coil_constant, fit=fit, **kw))
+                fits.append(fit_step(r, args.coil_constant, fit=fit, priors=priors_from(args),
+                                     **kw))
             else:
                 fits.append(fit_sine(r, args.coil_constant, **kw))
     summaries = write_outputs(fits, inv, args.out, paper=args.paper)

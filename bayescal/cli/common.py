@@ -37,11 +37,28 @@ def priors_from(args):
                   damping_tolerance=args.damping_tolerance / 100.0)
 
 
+def add_tolerance_arguments(parser, when):
+    """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
+    stated prior on natural period and damping (:mod:`bayescal.core.pendulum`),
+    which applies ``when`` (e.g. "with --fit-response all")."""
+    from ..core.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+
+    parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
+                        metavar="PERCENT",
+                        help=f"{when}: the prior on each natural period, "
+                             "log-normal around the metadata value with this standard deviation "
+                             "in per cent (the manufacturer's tolerance; default "
+                             f"{100 * PERIOD_TOLERANCE:g}). A period the prior sets is reported "
+                             "as such, not as a measurement")
+    parser.add_argument("--damping-tolerance", type=_percent, default=100 * DAMPING_TOLERANCE,
+                        metavar="PERCENT",
+                        help=f"{when}: the prior on each damping, as "
+                             f"--period-tolerance (default {100 * DAMPING_TOLERANCE:g})")
+
+
 def add_pair_arguments(parser):
     """Arguments shared by ``bayescal fit`` and ``bayescal diagnose``: the two
     sensors' files, the output folder, the band, the window and the options."""
-    from ..core.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
-
     g = parser.add_argument_group("inputs")
     g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
                    help="reference recording(s): miniSEED or any format ObsPy reads")
@@ -68,17 +85,7 @@ def add_pair_arguments(parser):
                              "poles and zeros) or 'none' (gains held at their metadata values, "
                              "angles only). With one horizontal reference channel the gains "
                              "are held (it cannot separate them from the rotation)")
-    parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
-                        metavar="PERCENT",
-                        help="with --fit-response all: the prior on each natural period, "
-                             "log-normal around the metadata value with this standard deviation "
-                             "in per cent (the manufacturer's tolerance; default "
-                             f"{100 * PERIOD_TOLERANCE:g}). A period the prior sets is reported "
-                             "as such, not as a measurement")
-    parser.add_argument("--damping-tolerance", type=_percent, default=100 * DAMPING_TOLERANCE,
-                        metavar="PERCENT",
-                        help="with --fit-response all: the prior on each damping, as "
-                             f"--period-tolerance (default {100 * DAMPING_TOLERANCE:g})")
+    add_tolerance_arguments(parser, "with --fit-response all")
     parser.add_argument("--ref-noise", choices=["quiet", "estimate", "equal"], default=None,
                         help="the reference's own self-noise: 'estimate' (estimated from the "
                              "data as white in ground units plus white in the reference's "

@@ -76,10 +76,11 @@ def pinned_gains(summary):
             if "pinned" in str((e.get("response") or {}).get("gain", {}).get("reason", ""))]
 
 
-def response_lines(entry):
-    """A channel's response lines: measured values with 95 % intervals; a
-    value the prior sets is named as such, never printed as a measurement,
-    and then the combination the data fix (damping / period) is given."""
+def response_lines(entry, fmt=_fmt):
+    """A channel's response lines: measured values with 95 % intervals
+    (``fmt(entry) -> text``); a value the prior sets is named as such, never
+    printed as a measurement, and then the combination the data fix
+    (damping / period) is given. Shared by ``bayescal cal`` and ``uvw``."""
     resp = entry.get("response", {})
     nominal = entry.get("nominal") or {}
     units = {"period_s": " s", "gain": f" {nominal.get('gain_units', '')}".rstrip(),
@@ -89,16 +90,16 @@ def response_lines(entry):
         if name == "damping_over_period":
             continue
         if r.get("set_by_prior") and r.get("action", "").startswith("held"):
-            out.append(f"{name} {_fmt(r)}{units.get(name, '')}  held at its nominal value: "
+            out.append(f"{name} {fmt(r)}{units.get(name, '')}  held at its nominal value: "
                        "the data do not constrain it")
         elif r.get("set_by_prior") and name in ("period_s", "damping"):
             nom = nominal.get(name)
             nom_text = f" (nominal {nom:.6g}{units.get(name, '')})" if nom is not None else ""
             out.append(f"{name}: set by the prior, not measured{nom_text}")
         elif r.get("set_by_prior"):
-            out.append(f"{name} {_fmt(r)}{units.get(name, '')}  SET BY THE PRIOR: {r['reason']}")
+            out.append(f"{name} {fmt(r)}{units.get(name, '')}  SET BY THE PRIOR: {r['reason']}")
         else:
-            out.append(f"{name} {_fmt(r)}{units.get(name, '')}")
+            out.append(f"{name} {fmt(r)}{units.get(name, '')}")
     combo = resp.get("damping_over_period")
     prior_set = [n for n in ("period_s", "damping") if resp.get(n, {}).get("set_by_prior")]
     if combo and prior_set:

@@ -36,8 +36,8 @@ import tempfile
 import numpy as np
 
 from ..io.read import InputError, read_metadata
-from .common import (add_paper_argument, add_sampling_argument, convergence_exit, publish,
-                     quiet_convergence_warnings)
+from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
+                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -69,6 +69,7 @@ def configure(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default 0.5/T0 to min(25/T0, fs/4), the lower edge "
                              "raised when the record is short)")
+    add_tolerance_arguments(parser, "for each element")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
     add_sampling_argument(parser)
@@ -151,18 +152,23 @@ def write_outputs(result, out, quiet=True, paper="a4"):
     return summary
 
 
+def _fmt(entry):
+    return f"{entry['median']:.5g} [{entry['ci95'][0]:.5g}, {entry['ci95'][1]:.5g}]"
+
+
 def _print_summary(summary, out):
+    from .fit import response_lines
+
     print(f"UVW calibration ({summary['mode']}), medians [95 % intervals], gains in "
           f"{summary['gain_units']}")
-    for e, entry in summary["elements"].items():
-        parts = [f"{p} {entry[p]['median']:.5g} [{entry[p]['ci95'][0]:.5g}, "
-                 f"{entry[p]['ci95'][1]:.5g}]" for p in ("period_s", "damping", "gain")]
-        print(f"  {e}: " + "; ".join(parts))
-    for ax, entry in summary["xyz"].items():
-        parts = [f"{p} {entry[p]['median']:.5g} [{entry[p]['ci95'][0]:.5g}, "
-                 f"{entry[p]['ci95'][1]:.5g}]{' s' if p == 'period_s' else ''}"
-                 for p in ("gain", "period_s", "damping")]
-        print(f"  {ax}: " + "; ".join(parts))
+    # a value the prior sets is named as such, never printed as a measurement
+    nominal = {k: v for k, v in summary.get("nominal", {}).items() if k != "gain"}
+    for entries, order in ((summary["elements"], ("period_s", "damping", "gain")),
+                           (summary["xyz"], ("gain", "period_s", "damping"))):
+        for name, entry in entries.items():
+            resp = {p: entry[p] for p in (*order, "damping_over_period") if p in entry}
+            print(f"  {name}: " + "; ".join(response_lines({"response": resp,
+                                                             "nominal": nominal}, fmt=_fmt)))
     ct = summary["cross_talk_max"]
     print(f"  largest cross-talk {100 * ct['median']:.3g} % "
           f"[{100 * ct['ci95'][0]:.3g}, {100 * ct['ci95'][1]:.3g}] ({summary['cross_talk_max_pair']})")
@@ -216,7 +222,8 @@ def run(args):
     with quiet_convergence_warnings():
         result = coil.calibrate_uvw(runs, m, coil_constant=args.coil_constant, band=band,
                                    z_only=args.z_only, seed=args.seed, progress=not args.quiet,
-                                   matrix_source=source, max_steps=args.max_steps)
+                                   matrix_source=source, max_steps=args.max_steps,
+                                   priors=priors_from(args))
     summary = write_outputs(result, args.out, paper=args.paper)
     if not args.quiet:
         _print_summary(summary, args.out)

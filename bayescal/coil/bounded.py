@@ -1,23 +1,48 @@
 """The posterior shared by every coil model: a flat prior inside the
-model's ``bounds()`` plus its ``log_likelihood``, vectorised over walkers."""
+model's ``bounds()``, times, for a model of the pendulum pair, the stated
+prior on period and damping carried to the sampling coordinates
+``(c0_rel, c1_rel)`` with its Jacobian (:mod:`bayescal.core.pendulum`),
+plus its ``log_likelihood``, vectorised over walkers; and what the prior
+sets, from the posterior's Gaussian approximation at its median."""
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import least_squares
+
+from ..core import pendulum
+from ..core.likelihood import Priors
 
 
 class BoundedPosterior:
     """Mixin: subclasses define ``bounds() -> (lo, hi)`` and
-    ``log_likelihood(theta (W, ndim)) -> (W,)``."""
+    ``log_likelihood(theta (W, ndim)) -> (W,)``; a model of the pendulum
+    pair sets ``pendulum_index`` (the index of ``c0_rel``, ``c1_rel``
+    following it) and ``priors`` (its tolerances), and defines
+    ``likelihood_residual(theta (ndim,)) -> (m,)``, whose squared norm
+    times ``LIKELIHOOD_SCALE`` is ``-log L``."""
+
+    #: Index of ``c0_rel`` in ``theta`` (None: no pendulum pair sampled).
+    pendulum_index = None
+    priors = Priors()
+    #: ``-log L = LIKELIHOOD_SCALE * |likelihood_residual|^2``.
+    LIKELIHOOD_SCALE = 1.0
 
     def log_prior(self, theta):
-        """0 strictly inside the bounds, -inf outside, shape (W,)."""
+        """Flat strictly inside the bounds, -inf outside; with the pendulum's
+        stated prior (:func:`bayescal.core.pendulum.log_prior`), shape (W,)."""
         theta = np.atleast_2d(theta)
         lo, hi = self.bounds()
-        return np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
+        lp = np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
+        i = self.pendulum_index
+        if i is not None:
+            lp = lp + pendulum.log_prior(theta[:, i], theta[:, i + 1],
+                                         self.priors.period_tolerance,
+                                         self.priors.damping_tolerance)
+        return lp
 
     def log_prob(self, theta):
         """Vectorised log posterior: theta (W, ndim) -> (W,); the likelihood
-        is evaluated only inside the bounds."""
+        is evaluated only where the prior is positive."""
         theta = np.atleast_2d(theta)
         lp = self.log_prior(theta)
         out = np.full(theta.shape[0], -np.inf)
@@ -25,3 +50,54 @@ class BoundedPosterior:
         if ok.any():
             out[ok] = lp[ok] + self.log_likelihood(theta[ok])
         return out
+
+    def prior_residual(self, theta):
+        """Rows whose squared norm times ``LIKELIHOOD_SCALE`` is minus the
+        log of the pendulum's prior without its Jacobian: appended to the
+        likelihood's residual, least squares finds the posterior's mode (up
+        to the Jacobian) and its Gauss-Newton covariance includes the prior,
+        so a band that fixes only damping/period still gives a proper start."""
+        i = self.pendulum_index
+        if i is None:
+            return np.zeros(0)
+        x, y = pendulum.log_deviations(theta[i], theta[i + 1])
+        pr = self.priors
+        return np.array([x / pr.period_tolerance, y / pr.damping_tolerance]) / np.sqrt(
+            2.0 * self.LIKELIHOOD_SCALE)
+
+    def fisher(self, theta):
+        """The likelihood's information ``2 s J^T J`` at ``theta`` (``J`` the
+        Jacobian of :meth:`likelihood_residual`, ``s`` ``LIKELIHOOD_SCALE``)."""
+        jac = least_squares(self.likelihood_residual, np.asarray(theta, float), method="lm",
+                            max_nfev=1).jac
+        return 2.0 * self.LIKELIHOOD_SCALE * jac.T @ jac
+
+    def prior_sensitivity(self, theta, channel):
+        """:func:`bayescal.core.pendulum.prior_sensitivity` of the pendulum
+        pair at ``theta`` (the posterior's median) as ``{channel: ...}``;
+        empty without a pendulum pair."""
+        i = self.pendulum_index
+        if i is None:
+            return {}
+        return pendulum.prior_sensitivity(self.fisher(theta), np.asarray(theta, float),
+                                          {channel: (i, i + 1)}, self.priors.period_tolerance,
+                                          self.priors.damping_tolerance)
+
+
+def prior_meta(priors):
+    """``meta["response_prior"]``: the stated prior on period and damping."""
+    return {"period_tolerance": priors.period_tolerance,
+            "damping_tolerance": priors.damping_tolerance,
+            "shape": "log-normal around the nominal values"}
+
+
+def mark_set_by_prior(params, entries, channel):
+    """Mark ``params`` entries (``period_s``, ``damping``,
+    ``damping_over_period``) that :func:`bayescal.core.pendulum.set_by_prior_entries`
+    names for ``channel`` with ``set_by_prior``, ``reason`` and ``action``."""
+    for key, why in entries.items():
+        cid, _, name = key.rpartition(":")
+        if cid == channel and name in params:
+            params[name].update({"set_by_prior": True, "reason": why["reason"],
+                                 "action": why["action"]})
+    return params

@@ -8,13 +8,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..core import pendulum
 from ..core.mcmc import sample
 from ..core.sampler import FitError
 from ..io.read import InputError
 from ..core.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import SpectraError, cross_spectra
-from .bounded import BoundedPosterior
+from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
 
@@ -66,15 +67,22 @@ def regularise(sigma, power):
 
 
 class RunModel(BoundedPosterior):
-    """Posterior of one element's ``theta = (ln T, h, ln G)`` from one run.
+    """Posterior of one element's ``theta = (c0_rel, c1_rel, ln G)`` from one
+    run: the pendulum pair in the coordinates the data see, relative to the
+    ``nominal`` family's period and damping (:mod:`bayescal.core.pendulum`),
+    under the stated prior of ``priors`` (period and damping tolerances),
+    and the gain log-uniform within ``priors.gain_factor`` of nominal.
 
     ``coef`` is ``m_c`` per output, ``families`` the outputs' parametric
     responses, ``base`` (n_out, F) the response ratio the spectra were
     deconvolved by (ones at first). Vectorised: ``log_prob(theta (W, 3))``.
     """
 
-    names = ("log_period", "damping", "log_gain")
+    names = (*pendulum.NAMES, "log_gain")
     ndim = 3
+    pendulum_index = 0
+    #: ``-log L`` is the whitened residual's squared norm.
+    LIKELIHOOD_SCALE = 1.0
 
     def __init__(self, spectra, coef, families, nominal, priors=Priors(), base=None):
         self.spectra = spectra
@@ -95,6 +103,9 @@ class RunModel(BoundedPosterior):
         # factor that depends on (T, h): 1 / D(s; T, h), shared by all outputs
         self._s = 2j * np.pi * f
         self._sn = 2j * np.pi * np.array([fam.norm_freq for fam in families])
+        # D = s^2 + c1 s + c0 with c0 = c0_rel w0n^2, c1 = c1_rel 2 h_n w0n
+        w0n = 2 * np.pi / nominal.period_s
+        self._c_nom = np.array([w0n * w0n, 2.0 * nominal.damping * w0n])
         d_nom = np.array([fam._d(self._s, 2 * np.pi / fam.period_s, fam.damping)
                           for fam in families])                       # (no, F)
         self._dn_norm = np.array([abs(fam._d(sn, 2 * np.pi / fam.period_s, fam.damping))
@@ -109,20 +120,17 @@ class RunModel(BoundedPosterior):
         self.inflation = None
 
     def bounds(self):
-        pr, nom = self.priors, self.nominal
-        lo = np.array([np.log(nom.period_s / pr.period_factor), pr.damping_range[0],
-                       np.log(nom.gain / pr.gain_factor)])
-        hi = np.array([np.log(nom.period_s * pr.period_factor), pr.damping_range[1],
-                       np.log(nom.gain * pr.gain_factor)])
-        return lo, hi
+        g = self.nominal.gain
+        return (np.array([0.0, 0.0, np.log(g / self.priors.gain_factor)]),
+                np.array([np.inf, np.inf, np.log(g * self.priors.gain_factor)]))
 
     def _factors(self, theta):
         """(W, no) gain and normalisation factor and (W, F) ``1 / D(s; T, h)``."""
         theta = np.atleast_2d(theta)
-        w0 = (2 * np.pi / np.exp(theta[:, 0]))[:, None]
-        h = theta[:, 1][:, None]
-        inv = 1.0 / (self._s * self._s + 2.0 * h * w0 * self._s + w0 * w0)
-        d_sn = np.abs(self._sn[None] ** 2 + 2.0 * h * w0 * self._sn[None] + w0 * w0)  # (W, no)
+        c0 = (theta[:, 0] * self._c_nom[0])[:, None]
+        c1 = (theta[:, 1] * self._c_nom[1])[:, None]
+        inv = 1.0 / (self._s * self._s + c1 * self._s + c0)
+        d_sn = np.abs(self._sn[None] ** 2 + c1 * self._sn[None] + c0)              # (W, no)
         amp = np.exp(theta[:, 2])[:, None] / self._g_nom[None] * d_sn / self._dn_norm[None]
         return amp, inv
 
@@ -152,6 +160,15 @@ class RunModel(BoundedPosterior):
         r = self.residual(theta)[0]                                  # (B, no)
         z = np.einsum("bji,bj->bi", chol.conj(), r)
         return np.concatenate([z.real.ravel(), z.imag.ravel()])
+
+    def likelihood_residual(self, theta):
+        """The whitened residual with the noise model as set."""
+        return self.whitened_residual(theta, np.linalg.cholesky(self.noise))
+
+    def posterior_residual(self, theta, chol):
+        """The whitened residual and the pendulum prior's rows: least squares
+        on it finds the posterior's mode."""
+        return np.concatenate([self.whitened_residual(theta, chol), self.prior_residual(theta)])
 
     def estimate_noise(self, theta):
         """Plug-in noise model at ``theta``: per-band ``Sigma_b`` and inflation
@@ -211,25 +228,25 @@ def transfer_scale(model, theta):
 def _start(model):
     """Nominal period and damping, and the least-squares scale of the nominal
     transfer to the data."""
-    nom = model.nominal
-    theta = np.array([np.log(nom.period_s), nom.damping, np.log(nom.gain)])
+    theta = np.array([1.0, 1.0, np.log(model.nominal.gain)])
     return theta, transfer_scale(model, theta)
 
 
 def least_squares_run(model, theta0):
-    """Weighted least squares with the noise model re-estimated twice; returns
+    """Weighted least squares (the pendulum prior's rows included: the
+    posterior's mode) with the noise model re-estimated twice; returns
     ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.fit.least_squares_fit`."""
     lo, hi = model.bounds()
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     for _ in range(3):
         model.estimate_noise(theta)
         chol = np.linalg.cholesky(model.noise)
-        res = least_squares(model.whitened_residual, theta, args=(chol,), bounds=(lo, hi),
+        res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
                             x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
         theta = res.x
     model.estimate_noise(theta)
     chol = np.linalg.cholesky(model.noise)
-    res = least_squares(model.whitened_residual, theta, args=(chol,), bounds=(lo, hi),
+    res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
                         x_scale="jac", method="trf", max_nfev=1)
     try:
         cov = np.linalg.inv(2.0 * res.jac.T @ res.jac)
@@ -284,9 +301,19 @@ class ElementFit:
     band_hz: tuple
     model: RunModel = field(repr=False, default=None)
     sampler: dict = field(default_factory=dict)     # what emcee ran (Chain.sampler)
+    #: :func:`bayescal.core.pendulum.prior_sensitivity` of the element's pair
+    prior_sensitivity: dict = field(default_factory=dict)
+    response_prior: dict = field(default_factory=dict)
 
     def summary(self):
         out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
+        # what a band above the corner fixes (bayescal.core.pendulum)
+        out["damping_over_period"] = interval_summary(
+            pendulum.damping_over_period(self.samples[:, 0], self.samples[:, 1]))
+        mark_set_by_prior(out, pendulum.set_by_prior_entries(self.prior_sensitivity),
+                          self.element)
+        out["prior_sensitivity"] = self.prior_sensitivity.get(self.element, {})
+        out["response_prior"] = self.response_prior
         out["outputs_used"] = self.outputs
         out["misfit"] = self.misfit
         out["apparent_coefficient"] = self.apparent
@@ -332,15 +359,18 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
         return theta0
 
     def ratio_at(f, t):
-        return np.stack([fam.ratio(f, np.exp(t[0]), t[1], np.exp(t[2]))[0]
+        period, damping = pendulum.to_physical(t[0], t[1], nominal.period_s, nominal.damping)
+        return np.stack([fam.ratio(f, period, damping, np.exp(t[2]))[0]
                          for fam in run.families])
 
     model, chain, sp, theta, cov = fit_two_pass(run, coil_constant, band, nperseg, make_model, start,
                                                 ratio_at, seed=seed, progress=progress,
                                                 **sample_kw)
     s = chain.samples
-    phys = np.column_stack([np.exp(s[:, 0]), s[:, 1], np.exp(s[:, 2])])
+    phys = np.column_stack([*pendulum.to_physical(s[:, 0], s[:, 1], nominal.period_s,
+                                                  nominal.damping), np.exp(s[:, 2])])
     med = np.median(s, axis=0)
+    sensitivity = model.prior_sensitivity(med, run.element)
     app = model.apparent_coefficients(med)
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
@@ -348,4 +378,5 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
         apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
                   for a, v, c in zip(run.axes, app, coef)},
         inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),
-        model=model, sampler=chain.sampler)
+        model=model, sampler=chain.sampler, prior_sensitivity=sensitivity,
+        response_prior=prior_meta(priors))

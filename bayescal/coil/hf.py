@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core import pendulum
 from ..core.likelihood import Priors
 from ..core.sampler import FitError
 from ..core.response import TwoPoleFamily
@@ -104,9 +105,15 @@ def hf_items(response, fmax):
 class PZSpec:
     """Which parameters are free and how ``theta`` maps to the response ratio.
 
-    ``theta`` is ``(ln T, h, ln G)`` for ``fit="lp"``, ``(ln G, hf...)`` for
-    ``"hf"`` and ``(ln T, h, ln G, hf...)`` for ``"all"``; ``hf`` holds
-    ``Re q / |q0|`` (and ``Im q / |q0|`` for a pair) per item.
+    ``theta`` is ``(c0_rel, c1_rel, ln G)`` for ``fit="lp"``, ``(ln G,
+    hf...)`` for ``"hf"`` and ``(c0_rel, c1_rel, ln G, hf...)`` for
+    ``"all"``: the pendulum pair in the coordinates the data see, relative to
+    the nominal period and damping (:mod:`bayescal.core.pendulum`; its prior,
+    log-normal in period and damping with the tolerances of ``priors``, is
+    the model's); ``hf`` holds ``Re q / |q0|`` (and ``Im q / |q0|`` for a
+    pair) per item. The gain's prior is log-uniform within
+    ``priors.gain_factor`` of nominal, each ``hf`` coordinate's uniform
+    within ``HF_RANGE`` of nominal.
     """
 
     family: TwoPoleFamily
@@ -135,8 +142,13 @@ class PZSpec:
         return 2 if self.has_lp else 0
 
     @property
+    def pendulum_index(self):
+        """Index of ``c0_rel`` in ``theta`` (None when the pair is not fitted)."""
+        return 0 if self.has_lp else None
+
+    @property
     def names(self):
-        out = ["log_period", "damping"] if self.has_lp else []
+        out = list(pendulum.NAMES) if self.has_lp else []
         out.append("log_gain")
         for k, it in enumerate(self.items):
             out += [f"{it.kind}{k}_re"] + ([f"{it.kind}{k}_im"] if it.complex_pair else [])
@@ -148,7 +160,7 @@ class PZSpec:
 
     def nominal_theta(self):
         fam = self.family
-        out = [np.log(fam.period_s), fam.damping] if self.has_lp else []
+        out = [1.0, 1.0] if self.has_lp else []
         out.append(np.log(fam.gain))
         for it in self.items:
             q = it.nominal / abs(it.nominal)
@@ -158,9 +170,9 @@ class PZSpec:
     def bounds(self):
         fam, pr = self.family, self.priors
         lo, hi = [], []
-        if self.has_lp:
-            lo += [np.log(fam.period_s / pr.period_factor), pr.damping_range[0]]
-            hi += [np.log(fam.period_s * pr.period_factor), pr.damping_range[1]]
+        if self.has_lp:             # c0_rel, c1_rel > 0: the prior is the pendulum's
+            lo += [0.0, 0.0]
+            hi += [np.inf, np.inf]
         lo.append(np.log(fam.gain / pr.gain_factor))
         hi.append(np.log(fam.gain * pr.gain_factor))
         for it in self.items:
@@ -204,7 +216,7 @@ class PZSpec:
         fam = self.family
         f = np.asarray(freqs, float)
         if self.has_lp:
-            t, h = np.exp(theta[:, 0]), theta[:, 1]
+            t, h = self.period_damping(theta)
         else:
             t, h = np.full(theta.shape[0], fam.period_s), np.full(theta.shape[0], fam.damping)
         r = fam.ratio(f, t, h, np.exp(theta[:, self.i_gain]))
@@ -214,16 +226,92 @@ class PZSpec:
                 self._phi(np.array([2j * np.pi * fam.norm_freq]), q))
         return r
 
+    def polynomials(self, theta):
+        """The factors of ``ratio`` that depend on ``theta`` (W, ndim) as real
+        polynomials in ``s``, lowest power first: ``P`` (W, p) holds the
+        pendulum denominator (when the pair is fitted) and the free poles'
+        factors, ``Z`` (W, z) the free zeros' factors, so that
+
+            ratio(s) = (G / G_nom) C(s) / |C(s_n)| * Z(s) / P(s) * |P(s_n) / Z(s_n)|
+
+        with ``C`` the constant factors (:meth:`constant_factor`)."""
+        theta = np.atleast_2d(theta)
+        w = theta.shape[0]
+        p, z = np.ones((w, 1)), np.ones((w, 1))
+        if self.has_lp:
+            fam = self.family
+            w0n = 2 * np.pi / fam.period_s
+            p = np.column_stack([theta[:, 0] * w0n * w0n,
+                                 theta[:, 1] * 2.0 * fam.damping * w0n, np.ones(w)])
+        q = self.roots(theta)
+        for k, it in enumerate(self.items):
+            if it.complex_pair:      # (s - q)(s - q*) = s^2 - 2 Re q s + |q|^2
+                f = np.column_stack([np.abs(q[:, k]) ** 2, -2.0 * q[:, k].real, np.ones(w)])
+            else:
+                f = np.column_stack([-q[:, k].real, np.ones(w)])
+            if it.kind == "pole":
+                p = _polymul(p, f)
+            else:
+                z = _polymul(z, f)
+        return p, z
+
+    def constant_factor(self, s):
+        """``C(s)`` (F,): the nominal pendulum denominator (when the pair is
+        fitted) and the free poles' nominal factors over the free zeros'."""
+        s = np.asarray(s, complex)
+        out = np.ones(s.shape, complex)
+        if self.has_lp:
+            fam = self.family
+            out = out * fam.denominator(s, 2 * np.pi / fam.period_s, fam.damping)
+        for it in self.items:
+            f = s - it.nominal
+            if it.complex_pair:
+                f = f * (s - np.conj(it.nominal))
+            out = out * f if it.kind == "pole" else out / f
+        return out
+
     def physical(self, theta):
         """Samples in physical units: dict name -> (N,) (period_s, damping,
         gain) and ``hf`` (N, n_items) complex rad/s."""
         theta = np.atleast_2d(theta)
         out = {"gain": np.exp(theta[:, self.i_gain])}
         if self.has_lp:
-            out["period_s"] = np.exp(theta[:, 0])
-            out["damping"] = theta[:, 1]
+            out["period_s"], out["damping"] = self.period_damping(theta)
         out["hf"] = self.roots(theta)
         return out
+
+    def period_damping(self, theta):
+        """(W,) period and damping of ``theta`` (W, ndim) with the pair fitted."""
+        theta = np.atleast_2d(theta)
+        return pendulum.to_physical(theta[:, 0], theta[:, 1], self.family.period_s,
+                                    self.family.damping)
+
+
+def _polymul(a, b):
+    """Row-wise product of polynomials (W, m) and (W, n), lowest power first."""
+    out = np.zeros((a.shape[0], a.shape[1] + b.shape[1] - 1))
+    for j in range(b.shape[1]):
+        out[:, j:j + a.shape[1]] += a * b[:, j:j + 1]
+    return out
+
+
+def poly_at_iw(coef, powers):
+    """Real and imaginary part (W, F) of real polynomials ``coef`` (W, n),
+    lowest power first, at ``s = i omega``: ``powers`` (n_max, F) holds
+    ``i^k omega^k`` split as :func:`iw_powers` makes it."""
+    even, odd = powers
+    n = coef.shape[1]
+    return coef[:, 0::2] @ even[:(n + 1) // 2], coef[:, 1::2] @ odd[:n // 2]
+
+
+def iw_powers(omega, degree):
+    """``(even, odd)``: ``Re (i omega)^2j`` and ``Im (i omega)^(2j+1)``, (j, F),
+    for powers up to ``degree``: the real matrices that turn a real
+    polynomial's coefficients into its value at ``i omega`` by products."""
+    omega = np.asarray(omega, float)
+    k = np.arange(degree + 1)[:, None]
+    pw = omega[None] ** k * np.where(k % 4 < 2, 1.0, -1.0)
+    return pw[0::2], pw[1::2]
 
 
 def scale_start(run, spec, theta0, scale):

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.likelihood import Priors
 from ..io.read import InputError
 from .element import RunModel, fit_two_pass, transfer_scale
-from .hf import PZSpec, scale_start
+from .hf import PZSpec, iw_powers, poly_at_iw, scale_start
 from .result import CalFit
 from .runs import default_band
 
@@ -37,7 +38,21 @@ class PZModel(RunModel):
         self.spec = spec
         self.names = spec.names
         self.ndim = spec.ndim
+        self.pendulum_index = spec.pendulum_index
         self._lo, self._hi = spec.bounds()
+        # the likelihood's hot path: ratio = (G / G_nom) C(s) / |C(s_n)| Z(s) / P(s)
+        # |P(s_n) / Z(s_n)| (PZSpec.polynomials), the constant factors, the
+        # deconvolution and the input's power folded into one kernel, the
+        # polynomials evaluated at i omega by real matrix products
+        fam = spec.family
+        sn = 2j * np.pi * fam.norm_freq
+        c = spec.constant_factor(self._s) / abs(spec.constant_factor(np.array([sn]))[0])
+        kernel = c / self.base[0] * self._saa / fam.gain
+        self._kernel_re, self._kernel_im = kernel.real.copy(), kernel.imag.copy()
+        p, z = spec.polynomials(spec.nominal_theta())
+        degree = max(p.shape[1], z.shape[1]) - 1
+        self._powers = iw_powers(2 * np.pi * self.spectra.freqs, degree)
+        self._powers_n = iw_powers([2 * np.pi * fam.norm_freq], degree)
 
     def bounds(self):
         return self._lo, self._hi
@@ -45,9 +60,29 @@ class PZModel(RunModel):
     def ratio(self, theta):
         return self.spec.ratio(self.spectra.freqs, theta)[:, None, :] / self.base[None]
 
+    def band_model(self, theta):
+        """``sum_{f in b} ratio(f; theta) / base(f) |A(f)|^2`` per band, (W, B):
+        the model term of :meth:`residual`."""
+        theta = np.atleast_2d(theta)
+        p, z = self.spec.polynomials(theta)
+        pr, pi = poly_at_iw(p, self._powers)
+        nr, ni = poly_at_iw(p, self._powers_n)
+        amp = np.exp(theta[:, self.spec.i_gain]) * np.hypot(nr, ni)[:, 0]
+        den = pr * pr + pi * pi
+        if z.shape[1] > 1:                              # Z / P = Z conj(P) / |P|^2
+            zr, zi = poly_at_iw(z, self._powers)
+            nr, ni = poly_at_iw(z, self._powers_n)
+            amp = amp / np.hypot(nr, ni)[:, 0]
+            rr, ri = (zr * pr + zi * pi) / den, (zi * pr - zr * pi) / den
+        else:
+            rr, ri = pr / den, -pi / den
+        kr, ki = self._kernel_re, self._kernel_im
+        re = np.add.reduceat(rr * kr - ri * ki, self._starts, axis=1)
+        im = np.add.reduceat(rr * ki + ri * kr, self._starts, axis=1)
+        return amp[:, None] * (re + 1j * im)
+
     def residual(self, theta):
-        model = np.add.reduceat(self.mu(theta) * self._saa[None, None], self._starts, axis=2)
-        return (self._cya_b[None] - model).transpose(0, 2, 1)
+        return (self._cya_b[None] - self.band_model(theta)[:, None, :]).transpose(0, 2, 1)
 
     def measured(self):
         """Per band: the measured transfer over ``nominal * base`` and its sd."""
@@ -73,16 +108,17 @@ def default_cal_band(run, fit):
 
 
 def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, nperseg=None,
-               **sample_kw):
+               priors=Priors(), **sample_kw):
     """Posterior of one output channel's response from a random calibration
-    run (``run`` restricted to that output). Returns a :class:`CalFit`."""
+    run (``run`` restricted to that output), under ``priors`` (the
+    tolerances of period and damping). Returns a :class:`CalFit`."""
     if len(run.axes) != 1:
         raise ValueError("fit_random takes a run with one output (CalRun.select)")
     band = tuple(band) if band is not None else default_cal_band(run, fit)
     if band[1] > run.fs / 2:
         raise InputError(f"{run.source}: band top {band[1]:g} Hz is above Nyquist "
                          f"({run.fs / 2:g} Hz)")
-    spec = PZSpec.from_response(run.responses[0], fit, band[1], source=run.source)
+    spec = PZSpec.from_response(run.responses[0], fit, band[1], source=run.source, priors=priors)
 
     def start(model):
         theta0 = spec.nominal_theta()

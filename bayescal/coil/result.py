@@ -7,8 +7,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
+from ..core import pendulum
 from ..core.posterior import interval_summary
 from ..core.response import evaluate_velocity_response
+from .bounded import mark_set_by_prior, prior_meta
 
 SCHEMA = "bayescal.cal/1"
 
@@ -48,6 +50,11 @@ class CalFit:
                     else adequacy_summary(model, med))
         meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
                 "duration_s": run.data.shape[1] / run.fs, "sampler": chain.sampler}
+        sensitivity = model.prior_sensitivity(med, run.ids[0])
+        if sensitivity:
+            meta.update({"prior_sensitivity": sensitivity[run.ids[0]],
+                         "set_by_prior": pendulum.set_by_prior_entries(sensitivity),
+                         "response_prior": prior_meta(spec.priors)})
         return cls(kind, run.ids[0], spec, chain.samples, chain.summary(), adequacy,
                    (float(band[0]), float(band[1])), run.responses[0], meta, model)
 
@@ -62,6 +69,10 @@ class CalFit:
         for p in ("period_s", "damping", "gain"):
             if p in phys:
                 params[p] = interval_summary(phys[p])
+        if "period_s" in phys:      # what a band above the corner fixes (core.pendulum)
+            params["damping_over_period"] = interval_summary(
+                pendulum.damping_over_period(phys["period_s"], phys["damping"]))
+            mark_set_by_prior(params, self.meta.get("set_by_prior", {}), self.channel)
         for kind in ("pole", "zero"):
             entries = []
             for k, it in enumerate(self.spec.items):
@@ -78,8 +89,10 @@ class CalFit:
         return {"schema": SCHEMA, "kind": self.kind, "channel": self.channel, "fit": self.spec.fit,
                 "parameters": params, "fixed_at_nominal": fixed,
                 "nominal": {"period_s": fam.period_s, "damping": fam.damping, "gain": fam.gain},
+                "set_by_prior": {k: v["reason"] for k, v in params.items()
+                                 if isinstance(v, dict) and v.get("set_by_prior")},
                 "units": {"gain": f"{fam.gain_units} (first stage) at {fam.norm_freq:g} Hz",
-                          "hf_poles": "rad/s"},
+                          "damping_over_period": "1/s", "hf_poles": "rad/s"},
                 "band_hz": list(self.band_hz), "convergence": self.convergence,
                 "adequacy": self.adequacy, "meta": self.meta}
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from scipy.fft import irfft
 
+from ..core.likelihood import Priors
 from ..core.mcmc import sample
 from ..core.sampler import single_threaded_blas
 from ..io.read import InputError
@@ -35,6 +36,8 @@ class StepModel(TimeModel):
         self.spec = spec
         self.names = spec.names
         self.ndim = spec.ndim
+        self.pendulum_index = spec.pendulum_index
+        self.priors = spec.priors
         self._bounds = spec.bounds()
         if spec.items or not spec.has_lp:
             raise ValueError("StepModel fits the long-period pair and gain only")
@@ -45,6 +48,8 @@ class StepModel(TimeModel):
         self._d_nom = fam.denominator(self._s, w0n, fam.damping)
         self._sn = 2j * np.pi * fam.norm_freq
         self._dn = abs(fam.denominator(self._sn, w0n, fam.damping)) * fam.gain
+        # D = s^2 + c1 s + c0 with c0 = c0_rel w0n^2, c1 = c1_rel 2 h_n w0n
+        self._c_nom = np.array([w0n * w0n, 2.0 * fam.damping * w0n])
         self._cache = {}
         super().__init__(x, fs, predictor)
         self.set_prefilter(*acceleration_prefilter(fam, fs))
@@ -65,8 +70,7 @@ class StepModel(TimeModel):
             x = self.predictor.spectrum if weight is None else self.predictor.spectrum * weight
             self._cache[key] = x * self._d_nom
         const = self._cache[key]
-        w0 = 2 * np.pi / np.exp(theta[:, 0])
-        b, c = 2.0 * theta[:, 1] * w0, w0 * w0
+        b, c = theta[:, 1] * self._c_nom[1], theta[:, 0] * self._c_nom[0]
         amp = np.exp(theta[:, 2]) * np.abs(self._sn ** 2 + b * self._sn + c) / self._dn
         d = self._s2[None] + b[:, None] * self._s[None] + c[:, None]
         spec = (amp[:, None] * const[None]) / d
@@ -111,15 +115,17 @@ def _start(model, spec):
     return theta, coef[0]
 
 
-def least_squares_step(run, coil_constant):
-    """The step model of ``run`` (one output) at its least-squares point:
+def least_squares_step(run, coil_constant, priors=Priors()):
+    """The step model of ``run`` (one output) at its least-squares point (the
+    pendulum prior's rows included):
     ``(model, spec, theta, Laplace covariance)``; the noise model estimated
     there. The start of :func:`fit_step`'s sampler."""
     x, u = checked_arrays(run)
     u = u - rest_level(u)
     if not np.ptp(u) > 0:
         raise InputError(f"{run.source}: the input channel holds no step (it is constant)")
-    spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source)
+    spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
+                                priors=priors)
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
     model = StepModel(x, run.fs, pred, spec)
     model.input = u
@@ -131,15 +137,17 @@ def least_squares_step(run, coil_constant):
     return model, spec, theta, cov
 
 
-def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, **sample_kw):
+def fit_step(run, coil_constant, fit="lp", seed=0, progress=False, priors=Priors(),
+             **sample_kw):
     """Posterior of period, damping and gain from a step run (``run``
-    restricted to one output). Returns a :class:`CalFit` of kind ``step``."""
+    restricted to one output), under ``priors`` (the tolerances of period and
+    damping). Returns a :class:`CalFit` of kind ``step``."""
     if len(run.axes) != 1:
         raise ValueError("fit_step takes a run with one output (CalRun.select)")
     if fit != "lp":
         raise InputError(f"{run.source}: --kind step fits the long-period pair and the gain "
                          f"only (--fit lp), not --fit {fit}")
-    model, spec, theta, cov = least_squares_step(run, coil_constant)
+    model, spec, theta, cov = least_squares_step(run, coil_constant, priors)
     with single_threaded_blas():
         chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
     x, u = model.x, model.input

@@ -142,6 +142,9 @@ class TimeModel(BoundedPosterior):
     weight ``weight``, the whitening filter's response, when given).
     """
 
+    #: ``-log L`` is half the innovations' squared norm.
+    LIKELIHOOD_SCALE = 0.5
+
     def __init__(self, x, fs, predictor, skip=0):
         self.x = np.asarray(x, float)
         self.fs = fs
@@ -204,6 +207,10 @@ class TimeModel(BoundedPosterior):
         mw = mw - (mw @ self._q) @ self._q.T
         return (self._xw[None] - mw) / np.sqrt(self.s2)
 
+    def likelihood_residual(self, theta):
+        """The standardised innovations at one ``theta`` (ndim,)."""
+        return self.innovations(np.asarray(theta, float)[None])[0]
+
     def log_likelihood(self, theta):
         """``-|innovations|^2 / 2``, theta (W, ndim) -> (W,)."""
         e = self.innovations(theta)
@@ -224,13 +231,14 @@ class TimeModel(BoundedPosterior):
 
 
 def least_squares_time(model, theta0, passes=3):
-    """Least squares on the whitened residual, the AR noise re-estimated
-    after each pass. Returns ``(theta, Laplace covariance (J^T J)^-1)``."""
+    """Least squares on the whitened residual (and the pendulum prior's rows
+    of a model of the pendulum pair), the AR noise re-estimated after each
+    pass. Returns ``(theta, Laplace covariance (J^T J)^-1)``."""
     lo, hi = model.bounds()
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
 
     def fun(t):
-        return model.innovations(t[None])[0]
+        return np.concatenate([model.innovations(t[None])[0], model.prior_residual(t)])
 
     for _ in range(passes):
         res = least_squares(fun, theta, bounds=(lo, hi), x_scale="jac", method="trf",

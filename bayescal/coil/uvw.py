@@ -53,6 +53,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core import pendulum
+from ..core.likelihood import Priors
 from ..core.sampler import FitError
 from ..io.read import InputError
 from ..core.posterior import interval_summary
@@ -64,9 +66,9 @@ from .runs import default_band
 
 SCHEMA = "bayescal.uvw/1"
 
-#: Calibrated by benchmarks/uvw_coverage.py: under the true model the
-#: statistic's sd is 1.14-1.17 per parameter and its largest |z| in 360 draws
-#: 3.7, so 4 keeps false alarms near 1 % per nine-parameter calibration.
+#: Calibrated by validation/studies/uvw_coverage.py: under the true model the
+#: statistic's sd is 1.09-1.21 per parameter and |z| exceeds 3 in 0.6 % of
+#: 360 draws, so 4 keeps false alarms near 1 % per nine-parameter calibration.
 AGREEMENT_Z = 4.0
 
 # --- derived XYZ responses ---------------------------------------------------
@@ -179,10 +181,14 @@ class UVWResult:
             eq = self.xyz["equivalent"][:, ax]
             xyz[name] = {"period_s": interval_summary(eq[:, 0]),
                          "damping": interval_summary(eq[:, 1]),
+                         "damping_over_period": interval_summary(
+                             pendulum.damping_over_period(eq[:, 0], eq[:, 1])),
                          "gain": interval_summary(eq[:, 2] / scale),
                          "gain_at_norm_freq": interval_summary(self.xyz["gain_at_norm"][:, ax]
                                                                / scale),
                          "two_pole_misfit_max": float(np.max(self.xyz["equivalent_misfit"][:, ax]))}
+            _mark_derived(xyz[name], {e: elements[e] for j, e in enumerate(ELEMENTS)
+                                      if self.matrix[j, ax] ** 2 > 1e-6})
         pairs = ("X-Y", "X-Z", "Y-Z")
         out = {"schema": SCHEMA, "mode": self.mode, "elements": elements, "xyz": xyz,
                "cross_talk_max": interval_summary(self.xyz["cross_talk"]),
@@ -221,6 +227,19 @@ class UVWResult:
         return out
 
 
+def _mark_derived(entry, elements):
+    """Mark an XYZ axis's period, damping or damping/period as set by the
+    prior when it is for any element (``elements``: name -> summary) that
+    the axis sees."""
+    for name in ("period_s", "damping", "damping_over_period"):
+        which = [e for e, s in elements.items() if s.get(name, {}).get("set_by_prior")]
+        if which:
+            entry[name].update({
+                "set_by_prior": True,
+                "reason": f"derived from element {', '.join(which)}, whose {name} the prior sets",
+                "action": "not measured"})
+
+
 def _pair(fits, n_max, rng):
     n = min(n_max, *(f.samples.shape[0] for f in fits))
     return np.stack([f.samples[rng.choice(f.samples.shape[0], n, replace=False)] for f in fits],
@@ -228,7 +247,7 @@ def _pair(fits, n_max, rng):
 
 
 def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, progress=False,
-                  matrix_source="", nperseg=None, n_derived=2000, **sample_kw):
+                  matrix_source="", nperseg=None, n_derived=2000, priors=Priors(), **sample_kw):
     """Posterior over the three elements from coil-by-coil runs.
 
     Parameters
@@ -238,6 +257,8 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
     coil_constant : m/s^2 per input count, or None (gains then relative).
     band : (fmin, fmax) Hz; default ``(0.5 / T_nom, min(25 / T_nom, fs / 4))``.
     z_only : use only each run's Z output (the seed's procedure).
+    priors : :class:`bayescal.core.likelihood.Priors` (the tolerances of
+        period and damping; the gain's range).
     """
     missing = [e for e in ELEMENTS if e not in runs]
     if missing:
@@ -258,17 +279,19 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
     for i, e in enumerate(ELEMENTS):
         run = runs[e].select(["Z"]) if z_only else runs[e]
         fits[e] = fit_run(run, m, c_eff, band, nperseg, seed=seed + i, progress=progress,
-                          **sample_kw)
+                          priors=priors, **sample_kw)
         sees_z = abs(m[ELEMENTS.index(e), 2]) > 1e-6
         if not z_only and has_z and len(runs[e].axes) > 1 and sees_z:
             z_fits[e] = fit_run(runs[e].select(["Z"]), m, c_eff, band, nperseg,
-                                seed=seed + 10 + i, progress=progress, **sample_kw)
+                                seed=seed + 10 + i, progress=progress, priors=priors,
+                                **sample_kw)
     rng = np.random.default_rng(seed)
     joint = _pair([fits[e] for e in ELEMENTS], n_derived, rng)
     freqs = np.geomspace(band[0], band[1], 120)
     xyz = derive_xyz(joint, m, fam, freqs)
     mode = "z-only" if z_only else "all-outputs"
     meta = {"coil_constant": coil_constant, "coil_constant_used": c_eff,
+            "response_prior": fits[ELEMENTS[0]].response_prior,
             "runs": {e: {"source": r.source, "outputs": r.ids, "sampling_rate": r.fs,
                          "duration_s": r.data.shape[1] / r.fs} for e, r in runs.items()},
             "sampler": {**{e: f.sampler for e, f in fits.items()},

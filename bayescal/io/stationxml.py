@@ -45,7 +45,7 @@ def _errors(entry):
     return med, max(med - lo, 0.0), max(hi - med, 0.0)
 
 
-def _find_channel(inventory, cid, time):
+def find_channel(inventory, cid, time):
     """The channel object (inside ``inventory``) of SEED id ``cid`` active at
     ``time``."""
     net, sta, loc, cha = cid.split(".")
@@ -67,7 +67,7 @@ def _pendulum_poles(period_s, damping):
     return np.stack([-w0 * (h - disc), -w0 * (h + disc)], axis=-1)
 
 
-def _pole_with_errors(samples):
+def pole_with_errors(samples):
     """ComplexWithUncertainties from complex pole samples (median and 68 %)."""
     re = np.percentile(samples.real, [16, 50, 84])
     im = np.percentile(samples.imag, [16, 50, 84])
@@ -93,7 +93,7 @@ def written_period_damping(summary, family):
     return period, family.damping if "damping" in prior else summary["damping"]["median"]
 
 
-def _update_response(channel, samples, free, summary):
+def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
     from ..core.response import response_family
 
@@ -111,7 +111,7 @@ def _update_response(channel, samples, free, summary):
         current = [complex(p) / scale for p in stage.poles]
         pair = sorted(np.argsort(np.abs(current))[:2], key=lambda i: -current[i].imag)
         for k, idx in enumerate(pair):
-            err = _pole_with_errors(pole_samples[:, k])
+            err = pole_with_errors(pole_samples[:, k])
             stage.poles[idx] = ComplexWithUncertainties(
                 new[k] * scale, lower_uncertainty=err.lower_uncertainty * scale,
                 upper_uncertainty=err.upper_uncertainty * scale)
@@ -164,7 +164,7 @@ def corrected_inventory(inventory, posterior):
     time = UTCDateTime(posterior.meta["starttime"]) if posterior.meta.get("starttime") else None
     free = posterior.meta.get("free_response", "none")
     for cid, entry in summary["channels"].items():
-        ch = _find_channel(inv, cid, time)
+        ch = find_channel(inv, cid, time)
         az, dip = entry["azimuth_deg"], entry["dip_deg"]
         if "ci68" in az and not az.get("undefined"):
             med, lo, hi = _errors(az)
@@ -176,7 +176,7 @@ def corrected_inventory(inventory, posterior):
             med, lo, hi = _errors(dip)
             ch.dip = Dip(med, lower_uncertainty=lo, upper_uncertainty=hi)
         if "response" in entry and cid in posterior.response:
-            _update_response(ch, posterior.response[cid], free, entry["response"])
+            update_response(ch, posterior.response[cid], free, entry["response"])
         ch.comments.append(provenance_comment(posterior, entry))
     return inv
 
@@ -189,6 +189,28 @@ def _lean_azimuth(posterior, cid):
 
     az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
     return interval_summary(unwrap_azimuths(az))
+
+
+def prior_text(response, nominal=None):
+    """What a StationXML comment says of the response values the prior sets
+    (``response``: name -> summary entry with ``set_by_prior``, ``reason``;
+    ``nominal``: name -> nominal value): kept at nominal, or, for a damping
+    when the data fix damping/period, carried by the written damping."""
+    text = ""
+    combo = response.get("damping_over_period")
+    for name, e in response.items():
+        if not (isinstance(e, dict) and e.get("set_by_prior")) or name == "damping_over_period":
+            continue
+        if name == "damping" and combo and not combo.get("set_by_prior"):
+            lo95, hi95 = combo["ci95"]
+            text += (f" damping set by the prior, not measured; the data fix damping/period = "
+                     f"{combo['median']:.5g} 1/s (95 % [{lo95:.5g}, {hi95:.5g}]), which the "
+                     "written damping carries with the written period.")
+        else:
+            value = (nominal or {}).get(name, e.get("median"))
+            text += (f" {name} kept at its nominal value {value:.6g}: set by the prior, "
+                     f"not by the data ({e['reason']}).")
+    return text
 
 
 def provenance_comment(posterior, entry):
@@ -214,19 +236,7 @@ def provenance_comment(posterior, entry):
     if meta.get("assumption"):
         text += f" Assumed: {meta['assumption']}."
     prior = {n: e for n, e in entry.get("response", {}).items() if e.get("set_by_prior")}
-    combo = entry.get("response", {}).get("damping_over_period")
-    for name, e in prior.items():
-        nominal = (entry.get("nominal") or {}).get(name, e.get("median"))
-        if name == "damping" and combo and not combo.get("set_by_prior"):
-            lo95, hi95 = combo["ci95"]
-            text += (f" damping set by the prior, not measured; the data fix damping/period = "
-                     f"{combo['median']:.5g} 1/s (95 % [{lo95:.5g}, {hi95:.5g}]), which the "
-                     "written damping carries with the written period.")
-        elif name == "damping_over_period":
-            continue
-        else:
-            text += (f" {name} kept at its nominal value {nominal:.6g}: set by the prior, "
-                     f"not by the data ({e['reason']}).")
+    text += prior_text(entry.get("response", {}), entry.get("nominal"))
     gain = entry.get("response", {}).get("gain")
     if gain and "gain" not in prior:
         g_lo, g_hi = gain["ci68"]

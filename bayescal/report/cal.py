@@ -87,6 +87,30 @@ def response_page(fit, summary, paper="a4"):
     return fig
 
 
+def parameter_lines(summary):
+    """The fitted values with 95 % intervals and nominal values; a value the
+    prior sets is named as such, not printed as a measurement, and then
+    the damping/period the data fix is given."""
+    params = {k: v for k, v in summary["parameters"].items() if isinstance(v, dict)}
+    nominal = dict(summary["nominal"])
+    if nominal.get("period_s"):
+        nominal["damping_over_period"] = nominal["damping"] / nominal["period_s"]
+    flagged = [p for p in ("period_s", "damping") if params.get(p, {}).get("set_by_prior")]
+    lines = []
+    for p, e in params.items():
+        if e.get("set_by_prior"):
+            lines.append(f"{p}: SET BY THE PRIOR, not measured (nominal {nominal[p]:.6g}): "
+                         f"{e['reason']}")
+        elif p == "damping_over_period" and flagged:
+            lines.append(f"the data fix damping/period = {e['median']:.4g} [{e['ci95'][0]:.4g}, "
+                         f"{e['ci95'][1]:.4g}] 1/s (95 %), which the corrected StationXML's "
+                         "poles carry")
+        else:
+            lines.append(f"{p}: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, "
+                         f"{e['ci95'][1]:.6g}]  (nominal {nominal.get(p, float('nan')):.6g})")
+    return lines
+
+
 def residuals_page(fit, summary, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
     from ..core.convergence import describe_sampler, not_converged_line
@@ -118,10 +142,7 @@ def residuals_page(fit, summary, paper="a4"):
                if summary.get("meta", {}).get("sampler") else []),
              f"Band {summary['band_hz'][0]:.4g}-{summary['band_hz'][1]:.4g} Hz; "
              f"fixed at nominal: {summary['fixed_at_nominal'] or 'nothing'}"]
-    for k, (p, e) in enumerate((k, v) for k, v in summary["parameters"].items()
-                               if isinstance(v, dict)):
-        lines.append(f"{p}: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, {e['ci95'][1]:.6g}]"
-                     f"  (nominal {summary['nominal'].get(p, float('nan')):.6g})")
+    lines += parameter_lines(summary)
     for kind in ("hf_poles", "hf_zeros"):
         for e in summary["parameters"][kind]:
             lines.append(f"{kind[3:-1]} at {e['frequency_hz']:.4g} Hz: "

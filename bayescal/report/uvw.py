@@ -56,23 +56,34 @@ def _response_panels(fig, f, curves, title):
         a.grid(True, which="both", alpha=0.3)
 
 
+def _cell(entry, digits=5):
+    """A table cell: median and 95 % interval, or that the prior sets it
+    (a value the prior sets is not a measurement)."""
+    if not entry:
+        return "-"
+    if entry.get("set_by_prior"):
+        return "set by the prior\n(not measured)"
+    lo, hi = entry["ci95"]
+    return f"{entry['median']:.{digits}g}\n[{lo:.{digits}g}, {hi:.{digits}g}]"
+
+
 def elements_page(result, summary, paper="a4"):
     """Element responses over the nominal with 90 % bands, and the table."""
     fig = plt.figure(figsize=page_size(paper, landscape=True))
-    left, right = fig.subfigures(1, 2, width_ratios=[1.6, 1])
+    left, right = fig.subfigures(1, 2, width_ratios=[1.35, 1])
     k = element_ratios(result.joint, result.family, result.freqs)
     _response_panels(left, result.freqs, {e: k[:, j] for j, e in enumerate(ELEMENTS)},
                      "element responses (90 % bands)")
     ax = right.subplots()
     ax.axis("off")
-    rows = [[e] + [f"{summary['elements'][e][p]['median']:.5g}\n"
-                   f"[{summary['elements'][e][p]['ci95'][0]:.5g}, "
-                   f"{summary['elements'][e][p]['ci95'][1]:.5g}]" for p in PARAMS]
-            for e in ELEMENTS]
-    tab = ax.table(cellText=rows, colLabels=["", "period (s)", "damping", "gain"],
-                   loc="upper center", cellLoc="center", colWidths=[0.1, 0.3, 0.3, 0.3])
+    cols = (*PARAMS, "damping_over_period")
+    rows = [[e] + [_cell(summary["elements"][e].get(p), 4 if p == "damping_over_period" else 5)
+                   for p in cols] for e in ELEMENTS]
+    tab = ax.table(cellText=rows, colLabels=["", "period (s)", "damping", "gain",
+                                             "damping/period (1/s)"],
+                   loc="upper center", cellLoc="center", colWidths=[0.08, 0.23, 0.23, 0.23, 0.23])
     tab.auto_set_font_size(False)
-    tab.set_fontsize(7)
+    tab.set_fontsize(6)
     tab.scale(1, 3)
     ax.set_title(f"medians [95 %]  ({summary['mode']})\ngain: {summary['gain_units']}",
                  fontsize=8)

@@ -37,6 +37,7 @@ from bayescal import coil
 from bayescal.coil.random import fit_random
 from bayescal.coil.sine import fit_sine
 from bayescal.coil.step import fit_step, least_squares_step
+from bayescal.core import pendulum
 from bayescal.simulate.cal import (HF_NOMINAL, LP_NOMINAL, simulate_random_cal,
                                    simulate_sine_cal, simulate_step_cal)
 
@@ -73,17 +74,19 @@ def _step_run(i, fs, noise_ratio):
 
 
 def step_laplace_case(i, fs, noise_ratio):
-    """A step run's least-squares point and Laplace 95 % interval (in ln T,
-    h, ln G, mapped to period, damping, gain)."""
+    """A step run's least-squares point and Laplace 95 % interval (in the
+    sampler's c0_rel, c1_rel, ln G, carried to ln T, ln h, ln G)."""
     truth, run = _step_run(i, fs, noise_ratio)
-    _, _, theta, cov = least_squares_step(run, COIL)
-    sd = np.sqrt(np.diag(cov))
+    _, spec, theta, cov = least_squares_step(run, COIL)
+    c0, c1 = theta[0], theta[1]
+    grad = np.array([[-0.5 / c0, 0.0, 0.0], [-0.5 / c0, 1.0 / c1, 0.0], [0.0, 0.0, 1.0]])
+    sd = np.sqrt(np.einsum("ki,ij,kj->k", grad, cov, grad))
+    period, damping = pendulum.to_physical(c0, c1, spec.family.period_s, spec.family.damping)
     out = {}
-    for j, (p, t) in enumerate(zip(("period_s", "damping", "gain"), truth)):
-        tt = t if p == "damping" else np.log(t)
-        inside = abs(theta[j] - tt) <= 1.959964 * sd[j]
-        est = theta[j] if p == "damping" else np.exp(theta[j])
-        out[p] = (bool(inside), est / t - 1, (theta[j] - tt) / sd[j])
+    for j, (p, t, est) in enumerate(zip(("period_s", "damping", "gain"), truth,
+                                        (period, damping, np.exp(theta[2])))):
+        z = (np.log(est) - np.log(t)) / sd[j]
+        out[p] = (bool(abs(z) <= 1.959964), est / t - 1, z)
     return out, True
 
 

@@ -31,13 +31,22 @@ from scipy.fft import rfft
 from cal_coverage import COIL, _step_run  # the sibling study, run as a script
 
 from bayescal.coil.step import least_squares_step
+from bayescal.core import pendulum  # noqa: E402
 from bayescal.core.response import paz_velocity_response  # noqa: E402
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ  # noqa: E402
 
 
+def truth_theta(model, truth):
+    """The step model's coordinates (c0_rel, c1_rel, ln G) of a truth
+    (period, damping, gain)."""
+    fam = model.spec.family
+    return np.r_[pendulum.from_physical(truth[0], truth[1], fam.period_s, fam.damping),
+                 np.log(truth[2])]
+
+
 def exact_z(model, truth, noise_ratio, amplitude=1e5, digitizer=1.0):
     """Linearised GLS error over its sd with the simulator's noise spectrum."""
-    th = np.array([np.log(truth[0]), truth[1], np.log(truth[2])])
+    th = truth_theta(model, truth)
     n = model.x.size
     kf = np.arange(1, (n - 1) // 2 + 1)
     f = kf * model.fs / n
@@ -73,7 +82,7 @@ def main():
     for i in range(args.first, args.last):
         truth, run = _step_run(i, args.fs, args.noise_ratio)
         model, _, theta, cov = least_squares_step(run, COIL)
-        th = np.array([np.log(truth[0]), truth[1], np.log(truth[2])])
+        th = truth_theta(model, truth)
         za.append((theta - th) / np.sqrt(np.diag(cov)))
         ze.append(exact_z(model, truth, args.noise_ratio))
         e = model.innovations(th[None])[0]
