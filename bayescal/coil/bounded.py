@@ -60,10 +60,9 @@ class BoundedPosterior:
         i = self.pendulum_index
         if i is None:
             return np.zeros(0)
-        x, y = pendulum.log_deviations(theta[i], theta[i + 1])
         pr = self.priors
-        return np.array([x / pr.period_tolerance, y / pr.damping_tolerance]) / np.sqrt(
-            2.0 * self.LIKELIHOOD_SCALE)
+        return pendulum.prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
+                                       pr.damping_tolerance)[0] / np.sqrt(self.LIKELIHOOD_SCALE)
 
     def fisher(self, theta):
         """The likelihood's information ``2 s J^T J`` at ``theta`` (``J`` the

@@ -9,11 +9,15 @@ per-time-block model, :mod:`bayescal.criticism.search`). Steps are scipy's
 size, ``sqrt(eps) max(1, |theta|)``, always forward; the columns agree
 with scipy's to the differences' rounding, not to the bit, so a fit whose
 numbers must not move keeps ``"2-point"``.
+
+:func:`least_squares_objective` is what least squares minimises: the
+whitened residual with the pendulum priors' rows appended.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from . import pendulum
 from .likelihood import Model
 
 
@@ -59,3 +63,37 @@ def _eiv_jacobian(model):
         r = z.reshape(z.shape[0], -1)
         return ((r[1:] - r[0]) / h[:, None]).T
     return jac
+
+
+def least_squares_objective(model, jac):
+    """``(fun, jac)`` for :func:`scipy.optimize.least_squares` on ``model``
+    (args ``(factors,)``): the whitened residual and, for each channel whose
+    period and damping are free, the pendulum prior's rows appended
+    (:func:`bayescal.core.pendulum.prior_residual`), so that a direction the
+    data hardly fix stays where the prior puts it and ``2 J^T J`` is the
+    posterior's Laplace precision. ``jac``: the whitened residual's (a
+    callable or scipy's ``"2-point"``)."""
+    pr = model.priors
+    blocks = [sr.start for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"]
+    if not blocks:
+        return model.whitened_residual, jac
+
+    def prior_rows(theta):
+        rows, out = [], []
+        for i in blocks:
+            r, d = pendulum.prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
+                                           pr.damping_tolerance)
+            full = np.zeros((2, theta.size))
+            full[:, i:i + 2] = d
+            rows.append(r)
+            out.append(full)
+        return np.concatenate(rows), np.vstack(out)
+
+    def fun(theta, factors):
+        return np.concatenate([model.whitened_residual(theta, factors), prior_rows(theta)[0]])
+    if not callable(jac):
+        return fun, jac
+
+    def both(theta, factors):
+        return np.vstack([jac(theta, factors), prior_rows(theta)[1]])
+    return fun, both

@@ -391,50 +391,6 @@ class Model:
         z = self._whiten(theta, factors)
         return np.concatenate([z.real.ravel(), z.imag.ravel()])
 
-    def prior_residual(self, theta):
-        """Real vector whose squared norm is the pendulum priors' ``-log p``
-        (less their Jacobian): ``ln(T/T_nom) / (sd sqrt 2)`` and the same for
-        the damping, per channel whose period and damping are free; and its
-        Jacobian (rows) in model coordinates. Least squares minimises it with
-        the whitened residual, so that a direction the data hardly fix stays
-        where the prior puts it."""
-        theta = np.asarray(theta, float)
-        pr = self.priors
-        rows, jac = [], []
-        for b, (_, sr) in zip(self.blocks, self.slices):
-            if b.free != "all":
-                continue
-            c0, c1 = max(theta[sr.start], 1e-12), max(theta[sr.start + 1], 1e-12)
-            x, y = pendulum.log_deviations(c0, c1)
-            scale = np.array([pr.period_tolerance, pr.damping_tolerance]) * np.sqrt(2.0)
-            rows.append(np.array([x, y]) / scale)
-            d = np.zeros((2, theta.size))
-            d[:, [sr.start, sr.start + 1]] = pendulum.prior_precision(
-                c0, c1, pr.period_tolerance, pr.damping_tolerance)[1] / scale[:, None]
-            jac.append(d)
-        if not rows:
-            return np.zeros(0), np.zeros((0, theta.size))
-        return np.concatenate(rows), np.vstack(jac)
-
-    def least_squares_objective(self, jac):
-        """``(fun, jac)`` for :func:`scipy.optimize.least_squares` (args
-        ``(factors,)``): the whitened residual and, when the model has
-        pendulum priors, their residual appended (:meth:`prior_residual`),
-        so that ``2 J^T J`` is the posterior's Laplace precision. ``jac``:
-        the whitened residual's (a callable or scipy's ``"2-point"``)."""
-        if not any(b.free == "all" for b in self.blocks):
-            return self.whitened_residual, jac
-
-        def fun(theta, factors):
-            return np.concatenate([self.whitened_residual(theta, factors),
-                                   self.prior_residual(theta)[0]])
-        if not callable(jac):
-            return fun, jac
-
-        def both(theta, factors):
-            return np.vstack([jac(theta, factors), self.prior_residual(theta)[1]])
-        return fun, both
-
     # --- noise model -------------------------------------------------------
     def estimate_noise(self, theta0):
         """Plug-in noise model at ``theta0`` (see module docstring); sets and

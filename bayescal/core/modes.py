@@ -55,6 +55,7 @@ from scipy.special import gammaincinv
 
 from .geometry import Circle, Sphere, azimuth_dip
 from .jacobian import forward_jacobian as _jacobian
+from .jacobian import least_squares_objective
 from .unconstrained import information, prior_bounds
 
 #: Smallest posterior mass fraction of a second mode that makes a fit multimodal.
@@ -122,7 +123,7 @@ def _polish(model, theta, factors):
 
 
 def _least_squares(model, theta, factors, lo, hi):
-    fun, jac = model.least_squares_objective(_jacobian(model))
+    fun, jac = least_squares_objective(model, _jacobian(model))
     res = least_squares(fun, theta, jac=jac, args=(factors,), method="lm")
     if np.any(res.x < lo) or np.any(res.x > hi):
         res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac, args=(factors,),

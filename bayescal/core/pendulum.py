@@ -98,6 +98,18 @@ def prior_precision(c0_rel, c1_rel, period_tol, damping_tol):
     return jac.T @ np.diag([period_tol ** -2, damping_tol ** -2]) @ jac, jac
 
 
+def prior_residual(c0_rel, c1_rel, period_tol, damping_tol):
+    """Least squares' rows for the prior: ``(r, J)`` with ``r`` (2,) whose
+    squared norm is the log-normal priors' ``-log p`` less their Jacobian,
+    ``(ln T0/T_nom / period_tol, ln h/h_nom / damping_tol) / sqrt 2``, and
+    ``J`` (2, 2) its derivative in ``(c0_rel, c1_rel)``."""
+    c0, c1 = max(float(c0_rel), 1e-12), max(float(c1_rel), 1e-12)
+    x, y = log_deviations(c0, c1)
+    scale = np.array([period_tol, damping_tol]) * np.sqrt(2.0)
+    return np.array([x, y]) / scale, prior_precision(c0, c1, period_tol, damping_tol)[1] / \
+        scale[:, None]
+
+
 def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol):
     """Does the prior set period, damping or damping/period?
 

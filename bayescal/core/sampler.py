@@ -151,14 +151,15 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
 
     Returns ``(theta, covariance)``; the covariance is the inverse Fisher
     information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm),
-    the pendulum priors' included (:meth:`Model.least_squares_objective`):
-    along a direction the data hardly fix, the point stays where the prior
-    puts it.
+    the pendulum priors' included
+    (:func:`bayescal.core.jacobian.least_squares_objective`): along a
+    direction the data hardly fix, the point stays where the prior puts it.
     """
+    from .jacobian import least_squares_objective
     if jac is None:
         from .jacobian import forward_jacobian
         jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
-    fun, jac = model.least_squares_objective(jac)
+    fun, jac = least_squares_objective(model, jac)
     lo, hi = _bounds(model)
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     model.estimate_noise(theta)
