@@ -40,7 +40,8 @@ from ..core.mcmc import sample
 from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
-from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
+from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
+                     orientation_score, score, search)
 from .locate import ALPHA, _runs, band_ratio, locate, ratio_weights, segment_timing
 
 
@@ -122,16 +123,98 @@ def _effect_entry(model, effect, sl, samples, step_score):
     ids = [model.blocks[r].channel_id for r in effect.rows]
     if effect.name == "extra_pole":
         params["which"] = effect.which
-    return {"name": effect.name, "channels": ids, "parameters": params,
-            "score_gain": step_score, "explanation": effect.explain(med)}
+    entry = {"name": effect.name, "channels": ids, "parameters": params,
+             "score_gain": step_score, "explanation": effect.explain(med)}
+    if effect.name == "response_parameters":     # the metadata values the fit held
+        entry["nominal"] = {f"{k}:{c}": getattr(fam, k) for fam, c in
+                            zip(effect.families, effect.channel_ids)
+                            for k in ("period_s", "damping")}
+    return entry
 
 
-def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
+def _without(model, theta, drop):
+    """(model, theta) with the effects whose keys are in ``drop`` removed
+    (the channel blocks' and the other effects' parameters kept)."""
+    keep = [(e, sl) for e, sl in zip(model.effects, model.effect_slices) if _key(e) not in drop]
+    m = _with(model, [e for e, _ in keep])
+    th = np.concatenate([_theta_base(model, theta)] + [np.asarray(theta)[sl] for _, sl in keep])
+    return m, th
+
+
+def prune(model, theta, log=None):
+    """Backward elimination: drop a kept effect whose removal (the rest
+    re-fitted under the final noise model) costs no more than
+    :data:`BIC_KEEP`; one at a time, the weakest first. One cause absorbed
+    by two entries (a delay and a pole far above the band, say) leaves one.
+    Returns (model, theta, dropped keys with their BIC gain)."""
+    dropped = []
+    while len(model.effects) >= 2:
+        gains = []
+        for e in model.effects:
+            m, th = _without(model, theta, {_key(e)})
+            gains.append((score(m, th, model, theta)["delta_bic"], _key(e)))
+        gain, key = min(gains)
+        if gain > BIC_KEEP:
+            break
+        if log:
+            log(f"  {key} dropped: the other effects explain it (BIC gain {gain:.1f})")
+        m, th = _without(model, theta, {key})
+        m.adopt_noise(model.noise)
+        model, theta = m, _refit(m, (th,))[1]
+        dropped.append({"effect": key, "delta_bic": float(gain)})
+    return model, theta, dropped
+
+
+#: Sub-band timing offsets agree when they differ by less than this many
+#: standard errors or this fraction of the offset, whichever is larger.
+TIMING_AGREE_SD, TIMING_AGREE_FRACTION = 4.0, 0.25
+
+
+def timing_consistency(model, theta):
+    """A timing offset in ``model`` read separately from the lower and upper
+    half of the bands (the phase slope of the recorded/predicted ratio with
+    the offset taken out). Returns a JSON-safe dict with ``consistent``."""
+    i = next(k for k, e in enumerate(model.effects) if e.name == "timing_offset")
+    sl = model.effect_slices[i]
+    tau = float(np.asarray(theta)[sl][0])
+    th0 = np.array(theta, float)
+    th0[sl] = 0.0
+    q = band_ratio(model, th0)
+    w = ratio_weights(model.spectra)
+    f = model.spectra.band_centres
+    phase = np.unwrap(np.angle(q), axis=0)
+    half = len(f) // 2
+    out = []
+    for sel in (slice(0, max(half, 1)), slice(max(half, 1), None)):
+        ff, ph, ww = f[sel, None], phase[sel], 2.0 * w[sel]
+        if ph.size == 0:
+            continue
+        den = np.sum(ww * ff * ff)
+        t = -np.sum(ww * ff * ph) / (2 * np.pi * den)
+        # the phase's scatter about the line sets the error (at least its noise)
+        chi = np.sum(ww * (ph + 2 * np.pi * ff * t) ** 2) / max(ph.size - 1, 1)
+        sd = np.sqrt(max(chi, 1.0) / den) / (2 * np.pi)
+        out.append({"band_hz": [float(model.spectra.band_edges[sel][0]),
+                                float(model.spectra.band_edges[1:][sel][-1])],
+                    "seconds": float(t), "sd": float(sd)})
+    if len(out) < 2:
+        return {"seconds": tau, "sub_bands": out, "consistent": True}
+    a, b = out
+    diff = abs(a["seconds"] - b["seconds"])
+    ok = (np.sign(a["seconds"]) == np.sign(b["seconds"])
+          and diff <= max(TIMING_AGREE_SD * np.hypot(a["sd"], b["sd"]),
+                          TIMING_AGREE_FRACTION * abs(tau)))
+    return {"seconds": tau, "sub_bands": out, "consistent": bool(ok)}
+
+
+def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
     """Diagnose a base fit.
 
     ``base`` is a :class:`Posterior` from :func:`bayescal.io.pipeline.calibrate`
-    (with ``.model`` and ``.theta_ls`` attached). Returns a
-    :class:`Diagnosis`.
+    (with ``.model`` and ``.theta_ls`` attached). ``deadline``: a
+    :func:`time.monotonic` value past which no further candidate effect is
+    tried (the diagnosis is then incomplete: ``Diagnosis.incomplete``).
+    Returns a :class:`Diagnosis`.
     """
     model0 = base.model
     free = base.meta.get("free_response", "none")
@@ -154,7 +237,29 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
     if start.per_block:
         start.estimate_noise(th0)
-    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"])
+    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
+                                   deadline=deadline)
+    stop = steps[-1][-1] if steps and steps[-1] else {}
+    incomplete = stop if stop.get("stopped") else None
+    tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
+    dropped = []
+    if model.effects and incomplete is None:
+        model, th2, dropped = prune(model, th, log=log)
+        if any(e.name == "timing_offset" for e in model.effects):
+            sig["timing_consistency"] = tc = timing_consistency(model, th2)
+            if not tc["consistent"]:
+                if log:
+                    log("  timing_offset dropped: not consistent across sub-bands")
+                m, t = _without(model, th2, {"timing_offset"})
+                m.adopt_noise(model.noise)
+                model, th2 = m, _refit(m, (t,))[1]
+                dropped.append({"effect": "timing_offset", "reason": "its size differs between "
+                                "the lower and the upper half of the band"})
+        if dropped:
+            if model.effects:
+                th, cov = least_squares_fit(model, th2)
+            else:
+                model, th, cov = start, th0, None
     if cov is None:
         model, th = model0, th0
         cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
@@ -211,6 +316,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                             "less), so the orientation and response estimates do not move",
                             "signature": sig["tilt_noise"]})
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
+                     incomplete=incomplete, tried=tried, dropped=dropped,
                      before_common=before_common,
                      steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
                      ratio_before=q, ratio_after=band_ratio(model, th))
