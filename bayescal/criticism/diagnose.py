@@ -172,14 +172,14 @@ TIMING_AGREE_SD, TIMING_AGREE_FRACTION = 4.0, 0.25
 
 def timing_consistency(model, theta):
     """A timing offset in ``model`` read separately from the lower and upper
-    half of the bands (the phase slope of the recorded/predicted ratio with
-    the offset taken out). Returns a JSON-safe dict with ``consistent``."""
+    half of the bands: the offset plus the phase slope of the
+    recorded/predicted ratio that the model with the offset leaves there (a
+    residual phase, so no wrapping). Returns a JSON-safe dict with
+    ``consistent``."""
     i = next(k for k, e in enumerate(model.effects) if e.name == "timing_offset")
     sl = model.effect_slices[i]
     tau = float(np.asarray(theta)[sl][0])
-    th0 = np.array(theta, float)
-    th0[sl] = 0.0
-    q = band_ratio(model, th0)
+    q = band_ratio(model, np.asarray(theta, float))
     w = ratio_weights(model.spectra)
     f = model.spectra.band_centres
     phase = np.unwrap(np.angle(q), axis=0)
@@ -196,7 +196,7 @@ def timing_consistency(model, theta):
         sd = np.sqrt(max(chi, 1.0) / den) / (2 * np.pi)
         out.append({"band_hz": [float(model.spectra.band_edges[sel][0]),
                                 float(model.spectra.band_edges[1:][sel][-1])],
-                    "seconds": float(t), "sd": float(sd)})
+                    "seconds": float(tau + t), "sd": float(sd)})
     if len(out) < 2:
         return {"seconds": tau, "sub_bands": out, "consistent": True}
     a, b = out
@@ -347,9 +347,10 @@ class Diagnosis:
             d = {}
             for key in ("azimuth_deg", "dip_deg"):
                 if "median" in b[cid][key] and not b[cid][key].get("undefined"):
-                    d[key] = f[cid][key]["median"] - b[cid][key]["median"]
+                    d[key] = _difference(f[cid][key].get("median"), b[cid][key]["median"])
             for key, v in b[cid].get("response", {}).items():
-                d[key] = f[cid]["response"][key]["median"] - v["median"]
+                d[key] = _difference(f[cid]["response"].get(key, {}).get("median"),
+                                     v.get("median"))
             out[cid] = d
         return out
 
@@ -410,6 +411,11 @@ class Diagnosis:
                 "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
                              "score": "BIC difference under the extended model's noise model"},
                 "base": self.base.summary(), "final": self.final.summary()}
+
+
+def _difference(a, b):
+    """a - b, or nan when either is missing (a summary holds None for nan)."""
+    return float("nan") if a is None or b is None else a - b
 
 
 def misfit_change(edges, before, after):

@@ -82,6 +82,8 @@ def improved_estimates(base_summary, final_summary):
         for key, be, fe in pairs:
             if "ci68" not in be or "ci68" not in fe or be.get("undefined") or fe.get("undefined"):
                 continue
+            if be.get("median") is None or fe.get("median") is None:
+                continue
             sd = _sd(be)
             moved = (fe["median"] - be["median"]) / sd if sd > 0 else 0.0
             entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
@@ -258,6 +260,14 @@ def fits():
     """The criticism's summary when the model check passes (nothing run)."""
     return {"verdict": "fits", "verdict_text": "the model fits the recordings within their "
             "noise: the estimates are usable as they are", "effects": [], "complete": True}
+
+
+def failed(exc):
+    """The criticism's summary when it stopped on an error (the fit stands)."""
+    return {"verdict": "unexplained", "verdict_text": "the search for the cause of the misfit "
+            f"stopped on an error ({type(exc).__name__}: {exc}): the misfit stays unexplained; "
+            "treat the estimates with caution", "effects": [], "complete": False,
+            "error": f"{type(exc).__name__}: {exc}"}
 
 
 def lines(c):

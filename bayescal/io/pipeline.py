@@ -209,8 +209,12 @@ def _criticise(post, budget_s, seed, sample_kw):
         return
     if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
         return
-    from ..criticism.verdict import criticise
-    c = criticise(post, budget_s=budget_s, seed=seed, **sample_kw)
+    from ..criticism.verdict import criticise, failed
+    try:
+        c = criticise(post, budget_s=budget_s, seed=seed, **sample_kw)
+    except Exception as exc:   # noqa: BLE001 - the fit's results stand without it
+        post.criticism = failed(exc)
+        return
     post.criticism = c.summary
     post.improved = c.improved
 

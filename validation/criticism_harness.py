@@ -1,0 +1,257 @@
+"""Proof harness of the criticism in ``bayescal fit``: does it name only what
+is there?
+
+Simulated pairs whose noise differs from the simulator's default (a reference
+much quieter than the SUT, isotropic field, 1 h): here both sensors have
+*equal* self-noise, either shaped like the ground motion or white in counts
+(rising in velocity below each sensor's corner), the field is either the
+default mix or anisotropic (two plane waves, almost no diffuse part), and the
+record lasts 1 to 4 h. Each pair goes through :func:`bayescal.calibrate` with
+the product's defaults (gains free, reference noise estimated, the criticism
+on when the model check fails); the run's sampler is shortened (``min_ess``
+200, 20 autocorrelation times) for time.
+
+Seeds are fixed before any result is seen: clean pairs use seeds
+``CLEAN_SEEDS``, single-effect pairs ``EFFECT_SEEDS``, the effect of seed
+``s`` is ``KINDS[s % len(KINDS)]`` and every other draw comes from
+``numpy.random.default_rng(s)``.
+
+Scoring (per run):
+
+* clean pair: "false name" when the criticism names any effect;
+* effect pair: "right name" when the hidden effect is named (an extra pole on
+  the right sensor, a reversed or re-gained channel on the right channel, a
+  swap on the right pair); a gain error also when it is measured as the
+  channel's relative gain (fitted / metadata) whose 95 % interval excludes 1
+  (the default fit leaves gains free, so a gain error is no misfit);
+  "extra names" counts other effects named beside it; "miss" when nothing is
+  named, "wrong name" when only others are.
+* each recovered size: inside its 95 % interval or not.
+
+    python validation/criticism_harness.py --clean 60 --effects 60 \\
+        --out validation/results/criticism_harness.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+
+KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
+         "channel_swap", "tilt_noise", "response_parameters"]
+#: Fixed before the results were seen.
+CLEAN_SEEDS = list(range(7000, 7100))
+EFFECT_SEEDS = list(range(8000, 8100))
+FS = 10.0
+BAND = (0.02, 2.0)
+NOMINAL = (30.0, 0.707, 750.0)
+
+
+def draw(seed, kind):
+    """(simulate_pair keywords, truth) of run ``seed`` with effect ``kind``
+    (or None)."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(0, 360)
+    coherence = float(rng.uniform(0.9, 0.995))
+    counts = bool(rng.uniform() < 0.5)
+    aniso = bool(rng.uniform() < 0.5)
+    duration = float(rng.choice([3600.0, 7200.0, 10800.0, 14400.0]))
+    az, dip = (a, a + 90, 0.0), (0.0, 0.0, -90.0)
+    nom_az = tuple(x + rng.uniform(-3, 3) for x in az[:2]) + (0.0,)
+    kw = dict(duration=duration, fs=FS, seed=seed, coherence=coherence,
+              ref_coherence=coherence, noise_in_counts=counts, sut_azimuth=az, sut_dip=dip,
+              nominal_azimuth=nom_az, nominal_dip=dip, nominal_response=NOMINAL,
+              **({"n_waves": 2, "diffuse": 0.05} if aniso else {}))
+    regime = {"noise": "equal, white in counts" if counts else "equal, ground-shaped",
+              "field": "anisotropic" if aniso else "default", "duration_s": duration,
+              "coherence": coherence}
+    sign = rng.choice([-1, 1])
+    truth = None
+    if kind == "timing_offset":
+        s = float(sign * rng.uniform(0.02, 0.5))
+        kw["timing_offset_s"], truth = s, {"seconds": s}
+    elif kind == "clock_drift":
+        p = float(sign * rng.uniform(10, 100))
+        kw["clock_drift_ppm"], truth = p, {"ppm": p}
+    elif kind == "extra_pole":
+        which = str(rng.choice(["sut", "ref"]))
+        fc = float(np.exp(rng.uniform(np.log(0.2), np.log(2.0))))
+        kw["extra_pole"], truth = (which, fc), {"corner_hz": fc, "which": which}
+    elif kind == "gain_error":
+        ch, frac = int(rng.integers(3)), float(sign * rng.uniform(0.02, 0.1))
+        resp = [NOMINAL] * 3
+        resp[ch] = (30.0, 0.707, 750.0 * (1 + frac))
+        kw["sut_response"], truth = tuple(resp), {"fraction": frac, "row": ch}
+    elif kind == "polarity_reversal":
+        ch = int(rng.integers(3))
+        kw["polarity_reversal"], truth = ch, {"row": ch}
+    elif kind == "channel_swap":
+        pair = tuple(sorted(int(x) for x in rng.choice(3, 2, replace=False)))
+        kw["channel_swap"], truth = pair, {"rows": list(pair)}
+    elif kind == "tilt_noise":
+        level = float(np.exp(rng.uniform(np.log(10), np.log(100))))
+        kw["tilt_noise"], truth = level, {"level": level}
+    elif kind == "response_parameters":
+        d = rng.uniform(-0.08, 0.08, 3)
+        h = rng.uniform(-0.04, 0.04, 3)
+        resp = tuple((30.0 * (1 + a_), 0.707 + b_, 750.0) for a_, b_ in zip(d, h))
+        kw["sut_response"] = resp
+        truth = {f"period_s:{r}": resp[r][0] for r in range(3)}
+        truth.update({f"damping:{r}": resp[r][1] for r in range(3)})
+    return kw, truth, regime
+
+
+def _hit(kind, truth, named, ids):
+    for e in named:
+        if e["name"] != kind:
+            continue
+        if kind == "extra_pole" and e["size"].get("which") != truth["which"] and \
+                e.get("which") != truth["which"]:
+            continue
+        if kind in ("gain_error", "polarity_reversal") and e["channels"] != [ids[truth["row"]]]:
+            continue
+        if kind == "channel_swap" and sorted(e["channels"]) != sorted(ids[r]
+                                                                      for r in truth["rows"]):
+            continue
+        return e
+    return None
+
+
+def _sizes(kind, truth, hit, ids):
+    out = {}
+    if hit is None or truth is None:
+        return out
+    for k, v in truth.items():
+        key = k
+        if kind == "response_parameters":
+            name, row = k.split(":")
+            key = f"{name}:{ids[int(row)]}"
+        p = hit["size"].get(key)
+        if isinstance(p, dict) and "ci95" in p and isinstance(v, float):
+            out[k] = {"truth": v, "median": p["median"], "ci95": p["ci95"],
+                      "covered": bool(p["ci95"][0] <= v <= p["ci95"][1])}
+    return out
+
+
+def run_one(seed, kind):
+    import bayescal
+    from bayescal.io.read import InputError
+    from bayescal.simulate.pair import simulate_pair
+
+    kw, truth, regime = draw(seed, kind)
+    sim = simulate_pair(**kw)
+    ids = [tr.id for tr in sim.sut]
+    rec = {"seed": seed, "kind": kind or "none", "regime": regime}
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                                      ref_xml=sim.ref_inventory, band=BAND, progress=False,
+                                      seed=seed, min_ess=200, n_tau=20)
+    except InputError as exc:
+        rec.update(outcome="refused", note=str(exc)[:200], seconds=time.perf_counter() - t0)
+        return rec
+    summ = post.summary()
+    crit = summ.get("criticism") or {}
+    named = crit.get("effects", [])
+    # which sensor a named pole is on (kept in the effect's explanation)
+    for e in named:
+        if e["name"] == "extra_pole":
+            e["which"] = "ref" if "reference's response" in e["explanation"] else "sut"
+    rec.update(seconds=time.perf_counter() - t0, check_ok=summ["adequacy"].get("ok"),
+               verdict=crit.get("verdict", "fits"), named=[e["name"] for e in named],
+               criticism_s=crit.get("seconds"), complete=crit.get("complete", True))
+    if kind is None:
+        rec["outcome"] = "false name" if named else "clean"
+        return rec
+    hit = _hit(kind, truth, named, ids)
+    if hit is None and kind == "gain_error":
+        rel = summ["channels"].get(ids[truth["row"]], {}).get("response", {}).get(
+            "relative_gain")
+        if rel and "ci95" in rel and not rel["ci95"][0] <= 1.0 <= rel["ci95"][1]:
+            hit = {"size": {"fraction": {"median": rel["median"] - 1,
+                                         "ci95": [rel["ci95"][0] - 1, rel["ci95"][1] - 1]}}}
+            rec["measured_as"] = "relative gain"
+    rec["extra_names"] = [n for n in rec["named"] if n != kind] if hit else []
+    rec["outcome"] = "right name" if hit else ("wrong name" if named else "miss")
+    rec["sizes"] = _sizes(kind, truth, hit, ids)
+    return rec
+
+
+def summarise(records):
+    clean = [r for r in records if r["kind"] == "none" and r["outcome"] != "refused"]
+    eff = [r for r in records if r["kind"] != "none" and r["outcome"] != "refused"]
+    cover = [s["covered"] for r in eff for s in r.get("sizes", {}).values()]
+    by_kind = {}
+    for r in eff:
+        d = by_kind.setdefault(r["kind"], {"runs": 0, "right name": 0, "extra names": 0,
+                                           "miss": 0, "wrong name": 0})
+        d["runs"] += 1
+        d[r["outcome"]] += 1
+        d["extra names"] += bool(r.get("extra_names"))
+    return {
+        "clean_runs": len(clean),
+        "clean_false_name": sum(r["outcome"] == "false name" for r in clean),
+        "effect_runs": len(eff),
+        "effect_right_name": sum(r["outcome"] == "right name" for r in eff),
+        "effect_with_extra_names": sum(bool(r.get("extra_names")) for r in eff),
+        "sizes_covered": int(sum(cover)), "sizes": len(cover),
+        "refused": sum(r["outcome"] == "refused" for r in records),
+        "criticism_incomplete": sum(not r.get("complete", True) for r in records),
+        "by_kind": by_kind,
+        "median_seconds": float(np.median([r["seconds"] for r in records])) if records else None,
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--clean", type=int, default=60)
+    ap.add_argument("--effects", type=int, default=60)
+    ap.add_argument("--out", default="validation/results/criticism_harness.json")
+    ap.add_argument("--stop-at", default=None,
+                    help="UTC time HH:MM after which no new run starts (the summary says so)")
+    args = ap.parse_args(argv)
+    plan = []
+    for k in range(max(args.clean, args.effects)):      # interleaved: a stop leaves both kinds
+        if k < args.clean:
+            plan.append((CLEAN_SEEDS[k], None))
+        if k < args.effects:
+            s = EFFECT_SEEDS[k]
+            plan.append((s, KINDS[s % len(KINDS)]))
+    records, stopped = [], False
+    t0 = time.perf_counter()
+    for seed, kind in plan:
+        if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
+            stopped = True
+            break
+        rec = run_one(seed, kind)
+        records.append(rec)
+        print(f"{len(records):3d} seed {seed} {rec['kind']:20s} -> {rec['outcome']:11s} "
+              f"{rec.get('named')} {rec.get('verdict')} {rec['seconds']:.1f} s",
+              file=sys.stderr, flush=True)
+        os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
+        out = {"summary": summarise(records), "planned": len(plan), "done": len(records),
+               "stopped_early": False, "seconds": time.perf_counter() - t0,
+               "settings": {"fs": FS, "band_hz": BAND, "sampler": "min_ess 200, 20 tau",
+                            "clean_seeds": CLEAN_SEEDS[:args.clean],
+                            "effect_seeds": EFFECT_SEEDS[:args.effects], "kinds": KINDS},
+               "runs": records}
+        with open(args.out + ".tmp", "w") as fh:
+            json.dump(out, fh, indent=1, default=float)
+        os.replace(args.out + ".tmp", args.out)
+    if stopped:
+        out["stopped_early"] = True
+        with open(args.out, "w") as fh:
+            json.dump(out, fh, indent=1, default=float)
+    print(json.dumps(summarise(records), indent=1), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
