@@ -32,7 +32,7 @@ import os
 
 import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
-from obspy.core.util.obspy_types import ComplexWithUncertainties
+from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
 from .read import InputError
 
@@ -186,7 +186,8 @@ def criticism_comment(channel, cid, criticism):
     if tau is not None:
         stage = _decimating_stage(channel)
         if stage is not None:
-            stage.decimation_delay = (stage.decimation_delay or 0.0) + tau["median"]
+            stage.decimation_delay = FloatWithUncertaintiesAndUnit(
+                float(stage.decimation_delay or 0.0) + tau["median"], unit="SECONDS")
             lo, hi = tau.get("ci95", (np.nan, np.nan))
             text += (f" The timing offset {tau['median']:.6g} s (95 % [{lo:.6g}, {hi:.6g}]; + = "
                      f"the SUT's samples late) is added to the delay of response stage "
