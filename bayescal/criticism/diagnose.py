@@ -132,6 +132,33 @@ def _effect_entry(model, effect, sl, samples, step_score):
     return entry
 
 
+def orientation_effects(base, model0, th0, ids, sig=None):
+    """Reversed or exchanged channels: the fitted axes against the metadata
+    axes (a screen), each finding scored by the BIC of the metadata's axes
+    against the axes with it (:func:`.search.orientation_score`). Returns
+    the named ones as effect entries; scores go into ``sig``."""
+    sig = {} if sig is None else sig
+    if not base.meta.get("nominal"):
+        return []
+    fitted = np.median(base.vectors, axis=0)
+    fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
+    nominal = _nominal_vectors(base.meta, ids)
+    out = []
+    for f in catalogue.orientation_findings(fitted, nominal, ids):
+        gain = orientation_score(model0, th0, nominal, f)
+        sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
+        if gain <= BIC_KEEP:
+            continue
+        ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
+            base.vectors[:, r] @ nominal[r], -1, 1))))
+            for c, r in zip(f["channels"], f["rows"])}
+        out.append({"name": f["name"], "channels": f["channels"],
+                    "parameters": {"angle_to_metadata_axis_deg": ang},
+                    "score_gain": gain, "explanation": f["explanation"]
+                    + "; the free orientation fit already models it"})
+    return out
+
+
 def _without(model, theta, drop):
     """(model, theta) with the effects whose keys are in ``drop`` removed
     (the channel blocks' and the other effects' parameters kept)."""
@@ -276,6 +303,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
                                             reason=sig["reference_noise"]["explanation"]))
         final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
                              mcmc=mcmc, progress=progress, **sample_kw)
+        if mcmc and not final.convergence["converged"]:
+            # a chain stopped before converging (a start at a bound, a ridge):
+            # the Gaussian approximation at the least-squares point instead
+            final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
+                                 base.not_estimable, free, seed=seed, mcmc=False)
     else:       # nothing to add to the response model: the final fit is the base fit
         final = base
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
@@ -284,23 +316,9 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
         entry = _effect_entry(model, e, sl, final.samples, kept.get(_key(e)))
         entry["signature"] = sig.get(_key(e), {})
         effects.append(entry)
-    # orientation effects: fitted axes against the metadata axes
-    fitted = np.median(base.vectors, axis=0)
-    fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
+    effects += orientation_effects(base, model0, th0, ids, sig)
     nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
     if nominal is not None:
-        for f in catalogue.orientation_findings(fitted, nominal, ids):
-            gain = orientation_score(model0, th0, nominal, f)
-            sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
-            if gain <= BIC_KEEP:
-                continue
-            ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
-                base.vectors[:, r] @ nominal[r], -1, 1))))
-                for c, r in zip(f["channels"], f["rows"])}
-            effects.append({"name": f["name"], "channels": f["channels"],
-                            "parameters": {"angle_to_metadata_axis_deg": ang},
-                            "score_gain": gain, "explanation": f["explanation"]
-                            + "; the free orientation fit already models it"})
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
         t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
         sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)

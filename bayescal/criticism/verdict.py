@@ -28,6 +28,9 @@ MOVE_SD = 0.3
 #: Seconds the criticism may spend trying candidate effects (checked between
 #: candidates; ``bayescal fit --diagnose-budget``).
 DEFAULT_BUDGET_S = 60.0
+#: Most steps of the improved model's sampler (beyond it: the Gaussian
+#: approximation at the least-squares point, said in its meta).
+MAX_STEPS = 5000
 
 #: What the user can do about each named effect (the option to pass, or the
 #: change to make in the metadata).
@@ -174,10 +177,20 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
 
     t0 = time.monotonic()
     free = post.meta.get("free_response", "none")
+    base_sum = post.summary()
+    pinned = {cid: [k for k, v in e.get("response", {}).items()
+                    if k != "relative_gain" and "pinned" in str(v.get("reason", ""))]
+              for cid, e in base_sum["channels"].items()}
+    pinned = {c: k for c, k in pinned.items() if k}
+    if pinned:
+        return Criticism(_pinned(pinned, budget_s))
+    sample_kw.pop("progress", None)
+    # the improved model's sampler is bounded too: a chain that does not
+    # converge in MAX_STEPS falls back to the Gaussian approximation
+    sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)
     d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log,
                  deadline=t0 + float(budget_s), **sample_kw)
     seconds = time.monotonic() - t0
-    base_sum = post.summary()
     named = [e for e in d.effects]
     moves = {}
     if d.final is not post:
@@ -256,10 +269,44 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     return Criticism(summary, improved, d)
 
 
-def fits():
-    """The criticism's summary when the model check passes (nothing run)."""
-    return {"verdict": "fits", "verdict_text": "the model fits the recordings within their "
-            "noise: the estimates are usable as they are", "effects": [], "complete": True}
+def _pinned(pinned, budget_s):
+    """The verdict when a fitted value sits at its prior's bound: the model
+    cannot fit the recordings with it there, and no effect is looked for
+    (one would only absorb the misfit the bound makes)."""
+    where = "; ".join(f"{', '.join(k)} of {c}" for c, k in pinned.items())
+    return {"verdict": "unexplained", "effects": [], "complete": True, "tried": [],
+            "not_tried": [], "budget_s": float(budget_s), "seconds": 0.0,
+            "verdict_text": f"the {where} is pinned at the bound of its prior, which leaves a "
+                            "misfit no missing physics explains: check that value in the "
+                            "metadata, and whether --ref and --sut are swapped, before using "
+                            "the estimates",
+            "advice": ["check the metadata gain, and the order of --ref and --sut"],
+            "unexplained": [], "improved_estimates": {}, "stationxml": "fit"}
+
+
+def check_orientation(post):
+    """When the model check passes: a reversed or exchanged channel fits
+    (the orientation is fitted freely) but its metadata are wrong. Returns
+    the criticism's summary naming it (verdict ``fits``), or None when the
+    fitted axes agree with the metadata."""
+    from .diagnose import orientation_effects
+
+    t0 = time.monotonic()
+    model, th = post.model, post.theta_ls
+    ids = [b.channel_id for b in model.blocks]
+    named = orientation_effects(post, model, th, ids)
+    if not named:
+        return None
+    effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
+                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], "")}
+               for e in named]
+    return {"verdict": "fits", "verdict_text": "the model fits the recordings, with "
+            f"{_names(named)} that the fitted orientation already holds: the estimates are "
+            "usable as they are, and the metadata need correcting (the corrected StationXML "
+            "holds the fitted orientation)", "effects": effects, "complete": True,
+            "tried": ["polarity_reversal", "channel_swap"], "not_tried": [],
+            "advice": [e["advice"] for e in effects], "unexplained": [],
+            "improved_estimates": {}, "stationxml": "fit", "seconds": time.monotonic() - t0}
 
 
 def failed(exc):
@@ -274,7 +321,7 @@ def lines(c):
     """The criticism in plain words for the console and the report, one
     string per line (``c``: a :class:`Criticism`'s summary)."""
     out = [f"verdict: {c['verdict_text']}"]
-    if c["verdict"] == "fits":
+    if c["verdict"] == "fits" and not c.get("effects"):
         return out
     for e in c.get("effects", []):
         out.append(f"  found: {e['explanation']}")

@@ -205,11 +205,15 @@ def _criticise(post, budget_s, seed, sample_kw):
     :mod:`bayescal.criticism.verdict`), kept on ``post``."""
     from ..core.adequacy import from_diagnostics
 
-    if from_diagnostics(post.diagnostics).get("ok") is not False:
-        return
     if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
         return
-    from ..criticism.verdict import criticise, failed
+    from ..criticism.verdict import check_orientation, criticise, failed
+    ok = from_diagnostics(post.diagnostics).get("ok")
+    if ok is None:
+        return
+    if ok:      # the orientation is fitted freely: a reversed channel fits, but say so
+        post.criticism = check_orientation(post) or {}
+        return
     try:
         c = criticise(post, budget_s=budget_s, seed=seed, **sample_kw)
     except Exception as exc:   # noqa: BLE001 - the fit's results stand without it
