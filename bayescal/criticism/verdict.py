@@ -242,7 +242,8 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
         verdict = "improved"
         text = (f"the model misfits the recordings because of {names}; modelling it moves the "
                 f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
-                "model's estimates (below, and in the corrected StationXML)")
+                "model's estimates (the criticism lists those that move; the corrected "
+                "StationXML holds them all)")
     for e in effects:
         if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
             advice.append(e["advice"])
