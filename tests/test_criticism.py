@@ -67,9 +67,16 @@ def test_concealed_clock_offset_named_once_with_its_size(late):
     assert c["complete"] and c["verdict"] in ("usable", "improved")
     assert c["misfit_after"] < 2.5 < c["misfit_before"]
     assert c["stationxml"] == "improved model"
-    # every fitted estimate is listed with how far it moved, in sd of the fit
-    moved = c["improved_estimates"][sim.sut[0].id]["azimuth_deg"]
-    assert {"median", "ci95", "fit_median", "moved_sd"} <= set(moved)
+    # every fitted estimate is listed with how far it moved, in sd of the fit,
+    # and the improved model's azimuths hold the truth
+    fit = post.summary()["channels"]
+    for tr, truth in zip(sim.sut[:2], (20.0, 110.0)):
+        moved = c["improved_estimates"][tr.id]["azimuth_deg"]
+        base = fit[tr.id]["azimuth_deg"]
+        sd = 0.5 * (base["ci68"][1] - base["ci68"][0])
+        assert moved["fit_median"] == base["median"]
+        assert moved["moved_sd"] == pytest.approx((moved["median"] - base["median"]) / sd)
+        assert moved["ci95"][0] <= truth <= moved["ci95"][1]
 
 
 def test_corrected_stationxml_holds_the_offset(late, tmp_path):
