@@ -68,6 +68,9 @@ def page_summary(ctx):
     elif verdict["ok"] is False:
         text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"
                     " and page 4; `bayescal diagnose`)")
+    elif crit.get("effects"):       # the model fits, but the metadata need correcting
+        for line in criticism_lines(crit):
+            text += textwrap.wrap(f"  {line}", 130, subsequent_indent="      ")
     if modes:
         text.append("  MULTIMODAL POSTERIOR: intervals marked \"multimodal\" hold one mode only"
                     " (result.json: \"multimodal\")")
