@@ -30,6 +30,7 @@ Steps (see docs/diagnose.md):
 """
 from __future__ import annotations
 
+import time
 
 import numpy as np
 
@@ -296,6 +297,8 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     common = _with(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
     before_common = locate(common, _refit(common, (th0,))[1])
+    if deadline is not None and time.monotonic() > deadline:
+        mcmc = False        # the budget is spent: the Gaussian approximation, not a chain
     if model.effects or eiv is not None:
         meta = base.meta if eiv is None else dict(
             base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
