@@ -133,6 +133,22 @@ def _effect_entry(model, effect, sl, samples, step_score):
     return entry
 
 
+#: The improved model's chain: at least this many seconds whatever is left
+#: of the budget, and no chain shorter than this many steps (the Gaussian
+#: approximation instead).
+MIN_CHAIN_S, MIN_CHAIN_STEPS = 5.0, 300
+
+
+def _affordable_steps(model, theta, seconds, walkers=40):
+    """How many ensemble steps fit in ``seconds`` (two evaluations of the
+    ensemble per step, timed on one)."""
+    w = np.repeat(np.atleast_2d(theta), walkers, axis=0)
+    t0 = time.monotonic()
+    model.log_prob(w)
+    dt = max(time.monotonic() - t0, 1e-5)
+    return int(seconds / (2.5 * dt))
+
+
 def orientation_effects(base, model0, th0, ids, sig=None):
     """Reversed or exchanged channels: the fitted axes against the metadata
     axes (a screen), each finding scored by the BIC of the metadata's axes
@@ -297,8 +313,15 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     common = _with(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
     before_common = locate(common, _refit(common, (th0,))[1])
-    if deadline is not None and time.monotonic() > deadline:
-        mcmc = False        # the budget is spent: the Gaussian approximation, not a chain
+    if mcmc and deadline is not None and (model.effects or eiv is not None):
+        # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
+        # steps from the cost of one ensemble's evaluation; too few, or none
+        # left, and the Gaussian approximation stands in for it
+        n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
+        if n_steps < MIN_CHAIN_STEPS:
+            mcmc = False
+        else:
+            sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
     if model.effects or eiv is not None:
         meta = base.meta if eiv is None else dict(
             base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
