@@ -86,9 +86,15 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         meta = dict(meta, sampler=chain.sampler)
     else:
         rng = np.random.default_rng(seed)
-        samples = rng.multivariate_normal(theta, cov, size=n_laplace)
-        lp = model.log_prob(samples)
+        for shrink in (1.0, 0.25, 0.0625):      # draws outside the prior's support are dropped
+            samples = rng.multivariate_normal(theta, cov * shrink, size=n_laplace)
+            lp = model.log_prob(samples)
+            if np.isfinite(lp).sum() >= n_laplace // 10:
+                break
         samples, lp = samples[np.isfinite(lp)], lp[np.isfinite(lp)]
+        if not len(samples):                    # no draw inside: the point itself
+            samples = np.asarray(theta, float)[None]
+            lp = model.log_prob(samples)
         one = np.ones(model.ndim)
         conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
                 "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}

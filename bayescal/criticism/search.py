@@ -71,6 +71,20 @@ def _candidates(model, free, current, drift=None):
     return [c for c in out if c[0] not in have]
 
 
+def _fitted_offset(model, theta, tried):
+    """The timing offset (s) of the current model or of this step's timing
+    candidate, or None: the start of a clock drift's fit (its offset at
+    mid-record is the constant offset's, to first order)."""
+    for e, sl in zip(model.effects, model.effect_slices):
+        if e.name == "timing_offset":
+            return float(np.asarray(theta)[sl][0])
+    for t in tried:
+        if t["effect"] == "timing_offset" and t.get("fit") is not None:
+            m, th, _ = t["fit"]
+            return _fitted_offset(m, th, [])
+    return None
+
+
 def _drift_candidate(model, drift):
     """Whether a clock drift is tried: the per-segment timing trend passes
     the screen and the spectra have enough time blocks."""
@@ -279,6 +293,9 @@ def _search(model, theta, free, log, drift, deadline=None):
             effects = list(cur.effects)
             if key == "clock_drift":      # nests timing_offset: replaces it
                 effects = [e for e in effects if e.name != "timing_offset"]
+                tau = _fitted_offset(cur, th, tried)
+                if tau is not None:       # start at the offset found (no grid over it)
+                    grid = np.array([[tau, grid[0, 1]]])
             effects.append(effect)
             fit = fit_candidate(cur, th, effects, grid, len(effects) - 1)
             if fit is None:
