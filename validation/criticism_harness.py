@@ -216,7 +216,23 @@ def main(argv=None):
     ap.add_argument("--out", default="validation/results/criticism_harness.json")
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new run starts (the summary says so)")
+    ap.add_argument("--shard", default=None, metavar="I/N",
+                    help="run only every N-th planned run starting at I (into OUT.I); "
+                         "--merge N then writes OUT from the shards")
+    ap.add_argument("--merge", type=int, default=None, metavar="N")
     args = ap.parse_args(argv)
+    if args.merge:
+        parts = [json.load(open(f"{args.out}.{i}")) for i in range(args.merge)]
+        records = sorted((r for p in parts for r in p["runs"]),
+                         key=lambda r: (r["kind"] != "none", r["seed"]))
+        out = dict(parts[0], runs=records, summary=summarise(records),
+                   done=len(records), planned=sum(p["planned"] for p in parts),
+                   stopped_early=any(p["stopped_early"] for p in parts),
+                   seconds=max(p["seconds"] for p in parts))
+        with open(args.out, "w") as fh:
+            json.dump(out, fh, indent=1, default=float)
+        print(json.dumps(out["summary"], indent=1))
+        return 0
     plan = []
     for k in range(max(args.clean, args.effects)):      # interleaved: a stop leaves both kinds
         if k < args.clean:
@@ -224,6 +240,10 @@ def main(argv=None):
         if k < args.effects:
             s = EFFECT_SEEDS[k]
             plan.append((s, KINDS[s % len(KINDS)]))
+    if args.shard:
+        i, n = map(int, args.shard.split("/"))
+        plan = plan[i::n]
+        args.out = f"{args.out}.{i}"
     records, stopped = [], False
     t0 = time.perf_counter()
     for seed, kind in plan:

@@ -191,28 +191,57 @@ def _without(model, theta, drop):
     return m, th
 
 
-def prune(model, theta, log=None):
+def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
     """Backward elimination: drop a kept effect whose removal (the rest
-    re-fitted under the final noise model) costs no more than
-    :data:`BIC_KEEP`; one at a time, the weakest first. One cause absorbed
-    by two entries (a delay and a pole far above the band, say) leaves one.
-    Returns (model, theta, dropped keys with their BIC gain)."""
+    re-fitted under the final noise model) costs no more than ``keep``; one
+    at a time, the weakest first. One cause absorbed by two entries (a delay
+    and a pole far above the band, say) leaves one. Returns (model, theta,
+    dropped keys with their BIC gain)."""
     dropped = []
-    while len(model.effects) >= 2:
+    while len(model.effects) > min_effects - 1 and model.effects:
         gains = []
         for e in model.effects:
             m, th = _without(model, theta, {_key(e)})
             gains.append((score(m, th, model, theta)["delta_bic"], _key(e)))
         gain, key = min(gains)
-        if gain > BIC_KEEP:
+        if gain > keep:
             break
         if log:
-            log(f"  {key} dropped: the other effects explain it (BIC gain {gain:.1f})")
+            log(f"  {key} dropped: BIC gain {gain:.1f} for keeping it, {keep:.1f} needed")
         m, th = _without(model, theta, {key})
         m.adopt_noise(model.noise)
         model, theta = m, _refit(m, (th,))[1]
-        dropped.append({"effect": key, "delta_bic": float(gain)})
+        dropped.append({"effect": key, "delta_bic": float(gain), "needed": float(keep)})
     return model, theta, dropped
+
+
+def overdispersion(model, theta):
+    """The median standardised misfit of ``model`` over bands and channels,
+    at least 1: how much more than its noise the model still misses by
+    everywhere (1 for a model that fits)."""
+    return max(1.0, float(np.median(locate(model, theta)["misfit"])))
+
+
+def prune_overdispersed(model, theta, log=None):
+    """:func:`prune` with the evidence needed scaled by the overdispersion
+    the final model leaves (a quasi-likelihood guard, as for tilt noise): an
+    effect that improves a model still missing everywhere by a factor
+    ``phi`` must gain more than ``phi`` times :data:`BIC_KEEP`; what the
+    noise model cannot describe is not physics to name. First the effects
+    the others explain (no scaling), then the overdispersed test, repeated
+    while it drops (dropping raises the misfit)."""
+    model, theta, dropped = prune(model, theta, log=log, min_effects=2)
+    phi = 1.0
+    while model.effects:
+        phi = overdispersion(model, theta)
+        if phi <= 1.0:
+            break
+        model, theta, more = prune(model, theta, log=log, keep=BIC_KEEP * phi)
+        dropped += [dict(d, reason=f"the model still misses by a factor {phi:.2g} everywhere: "
+                         "its gain is within what that misfit explains") for d in more]
+        if not more:
+            break
+    return model, theta, dropped, phi
 
 
 #: Sub-band timing offsets agree when they differ by less than this many
@@ -294,7 +323,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
     dropped = []
     if model.effects and incomplete is None:
-        model, th2, dropped = prune(model, th, log=log)
+        model, th2, dropped, sig["overdispersion"] = prune_overdispersed(model, th, log=log)
         if any(e.name == "timing_offset" for e in model.effects):
             sig["timing_consistency"] = tc = timing_consistency(model, th2)
             if not tc["consistent"]:
