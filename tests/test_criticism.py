@@ -123,6 +123,20 @@ def test_off_nominal_pendulum_named_with_fit_response_advice(pendulum):
     assert held["held_by_fit"] and held["fit_median"] == 30.0
 
 
+def test_clean_pair_with_equal_noise_gets_no_name():
+    """Both sensors equally noisy, noise shaped like the ground (a noise the
+    reference-noise model describes only in part): the check fails, but no
+    effect is named; the period-and-damping candidate's gain (11 against a
+    threshold of 10) is within what the remaining misfit explains."""
+    from bayescal.simulate.pair import simulate_pair
+    sim = simulate_pair(duration=10800.0, fs=10.0, seed=7010, coherence=0.928722,
+                        ref_coherence=0.928722, sut_azimuth=(68.14, 158.14, 0.0),
+                        nominal_azimuth=(69.80, 155.80, 0.0))
+    c = _calibrate(sim, band=(0.02, 2.0), seed=7010).summary()["criticism"]
+    assert c["effects"] == [] and c["verdict"] == "unexplained"
+    assert [d["effect"] for d in c["not_named"]] == ["response_parameters"]
+
+
 def test_no_diagnose_skips_it(late):
     sim, _ = late
     post = _calibrate(sim, band=(0.03, 2.0), diagnose=False)
