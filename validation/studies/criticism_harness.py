@@ -28,8 +28,13 @@ Scoring (per run):
   named, "wrong name" when only others are.
 * each recovered size: inside its 95 % interval or not.
 
-    python validation/criticism_harness.py --clean 60 --effects 60 \\
-        --out validation/results/criticism_harness.json
+    python validation/studies/criticism_harness.py --clean 60 --effects 60 \\
+        --out validation/results/criticism/harness.json
+
+About 10 s a run on an idle core (a clock drift in a 4 h record up to the
+criticism's 60 s budget). ``--shard I/N`` runs every N-th pair of (clean,
+effect) runs into a checkpoint; ``--merge`` then writes the summary from the
+shards' checkpoints.
 """
 from __future__ import annotations
 
@@ -41,6 +46,38 @@ import time
 import warnings
 
 import numpy as np
+
+
+
+class study_results:  # noqa: N801 - the interface of validation/studies/study_results.py
+    """Where the output goes: the summary (tracked) at ``--out``, the per-run
+    records beside it as ``<name>.runs.json`` (not tracked), checkpoints as
+    ``<out>.partial`` while it runs."""
+
+    @staticmethod
+    def _dump(path, obj):
+        os.makedirs(os.path.dirname(str(path)) or ".", exist_ok=True)
+        with open(str(path) + ".tmp", "w") as fh:
+            json.dump(obj, fh, indent=1, default=float)
+            fh.write("\n")
+        os.replace(str(path) + ".tmp", path)
+
+    @staticmethod
+    def write(path, doc):
+        runs = os.path.splitext(str(path))[0] + ".runs.json"
+        study_results._dump(runs, doc)
+        summary = {k: v for k, v in doc.items() if k != "runs"}
+        summary["runs_file"] = os.path.basename(runs) + " (not tracked: written by the command)"
+        study_results._dump(path, summary)
+
+    @staticmethod
+    def checkpoint(path, doc):
+        study_results._dump(str(path) + ".partial", doc)
+
+    @staticmethod
+    def done(path):
+        if os.path.exists(str(path) + ".partial"):
+            os.remove(str(path) + ".partial")
 
 KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
          "channel_swap", "tilt_noise", "response_parameters"]
@@ -213,24 +250,29 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clean", type=int, default=60)
     ap.add_argument("--effects", type=int, default=60)
-    ap.add_argument("--out", default="validation/results/criticism_harness.json")
+    ap.add_argument("--out", default="validation/results/criticism/harness.json")
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new run starts (the summary says so)")
     ap.add_argument("--shard", default=None, metavar="I/N",
-                    help="run only every N-th planned run starting at I (into OUT.I); "
-                         "--merge N then writes OUT from the shards")
-    ap.add_argument("--merge", type=int, default=None, metavar="N")
+                    help="run every N-th pair of (clean, effect) runs starting at I, into the "
+                         "checkpoint OUT.I.partial")
+    ap.add_argument("--merge", nargs="+", default=None, metavar="CHECKPOINT",
+                    help="write OUT from these shard checkpoints (and remove them)")
     args = ap.parse_args(argv)
     if args.merge:
-        parts = [json.load(open(f"{args.out}.{i}")) for i in range(args.merge)]
+        parts = [json.load(open(f)) for f in args.merge]
         records = sorted((r for p in parts for r in p["runs"]),
                          key=lambda r: (r["kind"] != "none", r["seed"]))
         out = dict(parts[0], runs=records, summary=summarise(records),
                    done=len(records), planned=sum(p["planned"] for p in parts),
                    stopped_early=any(p["stopped_early"] for p in parts),
-                   seconds=max(p["seconds"] for p in parts))
-        with open(args.out, "w") as fh:
-            json.dump(out, fh, indent=1, default=float)
+                   seconds=max(p["seconds"] for p in parts),
+                   command=("python validation/studies/criticism_harness.py --clean 60 "
+                            f"--effects 60 --shard I/{len(parts)} for I in 0..{len(parts) - 1}, "
+                            "then --merge"))
+        study_results.write(args.out, out)
+        for f in args.merge:
+            os.remove(f)
         print(json.dumps(out["summary"], indent=1))
         return 0
     plan = []
@@ -240,11 +282,12 @@ def main(argv=None):
         if k < args.effects:
             s = EFFECT_SEEDS[k]
             plan.append((s, KINDS[s % len(KINDS)]))
+    shard = None
     if args.shard:
         i, n = map(int, args.shard.split("/"))
-        plan = plan[i::n]
-        args.out = f"{args.out}.{i}"
-    records, stopped = [], False
+        plan = [p for j, p in enumerate(plan) if (j // 2) % n == i]   # pairs of clean and effect
+        shard = f"{args.out}.{i}"
+    records, stopped, out = [], False, {}
     t0 = time.perf_counter()
     for seed, kind in plan:
         if args.stop_at and time.strftime("%H:%M", time.gmtime()) >= args.stop_at:
@@ -255,20 +298,21 @@ def main(argv=None):
         print(f"{len(records):3d} seed {seed} {rec['kind']:20s} -> {rec['outcome']:11s} "
               f"{rec.get('named')} {rec.get('verdict')} {rec['seconds']:.1f} s",
               file=sys.stderr, flush=True)
-        os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
         out = {"summary": summarise(records), "planned": len(plan), "done": len(records),
                "stopped_early": False, "seconds": time.perf_counter() - t0,
                "settings": {"fs": FS, "band_hz": BAND, "sampler": "min_ess 200, 20 tau",
                             "clean_seeds": CLEAN_SEEDS[:args.clean],
                             "effect_seeds": EFFECT_SEEDS[:args.effects], "kinds": KINDS},
                "runs": records}
-        with open(args.out + ".tmp", "w") as fh:
-            json.dump(out, fh, indent=1, default=float)
-        os.replace(args.out + ".tmp", args.out)
-    if stopped:
-        out["stopped_early"] = True
-        with open(args.out, "w") as fh:
-            json.dump(out, fh, indent=1, default=float)
+        study_results.checkpoint(shard or args.out, out)
+    out["stopped_early"] = stopped
+    if shard:       # the shard's checkpoint stays for --merge
+        study_results.checkpoint(shard, out)
+    else:
+        out["command"] = (f"python validation/studies/criticism_harness.py --clean {args.clean} "
+                          f"--effects {args.effects}")
+        study_results.write(args.out, out)
+        study_results.done(args.out)
     print(json.dumps(summarise(records), indent=1), flush=True)
     return 0
 
