@@ -274,11 +274,13 @@ def _pinned(pinned, budget_s):
     """The verdict when a fitted value sits at its prior's bound: the model
     cannot fit the recordings with it there, and no effect is looked for
     (one would only absorb the misfit the bound makes)."""
-    where = "; ".join(f"{', '.join(k)} of {c}" for c, k in pinned.items())
+    where = [f"the {', '.join(k)} of {c}" for c, k in pinned.items()]
+    where = where[0] if len(where) == 1 else ", ".join(where[:-1]) + " and " + where[-1]
+    are = "is" if len(pinned) == 1 and len(next(iter(pinned.values()))) == 1 else "are"
     return {"verdict": "unexplained", "effects": [], "complete": True, "tried": [],
             "not_tried": [], "budget_s": float(budget_s), "seconds": 0.0,
-            "verdict_text": f"the {where} is pinned at the bound of its prior, which leaves a "
-                            "misfit no missing physics explains: check that value in the "
+            "verdict_text": f"{where} {are} pinned at the bound of the prior, which leaves a "
+                            "misfit no missing physics explains: check the value in the "
                             "metadata, and whether --ref and --sut are swapped, before using "
                             "the estimates",
             "advice": ["check the metadata gain, and the order of --ref and --sut"],
