@@ -6,11 +6,13 @@ import only the layers listed before it:
 
     version, core        plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
+    criticism            model criticism of a fitted model (imports core only)
     simulate             synthetic recordings with known truth (imports core;
                          its coverage study also runs io.pipeline)
     io                   recordings and metadata in, band choice, the
-                         files-to-posterior pipeline, StationXML out
-    criticism, coil      model criticism; calibration from coil signals
+                         files-to-posterior pipeline (which criticises a fit
+                         that fails its model check), StationXML out
+    coil                 calibration from coil signals
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """

@@ -47,7 +47,7 @@ def main(argv=None):
     sim = simulate_pair(duration=3600, fs=10, seed=4, coherence=0.98, sut_azimuth=(5, 95, 0),
                         clock_drift_ppm=20.0)
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
-                              band=(0.05, 3.0), progress=False)
+                              band=(0.05, 3.0), progress=False, diagnose=False)
     base, th = post.model, post.theta_ls
     base.estimate_noise(th)
     offset = _with(base, [effects.TimingOffset([0, 1, 2])])

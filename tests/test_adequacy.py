@@ -63,8 +63,8 @@ def test_a_pair_that_truly_misfits_fails_the_check_where_the_physics_is(tmp_path
     channel: it leaves a residual of relative power ``|1 - exp(-2 pi i f
     tau)|^2``, rising as f^2, so the check must fail with the worst cell on
     BH2 in the highest band; result.json, the first console line and page 1
-    of the report say so (MODEL DOES NOT FIT THE DATA, the cell, bayescal
-    diagnose)."""
+    of the report say so (MODEL DOES NOT FIT THE DATA, the cell, the
+    criticism's verdict)."""
     from bayescal.cli import main
     from bayescal.simulate.pair import simulate_pair
 
@@ -89,13 +89,15 @@ def test_a_pair_that_truly_misfits_fails_the_check_where_the_physics_is(tmp_path
     edges = res["meta"]["band_edges_hz"]
     assert a["worst"]["band_hz"] == pytest.approx(edges[-2:], rel=1e-9)
     assert a["worst"]["p"] < a["alpha"] / a["cells"]
-    first = buf.getvalue().splitlines()[0]
-    assert first.startswith("MODEL DOES NOT FIT THE DATA") and "bayescal diagnose" in first
+    lines = buf.getvalue().splitlines()
+    first = lines[0]
+    assert first.startswith("MODEL DOES NOT FIT THE DATA") and "verdict" in first
     assert "on XX.SIM.10.BH2" in first
     assert f"{edges[-2]:.4g}-{edges[-1]:.4g} Hz" in first
+    assert lines[-1].startswith("verdict: ") and res["criticism"]["verdict_text"] in lines[-1]
     texts = _page_one_texts(out)
     assert texts[1].startswith("MODEL DOES NOT FIT THE DATA")    # under the title
-    assert "bayescal diagnose" in texts[1].replace("\n", " ")
+    assert "Verdict:" in texts[1].replace("\n", " ")
 
 
 def test_cowi_console_and_report_say_the_verdict(cowi_data, tmp_path):
@@ -116,8 +118,8 @@ def test_cowi_console_and_report_say_the_verdict(cowi_data, tmp_path):
     if a["ok"]:
         assert first.startswith("model check: passed") and texts[1].startswith("model check")
     else:
-        assert first.startswith("MODEL DOES NOT FIT THE DATA") and "bayescal diagnose" in first
-        assert texts[1].startswith("MODEL DOES NOT FIT THE DATA")
+        assert first.startswith("MODEL DOES NOT FIT THE DATA") and "verdict" in first
+        assert texts[1].startswith("MODEL DOES NOT FIT THE DATA") and "Verdict:" in texts[1]
     assert f"on {w['channel']}" in first and f"{w['band_hz'][0]:.4g}-{w['band_hz'][1]:.4g} Hz" in first
 
 

@@ -75,6 +75,17 @@ def test_fit_console(data):
     _check(text, "bayescal fit")
 
 
+def test_fit_console_when_the_model_does_not_fit(data):
+    """The criticism's block (a concealed 0.3 s clock offset): plain words,
+    the verdict last."""
+    text = _run("fit", *_pair_args(data["late"]), "--out", "fit_late", "--band", 0.03, 1,
+                "--no-report", cwd=data["root"])
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    assert "found: the SUT's clock is 0.3 s late" in text
+    assert any(ln.startswith("verdict: ") and "timing offset" in ln for ln in lines)
+    _check(text, "bayescal fit (criticism)")
+
+
 def test_diagnose_console(data):
     text = _run("diagnose", *_pair_args(data["late"]), "--out", "diag", "--band", 0.03, 1,
                 "--no-report", cwd=data["root"])

@@ -36,7 +36,7 @@ def _diagnose(**effect):
                         **effect)
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 3.0), progress=False, seed=1000, min_ess=200, n_tau=20,
-                              ref_noise="quiet")
+                              ref_noise="quiet", diagnose=False)
     return diagnose(post, mcmc=False)
 
 

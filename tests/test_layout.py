@@ -10,7 +10,7 @@ PKG = pathlib.Path(__file__).resolve().parents[1] / "bayescal"
 #: What each subpackage may import (besides itself and bayescal.version).
 ALLOWED = {
     "core": set(),
-    "io": {"core"},
+    "io": {"core", "criticism"},
     "simulate": {"core", "io"},
     "criticism": {"core"},
     "coil": {"core", "io"},

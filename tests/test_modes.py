@@ -99,8 +99,9 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=0, coherence=0.99, n_waves=1, diffuse=0.0,
                         sut_azimuth=(30.0, 120.0, 0.0))
     ref = sim.ref.select(channel="BH[NE]")
+    # a single plane wave misfits the model's noise; the criticism is not what is tested here
     post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=ref, ref_xml=sim.ref_inventory, band=(0.02, 1.0),
-                     fit_response="none", progress=False, ref_noise="quiet")
+                     fit_response="none", progress=False, ref_noise="quiet", diagnose=False)
     write_results(post, str(tmp_path))
     res = json.loads((tmp_path / "result.json").read_text())
     mm = res["multimodal"]

@@ -115,18 +115,23 @@ def test_summary_is_plain_json_and_a_vertical_has_no_azimuth(sim_pair):
 
 def test_a_failed_model_check_is_a_python_warning():
     """A SUT whose natural period is 20 s where its metadata say 30 s, fitted
-    with its gains only: the model check fails, and a script hears of it."""
+    with its gains only: the model check fails, and a script hears of it,
+    with the criticism's verdict (the period named, its value measured)."""
     from bayescal import calibrate
     from bayescal.core.adequacy import ModelMisfitWarning
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999,
                         sut_response=((20.0, 0.707, 750.0),) * 3)
-    with pytest.warns(ModelMisfitWarning, match="MODEL DOES NOT FIT"):
+    with pytest.warns(ModelMisfitWarning, match="MODEL DOES NOT FIT.*period and damping"):
         post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
                          sut_xml=sim.sut_inventory,
-                         band=(0.02, 1.0), progress=False)
+                         band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
     assert post.summary()["adequacy"]["ok"] is False
+    size = post.criticism["effects"][0]["size"]
+    for tr in sim.sut:
+        lo, hi = size[f"period_s:{tr.id}"]["ci95"]
+        assert lo <= 20.0 <= hi
     clean = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelMisfitWarning)

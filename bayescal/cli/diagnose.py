@@ -36,17 +36,12 @@ HELP = "locate model/recording mismatch, name and model the missing physics"
 
 
 def configure(parser):
-    """Arguments: those of ``bayescal fit`` (without ``--diagnose``); the base
-    fit's ``--ref-noise`` defaults to ``quiet``: the diagnosis's first step
-    tests whether the reference's noise must be modelled
+    """Arguments: those of ``bayescal fit`` (without its criticism options),
+    with the same defaults: the base fit is the fit ``bayescal fit`` makes.
+    With ``--ref-noise quiet`` the diagnosis's first step tests whether the
+    reference's noise must be modelled
     (:mod:`bayescal.criticism.reference_noise`) and models it when it must."""
     add_pair_arguments(parser)
-    action = parser._option_string_actions["--ref-noise"]
-    action.default = "quiet"
-    action.help = ("the reference's own self-noise in the base fit: 'quiet' (the default: the "
-                   "diagnosis then tests whether the reference's noise matters and, if so, "
-                   "models it before naming any effect), 'estimate' or 'equal' (as in "
-                   "bayescal fit)")
 
 
 def run(args):
@@ -102,9 +97,8 @@ def _run_diagnosis(args, say):
                            fit_response=args.fit_response, seed=args.seed,
                            start=args.start, end=args.end, progress=not args.quiet,
                            sut_id=args.sut_id, ref_id=args.ref_id,
-                           # fit --diagnose: None; a given PSD replaces the quiet default
-                           ref_noise=None if args.ref_noise_psd else (args.ref_noise or "quiet"),
-                           ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps,
+                           ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
+                           max_steps=args.max_steps, diagnose=False,
                            priors=priors_from(args))
     say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
         "gain above 10, strong evidence; docs/diagnose.md) ...")

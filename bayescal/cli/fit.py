@@ -14,6 +14,14 @@ side) and StationXML, estimates the SUT's channel orientations and gains
                      plusError/minusError from the 68 % interval
   report.pdf         figures of the fit (unless --no-report)
 
+When the model check fails, the fit looks for the cause (unless
+--no-diagnose): it names what the model leaves out, models it, shows the
+misfit before and after and how far each estimate moves, and ends with a
+verdict: the estimates are usable as they are, or the improved model's
+should be used (sut_corrected.xml then holds them), or the misfit stays
+unexplained (where, and what to try). result.json keeps it under
+"criticism".
+
 Only segments in which every channel is continuous are used; the band used,
 how it was chosen and the amount of data used are printed and kept in
 result.json. Channels the reference cannot see (a SUT vertical beside a
@@ -48,9 +56,14 @@ HELP = "estimate the SUT's orientation and gain (and response) from recordings b
 def configure(parser):
     """Arguments of ``bayescal fit``."""
     add_pair_arguments(parser)
-    parser.add_argument("--diagnose", action="store_true",
-                        help="also locate any mismatch between model and recordings, name and "
-                             "model the missing physics (the same as `bayescal diagnose`)")
+    parser.add_argument("--no-diagnose", action="store_true",
+                        help="when the model check fails, do not look for the cause (by "
+                             "default the fit then names what the model leaves out, models it "
+                             "and says whether the estimates can be used; docs/diagnose.md)")
+    parser.add_argument("--diagnose-budget", type=float, default=60.0, metavar="SECONDS",
+                        help="most seconds spent looking for the cause of a misfit (default "
+                             "60; checked between candidate effects: when it runs out the "
+                             "output says which were tried and the misfit stays unexplained)")
 
 
 def _fmt(entry):
@@ -120,8 +133,10 @@ def print_summary(summary, stream=None):
     from ..core.modes import multimodal_line
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
+    crit = summary.get("criticism") or {}
     if "adequacy" in summary:
-        print(describe(summary["adequacy"]), file=stream)
+        print(describe(summary["adequacy"], next_step=crit.get("verdict_text") and
+                       "What it means: see the verdict below the table."), file=stream)
     modes = multimodal_line(summary)
     if modes:
         print(modes, file=stream)
@@ -167,13 +182,25 @@ def print_summary(summary, stream=None):
     c = summary["convergence"]
     print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
           f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
+    if crit:
+        print_criticism(crit, stream)
+
+
+def print_criticism(crit, stream=None):
+    """The criticism of a fit that failed its model check: what was found,
+    how the misfit and the estimates moved, what to do, and the verdict
+    last."""
+    from ..criticism.verdict import lines
+
+    stream = stream or sys.stdout
+    text = lines(crit)
+    print(f"criticism ({crit.get('seconds', 0):.1f} s; docs/diagnose.md):", file=stream)
+    for line in text[1:] + text[:1]:
+        print(line, file=stream)
 
 
 def run(args):
     """Run the fit; returns the exit code."""
-    if getattr(args, "diagnose", False):
-        from .diagnose import run as run_diagnose
-        return run_diagnose(args)
     from ..io.read import InputError, InputWarning
     from ..io.pipeline import calibrate_files, write_results
 
@@ -191,7 +218,9 @@ def run(args):
                                start=args.start, end=args.end, progress=not args.quiet,
                                sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise,
                                ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps,
-                               priors=priors_from(args))
+                               priors=priors_from(args),
+                               diagnose=not args.no_diagnose,
+                               diagnose_budget_s=args.diagnose_budget)
     for w in caught:
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)

@@ -82,7 +82,7 @@ class ModelMisfitWarning(UserWarning):
     more than its noise allows (:func:`describe` says where)."""
 
 
-def describe(verdict):
+def describe(verdict, next_step=None):
     """One line for a user: the verdict, where the model misses most, and
     what to do next. The test itself is described in the documentation
     (docs/science.md, "The model check")."""
@@ -94,8 +94,10 @@ def describe(verdict):
     if verdict["ok"]:
         return (f"model check: passed: the recordings agree with the model within their noise "
                 f"(largest standardised misfit {where}; about 1 is a fit within the noise)")
-    return (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, where about 1 is a fit "
-            "within the noise (more than noise explains; docs/science.md, \"The model check\"). "
-            "The intervals are widened where the model misses, but an effect the model leaves "
-            "out can still shift the estimates: run `bayescal diagnose` with the same arguments "
-            "to find and name the cause.")
+    first = (f"MODEL DOES NOT FIT THE DATA: standardised misfit {where}, where about 1 is a fit "
+             "within the noise (more than noise explains; docs/science.md, \"The model check\"). ")
+    if next_step:       # the criticism ran: its verdict says what the misfit means
+        return first + next_step
+    return (first + "The intervals are widened where the model misses, but an effect the model "
+            "leaves out can still shift the estimates: run `bayescal diagnose` with the same "
+            "arguments to find and name the cause.")

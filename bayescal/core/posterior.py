@@ -104,6 +104,9 @@ class Posterior:
     diagnostics: dict = field(default_factory=dict)
     self_noise: dict = field(default_factory=dict)
     sensor_order: dict = field(default_factory=dict)
+    #: the model criticism's findings when the model check failed
+    #: (:mod:`bayescal.criticism.verdict`), empty when it did not run
+    criticism: dict = field(default_factory=dict)
 
     @property
     def azimuth_dip(self):
@@ -207,6 +210,7 @@ class Posterior:
             "orthogonality_deg": self.orthogonality(),
             **({"self_noise": self.self_noise} if self.self_noise else {}),
             **({"sensor_order": self.sensor_order} if self.sensor_order else {}),
+            **({"criticism": self.criticism} if self.criticism else {}),
             "convergence": {"ess_min": float(np.min(conv["ess"])),
                             "tau_max": float(np.max(conv["tau"])),
                             "rhat_max": float(np.max(conv["rhat"])),
@@ -257,7 +261,8 @@ class Posterior:
                        not_estimable=summary.get("not_estimable", {}),
                        trace=z["trace"] if "trace" in z.files else None,
                        self_noise=summary.get("self_noise", {}),
-                       sensor_order=summary.get("sensor_order", {}))
+                       sensor_order=summary.get("sensor_order", {}),
+                       criticism=summary.get("criticism", {}))
         diag = os.path.join(folder, "diagnostics.npz")
         if os.path.exists(diag):
             with np.load(diag) as z:

@@ -30,6 +30,7 @@ Steps (see docs/diagnose.md):
 """
 from __future__ import annotations
 
+import time
 
 import numpy as np
 
@@ -40,7 +41,8 @@ from ..core.mcmc import sample
 from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
 from ..core.geometry import unit_vector
 from ..core.posterior import Posterior, interval_summary
-from .search import BIC_KEEP, _drift_candidate, _key, _refit, _with, orientation_score, search
+from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
+                     orientation_score, score, search)
 from .locate import ALPHA, _runs, band_ratio, locate, ratio_weights, segment_timing
 
 
@@ -84,9 +86,15 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         meta = dict(meta, sampler=chain.sampler)
     else:
         rng = np.random.default_rng(seed)
-        samples = rng.multivariate_normal(theta, cov, size=n_laplace)
-        lp = model.log_prob(samples)
+        for shrink in (1.0, 0.25, 0.0625):      # draws outside the prior's support are dropped
+            samples = rng.multivariate_normal(theta, cov * shrink, size=n_laplace)
+            lp = model.log_prob(samples)
+            if np.isfinite(lp).sum() >= n_laplace // 10:
+                break
         samples, lp = samples[np.isfinite(lp)], lp[np.isfinite(lp)]
+        if not len(samples):                    # no draw inside: the point itself
+            samples = np.asarray(theta, float)[None]
+            lp = model.log_prob(samples)
         one = np.ones(model.ndim)
         conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
                 "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}
@@ -122,16 +130,170 @@ def _effect_entry(model, effect, sl, samples, step_score):
     ids = [model.blocks[r].channel_id for r in effect.rows]
     if effect.name == "extra_pole":
         params["which"] = effect.which
-    return {"name": effect.name, "channels": ids, "parameters": params,
-            "score_gain": step_score, "explanation": effect.explain(med)}
+    entry = {"name": effect.name, "channels": ids, "parameters": params,
+             "score_gain": step_score, "explanation": effect.explain(med)}
+    if effect.name == "response_parameters":     # the metadata values the fit held
+        entry["nominal"] = {f"{k}:{c}": getattr(fam, k) for fam, c in
+                            zip(effect.families, effect.channel_ids)
+                            for k in ("period_s", "damping")}
+    return entry
 
 
-def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
+#: The improved model's chain: at least this many seconds whatever is left
+#: of the budget, and no chain shorter than this many steps (the Gaussian
+#: approximation instead).
+MIN_CHAIN_S, MIN_CHAIN_STEPS = 5.0, 300
+
+
+def _affordable_steps(model, theta, seconds, walkers=40):
+    """How many ensemble steps fit in ``seconds`` (two evaluations of the
+    ensemble per step, timed on one)."""
+    w = np.repeat(np.atleast_2d(theta), walkers, axis=0)
+    t0 = time.monotonic()
+    model.log_prob(w)
+    dt = max(time.monotonic() - t0, 1e-5)
+    return int(seconds / (2.5 * dt))
+
+
+def orientation_effects(base, model0, th0, ids, sig=None):
+    """Reversed or exchanged channels: the fitted axes against the metadata
+    axes (a screen), each finding scored by the BIC of the metadata's axes
+    against the axes with it (:func:`.search.orientation_score`). Returns
+    the named ones as effect entries; scores go into ``sig``."""
+    sig = {} if sig is None else sig
+    if not base.meta.get("nominal"):
+        return []
+    fitted = np.median(base.vectors, axis=0)
+    fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
+    nominal = _nominal_vectors(base.meta, ids)
+    out = []
+    for f in catalogue.orientation_findings(fitted, nominal, ids):
+        gain = orientation_score(model0, th0, nominal, f)
+        sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
+        if gain <= BIC_KEEP:
+            continue
+        ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
+            base.vectors[:, r] @ nominal[r], -1, 1))))
+            for c, r in zip(f["channels"], f["rows"])}
+        out.append({"name": f["name"], "channels": f["channels"],
+                    "parameters": {"angle_to_metadata_axis_deg": ang},
+                    "score_gain": gain, "explanation": f["explanation"]
+                    + "; the free orientation fit already models it"})
+    return out
+
+
+def _without(model, theta, drop):
+    """(model, theta) with the effects whose keys are in ``drop`` removed
+    (the channel blocks' and the other effects' parameters kept)."""
+    keep = [(e, sl) for e, sl in zip(model.effects, model.effect_slices) if _key(e) not in drop]
+    m = _with(model, [e for e, _ in keep])
+    th = np.concatenate([_theta_base(model, theta)] + [np.asarray(theta)[sl] for _, sl in keep])
+    return m, th
+
+
+def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
+    """Backward elimination: drop a kept effect whose removal (the rest
+    re-fitted under the final noise model) costs no more than ``keep``; one
+    at a time, the weakest first. One cause absorbed by two entries (a delay
+    and a pole far above the band, say) leaves one. Returns (model, theta,
+    dropped keys with their BIC gain)."""
+    dropped = []
+    while len(model.effects) > min_effects - 1 and model.effects:
+        gains = []
+        for e in model.effects:
+            m, th = _without(model, theta, {_key(e)})
+            gains.append((score(m, th, model, theta)["delta_bic"], _key(e)))
+        gain, key = min(gains)
+        if gain > keep:
+            break
+        if log:
+            log(f"  {key} dropped: BIC gain {gain:.1f} for keeping it, {keep:.1f} needed")
+        m, th = _without(model, theta, {key})
+        m.adopt_noise(model.noise)
+        model, theta = m, _refit(m, (th,))[1]
+        dropped.append({"effect": key, "delta_bic": float(gain), "needed": float(keep)})
+    return model, theta, dropped
+
+
+def overdispersion(model, theta):
+    """The median standardised misfit of ``model`` over bands and channels,
+    at least 1: how much more than its noise the model still misses by
+    everywhere (1 for a model that fits)."""
+    return max(1.0, float(np.median(locate(model, theta)["misfit"])))
+
+
+def prune_overdispersed(model, theta, log=None):
+    """:func:`prune` with the evidence needed scaled by the overdispersion
+    the final model leaves (a quasi-likelihood guard, as for tilt noise): an
+    effect that improves a model still missing everywhere by a factor
+    ``phi`` must gain more than ``phi`` times :data:`BIC_KEEP`; what the
+    noise model cannot describe is not physics to name. First the effects
+    the others explain (no scaling), then the overdispersed test, repeated
+    while it drops (dropping raises the misfit)."""
+    model, theta, dropped = prune(model, theta, log=log, min_effects=2)
+    phi = 1.0
+    while model.effects:
+        phi = overdispersion(model, theta)
+        if phi <= 1.0:
+            break
+        model, theta, more = prune(model, theta, log=log, keep=BIC_KEEP * phi)
+        dropped += [dict(d, reason=f"the model still misses by a factor {phi:.2g} everywhere: "
+                         "its gain is within what that misfit explains") for d in more]
+        if not more:
+            break
+    return model, theta, dropped, phi
+
+
+#: Sub-band timing offsets agree when they differ by less than this many
+#: standard errors or this fraction of the offset, whichever is larger.
+TIMING_AGREE_SD, TIMING_AGREE_FRACTION = 4.0, 0.25
+
+
+def timing_consistency(model, theta):
+    """A timing offset in ``model`` read separately from the lower and upper
+    half of the bands: the offset plus the phase slope of the
+    recorded/predicted ratio that the model with the offset leaves there (a
+    residual phase, so no wrapping). Returns a JSON-safe dict with
+    ``consistent``."""
+    i = next(k for k, e in enumerate(model.effects) if e.name == "timing_offset")
+    sl = model.effect_slices[i]
+    tau = float(np.asarray(theta)[sl][0])
+    q = band_ratio(model, np.asarray(theta, float))
+    w = ratio_weights(model.spectra)
+    f = model.spectra.band_centres
+    phase = np.unwrap(np.angle(q), axis=0)
+    half = len(f) // 2
+    out = []
+    for sel in (slice(0, max(half, 1)), slice(max(half, 1), None)):
+        ff, ph, ww = f[sel, None], phase[sel], 2.0 * w[sel]
+        if ph.size == 0:
+            continue
+        den = np.sum(ww * ff * ff)
+        t = -np.sum(ww * ff * ph) / (2 * np.pi * den)
+        # the phase's scatter about the line sets the error (at least its noise)
+        chi = np.sum(ww * (ph + 2 * np.pi * ff * t) ** 2) / max(ph.size - 1, 1)
+        sd = np.sqrt(max(chi, 1.0) / den) / (2 * np.pi)
+        out.append({"band_hz": [float(model.spectra.band_edges[sel][0]),
+                                float(model.spectra.band_edges[1:][sel][-1])],
+                    "seconds": float(tau + t), "sd": float(sd)})
+    if len(out) < 2:
+        return {"seconds": tau, "sub_bands": out, "consistent": True}
+    a, b = out
+    diff = abs(a["seconds"] - b["seconds"])
+    ok = (np.sign(a["seconds"]) == np.sign(b["seconds"])
+          and diff <= max(TIMING_AGREE_SD * np.hypot(a["sd"], b["sd"]),
+                          TIMING_AGREE_FRACTION * abs(tau)))
+    return {"seconds": tau, "sub_bands": out, "consistent": bool(ok)}
+
+
+def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
     """Diagnose a base fit.
 
     ``base`` is a :class:`Posterior` from :func:`bayescal.io.pipeline.calibrate`
-    (with ``.model`` and ``.theta_ls`` attached). Returns a
-    :class:`Diagnosis`.
+    (with ``.model`` and ``.theta_ls`` attached). ``deadline``: a
+    :func:`time.monotonic` value past which no further candidate effect is
+    tried (the diagnosis is then incomplete: ``Diagnosis.incomplete``).
+    Returns a :class:`Diagnosis`.
     """
     model0 = base.model
     free = base.meta.get("free_response", "none")
@@ -154,7 +316,29 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
     if start.per_block:
         start.estimate_noise(th0)
-    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"])
+    model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
+                                   deadline=deadline)
+    stop = steps[-1][-1] if steps and steps[-1] else {}
+    incomplete = stop if stop.get("stopped") else None
+    tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
+    dropped = []
+    if model.effects and incomplete is None:
+        model, th2, dropped, sig["overdispersion"] = prune_overdispersed(model, th, log=log)
+        if any(e.name == "timing_offset" for e in model.effects):
+            sig["timing_consistency"] = tc = timing_consistency(model, th2)
+            if not tc["consistent"]:
+                if log:
+                    log("  timing_offset dropped: not consistent across sub-bands")
+                m, t = _without(model, th2, {"timing_offset"})
+                m.adopt_noise(model.noise)
+                model, th2 = m, _refit(m, (t,))[1]
+                dropped.append({"effect": "timing_offset", "reason": "its size differs between "
+                                "the lower and the upper half of the band"})
+        if dropped:
+            if model.effects:
+                th, cov = least_squares_fit(model, th2)
+            else:
+                model, th, cov = start, th0, None
     if cov is None:
         model, th = model0, th0
         cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
@@ -164,6 +348,15 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
     common = _with(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
     before_common = locate(common, _refit(common, (th0,))[1])
+    if mcmc and deadline is not None and (model.effects or eiv is not None):
+        # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
+        # steps from the cost of one ensemble's evaluation; too few, or none
+        # left, and the Gaussian approximation stands in for it
+        n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
+        if n_steps < MIN_CHAIN_STEPS:
+            mcmc = False
+        else:
+            sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
     if model.effects or eiv is not None:
         meta = base.meta if eiv is None else dict(
             base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
@@ -171,6 +364,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                                             reason=sig["reference_noise"]["explanation"]))
         final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
                              mcmc=mcmc, progress=progress, **sample_kw)
+        if mcmc and not final.convergence["converged"]:
+            # a chain stopped before converging (a start at a bound, a ridge):
+            # the Gaussian approximation at the least-squares point instead
+            final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
+                                 base.not_estimable, free, seed=seed, mcmc=False)
     else:       # nothing to add to the response model: the final fit is the base fit
         final = base
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
@@ -179,23 +377,9 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
         entry = _effect_entry(model, e, sl, final.samples, kept.get(_key(e)))
         entry["signature"] = sig.get(_key(e), {})
         effects.append(entry)
-    # orientation effects: fitted axes against the metadata axes
-    fitted = np.median(base.vectors, axis=0)
-    fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
+    effects += orientation_effects(base, model0, th0, ids, sig)
     nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
     if nominal is not None:
-        for f in catalogue.orientation_findings(fitted, nominal, ids):
-            gain = orientation_score(model0, th0, nominal, f)
-            sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
-            if gain <= BIC_KEEP:
-                continue
-            ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
-                base.vectors[:, r] @ nominal[r], -1, 1))))
-                for c, r in zip(f["channels"], f["rows"])}
-            effects.append({"name": f["name"], "channels": f["channels"],
-                            "parameters": {"angle_to_metadata_axis_deg": ang},
-                            "score_gain": gain, "explanation": f["explanation"]
-                            + "; the free orientation fit already models it"})
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
         t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
         sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
@@ -211,6 +395,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, **sample_kw):
                             "less), so the orientation and response estimates do not move",
                             "signature": sig["tilt_noise"]})
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
+                     incomplete=incomplete, tried=tried, dropped=dropped,
                      before_common=before_common,
                      steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
                      ratio_before=q, ratio_after=band_ratio(model, th))
@@ -241,9 +426,10 @@ class Diagnosis:
             d = {}
             for key in ("azimuth_deg", "dip_deg"):
                 if "median" in b[cid][key] and not b[cid][key].get("undefined"):
-                    d[key] = f[cid][key]["median"] - b[cid][key]["median"]
+                    d[key] = _difference(f[cid][key].get("median"), b[cid][key]["median"])
             for key, v in b[cid].get("response", {}).items():
-                d[key] = f[cid]["response"][key]["median"] - v["median"]
+                d[key] = _difference(f[cid]["response"].get(key, {}).get("median"),
+                                     v.get("median"))
             out[cid] = d
         return out
 
@@ -304,6 +490,11 @@ class Diagnosis:
                 "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
                              "score": "BIC difference under the extended model's noise model"},
                 "base": self.base.summary(), "final": self.final.summary()}
+
+
+def _difference(a, b):
+    """a - b, or nan when either is missing (a summary holds None for nan)."""
+    return float("nan") if a is None or b is None else a - b
 
 
 def misfit_change(edges, before, after):

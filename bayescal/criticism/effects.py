@@ -194,6 +194,62 @@ class GainError(Effect):
                 "metadata value")
 
 
+class ResponseParameters(Effect):
+    """The SUT's natural period and damping off their metadata values on
+    the channels ``rows`` (a fit that holds them at nominal: gains only or
+    none). Parameters per row: ``log(T0 / T0_nom)`` and ``h - h_nom``; the
+    amplitude at the normalisation frequency is kept (the gain, free or
+    held, carries it). All rows at once: one name for one cause (a sensor
+    whose metadata give the wrong pendulum)."""
+
+    name = "response_parameters"
+
+    def __init__(self, rows, families, channel_ids):
+        self.rows = list(rows)
+        self.families = list(families)
+        self.channel_ids = list(channel_ids)
+        self.param_names = tuple(n for c in self.channel_ids
+                                 for n in (f"{c.split('.')[-1]}:log_period_ratio",
+                                           f"{c.split('.')[-1]}:damping_offset"))
+        self._cache = (None, None)
+
+    def _inverses(self, f):
+        if self._cache[0] is not f:
+            self._cache = (f, [fam.inverse_ratio_at(f) for fam in self.families])
+        return self._cache[1]
+
+    def factor(self, f, p):
+        out = np.empty((p.shape[0], len(self.rows), np.size(f)), dtype=complex)
+        for k, (fam, inv) in enumerate(zip(self.families, self._inverses(f))):
+            period = fam.period_s * np.exp(p[:, 2 * k])
+            damping = fam.damping + p[:, 2 * k + 1]
+            with np.errstate(all="ignore"):
+                out[:, k] = inv(period, damping, np.full(p.shape[0], fam.gain))
+        return out
+
+    def log_prior(self, p):
+        lp = p[:, 0::2]
+        h = np.stack([fam.damping + p[:, 2 * k + 1] for k, fam in enumerate(self.families)], 1)
+        ok = np.all(np.abs(lp) < np.log(3.0), axis=1) & np.all((h > 0.05) & (h < 2.0), axis=1)
+        return np.where(ok, 0.0, -np.inf)
+
+    def physical(self, p):
+        out = {}
+        for k, (fam, cid) in enumerate(zip(self.families, self.channel_ids)):
+            out[f"period_s:{cid}"] = fam.period_s * np.exp(p[:, 2 * k])
+            out[f"damping:{cid}"] = fam.damping + p[:, 2 * k + 1]
+        return out
+
+    def explain(self, med):
+        parts = []
+        for fam, cid in zip(self.families, self.channel_ids):
+            t, h = med[f"period_s:{cid}"], med[f"damping:{cid}"]
+            parts.append(f"{cid} period {t:.4g} s (metadata {fam.period_s:.4g}), damping "
+                         f"{h:.3g} (metadata {fam.damping:.3g})")
+        return ("the SUT's natural period and damping differ from its metadata: "
+                + "; ".join(parts) + "; fit them with --fit-response all")
+
+
 # --- signatures -------------------------------------------------------------
 
 def _wls_slope(x, y, w):

@@ -15,6 +15,7 @@ from ..core.sampler import _bounds, least_squares_fit, single_threaded_blas
 from ..core.geometry import Fixed
 from ..core.eiv import EIVModel, EIVNoise
 from ..core.likelihood import MIN_TIME_BLOCKS, Model
+from ..core.response import TwoPoleFamily
 
 
 #: An effect is kept when it improves the BIC by more than this ("very
@@ -54,11 +55,34 @@ def _candidates(model, free, current, drift=None):
         if n:   # unique parameter names for a second pole on the same sensor
             e.param_names = (f"inverse_corner_s_{n + 1}",)
         out.append((_key(e), e, x[:, None]))
+    pendulum = [i for i, b in enumerate(model.blocks)
+                if b.free != "all" and isinstance(b.family, TwoPoleFamily)]
+    if pendulum:
+        fams = [model.blocks[i].family for i in pendulum]
+        steps = [(a, b) for a in (-0.1, 0.0, 0.1) for b in (-0.05, 0.0, 0.05)]
+        out.append(("response_parameters",
+                    catalogue.ResponseParameters(pendulum, fams,
+                                                 [model.blocks[i].channel_id for i in pendulum]),
+                    np.array([[a, b] * len(pendulum) for a, b in steps])))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
                         np.linspace(-0.6, 0.6, 61)[:, None]))
     return [c for c in out if c[0] not in have]
+
+
+def _fitted_offset(model, theta, tried):
+    """The timing offset (s) of the current model or of this step's timing
+    candidate, or None: the start of a clock drift's fit (its offset at
+    mid-record is the constant offset's, to first order)."""
+    for e, sl in zip(model.effects, model.effect_slices):
+        if e.name == "timing_offset":
+            return float(np.asarray(theta)[sl][0])
+    for t in tried:
+        if t["effect"] == "timing_offset" and t.get("fit") is not None:
+            m, th, _ = t["fit"]
+            return _fitted_offset(m, th, [])
+    return None
 
 
 def _drift_candidate(model, drift):
@@ -242,23 +266,36 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
             "n_data": n, "n_extra_params": k}
 
 
-def search(model, theta, free, log=None, drift=None):
+def search(model, theta, free, log=None, drift=None, deadline=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
+    ``deadline`` (a :func:`time.monotonic` value): checked before each
+    candidate; past it the search stops and its last step holds
+    ``{"stopped": "budget"}`` (the candidates not tried are listed there).
     BLAS runs single-threaded (small products: threads only add latency)."""
     with single_threaded_blas():
-        return _search(model, theta, free, log, drift)
+        return _search(model, theta, free, log, drift, deadline)
 
 
-def _search(model, theta, free, log, drift):
+def _search(model, theta, free, log, drift, deadline=None):
+    import time
+
     cur, th, cov = model, theta, None
     steps = []
     while len(cur.effects) < MAX_EFFECTS:
         tried = []
-        for key, effect, grid in _candidates(cur, free, cur.effects, drift):
+        cands = _candidates(cur, free, cur.effects, drift)
+        for n, (key, effect, grid) in enumerate(cands):
+            if deadline is not None and time.monotonic() > deadline:
+                steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried]
+                             + [{"stopped": "budget", "not_tried": [c[0] for c in cands[n:]]}])
+                return cur, th, cov, steps
             effects = list(cur.effects)
             if key == "clock_drift":      # nests timing_offset: replaces it
                 effects = [e for e in effects if e.name != "timing_offset"]
+                tau = _fitted_offset(cur, th, tried)
+                if tau is not None:       # start at the offset found (no grid over it)
+                    grid = np.array([[tau, grid[0, 1]]])
             effects.append(effect)
             fit = fit_candidate(cur, th, effects, grid, len(effects) - 1)
             if fit is None:

@@ -10,7 +10,8 @@
                       of three or more co-located sensors, noise.json
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
 
-May import :mod:`bayescal.core`; never criticism, coil, report, network or cli.
+May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline criticises a
+fit that fails its model check); never coil, report, network or cli.
 """
 from .align import align, align_sensors
 from .read import (CODE_ORIENTATION, InputError, InputWarning, flat_inventory, metadata_format,

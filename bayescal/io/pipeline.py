@@ -45,7 +45,7 @@ def _keywords_only(name, args):
 def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
               fit_response="gain", seed=0, priors=Priors(), nperseg=None, start=None, end=None,
               progress=True, sut_source="SUT", ref_source="reference", ref_noise=None,
-              ref_noise_psd=None, **sample_kw):
+              ref_noise_psd=None, diagnose=True, diagnose_budget_s=60.0, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings: what ``bayescal fit`` computes, from ObsPy objects.
 
@@ -94,6 +94,18 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         ``damping_tolerance`` (relative standard deviations of the log-normal
         priors on period and damping, default 0.05) are the manufacturer's
         tolerance (:mod:`bayescal.core.pendulum`).
+    diagnose : bool
+        When the model check fails, criticise the fit (True, the default):
+        find what the model leaves out, model it from the fit's own
+        spectra and least-squares point, and give a verdict
+        (``posterior.criticism``, result.json's ``criticism``; the improved
+        model's posterior is ``posterior.improved``); see
+        :mod:`bayescal.criticism.verdict`. False skips it (as ``bayescal
+        fit --no-diagnose``).
+    diagnose_budget_s : float
+        Seconds the criticism may spend trying candidate effects (checked
+        between candidates; when it runs out the verdict is "unexplained"
+        and says which candidates were tried).
 
     Returns
     -------
@@ -186,8 +198,34 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                                                  .get("separation", {}))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
+    post.improved = None
+    if diagnose:
+        _criticise(post, diagnose_budget_s, seed, sample_kw)
     _warn_on_misfit(post)
     return post
+
+
+def _criticise(post, budget_s, seed, sample_kw):
+    """When the model check fails, the criticism of the fit (see
+    :mod:`bayescal.criticism.verdict`), kept on ``post``."""
+    from ..core.adequacy import from_diagnostics
+
+    if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
+        return
+    from ..criticism.verdict import check_orientation, criticise, failed
+    ok = from_diagnostics(post.diagnostics).get("ok")
+    if ok is None:
+        return
+    if ok:      # the orientation is fitted freely: a reversed channel fits, but say so
+        post.criticism = check_orientation(post) or {}
+        return
+    try:
+        c = criticise(post, budget_s=budget_s, seed=seed, **sample_kw)
+    except Exception as exc:   # noqa: BLE001 - the fit's results stand without it
+        post.criticism = failed(exc)
+        return
+    post.criticism = c.summary
+    post.improved = c.improved
 
 
 def _warn_on_misfit(post):
@@ -198,7 +236,9 @@ def _warn_on_misfit(post):
     from ..core.adequacy import ModelMisfitWarning, describe, from_diagnostics
     verdict = from_diagnostics(post.diagnostics)
     if verdict.get("ok") is False:
-        warnings.warn(describe(verdict), ModelMisfitWarning, stacklevel=3)
+        c = post.criticism.get("verdict_text") if post.criticism else None
+        warnings.warn(describe(verdict, next_step=c and f"Criticism: {c}."), ModelMisfitWarning,
+                      stacklevel=3)
 
 
 def _known_reference_noise(psd, ref_noise, spectra):
@@ -337,6 +377,10 @@ def write_results(posterior, folder):
                                               else [])
     inv = getattr(posterior, "sut_inventory", None)
     if inv is not None:
-        write_corrected(inv, posterior, os.path.join(folder, "sut_corrected.xml"))
+        crit = posterior.criticism or {}
+        improved = getattr(posterior, "improved", None)
+        use = improved if crit.get("stationxml") == "improved model" and improved else posterior
+        write_corrected(inv, use, os.path.join(folder, "sut_corrected.xml"),
+                        criticism=crit if use is improved else None)
         names.append("sut_corrected.xml")
     return [os.path.join(folder, n) for n in names]

@@ -34,7 +34,7 @@ import os
 
 import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
-from obspy.core.util.obspy_types import ComplexWithUncertainties
+from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
 from .read import InputError
 
@@ -154,9 +154,12 @@ def update_response(channel, samples, free, summary):
                          f"{exc}") from None
 
 
-def corrected_inventory(inventory, posterior):
+def corrected_inventory(inventory, posterior, criticism=None):
     """A copy of ``inventory`` with the posterior's fitted values written in
-    (see the module docstring)."""
+    (see the module docstring). ``criticism``: when the values are the
+    improved model's (result.json's ``criticism``), each channel's comment
+    names the effects modelled, and a timing offset of the SUT's digitizer
+    is added to its last decimating stage's delay."""
     from obspy import UTCDateTime
 
     inv = copy.deepcopy(inventory)
@@ -178,7 +181,48 @@ def corrected_inventory(inventory, posterior):
         if "response" in entry and cid in posterior.response:
             update_response(ch, posterior.response[cid], free, entry["response"])
         ch.comments.append(provenance_comment(posterior, entry))
+        if criticism:
+            ch.comments.append(criticism_comment(ch, cid, criticism))
     return inv
+
+
+def _timing_offset(criticism):
+    e = next((e for e in criticism.get("effects", []) if e["name"] == "timing_offset"), None)
+    return None if e is None else e["size"]["seconds"]
+
+
+def criticism_comment(channel, cid, criticism):
+    """A Comment naming the effects the improved model adds (and, for a
+    digitizer timing offset, writing it into the stage delay)."""
+    from obspy.core.inventory.util import Comment
+
+    named = [e for e in criticism.get("effects", []) if cid in e.get("channels", [])]
+    text = ("Values from the improved model of bayescal's model criticism, which adds: "
+            + "; ".join(e["explanation"] for e in named) + ".") if named else (
+        "Values from the improved model of bayescal's model criticism.")
+    tau = _timing_offset(criticism) if any(e["name"] == "timing_offset" for e in named) else None
+    if tau is not None:
+        stage = _decimating_stage(channel)
+        if stage is not None:
+            stage.decimation_delay = FloatWithUncertaintiesAndUnit(
+                float(stage.decimation_delay or 0.0) + tau["median"], unit="SECONDS")
+            lo, hi = tau.get("ci95", (np.nan, np.nan))
+            text += (f" The timing offset {tau['median']:.6g} s (95 % [{lo:.6g}, {hi:.6g}]; + = "
+                     f"the SUT's samples late) is added to the delay of response stage "
+                     f"{stage.stage_sequence_number}; its correction is unchanged (the recordings "
+                     "still carry the offset).")
+        else:
+            text += (f" The timing offset {tau['median']:.6g} s (+ = the SUT's samples late) has "
+                     "no stage with a decimation delay to go in.")
+    return Comment(value=text, subject="bayescal criticism")
+
+
+def _decimating_stage(channel):
+    """The last response stage with decimation fields (the digitizer's
+    output), or None."""
+    stages = [st for st in (getattr(channel.response, "response_stages", None) or [])
+              if getattr(st, "decimation_input_sample_rate", None) is not None]
+    return stages[-1] if stages else None
 
 
 def _lean_azimuth(posterior, cid):
@@ -250,10 +294,10 @@ def provenance_comment(posterior, entry):
     return Comment(value=text, subject="bayescal provenance")
 
 
-def write_corrected(inventory, posterior, path):
+def write_corrected(inventory, posterior, path, criticism=None):
     """Write :func:`corrected_inventory` as StationXML to ``path``
     (atomically: temporary name, then rename). Returns ``path``."""
-    inv = corrected_inventory(inventory, posterior)
+    inv = corrected_inventory(inventory, posterior, criticism)
     tmp = os.fspath(path) + ".tmp"
     inv.write(tmp, format="STATIONXML", validate=False)
     os.replace(tmp, path)

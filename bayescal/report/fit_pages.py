@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 from scipy import stats
 
 from ..core.adequacy import describe
+from ..criticism.verdict import lines as criticism_lines
 from ..core.modes import multimodal_line
 from ..core.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
@@ -32,7 +33,9 @@ def page_summary(ctx):
     fig = Figure(figsize=ctx.page)
     fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
     verdict = ctx.summary.get("adequacy") or {"ok": None}
-    check = textwrap.wrap(describe(verdict), 92)
+    crit = ctx.summary.get("criticism") or {}
+    check = textwrap.wrap(describe(verdict, next_step=crit.get("verdict_text") and
+                                   f"Verdict: {crit['verdict_text']}."), 92)
     fig.text(0.06, 0.945, "\n".join(check), va="top", fontsize=9 if verdict["ok"] is False else 8,
              fontweight="bold" if verdict["ok"] is False else "normal", linespacing=1.5)
     top = 0.945 - 0.0155 * len(check) - 0.008
@@ -57,9 +60,17 @@ def page_summary(ctx):
                    "Response (gain-only metadata, e.g. 'flat': no nominal response to deviate "
                    "from; the fitted gain is the measurement)", bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
-    if verdict["ok"] is False:
+    if verdict["ok"] is False and crit:
+        text.append("  MODEL CHECK FAILED; what the criticism found (the verdict is in the first "
+                    "lines):")
+        for line in criticism_lines(crit)[1:]:
+            text += textwrap.wrap(line, 130, subsequent_indent="      ")
+    elif verdict["ok"] is False:
         text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"
                     " and page 4; `bayescal diagnose`)")
+    elif crit.get("effects"):       # the model fits, but the metadata need correcting
+        for line in criticism_lines(crit):
+            text += textwrap.wrap(f"  {line}", 130, subsequent_indent="      ")
     if modes:
         text.append("  MULTIMODAL POSTERIOR: intervals marked \"multimodal\" hold one mode only"
                     " (result.json: \"multimodal\")")

@@ -51,7 +51,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
     try:
         post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                                   band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20,
-                                  ref_noise=ref_noise)
+                                  ref_noise=ref_noise, diagnose=False)
     except InputError as exc:
         # the fit refuses (e.g. too little coherence when both sensors are noisy):
         # nothing is named, which is neither a detection nor a false alarm

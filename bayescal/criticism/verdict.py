@@ -1,0 +1,353 @@
+"""The criticism of a fit that failed its model check, in the main path of
+``bayescal fit`` and :func:`bayescal.calibrate`: the diagnosis
+(:func:`.diagnose.diagnose`, started from the fit's own model, spectra and
+least-squares point, not refitted from scratch) within a time budget, and a
+verdict in plain words, in three levels:
+
+* ``fits``: the model describes the recordings within their noise;
+* ``usable``: it misfits, but modelling the cause moves no estimate by more
+  than :data:`MOVE_SD` of its standard deviation: the estimates are usable
+  as they are;
+* ``improved``: it misfits and modelling the cause moves the estimates: use
+  the improved model's (the corrected StationXML holds them);
+* ``unexplained``: a misfit stays once every candidate has been tried (or
+  the budget ran out): where, and what to try.
+
+:func:`criticise` returns a :class:`Criticism`; its ``summary`` is what
+``result.json`` keeps under ``criticism``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+#: An estimate "moves" when the improved model shifts it by more than this
+#: many of its standard deviations (the fit's 68 % half-width).
+MOVE_SD = 0.3
+#: Seconds the criticism may spend trying candidate effects (checked between
+#: candidates; ``bayescal fit --diagnose-budget``).
+DEFAULT_BUDGET_S = 60.0
+#: Most steps of the improved model's sampler (beyond it: the Gaussian
+#: approximation at the least-squares point, said in its meta).
+MAX_STEPS = 5000
+
+#: What the user can do about each named effect (the option to pass, or the
+#: change to make in the metadata).
+ADVICE = {
+    "response_parameters": "fit the period and damping with --fit-response all",
+    "timing_offset": "correct the SUT's clock or the digitizer delay in its metadata (the "
+                     "corrected StationXML carries the offset in the stage delay)",
+    "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
+    "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
+                  "include its high-frequency poles)",
+    "gain_error": "correct the channel's sensitivity in its metadata (or leave the gains free, "
+                  "the default, which measures it as the relative gain)",
+    "polarity_reversal": "correct the channel's polarity (dip or azimuth sign) in its metadata",
+    "channel_swap": "correct the channel names or wiring",
+    "tilt_noise": "nothing to correct: it is noise; a quieter site or a longer record "
+                  "narrows the long-period intervals",
+}
+
+
+class Criticism:
+    """What :func:`criticise` found: ``summary`` (JSON-safe, result.json's
+    ``criticism``), ``improved`` (the improved model's :class:`Posterior`,
+    or None when nothing was added), ``diagnosis`` (the
+    :class:`.diagnose.Diagnosis`, or None when it did not run)."""
+
+    def __init__(self, summary, improved=None, diagnosis=None):
+        self.summary, self.improved, self.diagnosis = summary, improved, diagnosis
+
+    @property
+    def verdict(self):
+        return self.summary["verdict"]
+
+
+def _sd(entry):
+    lo, hi = entry.get("ci68", (np.nan, np.nan))
+    return 0.5 * (hi - lo)
+
+
+def improved_estimates(base_summary, final_summary):
+    """Per channel, each estimate under the improved model (median and 95 %
+    interval) and ``moved_sd``: its shift from the fit's median in the fit's
+    own standard deviations (68 % half-width)."""
+    out = {}
+    for cid, b in base_summary["channels"].items():
+        f = final_summary["channels"].get(cid)
+        if f is None:
+            continue
+        entry = {}
+        pairs = [(k, b.get(k, {}), f.get(k, {})) for k in ("azimuth_deg", "dip_deg")]
+        pairs += [(k, v, f.get("response", {}).get(k, {}))
+                  for k, v in b.get("response", {}).items()]
+        for key, be, fe in pairs:
+            if "ci68" not in be or "ci68" not in fe or be.get("undefined") or fe.get("undefined"):
+                continue
+            if be.get("median") is None or fe.get("median") is None:
+                continue
+            sd = _sd(be)
+            moved = (fe["median"] - be["median"]) / sd if sd > 0 else 0.0
+            entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
+                          "fit_median": be["median"], "moved_sd": float(moved)}
+        out[cid] = entry
+    return out
+
+
+def _effect_sizes(effect):
+    """{parameter: {median, ci95}} of a named effect (the numbers only)."""
+    out = {}
+    for k, v in effect.get("parameters", {}).items():
+        if isinstance(v, dict) and "median" in v:
+            out[k] = {"median": v["median"], **({"ci95": v["ci95"]} if "ci95" in v else {})}
+        elif isinstance(v, dict):     # a per-channel table (tilt noise)
+            out[k] = v
+    return out
+
+
+def _held_response_moves(effect):
+    """moved_sd of estimates the fit held at their metadata values (a period
+    and damping named as ``response_parameters``): the shift from the
+    metadata value in the improved model's own standard deviations."""
+    out = {}
+    for key, v in effect.get("parameters", {}).items():
+        if not isinstance(v, dict) or "ci68" not in v:
+            continue
+        name, cid = key.split(":", 1)
+        sd = _sd(v)
+        nominal = effect.get("nominal", {}).get(key)
+        if nominal is None or not sd > 0:
+            continue
+        out.setdefault(cid, {})[name] = {"median": v["median"], "ci95": v["ci95"],
+                                         "fit_median": nominal,
+                                         "moved_sd": float((v["median"] - nominal) / sd),
+                                         "held_by_fit": True}
+    return out
+
+
+def _good_band(edges, flag):
+    """(lo, hi) of the widest run of bands without a mismatch (the whole
+    band's edges when every band misfits or none does)."""
+    from .locate import _runs
+    ok = ~flag.any(axis=1)
+    runs = _runs(ok)
+    if not runs or ok.all():
+        return None
+    a, b = max(runs, key=lambda r: np.log(edges[r[1]] / edges[r[0]]))
+    return float(edges[a]), float(edges[b])
+
+
+def _where(mismatch):
+    return "; ".join(f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on "
+                     f"{', '.join(m['channels'])}" for m in mismatch)
+
+
+def _label(effect):
+    """An effect's name in plain words."""
+    name = effect["name"]
+    if name == "extra_pole":
+        who = "reference" if effect.get("parameters", {}).get("which") == "ref" else "SUT"
+        return f"a pole missing from the {who}'s metadata"
+    return {"response_parameters": "the SUT's period and damping off their metadata values",
+            "timing_offset": "a timing offset between the digitizers",
+            "clock_drift": "a drifting SUT clock", "gain_error": "a sensitivity off its metadata",
+            "polarity_reversal": "a reversed channel", "channel_swap": "exchanged channels",
+            "tilt_noise": "long-period tilt noise"}.get(name, name.replace("_", " "))
+
+
+def _names(effects):
+    out = []
+    for e in effects:
+        lab = _label(e)
+        if lab not in out:
+            out.append(lab)
+    return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
+
+
+def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sample_kw):
+    """Criticise the fit ``post`` (a :class:`Posterior` from the pipeline,
+    with its ``model`` and ``theta_ls``). Returns a :class:`Criticism`.
+
+    ``budget_s``: seconds the search for effects may take (checked between
+    candidate effects; past it the criticism is incomplete and the verdict
+    is ``unexplained``). ``mcmc``: sample the improved model (else its
+    Laplace approximation). ``sample_kw`` go to the sampler."""
+    from .diagnose import diagnose
+
+    t0 = time.monotonic()
+    free = post.meta.get("free_response", "none")
+    base_sum = post.summary()
+    pinned = {cid: [k for k, v in e.get("response", {}).items()
+                    if k != "relative_gain" and "pinned" in str(v.get("reason", ""))]
+              for cid, e in base_sum["channels"].items()}
+    pinned = {c: k for c, k in pinned.items() if k}
+    if pinned:
+        return Criticism(_pinned(pinned, budget_s))
+    sample_kw.pop("progress", None)
+    # the improved model's sampler is bounded too: a chain that does not
+    # converge in MAX_STEPS falls back to the Gaussian approximation
+    sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)
+    d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log,
+                 deadline=t0 + float(budget_s), **sample_kw)
+    seconds = time.monotonic() - t0
+    named = [e for e in d.effects]
+    moves = {}
+    if d.final is not post:
+        moves = improved_estimates(base_sum, d.final.summary())
+    for e in named:
+        if e["name"] == "response_parameters":
+            for cid, v in _held_response_moves(e).items():
+                moves.setdefault(cid, {}).update(v)
+    biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
+    left = d.after["mismatch"]
+    edges = np.asarray(d.band_edges)
+    before = float(np.max(d.before_common["misfit"]))
+    after = float(np.max(d.after["misfit"]))
+    advice = []
+    ref = d.signatures.get("reference_noise", {})
+    effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
+                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], "")}
+               for e in named]
+    names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
+    if d.incomplete:
+        verdict = "unexplained"
+        text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
+                f"budget of {budget_s:g} s ran out (not tried: "
+                f"{', '.join(d.incomplete['not_tried'])}; --diagnose-budget raises it): the "
+                f"misfit stays unexplained")
+        advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
+    elif left:
+        verdict = "unexplained"
+        text = (f"the model does not fit the recordings in {_where(left)}"
+                + (f", even with {names} modelled" if names else "")
+                + ": no effect the criticism knows explains it; treat the estimates with "
+                  "caution")
+        good = _good_band(edges, d.after["flag"]) or _good_band(edges, d.before["flag"])
+        if good:
+            advice.append(f"--band {good[0]:.3g} {good[1]:.3g} (the widest band where the "
+                          "model holds) if the misfit is not physics to model")
+        if free != "all" and "response_parameters" not in d.tried:
+            advice.append("--fit-response all (period and damping fitted)")
+        caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
+            d.sentences()[-1] else None
+        if caveat:
+            advice.append(caveat)
+    elif biggest <= MOVE_SD:
+        verdict = "usable"
+        text = (f"the model misfits the recordings because of {names or 'an effect it leaves out'}"
+                f"; modelling it moves no estimate by more than {MOVE_SD:g} of its standard "
+                "deviation: the estimates are usable as they are")
+    else:
+        verdict = "improved"
+        text = (f"the model misfits the recordings because of {names}; modelling it moves the "
+                f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
+                "model's estimates (the criticism lists those that move; the corrected "
+                "StationXML holds them all)")
+    for e in effects:
+        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
+            advice.append(e["advice"])
+    stationxml = "improved model" if verdict in ("usable", "improved") and \
+        d.final is not post else "fit"
+    summary = {
+        "verdict": verdict, "verdict_text": text, "effects": effects,
+        "reference_noise_modelled": bool(ref.get("kept")),
+        "misfit_before": before, "misfit_after": after,
+        "misfit_note": "largest standardised misfit over bands and channels, before and after "
+                       "under the improved model's noise model (about 1 is a fit within the "
+                       "noise)",
+        "misfit_check": float(np.max(d.before["misfit"])),
+        "improved_estimates": moves, "max_moved_sd": float(biggest), "move_threshold_sd": MOVE_SD,
+        "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
+                         "misfit_max": m["misfit_max"]} for m in left],
+        "advice": advice, "stationxml": stationxml,
+        "complete": d.incomplete is None, "tried": d.tried,
+        "not_tried": (d.incomplete or {}).get("not_tried", []),
+        "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),
+        "sentences": d.sentences(),
+    }
+    improved = d.final if d.final is not post else None
+    return Criticism(summary, improved, d)
+
+
+def _pinned(pinned, budget_s):
+    """The verdict when a fitted value sits at its prior's bound: the model
+    cannot fit the recordings with it there, and no effect is looked for
+    (one would only absorb the misfit the bound makes)."""
+    where = [f"the {', '.join(k)} of {c}" for c, k in pinned.items()]
+    where = where[0] if len(where) == 1 else ", ".join(where[:-1]) + " and " + where[-1]
+    are = "is" if len(pinned) == 1 and len(next(iter(pinned.values()))) == 1 else "are"
+    return {"verdict": "unexplained", "effects": [], "complete": True, "tried": [],
+            "not_tried": [], "budget_s": float(budget_s), "seconds": 0.0,
+            "verdict_text": f"{where} {are} pinned at the bound of the prior, which leaves a "
+                            "misfit no missing physics explains: check the value in the "
+                            "metadata, and whether --ref and --sut are swapped, before using "
+                            "the estimates",
+            "advice": ["check the metadata gain, and the order of --ref and --sut"],
+            "unexplained": [], "improved_estimates": {}, "stationxml": "fit"}
+
+
+def check_orientation(post):
+    """When the model check passes: a reversed or exchanged channel fits
+    (the orientation is fitted freely) but its metadata are wrong. Returns
+    the criticism's summary naming it (verdict ``fits``), or None when the
+    fitted axes agree with the metadata."""
+    from .diagnose import orientation_effects
+
+    t0 = time.monotonic()
+    model, th = post.model, post.theta_ls
+    ids = [b.channel_id for b in model.blocks]
+    named = orientation_effects(post, model, th, ids)
+    if not named:
+        return None
+    effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
+                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], "")}
+               for e in named]
+    return {"verdict": "fits", "verdict_text": "the model fits the recordings, with "
+            f"{_names(named)} that the fitted orientation already holds: the estimates are "
+            "usable as they are, and the metadata need correcting (the corrected StationXML "
+            "holds the fitted orientation)", "effects": effects, "complete": True,
+            "tried": ["polarity_reversal", "channel_swap"], "not_tried": [],
+            "advice": [e["advice"] for e in effects], "unexplained": [],
+            "improved_estimates": {}, "stationxml": "fit", "seconds": time.monotonic() - t0}
+
+
+def failed(exc):
+    """The criticism's summary when it stopped on an error (the fit stands)."""
+    return {"verdict": "unexplained", "verdict_text": "the search for the cause of the misfit "
+            f"stopped on an error ({type(exc).__name__}: {exc}): the misfit stays unexplained; "
+            "treat the estimates with caution", "effects": [], "complete": False,
+            "error": f"{type(exc).__name__}: {exc}"}
+
+
+def lines(c):
+    """The criticism in plain words for the console and the report, one
+    string per line (``c``: a :class:`Criticism`'s summary)."""
+    out = [f"verdict: {c['verdict_text']}"]
+    if c["verdict"] == "fits" and not c.get("effects"):
+        return out
+    for e in c.get("effects", []):
+        out.append(f"  found: {e['explanation']}")
+    if "misfit_before" in c and (c.get("effects") or c.get("reference_noise_modelled")):
+        out.append(f"  largest standardised misfit {c['misfit_before']:.3g} -> "
+                   f"{c['misfit_after']:.3g} with it modelled (both under the improved model's "
+                   "noise model; about 1 is a fit within the noise)")
+    moved = [(cid, k, v) for cid, d in c.get("improved_estimates", {}).items()
+             for k, v in d.items() if k != "relative_gain"]
+    big = [m for m in moved if abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)]
+    if moved:
+        out.append(f"  estimates under the improved model that move by more than "
+                   f"{c.get('move_threshold_sd', MOVE_SD):g} sd" + (":" if big else ": none"))
+        for cid, k, v in big:
+            out.append(f"    {cid} {k.replace('_deg', '').replace('_s', '')} {v['median']:.5g} "
+                       f"[{v['ci95'][0]:.5g}, {v['ci95'][1]:.5g}] (the fit: {v['fit_median']:.5g}"
+                       f"{', held at its metadata value' if v.get('held_by_fit') else ''}; moved "
+                       f"{v['moved_sd']:+.2g} sd)")
+    for a in c.get("advice", []):
+        out.append(f"  to do: {a}")
+    if c.get("stationxml"):
+        out.append("  corrected StationXML: holds "
+                   + ("the improved model's estimates, the effect named in each channel's "
+                      "comment" if c["stationxml"] == "improved model"
+                      else "the fit's estimates (the table above)"))
+    return out
