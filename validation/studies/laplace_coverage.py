@@ -2,9 +2,10 @@
 of the coverage study (docs/validation/damping_coverage.md).
 
 For each seed of ``validation/studies/coverage_study.py`` (same cases, same spectra)
-the fit stops after the least-squares step; ``z = (theta_ls - truth) / sd``
-with ``sd`` the Laplace (inverse Fisher) standard deviation, for log period,
-damping and log gain of each channel. With the Gaussian likelihood the
+the fit stops after the least-squares step (the pendulum prior's rows
+included); ``z = (theta_ls - truth) / sd`` with ``sd`` the Laplace standard
+deviation, for log period, damping and log gain of each channel (carried
+from the pendulum's coordinates by the delta method). With the Gaussian likelihood the
 posterior is this Laplace approximation to a few hundredths of an sd, so a
 ``z`` sd above 1 here is in the likelihood, not in the sampler or in the
 per-band noise scale. About 1.5-2.5 s per seed (sampling: 4-6 s).
@@ -12,7 +13,8 @@ per-band noise scale. About 1.5-2.5 s per seed (sampling: 4-6 s).
     python validation/studies/laplace_coverage.py --seeds 0 100 --out /tmp/ls_base.json
     python validation/studies/laplace_coverage.py --seeds 0 100 --variant norescale
     python validation/studies/laplace_coverage.py --case 15 --coherence 0.9 --seeds 1000 1060
-    (variants, combinable with '+': norescale, nodes<N>, bpd<N>m<M>, shrink<X>, nperseg<N>)
+    (variants, combinable with '+': quiet, norescale, nodes<N>, bpd<N>m<M>, shrink<X>,
+    nperseg<N>; norescale acts on the quiet model only: use quiet+norescale)
 """
 from __future__ import annotations
 
@@ -35,7 +37,7 @@ def apply_variant(variant):
     import bayescal.io.pipeline as pl
     kw = {}
     for v in filter(None, variant.split("+")):
-        if v == "norescale":                       # no SUT-counts row rescaling
+        if v == "norescale":                       # no SUT-counts row rescaling (quiet model)
             ns.rescale_rows = lambda r, *a, **k: r
         elif v.startswith("nodes"):                # interpolation nodes per decade
             lk.NODES_PER_DECADE = int(v[5:])
@@ -44,7 +46,10 @@ def apply_variant(variant):
             pl.cross_spectra = functools.partial(pl.cross_spectra, bands_per_decade=int(bpd),
                                                  min_bins=int(mb or 8))
         elif v.startswith("shrink"):               # inflation-factor shrinkage weight
-            lk.INFLATION_SHRINK = float(v[6:])
+            import bayescal.core.eiv as ev         # both models' (eiv imports the value)
+            lk.INFLATION_SHRINK = ev.INFLATION_SHRINK = float(v[6:])
+        elif v == "quiet":                         # the reference taken as noise-free
+            kw["ref_noise"] = "quiet"
         elif v.startswith("nperseg"):
             kw["nperseg"] = int(v[7:])
         else:
@@ -79,13 +84,23 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coher
         model, theta, cov = got.args
     finally:
         sm.least_squares_fit = orig
-    sd = np.sqrt(np.diag(cov))
     z = {}
     for k, b in enumerate(model.blocks):
+        i0, i1, ig = (model.names.index(f"{b.channel_id}:{n}")
+                      for n in ("c0_rel", "c1_rel", "log_gain"))
+        c0, c1 = theta[i0], theta[i1]
+        tn, hn = b.family.period_s, b.family.damping
+        # log period, damping and log gain from the pendulum's coordinates, with
+        # their gradients (the delta method carries the Laplace covariance over)
+        values = (np.log(tn) - 0.5 * np.log(c0), hn * c1 / np.sqrt(c0), theta[ig])
+        grads = ({i0: -0.5 / c0}, {i0: -0.5 * hn * c1 * c0 ** -1.5, i1: hn / np.sqrt(c0)},
+                 {ig: 1.0})
         truth = (np.log(resp[k][0]), resp[k][1], np.log(resp[k][2]))
-        for name, t in zip(("log_period", "damping", "log_gain"), truth):
-            i = model.names.index(f"{b.channel_id}:{name}")
-            z[f"{b.channel_id.split('.')[-1]}:{name}"] = float((theta[i] - t) / sd[i])
+        for name, v, g, t in zip(("log_period", "damping", "log_gain"), values, grads, truth):
+            gv = np.zeros(theta.size)
+            for i, d in g.items():
+                gv[i] = d
+            z[f"{b.channel_id.split('.')[-1]}:{name}"] = float((v - t) / np.sqrt(gv @ cov @ gv))
     return float(coh), z
 
 
