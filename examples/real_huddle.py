@@ -94,8 +94,14 @@ def main(argv=None):
     med, lo, hi = fitted_amplitude(os.path.join(a.out, "fit"), sut_xml)
     print(f"  |H_unknown| median over {COMPARE_BAND[0]}-{COMPARE_BAND[1]} Hz: {med:.1f} "
           f"counts/(m/s), 95 % [{lo:.1f}, {hi:.1f}]")
-    print(f"  ObsPy rel_calib_stack, same band: {obspy_rel_calib(a.data, smooth=10):.1f} "
-          f"(smooth=10), {obspy_rel_calib(a.data, smooth=0):.1f} (no smoothing)")
+    smooth, raw = obspy_rel_calib(a.data, smooth=10), obspy_rel_calib(a.data, smooth=0)
+    print(f"  ObsPy rel_calib_stack, same band: {smooth:.1f} (smooth=10), {raw:.1f} "
+          "(no smoothing)")
+    with open(os.path.join(a.out, "comparison.json"), "w") as fh:   # what the docs quote
+        json.dump({"band_hz": list(COMPARE_BAND), "units": "counts/(m/s)",
+                   "bayescal_amplitude": {"median": med, "ci95": [lo, hi]},
+                   "obspy_rel_calib_stack": {"smooth_10": smooth, "no_smoothing": raw}},
+                  fh, indent=1)
     c = res["convergence"]
     print(f"  convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}")
 
