@@ -14,7 +14,7 @@ from . import misfit_scale, pendulum, refnoise
 from .geometry import Circle, Fixed, Sphere
 from .eiv import EIVModel
 from .likelihood import ChannelBlock, Model, Priors
-from .unconstrained import prior_bounds as _bounds
+from .unconstrained import prior_bounds
 
 #: A SUT channel is fitted against a two- or one-channel reference only when
 #: its nominal axis lies within this angle (degrees) of the reference's span.
@@ -34,7 +34,7 @@ def closed_form_transfer(spectra):
     return np.real(s[:nu, nu:]) @ np.linalg.inv(np.real(s[nu:, nu:]))
 
 
-def _span_basis(ref_vectors):
+def span_basis(ref_vectors):
     """Orthonormal basis (rows) of the span of the reference axes."""
     _, sv, vt = np.linalg.svd(ref_vectors)
     rank = int(np.sum(sv > 1e-6 * sv[0]))
@@ -87,7 +87,7 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         ``known_noise`` (B, n_r): the reference's self-noise given.
     """
     ref_vectors = np.asarray(ref_vectors, float)
-    basis, _ = _span_basis(ref_vectors)
+    basis, _ = span_basis(ref_vectors)
     rank = basis.shape[0]
     t_hat = closed_form_transfer(spectra)
     v_hat = t_hat @ ref_vectors                                   # (nu, 3)
@@ -160,7 +160,7 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
         from .jacobian import forward_jacobian
         jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
     fun, jac = least_squares_objective(model, jac)
-    lo, hi = _bounds(model)
+    lo, hi = prior_bounds(model)
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     model.estimate_noise(theta)
     tol = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)

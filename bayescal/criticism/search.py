@@ -11,7 +11,8 @@ from scipy.optimize import least_squares
 
 from . import effects as catalogue
 from ..core.jacobian import forward_jacobian
-from ..core.sampler import _bounds, least_squares_fit, single_threaded_blas
+from ..core.sampler import least_squares_fit, single_threaded_blas
+from ..core.unconstrained import prior_bounds
 from ..core.geometry import Fixed
 from ..core.eiv import EIVModel, EIVNoise
 from ..core.likelihood import MIN_TIME_BLOCKS, Model
@@ -200,7 +201,7 @@ def _refit(model, starts):
     if model.ndim == 0:
         return float(model.log_likelihood(np.zeros((1, 0)))[0]), np.zeros(0)
     fac = model.noise.cholesky()
-    lo, hi = _bounds(model)
+    lo, hi = prior_bounds(model)
     bounded = bool(np.isfinite(lo).any())
     best = (-np.inf, None)
     for start in starts:

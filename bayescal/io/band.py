@@ -113,9 +113,9 @@ def _widest_run(mask, freqs):
 
 def _inside_span(sut, ref):
     """Indices of SUT channels whose nominal axis the reference can see."""
-    from ..core.sampler import SPAN_TOLERANCE_DEG, _span_basis
+    from ..core.sampler import SPAN_TOLERANCE_DEG, span_basis
 
-    basis, _ = _span_basis(np.asarray(ref.vectors, float))
+    basis, _ = span_basis(np.asarray(ref.vectors, float))
     if basis.shape[0] == 3:
         return list(range(len(sut.ids)))
     inside = np.linalg.norm(np.asarray(sut.vectors, float) @ basis.T, axis=1)
