@@ -66,18 +66,21 @@ def test_data_that_fix_only_c1_leave_period_and_damping_to_the_prior():
 
 
 def test_well_fixed_parameters_are_measurements_and_the_rule_has_its_closed_form():
-    """Gaussian closed form in one coordinate: with prior precision P and
-    data precision D, halving the prior's width changes the sd by
-    sqrt((D + 4P) / (D + P)). With D = 1e4 P nothing is flagged; with
-    D = P/2 the width changes by more than 1.5 and the prior sets it."""
-    prior_c0 = pendulum.prior_precision(1.0, 1.0, 0.05, 0.05)[0]
-    # at nominal, c0_rel moves ln T and ln h each by -1/2 per unit: 2 x 0.25 / sd^2
-    assert prior_c0[0, 0] == pytest.approx(0.5 / 0.05 ** 2)
-    assert prior_c0[1, 1] == pytest.approx(1.0 / 0.05 ** 2)
-    strong = _gaussian_case(1e4 * prior_c0[0, 0], 1e4 * prior_c0[1, 1])
+    """Gaussian closed form along c0_rel with c1_rel fixed by the data: the
+    prior's precision there is P = 0.5 / sd^2 (c0_rel moves ln T and ln h
+    each by -1/2), and halving the prior's width changes the period's sd by
+    sqrt((D + 4P) / (D + P)) for data precision D. D = P/2 gives sqrt(3),
+    flagged; D = 1e4 P gives about 1, a measurement."""
+    prior = pendulum.prior_precision(1.0, 1.0, 0.05, 0.05)[0]
+    assert prior[0, 0] == pytest.approx(0.5 / 0.05 ** 2)
+    assert prior[1, 1] == pytest.approx(1.0 / 0.05 ** 2)
+    p = prior[0, 0]
+    weak = _gaussian_case(p / 2, 1e12)["period_s"]
+    assert weak["width_ratio"] == pytest.approx(np.sqrt(3.0), rel=1e-3)
+    assert weak["set_by_prior"]
+    strong = _gaussian_case(1e4 * p, 1e12)
+    assert strong["period_s"]["width_ratio"] == pytest.approx(np.sqrt(1.0004 / 1.0001), rel=1e-4)
     assert not any(e["set_by_prior"] for e in strong.values())
-    weak = _gaussian_case(1e-9, 1e9)
-    assert weak["period_s"]["width_ratio"] == pytest.approx(2.0, rel=1e-3)
 
 
 def test_a_value_in_the_prior_tail_is_pulled_and_flagged():

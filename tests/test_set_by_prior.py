@@ -113,3 +113,19 @@ def test_gain_pinned_at_the_prior_bound_keeps_nominal(tmp_path):
         assert ch.response.instrument_sensitivity.value == pytest.approx(750.0 * DIGITIZER_GAIN)
         text = " ".join(c.value for c in ch.comments)
         assert "gain kept at its nominal value 750: set by the prior" in text
+
+
+def test_below_the_corner_the_gain_is_sampled_not_held():
+    """A 2-s sensor seen 0.02-0.12 Hz (up to a quarter of its corner), true
+    gain 230 against the metadata's 200: the data fix gain over c0 only, but
+    the pendulum's proper prior fixes c0, so no gain is held at its nominal
+    value and each gain's 99.9 % range (3.29 sd) holds the truth."""
+    nominal, truth = (2.0, 0.707, 200.0), (2.0, 0.707, 230.0)
+    sim = simulate_pair(duration=1800.0, fs=10.0, seed=3, coherence=0.99,
+                        sut_response=(truth,) * 3, nominal_response=nominal)
+    post = fit_sim(sim, band=(0.02, 0.12), fit_response="all", progress=False)
+    held = [k for k, v in post.meta["set_by_prior"].items() if v.get("action") == "held at nominal"]
+    assert not held
+    for cid, e in post.summary()["channels"].items():
+        g = e["response"]["gain"]
+        assert abs(g["median"] - truth[2]) < Z_001 * g["sd"], (cid, g)

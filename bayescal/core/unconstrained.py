@@ -26,6 +26,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from . import pendulum
+from .jacobian import least_squares_objective
 from .response import gain_prior_factor
 
 #: Laplace sd / prior sd at or above which a parameter is held at nominal.
@@ -63,6 +65,21 @@ def information(model, theta):
     return 2.0 * jac.T @ jac
 
 
+def pendulum_precision(model):
+    """(ndim, ndim) precision of the pendulum priors at the nominal response
+    (:func:`bayescal.core.pendulum.prior_precision`; zero elsewhere): added
+    to the likelihood's information wherever a curvature stands for the
+    posterior's."""
+    q = np.zeros((model.ndim, model.ndim))
+    pr = model.priors
+    for b, (_, sr) in zip(model.blocks, model.slices):
+        if b.free == "all":
+            idx = [sr.start, sr.start + 1]
+            q[np.ix_(idx, idx)] = pendulum.prior_precision(1.0, 1.0, pr.period_tolerance,
+                                                           pr.damping_tolerance)[0]
+    return q
+
+
 def early_holds(model, theta, ratio=EARLY_RATIO):
     """Indices of response parameters to hold at nominal, from the curvature
     at the nominal response (angles from the least-squares point ``theta``);
@@ -76,6 +93,7 @@ def early_holds(model, theta, ratio=EARLY_RATIO):
     # posterior is as wide as the prior (measured: a 120-s sensor in 0.2-2 Hz)
     nominal = nominal_theta(model)
     fisher = information(model, np.where(np.isfinite(nominal), nominal, theta))
+    fisher = fisher + pendulum_precision(model)      # the pendulum's prior is proper
     held = {}
     while True:
         free = [j for j in range(model.ndim) if j not in held]
@@ -135,13 +153,16 @@ class Held:
         fac = self.model.noise.cholesky()
         x0 = np.clip(np.asarray(theta_full, float)[self.free], lo + 1e-9, hi - 1e-9)
 
+        objective, _ = least_squares_objective(self.model, "2-point")
+
         def fun(x):
-            return self.model.whitened_residual(self.expand(x)[0], fac)
+            return objective(self.expand(x)[0], fac)
 
         res = least_squares(fun, x0, bounds=(lo, hi), method="trf", xtol=1e-12, ftol=1e-12,
                             gtol=1e-12)
         full = self.expand(res.x)[0]
-        fisher = information(self.model, full)[np.ix_(self.free, self.free)]
+        fisher = (information(self.model, full)
+                  + pendulum_precision(self.model))[np.ix_(self.free, self.free)]
         cov = np.linalg.pinv(fisher, hermitian=True)
         return full, 0.5 * (cov + cov.T)
 

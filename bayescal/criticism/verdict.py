@@ -87,6 +87,8 @@ def improved_estimates(base_summary, final_summary):
                 continue
             if be.get("median") is None or fe.get("median") is None:
                 continue
+            if be.get("set_by_prior") or fe.get("set_by_prior"):
+                continue                    # the prior's value is not a measurement
             sd = _sd(be)
             moved = (fe["median"] - be["median"]) / sd if sd > 0 else 0.0
             entry[key] = {"median": fe["median"], "ci95": fe["ci95"],

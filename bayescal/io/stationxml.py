@@ -122,7 +122,7 @@ def update_response(channel, samples, free, summary):
                                                                   + w0n * w0n)
         stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
     if "gain" in prior:
-        if free != "all" or {"period_s", "damping"} <= prior:
+        if free != "all" or period is None:
             return                          # nothing fitted is written: response untouched
         gain = fam.gain
     else:
