@@ -78,7 +78,7 @@ def test_far_above_the_corner_only_damping_over_period_is_measured(tmp_path, far
         assert -(pair[0] + pair[1]).real == pytest.approx(4 * np.pi * combo["median"], rel=1e-9)
 
 
-def test_a_sensor_far_outside_its_tolerance_is_pulled_and_says_so(far_sim):
+def test_a_sensor_far_outside_its_tolerance_is_flagged_throughout(far_sim):
     """``far_sim`` with the default 5 % tolerances: the data put damping /
     period 70 % above nominal, seven prior sds, and the prior holds it back
     (posterior median below 0.0085 against the truth's 0.0100): period,

@@ -19,6 +19,7 @@ import numpy as np
 
 from .adequacy import from_diagnostics
 from .modes import mark_channel
+from .pendulum import damping_over_period
 from .unconstrained import by_channel
 from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
@@ -157,7 +158,8 @@ class Posterior:
                                  if self.meta.get("free_response") == "all" or name == "gain"}
             if self.meta.get("free_response") == "all":
                 # what a band above the corner fixes (bayescal.core.pendulum)
-                entry["response"]["damping_over_period"] = interval_summary(r[:, 1] / r[:, 0])
+                entry["response"]["damping_over_period"] = interval_summary(
+                    damping_over_period(r[:, 0], r[:, 1]))
             for name, why in by_channel(self.meta.get("set_by_prior")).get(cid, {}).items():
                 if name not in entry["response"]:
                     continue

@@ -8,6 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..core.geometry import unit_vector
+from ..core.pendulum import damping_over_period
 from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, _header
 
@@ -79,7 +80,8 @@ def response_columns(ctx):
         if {"period_s", "damping"} <= set(drawn):
             # what a band above the corner fixes (bayescal.core.pendulum)
             r = post.response[cid]
-            data = np.column_stack([data[:, :2], r[:, 1] / r[:, 0], data[:, 2:]])
+            data = np.column_stack([data[:, :2], damping_over_period(r[:, 0], r[:, 1]),
+                                    data[:, 2:]])
             labels.insert(2, "h/T0 (1/s)")
             truths.insert(2, tru["damping"] / tru["period_s"] if "period_s" in tru else np.nan)
         out.append((cid, data, labels, truths))
