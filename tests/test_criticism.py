@@ -176,7 +176,8 @@ def test_cowi_clock_offset_named_and_estimates_stated(cowi_data):
     assert [e["name"] for e in c["effects"]] == ["timing_offset"]
     tau = c["effects"][0]["size"]["seconds"]["median"]
     assert -1.8e-3 < tau < -1.3e-3
-    assert c["misfit_after"] < 2.0 < 6.0 < c["misfit_before"]
+    # most of the misfit is the offset (what is left is under a third of it)
+    assert c["misfit_after"] < c["misfit_before"] / 3 and c["misfit_before"] > 6.0
     assert c["verdict"] in ("usable", "improved") and c["stationxml"] == "improved model"
     az = c["improved_estimates"]["US.COWI..LHN"]["azimuth_deg"]["median"]
     assert abs(az - 3.2) < 0.5        # ASL's published 3.2 +- 0.5 degrees

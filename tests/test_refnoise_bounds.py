@@ -1,7 +1,7 @@
 """The reference's noise is estimated within what the spectra admit: never
-above the incoherent power the spectra show (with its sampling error), and
-no negative excursion beyond it. The bound is the closed form of a known
-case, and the bounded profile is the constrained minimum scipy finds."""
+above the incoherent power the spectra show, never below zero, each end
+widened by that power's sampling error. The bounds are the closed form of a
+known case, and the bounded profile is the constrained minimum scipy finds."""
 from __future__ import annotations
 
 import numpy as np
@@ -29,19 +29,21 @@ class _Spectra:
         return self._s
 
 
-def test_incoherent_power_is_the_reference_noise_when_the_sut_is_quiet():
+def test_admissible_noise_is_the_reference_noise_when_the_sut_is_quiet():
     rng = np.random.default_rng(0)
     a = rng.standard_normal((2, 2)) + 1j * rng.standard_normal((2, 2))
     g = a @ a.conj().T + np.eye(2)
     n = np.diag([0.3, 0.05])
     sp = _Spectra(g, n)
-    got = refnoise.incoherent_power(sp)
+    lower, upper = refnoise.admissible_noise(sp)
     k = sp.bins_per_band * sp.n_segments
     left = k - sp.n_u
     # exact band sums (no sampling error): the noise itself, scaled as an
-    # estimate from K - n_u degrees of freedom is, plus three standard errors
-    want = np.diag(n)[None] * k[:, None] * (k / left * (1 + 3 / np.sqrt(left)))[:, None]
-    np.testing.assert_allclose(got, want, rtol=1e-9)
+    # estimate from K - n_u degrees of freedom is, plus three standard errors;
+    # below, zero less the same three standard errors
+    power = np.diag(n)[None] * k[:, None] * (k / left)[:, None]
+    np.testing.assert_allclose(upper, power * (1 + 3 / np.sqrt(left))[:, None], rtol=1e-9)
+    np.testing.assert_allclose(lower, -power * (3 / np.sqrt(left))[:, None], rtol=1e-9)
 
 
 def _problem(seed, nw=6, nb=4, nu=2, nr=2):
@@ -53,7 +55,8 @@ def _problem(seed, nw=6, nb=4, nu=2, nr=2):
     w = a @ a.transpose(0, 2, 1) + 0.5 * np.eye(2 * m)
     shapes = rng.uniform(0.2, 1.0, (nb, nr, 2))
     upper = rng.uniform(0.3, 1.5, (nb, nr))
-    return x0, u, shapes, w, upper
+    lower = -rng.uniform(0.02, 0.3, (nb, nr))
+    return x0, u, shapes, w, (lower, upper)
 
 
 def _objective(c, x0, u, shapes, w):
@@ -64,18 +67,18 @@ def _objective(c, x0, u, shapes, w):
 
 @pytest.mark.parametrize("seed", range(5))
 def test_bounded_profile_is_the_constrained_minimum(seed):
-    x0, u, shapes, w, upper = _problem(seed)
-    c, _, q = refnoise.profile_columns(x0, u, shapes, w, upper)
+    x0, u, shapes, w, (lower, upper) = _problem(seed)
+    c, _, q = refnoise.profile_columns(x0, u, shapes, w, (lower, upper))
     nr = shapes.shape[1]
     free, _, q_free = refnoise.profile_columns(x0, u, shapes, w)
     for k in range(x0.shape[0]):
         d = (shapes * c[k][None]).sum(axis=-1)
-        assert np.all(np.abs(d) <= upper * (1 + 1e-9))
+        assert np.all(d <= upper * (1 + 1e-9)) and np.all(d >= lower * (1 + 1e-9))
 
         def noise(v):
             return (shapes * v.reshape(nr, 2)[None]).sum(axis=-1).ravel()
         cons = [{"type": "ineq", "fun": lambda v: upper.ravel() - noise(v)},
-                {"type": "ineq", "fun": lambda v: upper.ravel() + noise(v)}]
+                {"type": "ineq", "fun": lambda v: noise(v) - lower.ravel()}]
         best = min((minimize(_objective, start, args=(x0[k], u[k], shapes, w),
                              constraints=cons, method="SLSQP",
                              options={"ftol": 1e-14, "maxiter": 500})
@@ -88,7 +91,7 @@ def test_bounded_profile_is_the_constrained_minimum(seed):
         assert q[k].sum() >= q_free[k].sum() - 1e-9 * abs(q_free[k].sum())
     # the cases include walkers whose free minimum breaks a bound
     d_free = (shapes[None] * free[:, None]).sum(axis=-1)
-    assert np.any(np.abs(d_free) > upper[None])
+    assert np.any((d_free > upper[None]) | (d_free < lower[None]))
 
 
 def test_polygon_minimum_matches_scipy():

@@ -30,11 +30,16 @@ def _percent(text):
     return value
 
 
+def _percent_or_zero(text):
+    return 0.0 if text.strip() in ("0", "0.0") else _percent(text)
+
+
 def priors_from(args):
     """The fit's :class:`bayescal.core.likelihood.Priors` from the options."""
     from ..core.likelihood import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
-                  damping_tolerance=args.damping_tolerance / 100.0)
+                  damping_tolerance=args.damping_tolerance / 100.0,
+                  reference_tolerance=getattr(args, "ref_tolerance", 0.0) / 100.0)
 
 
 def add_tolerance_arguments(parser, when):
@@ -86,6 +91,14 @@ def add_pair_arguments(parser):
                              "angles only). With one horizontal reference channel the gains "
                              "are held (it cannot separate them from the rotation)")
     add_tolerance_arguments(parser, "with --fit-response all")
+    parser.add_argument("--ref-tolerance", type=_percent_or_zero, default=0.0,
+                        metavar="PERCENT",
+                        help="how well the reference's own metadata are known: the relative "
+                             "standard deviation in per cent of its gain, natural period and "
+                             "damping, carried into the SUT's gain, period and damping "
+                             "intervals (default 0: taken as exact, as a relative calibration "
+                             "does; the SUT's response is then measured against the "
+                             "reference's metadata)")
     parser.add_argument("--ref-noise", choices=["quiet", "estimate", "equal"], default=None,
                         help="the reference's own self-noise: 'estimate' (estimated from the "
                              "data as white in ground units plus white in the reference's "
@@ -99,6 +112,11 @@ def add_pair_arguments(parser):
                              "bayescal noise's noise.json (from a third co-located sensor: the "
                              "remedy for a one-channel pair such as a vertical huddle) or a text "
                              "file of period (s) and PSD (dB re 1 (m/s^2)^2/Hz) columns")
+    parser.add_argument("--keep-transients", action="store_true",
+                        help="fit every Welch segment; by default segments in which one sensor "
+                             "records noise the other does not, beyond the record's stationary "
+                             "noise (a transient near one sensor: a gust, a door, a vehicle), "
+                             "are left out, and the console says how many and when")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")

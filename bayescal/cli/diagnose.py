@@ -98,6 +98,7 @@ def _run_diagnosis(args, say):
                            start=args.start, end=args.end, progress=not args.quiet,
                            sut_id=args.sut_id, ref_id=args.ref_id,
                            ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
+                           transients="keep" if args.keep_transients else "drop",
                            max_steps=args.max_steps, diagnose=False,
                            priors=priors_from(args))
     say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "

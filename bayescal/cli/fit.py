@@ -199,6 +199,16 @@ def print_criticism(crit, stream=None):
         print(line, file=stream)
 
 
+def transient_words(transients):
+    """The console's clause on the segments a transient left out ('' if none)."""
+    if not transients:
+        return ""
+    ratio = transients["ratio"]
+    return (f"; {transients['dropped']} left out for a transient in one sensor (incoherent power "
+            f"{min(ratio):.3g}-{max(ratio):.3g} times that of the minutes around; "
+            f"--keep-transients keeps them)")
+
+
 def run(args):
     """Run the fit; returns the exit code."""
     from ..io.read import InputError, InputWarning
@@ -218,6 +228,7 @@ def run(args):
                                start=args.start, end=args.end, progress=not args.quiet,
                                sut_id=args.sut_id, ref_id=args.ref_id, ref_noise=args.ref_noise,
                                ref_noise_psd=args.ref_noise_psd, max_steps=args.max_steps,
+                               transients="keep" if args.keep_transients else "drop",
                                priors=priors_from(args),
                                diagnose=not args.no_diagnose,
                                diagnose_budget_s=args.diagnose_budget)
@@ -229,7 +240,12 @@ def run(args):
     print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})", file=sys.stderr)
     used = meta["data_used"]
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
-               f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)")
+               f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)"
+               + transient_words(used.get("transients")))
+    if "reference_tolerance" in meta:
+        say(args, f"reference metadata: gain, period and damping known to "
+                  f"{100 * meta['reference_tolerance']['relative_sd']:g} % (1 sd); the SUT's "
+                  f"response intervals carry it")
     with staging(out) as tmp:
         write_results(post, tmp)
         if not args.no_report:

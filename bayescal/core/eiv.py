@@ -78,11 +78,10 @@ class EIVModel(Model):
                              f"{(spectra.n_bands, spectra.n_r)}, not {self.known_noise.shape}")
         nu = spectra.n_u
         self._shapes = refnoise.noise_shapes(spectra)                     # (B, nr, 2)
-        # mode 'estimate': where the spectra cannot tell the reference's noise
-        # from the SUT's, it is kept within what they admit (estimate_noise)
-        self._incoherent = (refnoise.incoherent_power(spectra) if ref_noise == "estimate"
-                            else None)
-        self._upper = None
+        # mode 'estimate': the reference's noise is kept within what the
+        # spectra admit (never negative beyond their sampling error, never
+        # more than the incoherent power they show)
+        self._bounds = refnoise.admissible_noise(spectra) if ref_noise == "estimate" else None
         # mode 'equal' has combinations of the statistic with (near) zero
         # variance whose plug-in error would dominate: directions under 1 %
         # of the largest variance are dropped; 'estimate' keeps everything
@@ -156,9 +155,9 @@ class EIVModel(Model):
             # likelihood that is sampled, each band weighted
             # (bayescal.core.plugin); q is returned unweighted, per band
             coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
-                                                     w * weight[:, None, None], self._upper)
+                                                     w * weight[:, None, None], self._bounds)
             return x0 + term, coef, q / weight
-        coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w, self._upper)
+        coef, term, q = refnoise.profile_columns(x0, u, self._shapes, w, self._bounds)
         return x0 + term, coef, q
 
     def _profile_inputs(self, theta):
@@ -253,12 +252,6 @@ class EIVModel(Model):
             [(a0, b0)] + (refnoise.noise_terms(t, along, rho[:, 0]) if data_terms else []),
             c_band[b], self._k[b]) for b in range(sp.n_bands)])
         w, factor, rank = _pseudo_inverse(cov, self._rtol)
-        if self._incoherent is not None:
-            # bounded where the profiled noise's spread exceeds the incoherent
-            # power: the spectra cannot place it, so only what they admit is
-            # searched (none beyond the incoherent power, either sign)
-            spread = refnoise.noise_spread(*self._profile_inputs(theta0), self._shapes, w)
-            self._upper = (self._incoherent if np.any(spread > self._incoherent) else None)
         if not data_terms:
             rho = self.statistic(theta0, w=w)[1][0]
         # inflation from per-segment statistics (band-centre response ratio)
@@ -290,6 +283,19 @@ class EIVModel(Model):
             self.noise.scale0 = noisescale.noise_scale(ratio, self._band_nodes,
                                                        self._free_rows)[0]
         return self.noise
+
+    def on_bound(self, theta):
+        """Whether the reference's profiled noise at ``theta`` lies on an end
+        of the range the spectra admit (:func:`refnoise.admissible_noise`):
+        there the spectra cannot tell it from the SUT's, and the range, not
+        the data, places it."""
+        if self._bounds is None or self.noise is None or self.noise.W is None:
+            return False
+        coef = self.statistic(np.atleast_2d(theta)[:1])[1][0]
+        d = (self._shapes * coef[None]).sum(axis=-1)                       # (B, nr)
+        lo, hi = self._bounds
+        tol = 1e-6 * (hi - lo)
+        return bool(np.any((d >= hi - tol) | (d <= lo + tol)))
 
     @staticmethod
     def _segment_statistic(s, t, along, weights):

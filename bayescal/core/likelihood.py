@@ -81,12 +81,16 @@ class Priors:
     calibrations): each log-normal around its nominal value with relative
     standard deviation ``period_tolerance`` and ``damping_tolerance`` (the
     manufacturer's tolerance; :mod:`bayescal.core.pendulum`). Gain:
-    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``.
+    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``. The
+    reference's gain, period and damping: exact (``reference_tolerance``
+    0) or log-normal with that relative standard deviation
+    (:mod:`bayescal.core.reference_tolerance`).
     """
 
     gain_factor: float = 10.0
     period_tolerance: float = pendulum.PERIOD_TOLERANCE
     damping_tolerance: float = pendulum.DAMPING_TOLERANCE
+    reference_tolerance: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -99,7 +99,7 @@ def treatment_meta(model, theta):
                     "units plus white in its counts",
         "fixed": "the reference's self-noise as given (a third sensor or the user's model)"
         }[mode]}
-    if getattr(model, "_upper", None) is not None:
+    if getattr(model, "on_bound", lambda t: False)(theta):
         out["bounded"] = ("the spectra cannot tell the reference's self-noise from the SUT's "
                           "here: it is kept within the incoherent power they show")
     if mode != "quiet":
@@ -213,16 +213,19 @@ def band_matmul(w, x):
 BOUNDED_SWEEPS = 50
 
 
-def incoherent_power(spectra):
-    """(B, n_r) the upper bound of the reference's self-noise the spectra
-    allow: each reference channel's band power not coherent with the SUT's
-    channels (``S_rr,kk - S_ru S_uu^-1 S_ur``, band sums; a regression on the
-    ``n_u`` SUT channels leaves ``K_b - n_u`` of the band's ``K_b`` complex
-    degrees of freedom, bins times segments, so it is scaled by
-    ``K_b / (K_b - n_u)`` to be unbiased), plus three standard errors of that
-    estimate (relative ``1 / sqrt(K_b - n_u)``). Whatever the split of the
-    incoherent power between the two sensors, neither sensor's noise
-    exceeds it."""
+def admissible_noise(spectra):
+    """(lower, upper), each (B, n_r): the range of the reference's self-noise
+    (band sums) the spectra admit. The upper end is each reference
+    channel's band power not coherent with the SUT's channels (``S_rr,kk -
+    S_ru S_uu^-1 S_ur``, band sums; a regression on the ``n_u`` SUT channels
+    leaves ``K_b - n_u`` of the band's ``K_b`` complex degrees of freedom,
+    bins times segments, so it is scaled by ``K_b / (K_b - n_u)`` to be
+    unbiased) plus three standard errors of that estimate (relative ``1 /
+    sqrt(K_b - n_u)``): whatever the split of the incoherent power between
+    the two sensors, neither sensor's noise exceeds it. The lower end is
+    zero less the same three standard errors: noise is never negative, and
+    the margin lets a quiet reference's estimate scatter about its zero as
+    the spectra's sampling error does."""
     s = spectra.band_sums()
     nu = spectra.n_u
     suu, sur = s[:, :nu, :nu], s[:, :nu, nu:]
@@ -230,7 +233,9 @@ def incoherent_power(spectra):
     inc = np.real(np.einsum("bkk->bk", s[:, nu:, nu:]) - np.einsum("bkk->bk", explained))
     k = (spectra.bins_per_band * spectra.n_segments).astype(float)
     left = np.maximum(k - nu, 1.0)
-    return np.maximum(inc, 0.0) * (k / left * (1.0 + 3.0 / np.sqrt(left)))[:, None]
+    power = np.maximum(inc, 0.0) * (k / left)[:, None]
+    margin = power * (3.0 / np.sqrt(left))[:, None]
+    return -margin, power + margin
 
 
 def _polygon_edges(a, b):
@@ -275,18 +280,19 @@ def _polygon_minimum(h, g, edges):
     return np.where(ok[:, None], free, edge)
 
 
-def _bounded_minimum(h, grad, c, shapes, upper):
+def _bounded_minimum(h, grad, c, shapes, bounds):
     """Minimise ``c^T h c + 2 grad^T c`` with each channel's noise ``d_b,k =
-    sum_j c_kj shapes_bkj`` within ``[-upper_b,k, upper_b,k]``: block
-    coordinate descent over
+    sum_j c_kj shapes_bkj`` within ``bounds`` = (lower, upper), each (B,
+    n_r), ``lower <= 0 <= upper``: block coordinate descent over
     the reference channels, each block (its two coefficients, a polygon)
     solved exactly; the constraints do not couple channels, so this
     converges to the minimum. ``c`` (W, n_r, 2) a feasible start."""
     nw, nr, _ = c.shape
     c = c.copy()
     hb = h.reshape(nw, nr, 2, nr, 2)
+    lower, upper = bounds
     polygons = [_polygon_edges(np.concatenate([-shapes[:, k, :], shapes[:, k, :]], axis=0),
-                               np.concatenate([upper[:, k], upper[:, k]])) for k in range(nr)]
+                               np.concatenate([-lower[:, k], upper[:, k]])) for k in range(nr)]
     for _ in range(BOUNDED_SWEEPS):
         before = c.copy()
         for k in range(nr):
@@ -299,7 +305,7 @@ def _bounded_minimum(h, grad, c, shapes, upper):
     return c
 
 
-def profile_columns(x0, u, shapes, w, upper=None):
+def profile_columns(x0, u, shapes, w, bounds=None):
     """The reference's noise profiled out of the statistic ``x0 + G c``.
 
     Column ``(k, j)`` of the design ``G`` is ``u[..., k] * shapes[b, k, j]``
@@ -311,42 +317,26 @@ def profile_columns(x0, u, shapes, w, upper=None):
     statistic comes from the same Gram matrix.
 
     ``x0`` (W, B, 2m), ``u`` (W, B, 2m, n_r), ``shapes`` (B, n_r, 2), ``w``
-    (B, 2m, 2m) symmetric. ``upper`` (B, n_r) or None: each channel's
-    noise ``d_b,k`` is kept within ``[-upper_b,k, upper_b,k]``
-    (:func:`incoherent_power`): no noise larger than the incoherent power
-    the spectra show, and
-    no negative excursion larger than that either
-    (about a quiet reference's zero the estimate scatters both ways; a
-    bound at zero would bias the gains high). Returns ``(c, G c, q)``: (W,
-    n_r, 2), (W, B, 2m) and ``q_b = x_b^T W_b x_b`` of ``x = x0 + G c``,
-    (W, B).
+    (B, 2m, 2m) symmetric. ``bounds`` = (lower, upper), each (B, n_r), or
+    None: each channel's noise ``d_b,k`` is kept within ``[lower_b,k,
+    upper_b,k]`` (:func:`admissible_noise`: never negative beyond the
+    spectra's sampling error, never more than the incoherent power they
+    show). Returns ``(c, G c, q)``: (W, n_r, 2), (W, B, 2m) and ``q_b =
+    x_b^T W_b x_b`` of ``x = x0 + G c``, (W, B).
     """
     nw, nb, _, nr = u.shape
     gram, h, grad = _profile_system(x0, u, shapes, w)
     m_kl, gx = gram[..., 1:, 1:], gram[..., 0, 1:]
     c = -np.linalg.solve(h, grad[..., None])[..., 0].reshape(nw, nr, 2)
-    if upper is not None:
+    if bounds is not None:
         d = (shapes[None] * c[:, None]).sum(axis=-1)                   # (W, B, nr)
-        out = np.any(np.abs(d) > upper[None], axis=(1, 2))
+        out = np.any((d > bounds[1][None]) | (d < bounds[0][None]), axis=(1, 2))
         if out.any():                                   # from zero noise, which is feasible
-            c[out] = _bounded_minimum(h[out], grad[out], np.zeros_like(c[out]), shapes, upper)
+            c[out] = _bounded_minimum(h[out], grad[out], np.zeros_like(c[out]), shapes, bounds)
     per_band = (shapes[None] * c[:, None]).sum(axis=-1)                # (W, B, nr)
     q = (gram[..., 0, 0] + 2.0 * (gx * per_band).sum(axis=-1)
          + ((m_kl @ per_band[..., None])[..., 0] * per_band).sum(axis=-1))
     return c, (u * per_band[..., None, :]).sum(axis=-1), q
-
-
-def noise_spread(x0, u, shapes, w):
-    """(B, n_r) the standard deviation of the profiled noise ``d_b,k`` at one
-    point (``x0`` (1, B, 2m), ``u`` (1, B, 2m, n_r)): from the profile's
-    curvature, ``cov(c) = h^-1`` (``-log L = q / 2``). Where it exceeds the
-    incoherent power, the spectra cannot tell the reference's noise from
-    the SUT's, and the profile is bounded (:func:`profile_columns`)."""
-    _, h, _ = _profile_system(x0, u, shapes, w)
-    nr = shapes.shape[1]
-    cov = np.linalg.inv(h[0]).reshape(nr, 2, nr, 2)
-    var = np.einsum("bkj,kjki,bki->bk", shapes, cov, shapes)
-    return np.sqrt(np.maximum(var, 0.0))
 
 
 def _profile_system(x0, u, shapes, w):

@@ -254,7 +254,7 @@ def deconvolve_runs(data, fs, response, band, margin):
 
 def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
                   bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
-                  edge_periods=2.0, time_blocks=TIME_BLOCKS):
+                  edge_periods=2.0, time_blocks=TIME_BLOCKS, exclude=None):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
 
     Parameters
@@ -271,6 +271,9 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     edge_periods : periods of the band's lower edge left out at the ends of
         every gap-free run (the deconvolution's transient).
     time_blocks : number of equal time blocks of ``block_totals``.
+    exclude : first samples of segments to leave out (as ``segment_starts``
+        gives them; e.g. the transients of :mod:`bayescal.core.transients`),
+        or None.
     """
     sut = np.atleast_2d(np.asarray(sut, dtype=float))
     ref = np.atleast_2d(np.asarray(ref, dtype=float))
@@ -312,6 +315,8 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         idx = s[:, None] + np.arange(nperseg)[None, :]
         seg = data[:, idx].transpose(1, 0, 2)                 # (k, n, nperseg)
         ok = np.all(np.isfinite(seg), axis=(1, 2))
+        if exclude is not None:
+            ok &= ~np.isin(s, exclude)
         if not ok.any():
             continue
         seg = detrend(seg[ok], axis=-1, type="linear") * win

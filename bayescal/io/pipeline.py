@@ -23,7 +23,9 @@ from .read import InputError, flat_inventory, read_metadata, read_waveforms
 from .align import align
 from ..core.likelihood import Priors
 from ..core.spectra import SpectraError, cross_spectra
+from ..core.transients import find as find_transients, summary as transient_summary
 from ..core.record_length import record_length
+from ..core import reference_tolerance
 
 
 def _describe_files(side):
@@ -45,7 +47,8 @@ def _keywords_only(name, args):
 def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
               fit_response="gain", seed=0, priors=Priors(), nperseg=None, start=None, end=None,
               progress=True, sut_source="SUT", ref_source="reference", ref_noise=None,
-              ref_noise_psd=None, diagnose=True, diagnose_budget_s=60.0, **sample_kw):
+              ref_noise_psd=None, diagnose=True, diagnose_budget_s=60.0, transients="drop",
+              **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings: what ``bayescal fit`` computes, from ObsPy objects.
 
@@ -93,7 +96,11 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         The priors; with ``fit_response="all"`` its ``period_tolerance`` and
         ``damping_tolerance`` (relative standard deviations of the log-normal
         priors on period and damping, default 0.05) are the manufacturer's
-        tolerance (:mod:`bayescal.core.pendulum`).
+        tolerance (:mod:`bayescal.core.pendulum`); its
+        ``reference_tolerance`` (default 0: the reference's metadata taken as
+        exact) the relative standard deviation of the reference's gain,
+        period and damping, carried into the SUT's response intervals
+        (:mod:`bayescal.core.reference_tolerance`).
     diagnose : bool
         When the model check fails, criticise the fit (True, the default):
         find what the model leaves out, model it from the fit's own
@@ -106,6 +113,13 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         Seconds the criticism may spend trying candidate effects (checked
         between candidates; when it runs out the verdict is "unexplained"
         and says which candidates were tried).
+    transients : {"drop", "keep"}
+        "drop" (the default): Welch segments in which one sensor records
+        noise the other does not, beyond the record's stationary noise (a
+        transient near one sensor), are left out of the fit
+        (:mod:`bayescal.core.transients`; how many and when in
+        ``posterior.meta["data_used"]["transients"]``); "keep" fits every
+        segment (as ``bayescal fit --keep-transients``).
 
     Returns
     -------
@@ -123,6 +137,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     _keywords_only("calibrate", args)
     if any(x is None for x in (ref, ref_xml, sut, sut_xml)):
         raise TypeError(f"calibrate() needs {KEYWORDS}")
+    if transients not in ("drop", "keep"):
+        raise ValueError(f"transients must be 'drop' or 'keep', not {transients!r}")
     sut_inventory = load_inventory(sut_xml, sut, "SUT StationXML")
     ref_inventory = load_inventory(ref_xml, ref, "reference StationXML")
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
@@ -145,6 +161,18 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     low = coherence_gate(spectra, s, r, files)
     families = s.families()
     keep = [i for i, cid in enumerate(s.ids) if cid not in low]
+    dropped = None
+    if transients == "drop":
+        found = find_transients(spectra.select(keep) if low else spectra)
+        if found.count:
+            dropped = transient_summary(found, spectra, t0)
+            try:
+                spectra = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(),
+                                        band, nperseg=spectra.nperseg, sut_ids=s.ids,
+                                        ref_ids=r.ids,
+                                        exclude=spectra.segment_starts[found.dropped])
+            except SpectraError as exc:
+                raise InputError(f"{files}{exc}") from None
     nominal = {cid: {"azimuth_deg": az, "dip_deg": dip,
                      **({} if fam is None else {k: v for k, v in (
                          ("period_s", fam.period_s), ("damping", fam.damping), ("gain", fam.gain),
@@ -170,6 +198,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
             "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
                                      "reference": placeholder_channels(ref_inventory, r.ids)},
             "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
+    if dropped:
+        meta["data_used"]["transients"] = dropped
     fitted = spectra.select(keep) if low else spectra
     known = None
     if ref_noise_psd is not None:
@@ -181,6 +211,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                        known_noise=known, **sample_kw)
     if "reference_noise_input" in meta:
         post.meta["reference_noise"]["input"] = meta["reference_noise_input"]
+    reference_tolerance.apply(post, np.asarray(s.vectors)[keep], r.vectors, r.families(),
+                              priors.reference_tolerance, seed)
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")

@@ -1,0 +1,72 @@
+"""The reference's metadata tolerance carried into the SUT's response: the
+mapping recovers the SUT's true period and damping from what a pair with a
+wrong reference measures, and a pair whose reference gain is 4 % off holds
+the SUT's true gain only when the tolerance is stated."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.optimize import least_squares
+
+from bayescal.core import reference_tolerance
+from bayescal.core.likelihood import Priors
+from bayescal.io.pipeline import calibrate
+from bayescal.simulate.pair import simulate_pair, velocity_response
+
+
+def _h(f, period, damping):
+    w, w0 = 2 * np.pi * f, 2 * np.pi / period
+    return 1.0 / (1 - (w0 / w) ** 2 - 2j * damping * w0 / w)
+
+
+@pytest.mark.parametrize("k", [5.0, 10.0, 20.0])
+def test_the_shift_recovers_the_sut_seen_against_a_wrong_reference(k):
+    """A 120-s SUT (truth 126 s, 0.68) against a 120-s reference whose
+    metadata say 120 s, 0.707 but whose truth is 126 s, 0.742: the pair
+    measures the two-pole that best fits ``H_sut H_ref,meta / H_ref,true``
+    over a band from ``k`` times the SUT's corner; moved by the reference's
+    true error, it is the SUT's truth to within 0.5 % of period and damping
+    (second order in f0/f)."""
+    sut, meta, true = (126.0, 0.68), (120.0, 0.707), (126.0, 0.742)
+    f = np.geomspace(k / sut[0], 1.0, 200)
+    seen = _h(f, *sut) * _h(f, *meta) / _h(f, *true)
+
+    def resid(p):
+        d = _h(f, np.exp(p[0]), np.exp(p[1])) / seen - 1
+        return np.r_[d.real, d.imag]
+    fit = least_squares(resid, np.log([120.0, 0.707]), xtol=1e-14, ftol=1e-14)
+    measured = np.array([[*np.exp(fit.x), 1.0]])
+
+    class Exact:                      # the reference's true error as the "draw"
+        def standard_normal(self, shape):
+            return np.log(np.array([[true[0] / meta[0], true[1] / meta[1], 1.0]]))
+    got = reference_tolerance.widen(measured, meta, 1.0, Exact())[0]
+    for j in (0, 1):      # the wrong reference shows; the shift takes it out
+        assert abs(measured[0, j] / sut[j] - 1) > 0.02
+        assert got[j] == pytest.approx(sut[j], rel=5e-3)
+
+
+def test_a_reference_gain_off_is_covered_only_with_its_tolerance():
+    """The reference's metadata say a gain 4 % above its truth: the SUT's
+    fitted gain is 4 % high, and its interval misses the truth (750) unless
+    the reference's 4 % tolerance is stated; then it holds it, about
+    4 % wide either side."""
+    sim = simulate_pair(duration=3600.0, fs=5.0, seed=3, coherence=0.99)
+    for ch in sim.ref_inventory[0][0]:
+        ch.response = velocity_response(120.0, 0.707, 1500.0 * 1.04, sample_rate=5.0)
+    out = {}
+    for tol in (0.0, 0.04):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
+                             sut_xml=sim.sut_inventory, band=(0.02, 1.0), progress=False,
+                             diagnose=False, priors=Priors(reference_tolerance=tol))
+        out[tol] = post.summary()["channels"]["XX.SIM.10.LHZ"]["response"]["gain"]["ci95"]
+    lo, hi = out[0.0]
+    assert not lo <= 750.0 <= hi and lo > 750.0
+    lo, hi = out[0.04]
+    assert lo <= 750.0 <= hi
+    assert 0.05 < (hi - lo) / 750.0 < 0.25
+    assert post.meta["reference_tolerance"]["relative_sd"] == 0.04
