@@ -76,7 +76,7 @@ def find(spectra, alpha=ALPHA):
     dof = 2.0 * effective_dof(hann(spectra.nperseg), np.zeros(1, int),
                               np.asarray(spectra.bins_per_band, int))  # (B,) real
     # e = [-B_b, I] y: the reference's channels less their prediction from the SUT's
-    coef = np.linalg.solve(total[:, :nu, :nu], total[:, :nu, nu:])    # (B, nu, nr)
+    coef = np.linalg.pinv(total[:, :nu, :nu], hermitian=True) @ total[:, :nu, nu:]  # (B, nu, nr)
     a = np.concatenate([-np.swapaxes(coef, 1, 2).conj(),
                         np.broadcast_to(np.eye(spectra.n_r), (per.shape[1], spectra.n_r,
                                                               spectra.n_r))], axis=2)

@@ -178,9 +178,10 @@ def _header_lines(ctx):
     stations = sorted({".".join(c.split(".")[:2]) for c in post.channel_ids})
     n_used, n_poss = m.get("n_segments"), m.get("n_segments_possible")
     seg = m.get("segment_s")
-    dropped = None if n_used is None or n_poss is None else n_poss - n_used
-    band = m.get("band_hz") or [None, None]
     used = m.get("data_used") or {}
+    dropped = (None if n_used is None or n_poss is None
+               else n_poss - n_used - (used.get("transients") or {}).get("dropped", 0))
+    band = m.get("band_hz") or [None, None]
     lines = [
         f"Result: {ctx.summary.get('schema', '?')}, rendered"
         f" {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by bayescal {__version__}",
@@ -204,6 +205,17 @@ def _header_lines(ctx):
         f"Band: {_g(band[0], '{:.4g}')} - {_g(band[1], '{:.4g}')} Hz in"
         f" {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
         f" sub-bands; response fitted: {m.get('free_response', 'none')}"]
+    if used.get("transients"):
+        tr = used["transients"]
+        lines += textwrap.wrap(
+            f"Transients: {tr['dropped']} segments left out, in which one sensor recorded "
+            f"{min(tr['ratio']):.3g}-{max(tr['ratio']):.3g} times the incoherent power of the "
+            f"minutes around", 120)
+    if m.get("reference_tolerance"):
+        lines += textwrap.wrap(
+            f"Reference metadata: gain, period and damping known to "
+            f"{100 * m['reference_tolerance']['relative_sd']:g} % (1 sd), carried into the "
+            f"SUT's response intervals", 120)
     if m.get("band_choice"):
         lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
     if m.get("assumption"):
