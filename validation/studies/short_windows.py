@@ -13,7 +13,7 @@ record, so:
   by which the intervals are too narrow (above 1) or too wide (below 1)
   (:mod:`bayescal.core.repeatability`);
 * each window's 95 % interval is compared with the whole record's estimate
-  (3.33 and 93.3 degrees with the same band) and with the width the data's
+  (the same fit over all 17 hours, in each mode) and with the width the data's
   coherence allows, ``2 x 1.96 x sqrt((1 - g2) / (2 n g2))`` rad, ``g2`` the
   squared multiple coherence of the channel with the reference averaged
   over the band and ``n`` the band's bins times segments used.
@@ -29,13 +29,15 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import study_results                          # the sibling module, run as a script
 
 from bayescal.core.repeatability import reduced_chi_square, sd_from_ci68
 
 ROOT = Path(__file__).resolve().parents[2]
 COWI = ROOT.parent / "shared" / "data" / "real" / "asl_cowi_azimuth"
 BAND = (0.125, 0.3333333)
-WHOLE_RECORD = {"LHN": 3.33, "LHE": 93.3}
+START, END = "2010-08-23T22:00:00", "2010-08-24T15:00:00"
+MODES = ("drop", "keep")
 
 
 def _coherence_width(post, channel):
@@ -47,25 +49,69 @@ def _coherence_width(post, channel):
     return float(np.degrees(2 * 1.96 * np.sqrt((1 - g2) / (2 * n * g2)))), g2
 
 
+def summarise(rows, whole):
+    """Per mode and channel: widths, the whole record's estimate inside the
+    windows' intervals, the repeatability ratio."""
+    summary = {}
+    for mode in MODES:
+        ok = [r[mode] for r in rows if "LHN" in r[mode]]
+        per = {}
+        for c in ("LHN", "LHE"):
+            med = np.array([o[c]["median"] for o in ok])
+            sd = np.array([o[c]["sd68"] for o in ok])
+            lo = np.array([o[c]["ci95"][0] for o in ok])
+            hi = np.array([o[c]["ci95"][1] for o in ok])
+            allowed = np.array([o[c]["coherence_width"] for o in ok])
+            chi2, ratio = reduced_chi_square(med, sd)
+            ref = whole[mode][c]
+            per[c] = {"windows": len(ok), "median_width95": float(np.median(hi - lo)),
+                      "width95_under_1.5": int(np.sum(hi - lo < 1.5)),
+                      "width_over_coherence_width_median": float(np.median((hi - lo) / allowed)),
+                      "whole_record": ref,
+                      "holds_whole_record": int(np.sum((lo <= ref) & (ref <= hi))),
+                      "scatter_sd": float(np.std(med, ddof=1)), "median_sd68": float(np.median(sd)),
+                      "chi2_red": chi2, "ratio": ratio}
+        per["median_seconds"] = float(np.median([o["seconds"] for o in ok]))
+        per["windows_with_drops"] = int(sum(o["dropped"] > 0 for o in ok))
+        summary[mode] = per
+    return summary
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "validation" / "results" / "repeatability"
                                          / "short_windows.json"))
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--limit", type=int, default=None, help="first N windows only")
+    ap.add_argument("--summarise", action="store_true",
+                    help="recompute the summary of the windows stored in --out")
     args = ap.parse_args(argv)
+    if args.summarise:
+        result = json.loads(study_results.runs_path(args.out).read_text())
+        result["summary"] = summarise(result["runs"], result["whole_record"])
+        study_results.write(args.out, result)
+        print(json.dumps(result["summary"], indent=1))
+        return
     from obspy import UTCDateTime
     from bayescal import calibrate
     from bayescal.io import flat_inventory, read_waveforms
     warnings.simplefilter("ignore")
     sut = read_waveforms(str(COWI / "C100823215422_COWI.LHx"))
     ref = read_waveforms([str(COWI / "DT000110.LH1"), str(COWI / "DT000110.LH2")])
-    t0, t1 = UTCDateTime("2010-08-23T22:00:00"), UTCDateTime("2010-08-24T15:00:00")
+    t0, t1 = UTCDateTime(START), UTCDateTime(END)
+    whole = {}
+    for mode in MODES:
+        post = calibrate(sut=sut, sut_xml=flat_inventory(sut), ref=ref, ref_xml=flat_inventory(ref),
+                         band=BAND, start=t0, end=t1, progress=False, diagnose=False,
+                         transients=mode)
+        ch = post.summary()["channels"]
+        whole[mode] = {c: ch[f"US.COWI..{c}"]["azimuth_deg"]["median"] for c in ("LHN", "LHE")}
+    print("whole record", whole, flush=True)
     starts = np.arange(t0.timestamp, t1.timestamp - 1, args.minutes * 60)[:args.limit]
     rows = []
     for k, s in enumerate(starts):
         row = {"start": str(UTCDateTime(s))}
-        for mode in ("drop", "keep"):
+        for mode in MODES:
             t = time.perf_counter()
             try:
                 post = calibrate(sut=sut, sut_xml=flat_inventory(sut), ref=ref,
@@ -91,32 +137,11 @@ def main(argv=None):
                                   for c in ("LHN", "LHE")} if "LHN" in row[m] else row[m])
                              for m in ("drop", "keep")}, flush=True)
         rows.append(row)
-    summary = {}
-    for mode in ("drop", "keep"):
-        ok = [r[mode] for r in rows if "LHN" in r[mode]]
-        per = {}
-        for c in ("LHN", "LHE"):
-            med = np.array([o[c]["median"] for o in ok])
-            sd = np.array([o[c]["sd68"] for o in ok])
-            lo = np.array([o[c]["ci95"][0] for o in ok])
-            hi = np.array([o[c]["ci95"][1] for o in ok])
-            allowed = np.array([o[c]["coherence_width"] for o in ok])
-            chi2, ratio = reduced_chi_square(med, sd)
-            per[c] = {"windows": len(ok), "median_width95": float(np.median(hi - lo)),
-                      "width95_under_1.5": int(np.sum(hi - lo < 1.5)),
-                      "width_over_coherence_width_median": float(np.median((hi - lo) / allowed)),
-                      "holds_whole_record": int(np.sum((lo <= WHOLE_RECORD[c])
-                                                       & (WHOLE_RECORD[c] <= hi))),
-                      "scatter_sd": float(np.std(med, ddof=1)), "median_sd68": float(np.median(sd)),
-                      "chi2_red": chi2, "ratio": ratio}
-        per["median_seconds"] = float(np.median([o["seconds"] for o in ok]))
-        per["windows_with_drops"] = int(sum(o["dropped"] > 0 for o in ok))
-        summary[mode] = per
+    summary = summarise(rows, whole)
     result = {"command": "python validation/studies/short_windows.py", "band_hz": list(BAND),
-              "minutes": args.minutes, "whole_record": WHOLE_RECORD, "summary": summary,
-              "windows": rows}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(result, indent=1))
+              "minutes": args.minutes, "whole_record": whole, "summary": summary,
+              "runs": rows}
+    study_results.write(args.out, result)
     print(json.dumps(summary, indent=1))
 
 
