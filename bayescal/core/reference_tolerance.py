@@ -22,7 +22,10 @@ with it:
   an approximation (``docs/validation/hard_posteriors.md`` checks it there).
 
 Angles are not touched (the reference's orientation error is another
-matter). The draws are seeded: the result is reproducible.
+matter). The draws are seeded: the result is reproducible. A model
+criticism judges how far its improved model moves the estimates on the
+data's own intervals, before this widening (the reference's error moves
+both models alike); both posteriors are widened afterwards.
 """
 from __future__ import annotations
 

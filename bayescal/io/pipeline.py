@@ -115,7 +115,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         and says which candidates were tried).
     transients : {"drop", "keep"}
         "drop" (the default): Welch segments in which one sensor records
-        noise the other does not, beyond the record's stationary noise (a
+        noise the other does not, well beyond the minutes around them (a
         transient near one sensor), are left out of the fit
         (:mod:`bayescal.core.transients`; how many and when in
         ``posterior.meta["data_used"]["transients"]``); "keep" fits every
@@ -211,8 +211,6 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                        known_noise=known, **sample_kw)
     if "reference_noise_input" in meta:
         post.meta["reference_noise"]["input"] = meta["reference_noise_input"]
-    reference_tolerance.apply(post, np.asarray(s.vectors)[keep], r.vectors, r.families(),
-                              priors.reference_tolerance, seed)
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
@@ -233,6 +231,12 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     post.improved = None
     if diagnose:
         _criticise(post, diagnose_budget_s, seed, sample_kw)
+    # after the criticism, which judges how far its improved model moves the
+    # estimates on the data's own intervals (the reference's error moves both alike)
+    for p in (post, post.improved):
+        if p is not None:
+            reference_tolerance.apply(p, np.asarray(s.vectors)[keep], r.vectors, r.families(),
+                                      priors.reference_tolerance, seed)
     _warn_on_misfit(post)
     return post
 
