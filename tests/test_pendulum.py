@@ -92,3 +92,51 @@ def test_a_value_in_the_prior_tail_is_pulled_and_flagged():
     out = _gaussian_case(5.7 * prior[0, 0], 1e9, theta=(c0, np.sqrt(c0)))
     assert out["period_s"]["shift_sd"] > pendulum.SHIFT_SD
     assert out["period_s"]["set_by_prior"]
+
+
+def _posterior_samples(data_mean, data_sd, tol, n=40000, seed=0):
+    """Samples of an exact Gaussian posterior in the log deviations (x, y)
+    from nominal: a Gaussian likelihood of each times the log-normal prior
+    of sd ``tol``, carried to (c0_rel, c1_rel)."""
+    rng = np.random.default_rng(seed)
+    prec = 1 / data_sd ** 2 + 1 / tol ** 2
+    mean = (np.asarray(data_mean) / data_sd ** 2) / prec
+    x, y = (mean[:, None] + rng.standard_normal((2, n)) / np.sqrt(prec[:, None]))
+    return np.column_stack([np.exp(-2 * x), np.exp(y - x)])        # c0_rel, c1_rel
+
+
+@pytest.mark.parametrize("ratio", [0.25, 1.0, 4.0])
+def test_reweighted_rule_matches_the_closed_form(ratio):
+    """Samples of an exact Gaussian posterior reweighted to the halved and
+    doubled prior: the period's sd changes by ``sqrt((D + P/s^2) / (D + P))``
+    at the worst of s = 1/2, 2 and its median moves by the closed form's
+    shift under the doubled prior (data precision ``D`` = ``ratio`` times
+    the prior's ``P``), within the samples' own error; where the doubled
+    prior's weights leave too few samples (weak data) the value is flagged,
+    as the closed form says it must be."""
+    tol = 0.05
+    data_sd = tol / np.sqrt(ratio)
+    mu = np.array([0.06, -0.03])                      # the data's values, in log units
+    samples = _posterior_samples(mu, np.array([data_sd, data_sd]), np.array([tol, tol]))
+    got = pendulum.reweighted_sensitivity(samples, {"X": (0, 1)}, tol, tol)["X"]["period_s"]
+    d, p = 1 / data_sd ** 2, 1 / tol ** 2
+    width = max(max(np.sqrt((d + p / s ** 2) / (d + p)), np.sqrt((d + p) / (d + p / s ** 2)))
+                for s in (0.5, 2.0))
+    mean = lambda s: (mu[0] * d) / (d + p / s ** 2)   # noqa: E731
+    shift = abs(mean(2.0) - mean(1.0)) * np.sqrt(d + p)
+    flag = bool(width > pendulum.WIDTH_RATIO or shift > pendulum.SHIFT_SD)
+    assert got["set_by_prior"] == flag
+    if got.get("beyond_samples"):       # the doubled prior's weights: too few samples left
+        assert flag and ratio < 1
+        return
+    assert got["width_ratio"] == pytest.approx(width, rel=0.05)
+    assert got["shift_sd"] == pytest.approx(shift, abs=0.05)
+
+
+def test_reweighting_beyond_the_samples_sets_by_prior():
+    """Data that fix nothing: the doubled prior's weights leave few samples
+    effective, and the value is set by the prior whatever the quantiles say."""
+    samples = _posterior_samples(np.zeros(2), np.array([10.0, 10.0]), np.array([0.05, 0.05]),
+                                 n=4000)
+    got = pendulum.reweighted_sensitivity(samples, {"X": (0, 1)}, 0.05, 0.05)["X"]
+    assert all(e["set_by_prior"] for e in got.values())

@@ -3,7 +3,7 @@ model's ``bounds()``, times, for a model of the pendulum pair, the stated
 prior on period and damping carried to the sampling coordinates
 ``(c0_rel, c1_rel)`` with its Jacobian (:mod:`bayescal.core.pendulum`),
 plus its ``log_likelihood``, vectorised over walkers; and what the prior
-sets, from the posterior's Gaussian approximation at its median."""
+sets, from the posterior's samples reweighted to a rescaled prior."""
 from __future__ import annotations
 
 import numpy as np
@@ -64,23 +64,16 @@ class BoundedPosterior:
         return pendulum.prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
                                        pr.damping_tolerance)[0] / np.sqrt(self.LIKELIHOOD_SCALE)
 
-    def fisher(self, theta):
-        """The likelihood's information ``2 s J^T J`` at ``theta`` (``J`` the
-        Jacobian of :meth:`likelihood_residual`, ``s`` ``LIKELIHOOD_SCALE``)."""
-        jac = least_squares(self.likelihood_residual, np.asarray(theta, float), method="lm",
-                            max_nfev=1).jac
-        return 2.0 * self.LIKELIHOOD_SCALE * jac.T @ jac
-
-    def prior_sensitivity(self, theta, channel):
-        """:func:`bayescal.core.pendulum.prior_sensitivity` of the pendulum
-        pair at ``theta`` (the posterior's median) as ``{channel: ...}``;
+    def prior_sensitivity(self, samples, channel):
+        """:func:`bayescal.core.pendulum.reweighted_sensitivity` of the
+        pendulum pair from the posterior's ``samples`` as ``{channel: ...}``;
         empty without a pendulum pair."""
         i = self.pendulum_index
         if i is None:
             return {}
-        return pendulum.prior_sensitivity(self.fisher(theta), np.asarray(theta, float),
-                                          {channel: (i, i + 1)}, self.priors.period_tolerance,
-                                          self.priors.damping_tolerance)
+        return pendulum.reweighted_sensitivity(samples, {channel: (i, i + 1)},
+                                               self.priors.period_tolerance,
+                                               self.priors.damping_tolerance)
 
 
 def prior_meta(priors):

@@ -33,9 +33,16 @@ c1_rel)| = 1 / (2 c0_rel c1_rel)``.
 
 Halving a log-normal prior's width is not used for the median: it moves the
 median of every parameter whose true value lies a couple of tolerances from
-nominal, however well the data fix it. The test uses the posterior's Gaussian
-approximation about its median: the likelihood's Fisher information plus the
-prior's, with the prior rescaled (:func:`prior_sensitivity`). A parameter
+nominal, however well the data fix it. Where the posterior is sampled, the
+test reweights its samples to the rescaled prior (importance weights, the
+ratio of the two priors; :func:`reweighted_sensitivity`): no second fit, and
+no Gaussian assumption; where the reweighted posterior would reach beyond
+the samples (their effective number under the weights below
+:data:`MIN_WEIGHT_ESS` of them) the prior's width decides by that fact
+alone. Without samples (a model criticism's candidate) it uses the
+posterior's Gaussian approximation about its median: the likelihood's
+Fisher information plus the prior's, with the prior rescaled
+(:func:`prior_sensitivity`). A parameter
 the prior sets is not a measurement: it is reported as such, together with
 the combination the data fix (``damping / period``) when that one is not
 set by the prior.
@@ -57,6 +64,9 @@ WIDTH_RATIO = 1.5
 #: The prior's width is scaled by these factors in the test (the median's
 #: shift is taken from the scales above 1 only).
 PRIOR_SCALES = (0.5, 2.0)
+#: Smallest effective share of the samples under a rescaled prior's weights
+#: for the reweighted posterior to be trusted (:func:`reweighted_sensitivity`).
+MIN_WEIGHT_ESS = 0.1
 #: Names of the pendulum's sampling coordinates.
 NAMES = ("c0_rel", "c1_rel")
 
@@ -169,6 +179,57 @@ def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol):
     return out
 
 
+def _weighted_quantiles(x, w, q):
+    order = np.argsort(x)
+    cw = np.cumsum(w[order])
+    return np.interp(np.asarray(q) * cw[-1], cw, x[order])
+
+
+def reweighted_sensitivity(samples, blocks, period_tol, damping_tol):
+    """:func:`prior_sensitivity`'s answer from posterior samples: each
+    channel's samples reweighted to its prior with the width halved and
+    doubled (weights ``p_s / p_1 = exp(-(1/s^2 - 1) (x^2 / 2 sT^2 + y^2 /
+    2 sh^2))``, ``x``, ``y`` the log deviations from nominal; the Jacobian
+    does not depend on the width), and the same rule on the weighted
+    medians and standard deviations (the sd as the half width of the
+    central 68 %). A rescaled prior whose weights leave fewer than
+    :data:`MIN_WEIGHT_ESS` of the samples effective sets the values.
+
+    ``samples`` (N, n) in model coordinates; ``blocks`` ``{channel id: (i0,
+    i1)}`` the columns of ``c0_rel`` and ``c1_rel``."""
+    samples = np.asarray(samples, float)
+    n = samples.shape[0]
+    out = {}
+    for cid, (i0, i1) in blocks.items():
+        x, y = log_deviations(samples[:, i0], samples[:, i1])
+        quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
+        values = {"period_s": x, "damping": y, "damping_over_period": y - x}
+        entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0}
+                   for name in values}
+        ones = np.ones(n)
+        base = {name: _weighted_quantiles(v, ones, (0.16, 0.5, 0.84)) for name, v in values.items()}
+        for s in PRIOR_SCALES:
+            logw = -(1.0 / s ** 2 - 1.0) * quad
+            w = np.exp(logw - np.max(logw))
+            ess = w.sum() ** 2 / np.sum(w * w) / n
+            for name, v in values.items():
+                e = entries[name]
+                if not ess >= MIN_WEIGHT_ESS:
+                    e["beyond_samples"] = True
+                    continue
+                lo1, med1, hi1 = base[name]
+                lo, med, hi = _weighted_quantiles(v, w, (0.16, 0.5, 0.84))
+                sd1, sds = 0.5 * (hi1 - lo1), 0.5 * (hi - lo)
+                e["width_ratio"] = max(e["width_ratio"], float(max(sds / sd1, sd1 / sds)))
+                if s > 1:
+                    e["shift_sd"] = max(e["shift_sd"], float(abs(med - med1) / sd1))
+        for e in entries.values():
+            e["set_by_prior"] = bool(e["shift_sd"] > SHIFT_SD or e["width_ratio"] > WIDTH_RATIO
+                                     or e.get("beyond_samples", False))
+        out[cid] = entries
+    return out
+
+
 def damping_over_period(period, damping):
     """The combination a band above the corner fixes, in 1/s."""
     return np.asarray(damping, float) / np.asarray(period, float)
@@ -189,7 +250,10 @@ def set_by_prior_entries(sensitivity):
                           "damping/period")
             else:
                 action = "not measured; the corrected StationXML keeps its nominal value"
-            if e["width_ratio"] > WIDTH_RATIO:
+            if e.get("beyond_samples"):
+                why = ("the prior's width sets its interval: with the prior halved or doubled "
+                       "the posterior would reach beyond what its samples cover")
+            elif e["width_ratio"] > WIDTH_RATIO:
                 why = (f"the prior's width sets its interval: halving or doubling the prior "
                        f"changes its sd by a factor {e['width_ratio']:.2f} (limit {WIDTH_RATIO:g})")
             else:

@@ -264,7 +264,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
-    sensitivity = _prior_sensitivity(model, np.median(full, axis=0))
+    sensitivity = _prior_sensitivity(model, full)
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     vecs, _ = model.unpack(full)
     resp = model.response_values(full) if free != "none" else {}
@@ -316,18 +316,16 @@ def _modes(model, theta_ls, cov, nominal, fitted):
     return best.model, theta_ls, cov, report
 
 
-def _prior_sensitivity(model, theta):
-    """:func:`bayescal.core.pendulum.prior_sensitivity` of every channel whose
-    period and damping are free, at the posterior's median ``theta``."""
-    from .unconstrained import information
-
+def _prior_sensitivity(model, samples):
+    """:func:`bayescal.core.pendulum.reweighted_sensitivity` of every channel
+    whose period and damping are free, from the posterior's samples."""
     blocks = {b.channel_id: (sr.start, sr.start + 1)
               for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
     if not blocks:
         return {}
     pr = model.priors
-    return pendulum.prior_sensitivity(information(model, theta), theta, blocks,
-                                      pr.period_tolerance, pr.damping_tolerance)
+    return pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
+                                           pr.damping_tolerance)
 
 
 def plugin_meta(model):
