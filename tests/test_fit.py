@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import bayescal
-from bayescal.core.geometry import unwrap_azimuths
+from bayescal.core.orientation.geometry import unwrap_azimuths
 from bayescal.simulate.pair import simulate_pair
 from tests.fitting import fit_sim
 from tests.tolerance import Z_001

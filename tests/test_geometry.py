@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from bayescal.core.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere, azimuth_dip, tilt_components,
+from bayescal.core.orientation.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere, azimuth_dip, tilt_components,
                                orientation_matrix, tilt_from_vertical, unit_vector,
                                unwrap_azimuths)
 

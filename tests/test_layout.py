@@ -117,14 +117,14 @@ def test_fit_path_does_not_import_heavy_modules():
     """Start-up: importing the modules a pair fit runs through, or those that
     read and report a result, loads neither scipy.stats (about 1 s),
     matplotlib, Dask nor emcee: emcee (which imports scipy.stats) is
-    imported when sampling starts (bayescal.core.mcmc), by commands that
+    imported when sampling starts (bayescal.core.sampling.mcmc), by commands that
     sample."""
     import subprocess
     import sys
 
-    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.sampler, "
-            "bayescal.core.modes, bayescal.core.eiv, bayescal.core.separation, "
-            "bayescal.core.pair_noise, bayescal.core.convergence, bayescal.core.posterior; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
+    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.fit.run, "
+            "bayescal.core.fit.modes, bayescal.core.model.eiv, bayescal.core.checks.separation, "
+            "bayescal.core.selfnoise.pair_noise, bayescal.core.sampling.convergence, bayescal.core.posterior.samples; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
             "'dask', 'emcee') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()

@@ -48,7 +48,7 @@ def _stream(net="XX", sta="RJOB", cha="EHZ", n=100):
 
 
 def test_gse2_paz_response_is_the_formula(tmp_path):
-    from bayescal.core.response import evaluate_velocity_response
+    from bayescal.core.response.family import evaluate_velocity_response
     from bayescal.io import metadata_format, read_metadata
 
     path = tmp_path / "le3d.cal"
@@ -81,7 +81,7 @@ def test_gse2_without_recordings_and_bad_resp_are_one_line_errors(tmp_path):
 
 
 def test_resp_recognised_by_content(tmp_path):
-    from bayescal.core.response import evaluate_velocity_response
+    from bayescal.core.response.family import evaluate_velocity_response
     from bayescal.io import metadata_format, read_metadata
     from bayescal.io.read import _channel_meta
 

@@ -23,7 +23,7 @@ import json
 import numpy as np
 import pytest
 
-from bayescal.core import modes
+from bayescal.core.fit import modes
 
 
 def test_curvature_of_a_quadratic_and_equal_modes():
@@ -73,7 +73,7 @@ def _mirror_direction(ref):
 def _grid_masses(model, sig, half_deg=3.0, n=241):
     """Posterior mass (relative) within +-``half_deg`` of each mode of a
     two-angle model (two circles), by a Riemann sum of ``exp(log_prob)``."""
-    from bayescal.core.geometry import unit_vector
+    from bayescal.core.orientation.geometry import unit_vector
 
     h = np.radians(np.linspace(-half_deg, half_deg, n))
     out = []

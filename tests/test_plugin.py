@@ -1,4 +1,4 @@
-"""The plug-in noise model's own sampling error (:mod:`bayescal.core.plugin`).
+"""The plug-in noise model's own sampling error (:mod:`bayescal.core.model.plugin`).
 
 1. The weight's formula against a Monte Carlo of its own model: a parameter
    combined over bands by generalised least squares whose noise covariances
@@ -26,7 +26,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayescal.core import plugin
+from bayescal.core.model import plugin
 from bayescal.simulate import harness
 
 

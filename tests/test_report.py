@@ -265,7 +265,7 @@ def test_renders_without_display(flagged, tmp_path):
 def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     """A result whose sampler did not converge says so on pages 1 and 5; a
     result without diagnostics.npz still renders, saying what is missing."""
-    from bayescal.core.posterior import Posterior
+    from bayescal.core.posterior.samples import Posterior
 
     post = Posterior.load(flagged[0])
     post.convergence["converged"] = False

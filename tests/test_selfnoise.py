@@ -24,7 +24,7 @@ import pytest
 from scipy import stats
 
 from bayescal.cli import main
-from bayescal.core import selfnoise as sn
+from bayescal.core.selfnoise import sleeman as sn
 from bayescal.simulate.selfnoise import estimate_and_truth, simulate_colocated
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))

@@ -20,10 +20,10 @@ COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
 
 def _user_errors():
-    from ..core.sampler import FitError
+    from ..core.fit.run import FitError
     from ..io.read import InputError
-    from ..core.response import ResponseError
-    from ..core.spectra import SpectraError
+    from ..core.response.family import ResponseError
+    from ..core.spectra.welch import SpectraError
     return (InputError, SpectraError, FitError, ResponseError)
 
 

@@ -31,17 +31,17 @@ def _percent(text):
 
 
 def priors_from(args):
-    """The fit's :class:`bayescal.core.likelihood.Priors` from the options."""
-    from ..core.likelihood import Priors
+    """The fit's :class:`bayescal.core.model.likelihood.Priors` from the options."""
+    from ..core.model.likelihood import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
                   damping_tolerance=args.damping_tolerance / 100.0)
 
 
 def add_tolerance_arguments(parser, when):
     """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
-    stated prior on natural period and damping (:mod:`bayescal.core.pendulum`),
+    stated prior on natural period and damping (:mod:`bayescal.core.response.pendulum`),
     which applies ``when`` (e.g. "with --fit-response all")."""
-    from ..core.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+    from ..core.response.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
 
     parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
                         metavar="PERCENT",
@@ -138,8 +138,8 @@ def quiet_convergence_warnings():
     and a failed model check in its summary, not as Python warnings."""
     import warnings
 
-    from ..core.adequacy import ModelMisfitWarning
-    from ..core.convergence import NotConvergedWarning
+    from ..core.checks.adequacy import ModelMisfitWarning
+    from ..core.sampling.convergence import NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
@@ -149,7 +149,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.convergence import not_converged_line
+    from ..core.sampling.convergence import not_converged_line
 
     code = 0
     for label, conv in entries:

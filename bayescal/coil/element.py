@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..core import pendulum
-from ..core.mcmc import sample
-from ..core.sampler import FitError
+from ..core.response import pendulum
+from ..core.sampling.mcmc import sample
+from ..core.fit.run import FitError
 from ..io.read import InputError
-from ..core.likelihood import INFLATION_SHRINK, Priors
-from ..core.posterior import interval_summary
-from ..core.spectra import SpectraError, cross_spectra
+from ..core.model.likelihood import INFLATION_SHRINK, Priors
+from ..core.posterior.samples import interval_summary
+from ..core.spectra.welch import SpectraError, cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
@@ -69,7 +69,7 @@ def regularise(sigma, power):
 class RunModel(BoundedPosterior):
     """Posterior of one element's ``theta = (c0_rel, c1_rel, ln G)`` from one
     run: the pendulum pair in the coordinates the data see, relative to the
-    ``nominal`` family's period and damping (:mod:`bayescal.core.pendulum`),
+    ``nominal`` family's period and damping (:mod:`bayescal.core.response.pendulum`),
     under the stated prior of ``priors`` (period and damping tolerances),
     and the gain log-uniform within ``priors.gain_factor`` of nominal.
 
@@ -266,7 +266,7 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
     ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the segment windows smooth
     only the nearly flat ratio of true to fitted response),
     ``make_model(spectra, base)``, least squares, then the posterior sampled by
-    :func:`bayescal.core.mcmc.sample`. Returns ``(model, chain, spectra,
+    :func:`bayescal.core.sampling.mcmc.sample`. Returns ``(model, chain, spectra,
     theta_ls, cov_ls)`` (the second pass's least-squares point and Laplace
     covariance).
     """
@@ -301,13 +301,13 @@ class ElementFit:
     band_hz: tuple
     model: RunModel = field(repr=False, default=None)
     sampler: dict = field(default_factory=dict)     # what emcee ran (Chain.sampler)
-    #: :func:`bayescal.core.pendulum.prior_sensitivity` of the element's pair
+    #: :func:`bayescal.core.response.pendulum.prior_sensitivity` of the element's pair
     prior_sensitivity: dict = field(default_factory=dict)
     response_prior: dict = field(default_factory=dict)
 
     def summary(self):
         out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
-        # what a band above the corner fixes (bayescal.core.pendulum)
+        # what a band above the corner fixes (bayescal.core.response.pendulum)
         out["damping_over_period"] = interval_summary(
             pendulum.damping_over_period(self.samples[:, 0], self.samples[:, 1]))
         mark_set_by_prior(out, pendulum.set_by_prior_entries(self.prior_sensitivity),

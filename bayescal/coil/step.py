@@ -18,9 +18,9 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.likelihood import Priors
-from ..core.mcmc import sample
-from ..core.sampler import single_threaded_blas
+from ..core.model.likelihood import Priors
+from ..core.sampling.mcmc import sample
+from ..core.fit.run import single_threaded_blas
 from ..io.read import InputError
 from .hf import PZSpec, scale_start
 from .result import CalFit

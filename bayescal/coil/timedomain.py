@@ -25,7 +25,7 @@ settling time left out. A model may set a fixed prefilter ``Q``
 and the whitening is ``L Q`` (the step kind takes the output back to
 equivalent acceleration, where an all-pole model can describe the noise). Whitening the model is one product with the AR
 filter's frequency response inside the same FFT. The posterior is sampled by
-:func:`bayescal.core.mcmc.sample` (the sampler and convergence rule of
+:func:`bayescal.core.sampling.mcmc.sample` (the sampler and convergence rule of
 every bayescal fit), started from the least-squares point and its Laplace
 covariance.
 
@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.sampler import FitError
+from ..core.fit.run import FitError
 from ..io.read import InputError
 from .bounded import BoundedPosterior
 

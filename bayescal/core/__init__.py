@@ -1,21 +1,23 @@
 """The inference core: plain numpy functions and small dataclasses, no file I/O.
 
-Modules, in the order data flows through them:
+Grouped by idea, one subpackage each; in the order data flows through them:
 
-* :mod:`.geometry`   angles <-> unit vectors (NED), SEED conventions, manifolds
-* :mod:`.response`   parametric two-pole responses, evaluation of ObsPy responses
-* :mod:`.pendulum`   the pendulum's sampling coordinates, its prior, what the data fix
-* :mod:`.spectra`    streamed Welch cross-spectra and per-band matrices
-* :mod:`.coherence`  Welch multiple coherence alone (the band choice's)
-* :mod:`.bandfold`   per-time-block spectra folded into bands and nodes
-* :mod:`.jacobian`   batched forward-difference Jacobian for least squares
-* :mod:`.likelihood` the Frobenius residual, its noise model, vectorised log-prob
-* :mod:`.plugin`     band weights for the plug-in noise model's own sampling error
-* :mod:`.sampler`    closed-form start, least squares, emcee, convergence control
-* :mod:`.posterior`  samples, summaries, result.json / samples.npz
-* :mod:`.selfnoise`  self-noise of three or more co-located sensors (Sleeman),
-                     its Wishart-bootstrap interval
+* :mod:`.orientation` channel orientations: angles, unit vectors, tilt regions
+* :mod:`.response`    instrument responses: the two-pole family, ObsPy
+                      responses evaluated, the pendulum's coordinates and prior
+* :mod:`.spectra`     Welch cross-spectra, coherence, bands
+* :mod:`.model`       the likelihood and every term of it: noise models,
+                      errors in variables, band weights, its Jacobian
+* :mod:`.checks`      does the model fit, can the data tell it: adequacy,
+                      separation, record length
+* :mod:`.sampling`    emcee, its moves and its convergence rule
+* :mod:`.posterior`   posterior samples and their summaries
+* :mod:`.fit`         the whole fit: start, least squares, modes, held
+                      parameters, sampling, the posterior
+* :mod:`.selfnoise`   self-noise of co-located sensors
 
-May import only numpy, scipy, emcee, ObsPy's response evaluation and
-:mod:`bayescal.version`; never another bayescal subpackage.
+Each subpackage's docstring names its modules and the subpackages it may
+import. The core as a whole may import only numpy, scipy, emcee,
+threadpoolctl, ObsPy's response evaluation and :mod:`bayescal.version`;
+never another bayescal subpackage.
 """

@@ -36,11 +36,11 @@ import numpy as np
 
 from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
-from ..core.refnoise import treatment_meta as reference_noise_meta
-from ..core.mcmc import sample
-from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
-from ..core.geometry import unit_vector
-from ..core.posterior import Posterior, interval_summary
+from ..core.model.refnoise import treatment_meta as reference_noise_meta
+from ..core.sampling.mcmc import sample
+from ..core.fit.run import diagnostics, least_squares_fit, plugin_meta
+from ..core.orientation.geometry import unit_vector
+from ..core.posterior.samples import Posterior, interval_summary
 from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
                      orientation_score, score, search)
 from .locate import ALPHA, _runs, band_ratio, locate, ratio_weights, segment_timing
@@ -73,7 +73,7 @@ def reference_shape_caveat(mode):
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
     """A :class:`Posterior` of ``model`` (with effects) from MCMC
-    (:func:`bayescal.core.mcmc.sample`, the pair fit's independence
+    (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:

@@ -10,13 +10,13 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import effects as catalogue
-from ..core.jacobian import forward_jacobian
-from ..core.sampler import least_squares_fit, single_threaded_blas
-from ..core.unconstrained import prior_bounds
-from ..core.geometry import Fixed
-from ..core.eiv import EIVModel, EIVNoise
-from ..core.likelihood import MIN_TIME_BLOCKS, Model
-from ..core.response import TwoPoleFamily
+from ..core.model.jacobian import forward_jacobian
+from ..core.fit.run import least_squares_fit, single_threaded_blas
+from ..core.fit.unconstrained import prior_bounds
+from ..core.orientation.geometry import Fixed
+from ..core.model.eiv import EIVModel, EIVNoise
+from ..core.model.likelihood import MIN_TIME_BLOCKS, Model
+from ..core.response.family import TwoPoleFamily
 
 
 #: An effect is kept when it improves the BIC by more than this ("very

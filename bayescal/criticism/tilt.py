@@ -52,7 +52,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..core.spectra import make_bands
+from ..core.spectra.welch import make_bands
 
 #: Bounds of the common exponent (tilt power ~ f^-alpha). Tilt ``theta`` puts
 #: ``g theta`` on a horizontal's acceleration, so its velocity PSD is
@@ -301,7 +301,7 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
 
     Parameters
     ----------
-    sp : :class:`bayescal.core.spectra.CrossSpectra` (SUT channels first).
+    sp : :class:`bayescal.core.spectra.welch.CrossSpectra` (SUT channels first).
     horizontal : boolean mask over SUT channels (True = horizontal).
     bic_keep : keep the tilt model when its ``delta_bic`` exceeds this.
     channel_keep : a horizontal is named when dropping its own tilt term

@@ -11,8 +11,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..core.geometry import unit_vector
-from ..core.response import evaluate_velocity_response, response_family
+from ..core.orientation.geometry import unit_vector
+from ..core.response.family import evaluate_velocity_response, response_family
 from .read import InputError, InputWarning, _channel_meta
 
 #: Sub-sample offsets smaller than this fraction of a sample are rounded.
@@ -50,7 +50,7 @@ class Side:
 
     def families(self):
         """Per channel the parametric family of its response
-        (:func:`bayescal.core.response.response_family`: a
+        (:func:`bayescal.core.response.family.response_family`: a
         :class:`TwoPoleFamily`, a gain-only :class:`ScaleFamily` when the
         first stage is not a pendulum pair, or None)."""
         return [response_family(r) for r in self.responses]

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.sampler import fit_spectra
+from ..core.fit.run import fit_spectra
 from .channels import check_distinct, select_channels
 from .read import InputError, flat_inventory, read_metadata, read_waveforms
 from .align import align
-from ..core.likelihood import Priors
-from ..core.spectra import SpectraError, cross_spectra
-from ..core.record_length import record_length
+from ..core.model.likelihood import Priors
+from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.checks.record_length import record_length
 
 
 def _describe_files(side):
@@ -70,7 +70,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         "all" (period, damping and gain per channel; needs a poles-and-zeros
         first stage) or "none" (angles only, gains held at their metadata
         values). With a one-channel horizontal reference the gains are held
-        whatever is asked short of "all" (see :mod:`bayescal.core.rotation`).
+        whatever is asked short of "all" (see :mod:`bayescal.core.fit.rotation`).
     seed : int
         Random seed (results are reproducible).
     ref_noise : {None, "estimate", "quiet", "equal"}
@@ -80,7 +80,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         SUT's in ground units); None (the default): "estimate" with two or
         more channels on each side (unbiased whatever the split of noise),
         "quiet" otherwise (a one-channel pair cannot separate the
-        reference's noise); see :mod:`bayescal.core.refnoise`. The mode used
+        reference's noise); see :mod:`bayescal.core.model.refnoise`. The mode used
         is in ``posterior.meta["reference_noise"]``.
     ref_noise_psd : str, dict or None
         The reference's self-noise as known (mode "fixed"): a file path or
@@ -89,11 +89,11 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         period / dB text file): the remedy for a one-channel pair.
     start, end : obspy.UTCDateTime or None
         Limits of the analysis window.
-    priors : bayescal.core.likelihood.Priors
+    priors : bayescal.core.model.likelihood.Priors
         The priors; with ``fit_response="all"`` its ``period_tolerance`` and
         ``damping_tolerance`` (relative standard deviations of the log-normal
         priors on period and damping, default 0.05) are the manufacturer's
-        tolerance (:mod:`bayescal.core.pendulum`).
+        tolerance (:mod:`bayescal.core.response.pendulum`).
     diagnose : bool
         When the model check fails, criticise the fit (True, the default):
         find what the model leaves out, model it from the fit's own
@@ -116,7 +116,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     Warns
     -----
     ModelMisfitWarning
-        When the model check fails (:mod:`bayescal.core.adequacy`).
+        When the model check fails (:mod:`bayescal.core.checks.adequacy`).
     NotConvergedWarning
         When the sampler stopped before meeting its convergence rule.
     """
@@ -184,7 +184,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
-    from ..core.pair_noise import for_fit
+    from ..core.selfnoise.pair_noise import for_fit
     used = post.meta.get("reference_noise", {}).get("mode", ref_noise)
     post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
                                                  getattr(post, "full_samples", None),
@@ -208,7 +208,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 def _criticise(post, budget_s, seed, sample_kw):
     """When the model check fails, the criticism of the fit (see
     :mod:`bayescal.criticism.verdict`), kept on ``post``."""
-    from ..core.adequacy import from_diagnostics
+    from ..core.checks.adequacy import from_diagnostics
 
     if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
         return
@@ -233,7 +233,7 @@ def _warn_on_misfit(post):
     so a script sees it as the console does."""
     import warnings
 
-    from ..core.adequacy import ModelMisfitWarning, describe, from_diagnostics
+    from ..core.checks.adequacy import ModelMisfitWarning, describe, from_diagnostics
     verdict = from_diagnostics(post.diagnostics)
     if verdict.get("ok") is False:
         c = post.criticism.get("verdict_text") if post.criticism else None
@@ -243,7 +243,7 @@ def _warn_on_misfit(post):
 
 def _known_reference_noise(psd, ref_noise, spectra):
     """(mode "fixed", (B, n_r) band sums, a JSON-safe note) from ``psd``."""
-    from ..core.refnoise import band_sums_of_psd
+    from ..core.model.refnoise import band_sums_of_psd
     from .refnoise_file import for_channels, read_reference_noise
 
     if ref_noise not in (None, "fixed"):

@@ -17,7 +17,7 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   comment with the relative gain (fitted / metadata) and its interval
   (StationXML's Gain has no error fields);
 * except that a response parameter the data do not constrain ("set by the
-  prior", :mod:`bayescal.core.unconstrained`, :mod:`bayescal.core.pendulum`)
+  prior", :mod:`bayescal.core.fit.unconstrained`, :mod:`bayescal.core.response.pendulum`)
   keeps its nominal value, and the comment says why; when the data fix
   damping/period but neither separately, the period stays nominal and the
   damping carries the measured damping/period (:func:`written_period_damping`);
@@ -80,7 +80,7 @@ def written_period_damping(summary, family):
     """The period and damping the corrected StationXML holds (None, None when
     it keeps the nominal pair): a measured value as measured, one the prior
     sets at nominal, except that when the data fix damping/period
-    (:mod:`bayescal.core.pendulum`) the damping carries it: the poles' real
+    (:mod:`bayescal.core.response.pendulum`) the damping carries it: the poles' real
     part ``-h w0`` is then the measured one, their modulus the written
     period's."""
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
@@ -95,7 +95,7 @@ def written_period_damping(summary, family):
 
 def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response import response_family
+    from ..core.response.family import response_family
 
     resp = channel.response
     stage = resp.response_stages[0]
@@ -139,8 +139,8 @@ def update_response(channel, samples, free, summary):
     sens = resp.instrument_sensitivity
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
-        # ObsPy's recalculation in numpy (bayescal.core.evalresp; no obspy.signal import)
-        from ..core.evalresp import NotHandled, velocity_response
+        # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
+        from ..core.response.evalresp import NotHandled, velocity_response
         sens.frequency = float(freq)
         try:
             sens.value = float(abs(velocity_response(resp, [freq])[0]))
@@ -228,8 +228,8 @@ def _decimating_stage(channel):
 def _lean_azimuth(posterior, cid):
     """Interval summary of the SEED azimuth of a near-vertical channel's axis
     (the direction of its horizontal part), unwrapped around its mean."""
-    from ..core.geometry import azimuth_dip, unwrap_azimuths
-    from ..core.posterior import interval_summary
+    from ..core.orientation.geometry import azimuth_dip, unwrap_azimuths
+    from ..core.posterior.samples import interval_summary
 
     az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
     return interval_summary(unwrap_azimuths(az))

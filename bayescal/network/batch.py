@@ -36,7 +36,7 @@ import time
 import uuid
 import warnings
 
-from ..core.posterior import write_json
+from ..core.posterior.samples import write_json
 
 LOG = "batch_log.jsonl"
 TMP = ".tmp"
@@ -66,8 +66,8 @@ def run_item(item, out):
     thread, worker, error); never
     raises for a problem of the item itself.
     """
-    from ..core.adequacy import ModelMisfitWarning
-    from ..core.convergence import NotConvergedWarning
+    from ..core.checks.adequacy import ModelMisfitWarning
+    from ..core.sampling.convergence import NotConvergedWarning
     from ..io.stationxml import write_corrected
 
     t, cpu = time.time(), time.thread_time()

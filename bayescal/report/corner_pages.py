@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.geometry import unit_vector
-from ..core.pendulum import damping_over_period
+from ..core.orientation.geometry import unit_vector
+from ..core.response.pendulum import damping_over_period
 from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, _header
 
@@ -78,7 +78,7 @@ def response_columns(ctx):
         labels = [f"{n.replace('_s', '')} ({units[n]})" for n in drawn]
         truths = [_truth_or_nan(tru.get(n)) for n in drawn]
         if {"period_s", "damping"} <= set(drawn):
-            # what a band above the corner fixes (bayescal.core.pendulum)
+            # what a band above the corner fixes (bayescal.core.response.pendulum)
             r = post.response[cid]
             data = np.column_stack([data[:, :2], damping_over_period(r[:, 0], r[:, 1]),
                                     data[:, 2:]])

@@ -44,9 +44,9 @@ def _check_folder(folder):
 
 
 def load_result(folder):
-    """Load a saved :class:`~bayescal.core.posterior.Posterior`, turning any
+    """Load a saved :class:`~bayescal.core.posterior.samples.Posterior`, turning any
     reading problem into an :class:`InputError` naming the folder."""
-    from ..core.posterior import Posterior
+    from ..core.posterior.samples import Posterior
     _check_folder(folder)
     try:
         return Posterior.load(folder)

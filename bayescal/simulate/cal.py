@@ -9,7 +9,7 @@ signal's rms), and the digitizer white noise in counts:
     X(f) = H(f) (C U(f) + N(f)) / (2 pi i f) + digitizer noise,
 
 with ``H`` the *true* velocity response built by
-:func:`bayescal.core.response.paz_velocity_response` (pendulum pair, two zeros
+:func:`bayescal.core.response.family.paz_velocity_response` (pendulum pair, two zeros
 at the origin, the high-frequency poles), applied exactly through the FFT of a
 periodic record. The StationXML holds the *nominal* response, the same form
 with nominal values (:func:`paz_response`), built independently via ObsPy.
@@ -22,7 +22,7 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.response import paz_velocity_response
+from ..core.response.family import paz_velocity_response
 from .coil import CalibrationSimulation, _white, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 

@@ -12,7 +12,7 @@ outputs are
     XYZ output: X_c(f) = sum_m M[m, c] E_m(f) + digitizer noise,
 
 with ``k_m`` the element's true velocity response (counts per m/s, from
-:func:`bayescal.core.response.paz_velocity_response`) and ``M`` the UVW matrix
+:func:`bayescal.core.response.family.paz_velocity_response`) and ``M`` the UVW matrix
 (rows U, V, W over columns X, Y, Z). With ``outputs="uvw"`` the sensor is in
 UVW mode and the outputs are the ``E_m`` themselves. Signals are built
 periodically with the inverse FFT, so responses apply exactly. The StationXML
@@ -29,8 +29,8 @@ from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
 from scipy.signal import max_len_seq
 
-from ..core.geometry import STS2_UVW, azimuth_dip
-from ..core.response import paz_velocity_response
+from ..core.orientation.geometry import STS2_UVW, azimuth_dip
+from ..core.response.family import paz_velocity_response
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 ELEMENTS = ("U", "V", "W")

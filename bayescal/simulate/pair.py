@@ -35,8 +35,8 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.geometry import unit_vector
-from ..core.response import paz_velocity_response
+from ..core.orientation.geometry import unit_vector
+from ..core.response.family import paz_velocity_response
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz

@@ -56,10 +56,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import misfit_scale, noisescale, pendulum, plugin
-from .bandfold import fold
+from . import misfit_scale, noisescale, plugin
+from ..response import pendulum
+from ..spectra.bandfold import fold
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
-from .response import TwoPoleFamily, gain_prior_factor
+from ..response.family import TwoPoleFamily, gain_prior_factor
 
 #: Density of the nodes at which response ratios are evaluated.
 NODES_PER_DECADE = 60
@@ -80,7 +81,7 @@ class Priors:
     reference). Natural period and damping (pair fits and coil
     calibrations): each log-normal around its nominal value with relative
     standard deviation ``period_tolerance`` and ``damping_tolerance`` (the
-    manufacturer's tolerance; :mod:`bayescal.core.pendulum`). Gain:
+    manufacturer's tolerance; :mod:`bayescal.core.response.pendulum`). Gain:
     log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``.
     """
 
@@ -93,10 +94,10 @@ class Priors:
 class ChannelBlock:
     """How one SUT channel enters the model.
 
-    ``manifold`` (from :mod:`bayescal.core.geometry`) holds its orientation
+    ``manifold`` (from :mod:`bayescal.core.orientation.geometry`) holds its orientation
     parameters; ``free`` is ``"none"``, ``"gain"`` or ``"all"`` (period,
     damping, gain: sampled as ``c0_rel``, ``c1_rel``, ``log_gain``, see
-    :mod:`bayescal.core.pendulum`); ``family`` is the channel's parametric
+    :mod:`bayescal.core.response.pendulum`); ``family`` is the channel's parametric
     response.
     """
 
@@ -129,7 +130,7 @@ class NoiseModel:
     sigma: np.ndarray    # (B, n_u, n_u) per-bin residual covariance
     inflation: np.ndarray  # (B,) c_b
     scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
-    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.plugin)
+    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.model.plugin)
 
     def cholesky(self):
         """Factors for the whitened residual ``L_A^H R L_B`` (each band's
@@ -146,7 +147,7 @@ class Model:
 
     Parameters
     ----------
-    spectra : :class:`bayescal.core.spectra.CrossSpectra`
+    spectra : :class:`bayescal.core.spectra.welch.CrossSpectra`
     ref_vectors : (n_r, 3) reference channel axes (NED unit vectors).
     blocks : one :class:`ChannelBlock` per SUT channel, in spectra order.
     """
@@ -308,7 +309,7 @@ class Model:
     # --- residual and likelihood -----------------------------------------
     def residual_blocks(self, theta):
         """R_{b,g}(theta), (W, G, B, n_u, n_r), G = 1 unless ``per_block``, in
-        the counts of the plug-in point (:mod:`bayescal.core.noisescale`)."""
+        the counts of the plug-in point (:mod:`bayescal.core.model.noisescale`)."""
         vecs, ratio = self.unpack(theta)
         return noisescale.rescale_rows(self.plain_residual_blocks(vecs, ratio, theta),
                                        getattr(self.noise, "scale0", None), ratio,

@@ -37,7 +37,7 @@ def band_loglik(q, k, a, weight=None):
     k : (B,) complex degrees of freedom of each band's residual.
     a : prior shape; ``inf`` (or None) gives the Gaussian ``-sum q``.
     weight : (B,) or None, each band's term multiplied by it (the plug-in
-        noise model's sampling error, :mod:`bayescal.core.plugin`).
+        noise model's sampling error, :mod:`bayescal.core.model.plugin`).
     """
     q = np.asarray(q, float)
     w = 1.0 if weight is None else np.asarray(weight, float)

@@ -3,7 +3,7 @@ warning class, the one NOT CONVERGED line and the sampler in words.
 
 Light on purpose (no emcee, no model): the console, the reports and a
 stored result's readers use it without importing the sampling code
-(:mod:`bayescal.core.mcmc`)."""
+(:mod:`bayescal.core.sampling.mcmc`)."""
 from __future__ import annotations
 
 
@@ -27,7 +27,7 @@ def not_converged_line(convergence, what="the sampler", option="--max-steps"):
 
 def describe_sampler(record):
     """One line naming what sampled a posterior, from a result's
-    ``meta.sampler`` (:attr:`bayescal.core.mcmc.Chain.sampler`): the library
+    ``meta.sampler`` (:attr:`bayescal.core.sampling.mcmc.Chain.sampler`): the library
     and version, the walkers, and each phase's moves (weights), steps and
     acceptance. None when there is no record."""
     if not record:

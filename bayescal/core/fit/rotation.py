@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import azimuth_dip, unit_vector
+from ..orientation.geometry import azimuth_dip, unit_vector
 
 #: Nominal axes closer than this to horizontal count as horizontal, and the
 #: nominal angle between the two SUT horizontals must be 90 within it.
@@ -98,9 +98,9 @@ def _inflation(per_segment, segment_starts, nperseg, bins, w):
 def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
     """Posterior of the SUT horizontals' common azimuth from one reference
     channel (see the module docstring). ``pair`` is :func:`orthogonal_pair`'s
-    answer. Returns a :class:`bayescal.core.posterior.Posterior` with both
+    answer. Returns a :class:`bayescal.core.posterior.samples.Posterior` with both
     channels of kind "circle", their azimuths differing by exactly 90."""
-    from .posterior import Posterior
+    from ..posterior.samples import Posterior
 
     i, j, s = pair
     phi, _ = azimuth_dip(np.asarray(ref_vector, float).reshape(3))

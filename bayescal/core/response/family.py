@@ -48,7 +48,7 @@ class ResponseError(ValueError):
 
 def evaluate_velocity_response(response, freqs):
     """Complex velocity response (counts per m/s) of an ObsPy ``Response``:
-    evaluated in numpy as evalresp does (:mod:`bayescal.core.evalresp`, no
+    evaluated in numpy as evalresp does (:mod:`bayescal.core.response.evalresp`, no
     ``obspy.signal`` import), by ObsPy's evalresp for what that does not
     cover."""
     from .evalresp import NotHandled, velocity_response

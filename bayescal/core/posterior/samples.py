@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .adequacy import from_diagnostics
-from .modes import mark_channel
-from .pendulum import damping_over_period
-from .unconstrained import by_channel
-from .geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
+from ..checks.adequacy import from_diagnostics
+from ..fit.modes import mark_channel
+from ..response.pendulum import damping_over_period
+from ..fit.unconstrained import by_channel
+from ..orientation.geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
                        tilt_from_vertical, unwrap_azimuths)
-from .tilt_region import REGION_NOTE, tilt_intervals
+from ..orientation.tilt_region import REGION_NOTE, tilt_intervals
 
 SCHEMA = "bayescal.fit/1"
 QUANTILES = {"ci68": (16.0, 84.0), "ci90": (5.0, 95.0), "ci95": (2.5, 97.5)}
@@ -42,7 +42,7 @@ def vertical_summaries(vectors, dip, tilt):
     """Dip and tilt summaries of a near-vertical channel: medians, means and
     sds of the samples, with 68/90/95 % intervals taken from the credible
     regions of the lean north/east components
-    (:func:`bayescal.core.tilt_region.tilt_intervals`), since an
+    (:func:`bayescal.core.orientation.tilt_region.tilt_intervals`), since an
     equal-tailed interval of a magnitude never holds 0. The tilt's
     ``holds_zero`` says whether the 95 % region holds the vertical, and then
     ``upper95`` is the bound of "tilt < upper95"."""
@@ -157,7 +157,7 @@ class Posterior:
                                  for j, name in enumerate(("period_s", "damping", "gain"))
                                  if self.meta.get("free_response") == "all" or name == "gain"}
             if self.meta.get("free_response") == "all":
-                # what a band above the corner fixes (bayescal.core.pendulum)
+                # what a band above the corner fixes (bayescal.core.response.pendulum)
                 entry["response"]["damping_over_period"] = interval_summary(
                     damping_over_period(r[:, 0], r[:, 1]))
             for name, why in by_channel(self.meta.get("set_by_prior")).get(cid, {}).items():

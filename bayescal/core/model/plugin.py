@@ -37,8 +37,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .selfnoise import effective_dof
-from .spectra import hann
+from ..selfnoise.sleeman import effective_dof
+from ..spectra.welch import hann
 
 #: Smallest weight a band gets (a band with fewer effective samples than the
 #: noise model's dimension carries almost nothing).
@@ -56,8 +56,8 @@ def effective_samples(spectra):
     ``j`` apart of one segment, and of every two segments that overlap (not
     only neighbours: above 50 % overlap segments further apart do too),
     follows from the window alone (periodic Hann, as
-    :func:`bayescal.core.spectra.cross_spectra` uses); the count is
-    :func:`bayescal.core.selfnoise.effective_dof`'s, which the self-noise
+    :func:`bayescal.core.spectra.welch.cross_spectra` uses); the count is
+    :func:`bayescal.core.selfnoise.sleeman.effective_dof`'s, which the self-noise
     bands use. The model's fit does not enter: a band that misfits is not
     counted as having fewer samples.
     """

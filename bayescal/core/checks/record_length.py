@@ -3,7 +3,7 @@
 The noise model of a fit is measured from the record's own segments, band by
 band. Where the record holds few periods of the band's lower edge, the
 lowest bands rest on few segments of few cycles each. The sampling error of
-that noise model is allowed for (:mod:`bayescal.core.plugin`, a weight per
+that noise model is allowed for (:mod:`bayescal.core.model.plugin`, a weight per
 band); on simulations (docs/validation/errors_in_variables.md, "Short records"; 40 pairs
 each at 10 Hz, coherence 0.9, reference noise-free, gains free,
 ``--ref-noise quiet``; ``python benchmarks/short_records.py``, stored in

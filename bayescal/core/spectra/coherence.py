@@ -2,7 +2,7 @@
 else: what the band choice needs (:func:`bayescal.io.band.choose_band`).
 
 The same segments, window, detrending and cross-spectral convention as
-:func:`bayescal.core.spectra.cross_spectra` without deconvolution (coherence
+:func:`bayescal.core.spectra.welch.cross_spectra` without deconvolution (coherence
 does not change under each channel's own invertible response), but it keeps
 only the segment-summed matrix: no per-band, per-segment or per-block
 matrices, no response evaluation. The linear trend is removed in closed form
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spectra import SpectraError, hann
+from .welch import SpectraError, hann
 
 
 def _detrended(seg):

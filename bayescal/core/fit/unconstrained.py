@@ -1,6 +1,6 @@
 """A gain the data do not constrain: found early, held at its nominal value,
 and said so ("set by the prior"). Period and damping have a stated prior
-and their own test (:mod:`bayescal.core.pendulum`); this module concerns the
+and their own test (:mod:`bayescal.core.response.pendulum`); this module concerns the
 parameters with a box prior, the log-uniform gain.
 
 Two checks, both against the prior's own spread (the standard deviation of
@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import pendulum
-from .jacobian import least_squares_objective
-from .response import gain_prior_factor
+from ..response import pendulum
+from ..model.jacobian import least_squares_objective
+from ..response.family import gain_prior_factor
 
 #: Laplace sd / prior sd at or above which a parameter is held at nominal.
 EARLY_RATIO = 0.5
@@ -67,7 +67,7 @@ def information(model, theta):
 
 def pendulum_precision(model):
     """(ndim, ndim) precision of the pendulum priors at the nominal response
-    (:func:`bayescal.core.pendulum.prior_precision`; zero elsewhere): added
+    (:func:`bayescal.core.response.pendulum.prior_precision`; zero elsewhere): added
     to the likelihood's information wherever a curvature stands for the
     posterior's."""
     q = np.zeros((model.ndim, model.ndim))

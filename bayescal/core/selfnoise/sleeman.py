@@ -10,7 +10,7 @@ Model and convention
 Channel spectra ``Z_i = h_i G + N_i`` of n >= 3 co-located channels of one
 component (responses removed), ground motion G common, self-noise N_i
 independent. Cross-spectral matrix ``C = E[Z Z^H]``, ``C[i, j] = Z_i conj(Z_j)``
-(the convention of :mod:`bayescal.core.spectra`: scipy's ``csd(x, y)`` is ``C[j, i]``).
+(the convention of :mod:`bayescal.core.spectra.welch`: scipy's ``csd(x, y)`` is ``C[j, i]``).
 Then ``C[i, j] = h_i conj(h_j) S_G`` off the diagonal and
 
     N_ii = C[i, i] - C[i, j] C[k, i] / C[k, j]          (j, k distinct from i)
@@ -99,7 +99,7 @@ def self_noise_band_sums(band_sums, sensor=0, clip=False):
     ``band_sums`` (..., B, n, n): per band, the sum over the band's bins and
     the used segments of ``Z Z^H`` for one component (say Z) of ``n >= 3``
     co-located sensors, responses removed, in the pair fit's ground units
-    (e.g. :meth:`bayescal.core.spectra.CrossSpectra.band_sums` of
+    (e.g. :meth:`bayescal.core.spectra.welch.CrossSpectra.band_sums` of
     ``cross_spectra`` run on the three sensors' channels of that component,
     with the pair fit's band, segment length and bands). ``sensor``: the
     index of the reference among the n channels. Returns (..., B): the
@@ -127,7 +127,7 @@ def self_noise_band_sums(band_sums, sensor=0, clip=False):
 def acceleration_band_matrices(spectra):
     """(B, n, n) band-mean acceleration PSD matrices, (m/s^2)^2/Hz, and (B,)
     band frequencies (geometric mean of each band's bins), from a
-    :class:`bayescal.core.spectra.CrossSpectra` in ground velocity.
+    :class:`bayescal.core.spectra.welch.CrossSpectra` in ground velocity.
 
     The velocity band mean becomes acceleration by the factor
     ``1 / mean(1 / omega^2)`` over the band's bins: exact for noise flat in
@@ -302,7 +302,7 @@ def block_bootstrap_interval(per_segment, level=0.9, n_boot=1000, block=4, seed=
     """Moving-block bootstrap over time segments.
 
     ``per_segment`` (K, B, n, n) band sums per segment (the ``per_segment`` of
-    :class:`bayescal.core.spectra.CrossSpectra`); blocks of ``block`` consecutive
+    :class:`bayescal.core.spectra.welch.CrossSpectra`); blocks of ``block`` consecutive
     segments are drawn with replacement. ``combine``: see
     :func:`wishart_interval`. Returns ``(lo, hi, reps)``.
     """

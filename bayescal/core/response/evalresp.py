@@ -33,7 +33,7 @@ source):
 
 Anything else (response lists, polynomial stages, repeated or unit-mismatched
 stages, a missing decimation on a digital stage, unknown units) raises
-:class:`NotHandled`, and :func:`bayescal.core.response.evaluate_velocity_response`
+:class:`NotHandled`, and :func:`bayescal.core.response.family.evaluate_velocity_response`
 then asks ObsPy. ``tests/test_evalresp.py`` compares the two on every
 response of ObsPy's own test data and of the shared real recordings.
 """

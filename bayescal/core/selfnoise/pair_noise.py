@@ -1,6 +1,6 @@
 """Self-noise of both sensors of a pair fit, from the fitted transfer matrix.
 
-Model (ground units, per bin, reference channel frame; :mod:`.refnoise`):
+Model (ground units, per bin, reference channel frame; :mod:`bayescal.core.model.refnoise`):
 ``Y_r = s + n_r`` and ``Y_u = T s + n_u`` with ``T`` (n_u, n_r) the fitted
 transfer (SUT axes times the reference's pseudo-inverse, the SUT spectra
 deconvolved by the fitted response), ``s`` the ground motion seen along the
@@ -31,19 +31,19 @@ trade off (Sleeman et al. 2006 need a third sensor).
 
 Interval: normal on the power scale, with the complex-Wishart variance of
 each (linear) estimate at the band's effective degrees of freedom
-(:func:`.selfnoise.effective_dof`), the spectra's variation across each
+(:func:`.sleeman.effective_dof`), the spectra's variation across each
 band kept (:func:`sampling_variance`), plus the scatter of the estimate
 over posterior draws of ``T``: the band holds the sampling scatter of the
 spectra and the uncertainty of the fit. (A flat-band Wishart bootstrap, as
-:func:`.selfnoise.wishart_interval`, covered 0.83 on the simulations of
+:func:`.sleeman.wishart_interval`, covered 0.83 on the simulations of
 tests/test_pair_noise.py: the spectra vary across a band.)
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .selfnoise import acceleration_band_matrices, db, effective_dof
-from .spectra import hann
+from .sleeman import acceleration_band_matrices, db, effective_dof
+from ..spectra.welch import hann
 
 NOT_IDENTIFIABLE = ("not identifiable from one channel per sensor; use bayescal noise with a "
                     "third sensor")
@@ -75,7 +75,7 @@ def noise_from_t(S, t):
 def transfer(model, theta):
     """(R, B, n_u, n_r) transfer per band and (R, B, n_u) response
     correction at each band's centre, from model-coordinate draws ``theta``
-    (R, ndim) of a :class:`bayescal.core.likelihood.Model`."""
+    (R, ndim) of a :class:`bayescal.core.model.likelihood.Model`."""
     vecs, ratio = model.unpack(np.atleast_2d(theta))
     t = vecs @ model.ref_pinv                                          # (R, nu, nr)
     sp = model.spectra
@@ -122,7 +122,7 @@ def sampling_variance(model, t, rho_b, dof):
 
         var x = [ mean_f (a^H C_f a)(b^H C_f b) + Re (a^H C b)^2 ] / (2 nu_b),
 
-    the complex-Wishart moments (:mod:`.refnoise`) with the band mean of the
+    the complex-Wishart moments (:mod:`bayescal.core.model.refnoise`) with the band mean of the
     product over the band's bins instead of the product of band means (the
     two differ where the spectra vary across a band, e.g. at the microseism
     peak, and a flat-band Wishart then under-states the scatter)."""
@@ -342,14 +342,14 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     (:func:`metadata_gain_margin_db`), unless the SUT's metadata are a
     placeholder (``sut_placeholder``: no gain to trust, a caution instead).
     ``poorly_separated``: under ``--ref-noise estimate`` the reference's noise
-    was not told apart from the gains (:mod:`bayescal.core.separation`), so
+    was not told apart from the gains (:mod:`bayescal.core.checks.separation`), so
     the split at the fitted gains names no order."""
     if model is None:
         return not_identifiable(*ids), {}
     sp = model.spectra
     if sp.n_u < 2 or sp.n_r < 2:
         return not_identifiable(sp.sut_ids, sp.ref_ids), {}
-    from .sampler import single_threaded_blas
+    from ..fit.run import single_threaded_blas
     theta = np.median(samples, axis=0)
     t = transfer(model, theta)[0][0, 0]
     along = np.argmax(np.abs(t), axis=0)

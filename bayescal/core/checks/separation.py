@@ -16,7 +16,7 @@ each SUT gain under the fitted errors-in-variables model against its
 standard deviation under the quiet-reference model (the reference's noise
 taken as zero) at the same point (its Fisher information there, one
 vectorised Jacobian: a few per cent of a fit's time), both with the
-errors-in-variables model's band weights (:mod:`.plugin`), so the ratio
+errors-in-variables model's band weights (:mod:`bayescal.core.model.plugin`), so the ratio
 measures the separation and not the two plug-ins' different dimensions (on
 a 15-minute record the quiet model's own weights, ``p = n_u`` against
 ``n_u + n_r``, would add 10-20 %). A ratio above :data:`WIDE_RATIO` is
@@ -37,8 +37,8 @@ def gain_separation(model, theta, cov):
     point ``theta`` with covariance ``cov``; ``note`` only when a ratio
     exceeds :data:`WIDE_RATIO`. An empty dict when no gain is fitted or the
     quiet model's fit fails."""
-    from .jacobian import forward_jacobian
-    from .likelihood import Model
+    from ..model.jacobian import forward_jacobian
+    from ..model.likelihood import Model
 
     idx = [j for j, n in enumerate(model.names) if n.endswith(":log_gain")]
     if not idx:

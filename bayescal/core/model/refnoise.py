@@ -2,7 +2,7 @@
 and its exact covariance.
 
 With ``Y_u = T s + n_u`` and ``Y_r = s + n_r`` (ground units, reference
-channel frame, per bin), the band residual of :mod:`bayescal.core.likelihood`,
+channel frame, per bin), the band residual of :mod:`bayescal.core.model.likelihood`,
 ``R_b = S_ur,b(a) - T S_rr,b``, has the mean ``-T N_r,b`` (``N_r,b`` the
 reference's self-noise summed over the band's bins and segments): the
 regression dilution that biases gains low by about the reference's coherence

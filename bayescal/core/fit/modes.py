@@ -53,9 +53,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import gammaincinv
 
-from .geometry import Circle, Sphere, azimuth_dip
-from .jacobian import forward_jacobian as _jacobian
-from .jacobian import least_squares_objective
+from ..orientation.geometry import Circle, Sphere, azimuth_dip
+from ..model.jacobian import forward_jacobian as _jacobian
+from ..model.jacobian import least_squares_objective
 from .unconstrained import information, prior_bounds
 
 #: Smallest posterior mass fraction of a second mode that makes a fit multimodal.

@@ -1,8 +1,8 @@
 """The likelihood when both sensors are noisy (errors in variables).
 
-:class:`EIVModel` is :class:`~bayescal.core.likelihood.Model` with the
+:class:`EIVModel` is :class:`~bayescal.core.model.likelihood.Model` with the
 reference's self-noise put back into the residual and the residual's exact
-covariance (see :mod:`bayescal.core.refnoise` for the statistic and its
+covariance (see :mod:`bayescal.core.model.refnoise` for the statistic and its
 derivation, docs/validation/errors_in_variables.md for the reasoning and the checks).
 Parameters, priors, response ratios and the sampler are the base model's;
 what changes is the residual, its noise model and the likelihood:
@@ -13,7 +13,7 @@ what changes is the residual, its noise model and the likelihood:
 ``V_b`` the Wishart covariance of the statistic at the least-squares point and
 ``c_b`` the inflation measured from the per-segment statistics. In mode
 ``estimate`` each SUT row of ``x`` is taken to the counts of that point
-(:mod:`bayescal.core.noisescale`), as in the base model. In mode
+(:mod:`bayescal.core.model.noisescale`), as in the base model. In mode
 ``estimate`` the reference's noise coefficients are profiled out in closed form
 per walker.
 Effects of model criticism that do not depend on time work as on the base
@@ -43,7 +43,7 @@ class EIVNoise:
     factor: np.ndarray | None = None   # (B, 2m, 2m) F with W = F F^T
     rank: np.ndarray | None = None     # (B,) directions the statistic varies in
     scale0: np.ndarray | None = None   # (n_u, B) |H_nom / H(a)| per band at the plug-in point
-    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.plugin)
+    weight: np.ndarray | None = None   # (B,) band weights for the plug-in's own error (core.model.plugin)
 
     def cholesky(self):
         """Factor F with ``W = F F^T`` per band (whitening: ``F^T x``), each
@@ -57,7 +57,7 @@ class EIVModel(Model):
     """Model with both sensors' self-noise; ``ref_noise`` in ``("equal",
     "estimate", "fixed")``. ``known_noise`` (mode ``fixed``): the reference's
     self-noise per band and reference channel (B, n_r), band sums in the
-    spectra's units (:func:`bayescal.core.refnoise.band_sums_of_psd`), e.g.
+    spectra's units (:func:`bayescal.core.model.refnoise.band_sums_of_psd`), e.g.
     from a third co-located sensor (``bayescal noise``) or the user."""
 
     def __init__(self, spectra, ref_vectors, blocks, priors=Priors(), ref_noise="estimate",
@@ -134,7 +134,7 @@ class EIVModel(Model):
     def _estimate_statistic(self, theta, w):
         """Mode ``estimate``: the plain residual plus ``T diag(d)``, ``d`` the
         reference's noise as a combination of fixed spectral shapes
-        (:func:`bayescal.core.refnoise.noise_shapes`), profiled out. Mode
+        (:func:`bayescal.core.model.refnoise.noise_shapes`), profiled out. Mode
         ``fixed``: ``d`` the known noise (coefficients returned as zeros)."""
         x, coef, _ = self._estimate_parts(theta, w)
         return x, coef
@@ -154,7 +154,7 @@ class EIVModel(Model):
         if weight is not None:
             # profile the coefficients (shared by all bands) out of the
             # likelihood that is sampled, each band weighted
-            # (bayescal.core.plugin); q is returned unweighted, per band
+            # (bayescal.core.model.plugin); q is returned unweighted, per band
             coef, term, q = refnoise.profile_columns(x0, u, self._shapes,
                                                      w * weight[:, None, None], self._upper)
             return x0 + term, coef, q / weight
@@ -179,7 +179,7 @@ class EIVModel(Model):
     def _row_factor(self, ratio):
         """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
         (each SUT row in the counts of the plug-in point,
-        :mod:`bayescal.core.noisescale`), or None before a noise model."""
+        :mod:`bayescal.core.model.noisescale`), or None before a noise model."""
         scale0 = getattr(self.noise, "scale0", None)
         if scale0 is None:
             return None

@@ -1,5 +1,5 @@
 """From spectra to posterior samples: global closed-form start, least-squares
-refinement, then emcee run until converged (:func:`bayescal.core.mcmc.sample`,
+refinement, then emcee run until converged (:func:`bayescal.core.sampling.mcmc.sample`,
 a differential-evolution burn-in followed by an independence move with a
 frozen t proposal; the convergence rule is stated there).
 """
@@ -10,10 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import misfit_scale, pendulum, refnoise
-from .geometry import Circle, Fixed, Sphere
-from .eiv import EIVModel
-from .likelihood import ChannelBlock, Model, Priors
+from ..model import misfit_scale, refnoise
+from ..response import pendulum
+from ..orientation.geometry import Circle, Fixed, Sphere
+from ..model.eiv import EIVModel
+from ..model.likelihood import ChannelBlock, Model, Priors
 from .unconstrained import prior_bounds
 
 #: A SUT channel is fitted against a two- or one-channel reference only when
@@ -83,7 +84,7 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         "all" (period, damping and gain).
     ref_noise : how the reference's self-noise enters: "quiet" (negligible,
         the base :class:`Model`), "estimate" or "equal" (:class:`EIVModel`,
-        see :mod:`bayescal.core.refnoise`); None: "quiet"; "fixed" with
+        see :mod:`bayescal.core.model.refnoise`); None: "quiet"; "fixed" with
         ``known_noise`` (B, n_r): the reference's self-noise given.
     """
     ref_vectors = np.asarray(ref_vectors, float)
@@ -144,7 +145,7 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     """Refine ``theta0`` by :func:`scipy.optimize.least_squares` on the
     whitened residual, re-estimating the noise model after each pass.
     ``jac``: scipy's ``"2-point"``, a callable such as
-    :func:`bayescal.core.jacobian.forward_jacobian`'s, or None: ``"2-point"``
+    :func:`bayescal.core.model.jacobian.forward_jacobian`'s, or None: ``"2-point"``
     for the base model (whose numbers are fixed) and the one-call forward
     Jacobian for the errors-in-variables model (its residual costs several
     times the base model's; the columns agree to rounding).
@@ -152,12 +153,12 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     Returns ``(theta, covariance)``; the covariance is the inverse Fisher
     information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm),
     the pendulum priors' included
-    (:func:`bayescal.core.jacobian.least_squares_objective`): along a
+    (:func:`bayescal.core.model.jacobian.least_squares_objective`): along a
     direction the data hardly fix, the point stays where the prior puts it.
     """
-    from .jacobian import least_squares_objective
+    from ..model.jacobian import least_squares_objective
     if jac is None:
-        from .jacobian import forward_jacobian
+        from ..model.jacobian import forward_jacobian
         jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
     fun, jac = least_squares_objective(model, jac)
     lo, hi = prior_bounds(model)
@@ -207,23 +208,23 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     """Whole inference from spectra: start, least squares, sampling.
 
     ``misfit_shape``: shape ``a`` of the per-band noise-scale prior
-    (:mod:`bayescal.core.misfit_scale`); None: its default
+    (:mod:`bayescal.core.model.misfit_scale`); None: its default
     ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood.
 
     ``ref_noise``: None (the default) is
-    :func:`bayescal.core.refnoise.recommended_mode` of the pair: "estimate"
+    :func:`bayescal.core.model.refnoise.recommended_mode` of the pair: "estimate"
     (the reference's self-noise estimated, unbiased whatever the split of
     noise) with two or more channels a side, "quiet" otherwise; the mode
     used and whether it was the default are in
     ``posterior.meta["reference_noise"]``. ``known_noise`` (B, n_r): the
     reference's self-noise given as band sums
-    (:func:`bayescal.core.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
+    (:func:`bayescal.core.model.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
 
-    Returns a :class:`bayescal.core.posterior.Posterior`; the least-squares point
+    Returns a :class:`bayescal.core.posterior.samples.Posterior`; the least-squares point
     and the model are kept in ``posterior.meta["least_squares"]`` and on the
     returned object as ``posterior.model`` (not saved to disk).
     """
-    from .posterior import Posterior
+    from ..posterior.samples import Posterior
     from .rotation import fit_rotation, orthogonal_pair
 
     pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free != "all" else None
@@ -237,7 +238,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
         return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
     chosen_by = "user"
     if ref_noise is None:       # the default: unbiased whatever the split of noise
-        from .refnoise import recommended_mode
+        from ..model.refnoise import recommended_mode
         ref_noise, chosen_by = recommended_mode(spectra.n_r, spectra.n_u), "default"
     setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
                         ref_noise=ref_noise, known_noise=known_noise)
@@ -255,11 +256,11 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                                                   setup.fitted)
         separation = {}
         if getattr(model, "ref_noise", None) == "estimate":
-            from .separation import gain_separation
+            from ..checks.separation import gain_separation
             separation = gain_separation(model, theta_ls, cov)
         # parameters the data do not constrain are held at nominal
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
-        from .mcmc import sample
+        from ..sampling.mcmc import sample
         chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
@@ -305,7 +306,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
 
 
 def _modes(model, theta_ls, cov, nominal, fitted):
-    """:func:`bayescal.core.modes.search`; when another mode is the most
+    """:func:`bayescal.core.fit.modes.search`; when another mode is the most
     probable, the fit restarts there (noise model re-estimated)."""
     from .modes import search
 
@@ -317,7 +318,7 @@ def _modes(model, theta_ls, cov, nominal, fitted):
 
 
 def _prior_sensitivity(model, theta):
-    """:func:`bayescal.core.pendulum.prior_sensitivity` of every channel whose
+    """:func:`bayescal.core.response.pendulum.prior_sensitivity` of every channel whose
     period and damping are free, at the posterior's median ``theta``."""
     from .unconstrained import information
 
@@ -332,7 +333,7 @@ def _prior_sensitivity(model, theta):
 
 def plugin_meta(model):
     """``meta.plugin_weights``: each band's likelihood weight for the plug-in
-    noise model's own sampling error (:mod:`bayescal.core.plugin`)."""
+    noise model's own sampling error (:mod:`bayescal.core.model.plugin`)."""
     w = getattr(model.noise, "weight", None)
     return None if w is None else [round(float(v), 4) for v in w]
 

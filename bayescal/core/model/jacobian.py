@@ -4,7 +4,7 @@
 scipy's ``"2-point"`` makes one residual call per parameter; the model's
 residual is vectorised over parameter points (emcee's walkers), so one call
 for all columns costs little more than one point (five times faster for the
-base model, :mod:`.modes`; twelve parameters of a diagnose search's
+base model, :mod:`bayescal.core.fit.modes`; twelve parameters of a diagnose search's
 per-time-block model, :mod:`bayescal.criticism.search`). Steps are scipy's
 size, ``sqrt(eps) max(1, |theta|)``, always forward; the columns agree
 with scipy's to the differences' rounding, not to the bit, so a fit whose
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import pendulum
+from ..response import pendulum
 from .likelihood import Model
 
 
@@ -29,7 +29,7 @@ def forward_jacobian(model, matmul=False):
     ``matmul``: whiten (``la^H R lb``) with batched matrix products instead
     of the three-operand einsum, which loops over all five indices at once
     (several times slower on a per-time-block model); the columns differ in
-    rounding, so the mode search (:mod:`.modes`), whose optima a fit reports,
+    rounding, so the mode search (:mod:`bayescal.core.fit.modes`), whose optima a fit reports,
     keeps the einsum."""
     from .eiv import EIVModel
 
@@ -53,7 +53,7 @@ def forward_jacobian(model, matmul=False):
 
 
 def _eiv_jacobian(model):
-    """The same for :class:`bayescal.core.eiv.EIVModel`: its statistic is
+    """The same for :class:`bayescal.core.model.eiv.EIVModel`: its statistic is
     vectorised over points too (the profiled noise coefficients solved per
     point), whitened as :meth:`EIVModel.whitened_residual` does."""
     def jac(theta, factors):
@@ -69,7 +69,7 @@ def least_squares_objective(model, jac):
     """``(fun, jac)`` for :func:`scipy.optimize.least_squares` on ``model``
     (args ``(factors,)``): the whitened residual and, for each channel whose
     period and damping are free, the pendulum prior's rows appended
-    (:func:`bayescal.core.pendulum.prior_residual`), so that a direction the
+    (:func:`bayescal.core.response.pendulum.prior_residual`), so that a direction the
     data hardly fix stays where the prior puts it and ``2 J^T J`` is the
     posterior's Laplace precision. ``jac``: the whitened residual's (a
     callable or scipy's ``"2-point"``)."""

@@ -5,7 +5,7 @@ A tilt is a magnitude, ``sqrt(north^2 + east^2)`` of the lean toward north
 and toward east, so an equal-tailed interval of its samples never holds 0:
 for a channel that is truly vertical it misses every time, however good the
 posterior. The two lean components are well defined and close to Gaussian
-when the tilt is small (:func:`bayescal.core.geometry.tilt_components`), so
+when the tilt is small (:func:`bayescal.core.orientation.geometry.tilt_components`), so
 the statement is made in their plane:
 
 * the credible region at level ``p`` is the ellipse of the samples' mean and

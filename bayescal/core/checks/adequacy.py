@@ -1,6 +1,6 @@
 """Does the model fit the recordings? A posterior-predictive check on the
 per-band, per-SUT-channel standardised misfit every fit already computes
-(:meth:`bayescal.core.likelihood.Model.standardized_band_residuals`).
+(:meth:`bayescal.core.model.likelihood.Model.standardized_band_residuals`).
 
 Where the model fits, each band's whitened residual row holds ``n_r``
 independent unit-variance complex Gaussian energies, so ``n_r * misfit`` is

@@ -1,7 +1,7 @@
 """The SUT's self-noise held fixed in its counts, not in ground units.
 
 The plug-in noise model of a fit (``Sigma_b`` of
-:mod:`bayescal.core.likelihood`, ``V_b`` of :mod:`bayescal.core.eiv`) is
+:mod:`bayescal.core.model.likelihood`, ``V_b`` of :mod:`bayescal.core.model.eiv`) is
 estimated once, at the least-squares point ``a0``. The SUT's self-noise is a
 property of the sensor in its counts: deconvolved by a response ``H(a)`` it
 scales with ``|rho(a)| = |H_nom / H(a)|``. Held fixed in ground units, as the

@@ -1,0 +1,11 @@
+"""The whole fit, from spectra to posterior.
+
+* :mod:`.run`           start, least squares, sampling, the posterior
+* :mod:`.modes`         several optima of one posterior: searched and weighed
+* :mod:`.unconstrained` a gain the data do not constrain: found and held
+* :mod:`.rotation`      one reference channel, two SUT horizontals: their
+                        common rotation
+
+May import every other part of :mod:`bayescal.core` but
+:mod:`bayescal.core.selfnoise`.
+"""
