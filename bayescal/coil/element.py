@@ -10,7 +10,7 @@ from scipy.optimize import least_squares
 
 from ..core.response import pendulum
 from ..core.sampling.mcmc import sample
-from ..core.fit.run import FitError
+from ..core.fit.errors import FitError
 from ..io.read import InputError
 from ..core.model.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior.samples import interval_summary

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
-from ..core.fit.run import FitError
+from ..core.fit.errors import FitError
 from ..core.response.family import TwoPoleFamily
 from ..io.read import InputError
 

@@ -28,7 +28,8 @@ from scipy.optimize import minimize_scalar
 
 from ..core.posterior.samples import interval_summary
 from ..core.sampling.mcmc import sample
-from ..core.fit.run import FitError, single_threaded_blas
+from ..core.fit.errors import FitError
+from ..core.threads import single_threaded_blas
 from ..io.read import InputError
 from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,

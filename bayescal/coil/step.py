@@ -20,7 +20,7 @@ from scipy.fft import irfft
 
 from ..core.model.likelihood import Priors
 from ..core.sampling.mcmc import sample
-from ..core.fit.run import single_threaded_blas
+from ..core.threads import single_threaded_blas
 from ..io.read import InputError
 from .hf import PZSpec, scale_start
 from .result import CalFit

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.fit.run import FitError
+from ..core.fit.errors import FitError
 from ..io.read import InputError
 from .bounded import BoundedPosterior
 

@@ -55,7 +55,7 @@ import numpy as np
 
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
-from ..core.fit.run import FitError
+from ..core.fit.errors import FitError
 from ..io.read import InputError
 from ..core.posterior.samples import interval_summary
 from ..core.response.family import TwoPoleFamily

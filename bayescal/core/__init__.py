@@ -15,6 +15,7 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 * :mod:`.fit`         the whole fit: start, least squares, modes, held
                       parameters, sampling, the posterior
 * :mod:`.selfnoise`   self-noise of co-located sensors
+* :mod:`.threads`     the BLAS thread limit every group's small products run under
 
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,

@@ -11,7 +11,8 @@ from scipy.optimize import least_squares
 
 from . import effects as catalogue
 from ..core.model.jacobian import forward_jacobian
-from ..core.fit.run import least_squares_fit, single_threaded_blas
+from ..core.fit.run import least_squares_fit
+from ..core.threads import single_threaded_blas
 from ..core.fit.unconstrained import prior_bounds
 from ..core.orientation.geometry import Fixed
 from ..core.model.eiv import EIVModel, EIVNoise

@@ -3,6 +3,8 @@
 * :mod:`.run`           start, least squares, sampling, the posterior
 * :mod:`.modes`         several optima of one posterior: searched and weighed
 * :mod:`.unconstrained` a gain the data do not constrain: found and held
+* :mod:`.errors`        :class:`~bayescal.core.fit.errors.FitError`, raised
+                        when a fit cannot proceed
 * :mod:`.rotation`      one reference channel, two SUT horizontals: their
                         common rotation
 

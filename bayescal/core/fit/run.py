@@ -12,6 +12,8 @@ from scipy.optimize import least_squares
 
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
+from ..threads import single_threaded_blas
+from .errors import FitError
 from ..orientation.geometry import Circle, Fixed, Sphere
 from ..model.eiv import EIVModel
 from ..model.likelihood import ChannelBlock, Model, Priors
@@ -20,10 +22,6 @@ from .unconstrained import prior_bounds
 #: A SUT channel is fitted against a two- or one-channel reference only when
 #: its nominal axis lies within this angle (degrees) of the reference's span.
 SPAN_TOLERANCE_DEG = 30.0
-
-
-class FitError(RuntimeError):
-    """The fit cannot proceed (nothing estimable, optimizer failure...)."""
 
 
 def closed_form_transfer(spectra):
@@ -191,15 +189,6 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     except np.linalg.LinAlgError as exc:
         raise FitError("the least-squares point is degenerate (singular information)") from exc
     return theta, 0.5 * (cov + cov.T)
-
-
-def single_threaded_blas():
-    """Context limiting BLAS to one thread. The likelihood's products are
-    small (walkers x nodes x bands): threaded BLAS only adds latency, and on a
-    busy machine its threads wait on each other (measured: 18 ms against
-    0.12 ms per call on 2 loaded cores)."""
-    from threadpoolctl import threadpool_limits
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",

@@ -349,7 +349,7 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
     sp = model.spectra
     if sp.n_u < 2 or sp.n_r < 2:
         return not_identifiable(sp.sut_ids, sp.ref_ids), {}
-    from ..fit.run import single_threaded_blas
+    from ..threads import single_threaded_blas
     theta = np.median(samples, axis=0)
     t = transfer(model, theta)[0][0, 0]
     along = np.argmax(np.abs(t), axis=0)
