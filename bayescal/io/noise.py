@@ -34,9 +34,9 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal.windows import hann
 
 from ..core.selfnoise import sleeman as core
+from ..core.spectra.dof import band_dof
 from ..core.spectra.welch import cross_spectra
 from .read import InputError, read_waveforms
 from .align import Side, align_sensors
@@ -145,8 +145,7 @@ def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart"
     period bands (:func:`bayescal.core.selfnoise.sleeman.period_band_weights`) and
     the bands' (shortest, longest) periods."""
     C, fc = core.acceleration_band_matrices(spectra)
-    dof = core.effective_dof(hann(spectra.nperseg, sym=False), spectra.segment_starts,
-                             spectra.bins_per_band)
+    dof = band_dof(spectra)
     kw = dict(level=level, n_boot=n_boot, seed=seed, per_segment=spectra.per_segment,
               method=method, block=block, axis_mismatch=axis_mismatch, ids=spectra.sut_ids)
     est = core.estimate_self_noise(C, dof, fc, **kw)

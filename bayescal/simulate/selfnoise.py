@@ -177,9 +177,8 @@ def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
     self-noise and the (B, 3, 3) acceleration matrices. ``band`` defaults to
     0.01 Hz up to 0.8 of Nyquist.
     """
-    from scipy.signal.windows import hann
-
     from ..core.selfnoise import sleeman as core
+    from ..core.spectra.dof import band_dof
     from ..core.spectra.welch import cross_spectra
 
     n = sim.data.shape[1]
@@ -187,7 +186,7 @@ def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
     sp = cross_spectra(sim.data, np.empty((0, n)), sim.fs, sim.response_fn(), None, band,
                        bands_per_decade=bands_per_decade, min_bins=min_bins)
     C, fc = core.acceleration_band_matrices(sp)
-    dof = core.effective_dof(hann(sp.nperseg, sym=False), sp.segment_starts, sp.bins_per_band)
+    dof = band_dof(sp)
     est = core.estimate_self_noise(C, dof, fc, level=level, n_boot=n_boot,
                                    seed=sim.seed if seed is None else seed,
                                    per_segment=sp.per_segment, method=method,

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import noisescale, plugin, refnoise
+from ..spectra.dof import band_dof
 from .likelihood import INFLATION_SHRINK, Model, Priors
 
 
@@ -285,7 +286,7 @@ class EIVModel(Model):
         c = np.maximum(c, 1e-3 * pooled)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
-                              weight=plugin.band_weights(plugin.effective_samples(sp), nu + nr))
+                              weight=plugin.band_weights(band_dof(sp), nu + nr))
         if not data_terms:      # mode estimate: the noise held in the SUT's counts
             self.noise.scale0 = noisescale.noise_scale(ratio, self._band_nodes,
                                                        self._free_rows)[0]

@@ -59,6 +59,7 @@ import numpy as np
 from . import misfit_scale, noisescale, plugin
 from ..response import pendulum
 from ..spectra.bandfold import fold
+from ..spectra.dof import band_dof
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from ..response.family import TwoPoleFamily, gain_prior_factor
 
@@ -456,7 +457,7 @@ class Model:
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
                                 inflation=c, scale0=scale0,
-                                weight=plugin.band_weights(plugin.effective_samples(sp), nu))
+                                weight=plugin.band_weights(band_dof(sp), nu))
         return self.noise
 
     def adopt_noise(self, noise):

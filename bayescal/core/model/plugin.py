@@ -6,7 +6,8 @@ band's whole cross-spectral matrix ``C_b``, (n_u + n_r) square, in the
 errors-in-variables model). Each is a complex-Wishart-like estimate from the
 band's bins and segments, worth ``nu_b`` independent samples: fewer than the
 ``K_b`` bins times segments it sums, because neighbouring bins of a Hann
-window and overlapping segments are correlated (:func:`effective_samples`,
+window and overlapping segments are correlated
+(:func:`bayescal.core.spectra.dof.band_dof`,
 the equivalent degrees of freedom of a Welch estimate, from the window and
 the segment layout alone). Treating the estimate as exact makes intervals
 too narrow, by two effects of the same order:
@@ -37,38 +38,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..selfnoise.sleeman import effective_dof
-from ..spectra.welch import hann
-
 #: Smallest weight a band gets (a band with fewer effective samples than the
 #: noise model's dimension carries almost nothing).
 MIN_WEIGHT = 0.05
 
 
-def effective_samples(spectra):
-    """(B,) independent complex samples each band's plug-in rests on.
-
-    For a band of ``m`` contiguous bins summed over segments, a statistic
-    quadratic in white data has variance ``sum |rho|^2`` over all pairs of
-    (segment, bin) where the independent-sample formula counts ``m K``; so
-    ``nu = (m K)^2 / sum_{pairs} |rho|^2`` (the equivalent degrees of freedom
-    of a Welch estimate, halved for complex samples). ``rho`` between bins
-    ``j`` apart of one segment, and of every two segments that overlap (not
-    only neighbours: above 50 % overlap segments further apart do too),
-    follows from the window alone (periodic Hann, as
-    :func:`bayescal.core.spectra.welch.cross_spectra` uses); the count is
-    :func:`bayescal.core.selfnoise.sleeman.effective_dof`'s, which the self-noise
-    bands use. The model's fit does not enter: a band that misfits is not
-    counted as having fewer samples.
-    """
-    return effective_dof(hann(spectra.nperseg), spectra.segment_starts,
-                         np.asarray(spectra.bins_per_band, int))
-
-
 def band_weights(nu, dim):
     """(B,) likelihood weight of each band (module docstring): ``((nu - p)^2
     - 1) / nu^2`` with ``nu`` the band's effective samples
-    (:func:`effective_samples`) and ``p = dim``, the dimension of the
+    (:func:`bayescal.core.spectra.dof.band_dof`) and ``p = dim``, the dimension of the
     estimated covariance; at least :data:`MIN_WEIGHT`."""
     nu = np.asarray(nu, float)
     d = nu - float(dim)

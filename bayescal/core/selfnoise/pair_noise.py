@@ -31,7 +31,7 @@ trade off (Sleeman et al. 2006 need a third sensor).
 
 Interval: normal on the power scale, with the complex-Wishart variance of
 each (linear) estimate at the band's effective degrees of freedom
-(:func:`.sleeman.effective_dof`), the spectra's variation across each
+(:func:`bayescal.core.spectra.dof.band_dof`), the spectra's variation across each
 band kept (:func:`sampling_variance`), plus the scatter of the estimate
 over posterior draws of ``T``: the band holds the sampling scatter of the
 spectra and the uncertainty of the fit. (A flat-band Wishart bootstrap, as
@@ -42,8 +42,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sleeman import acceleration_band_matrices, db, effective_dof
-from ..spectra.welch import hann
+from ..spectra.dof import band_dof
+from .sleeman import acceleration_band_matrices, db
 
 NOT_IDENTIFIABLE = ("not identifiable from one channel per sensor; use bayescal noise with a "
                     "third sensor")
@@ -175,7 +175,7 @@ def pair_self_noise(model, theta_point, theta_draws=None, level=0.9, n_draws=300
     c0 = corrected(C[None], r0)[0]
     pu, pr = noise_from_t(c0, t0[0])
     point = np.concatenate([pu, pr], axis=-1)                          # (B, n)
-    dof = effective_dof(hann(sp.nperseg), sp.segment_starts, sp.bins_per_band)
+    dof = band_dof(sp)
     var = sampling_variance(model, t0[0, 0], r0[0], dof)
     if theta_draws is not None and len(theta_draws) > 1:
         rng = np.random.default_rng(seed)

@@ -35,7 +35,7 @@ A band-averaged matrix ``C_hat = (1/M) sum_m z_m z_m^H`` over M (segment,
 bin) pairs of Welch spectra is, for Gaussian data with a spectrum smooth over
 the band, close to a complex Wishart ``CW(nu, C / nu)`` whose degrees of
 freedom ``nu`` follow from the window's correlations between overlapping
-segments and neighbouring bins (:func:`effective_dof`, moment matching).
+segments and neighbouring bins (:func:`bayescal.core.spectra.dof.effective_dof`, moment matching).
 :func:`wishart_interval` draws ``C* ~ CW(nu, C_hat / nu)`` (complex Bartlett
 decomposition), recomputes the estimator and forms a *basic* bootstrap
 interval on the linear power scale, ``[N - q_hi, N - q_lo]`` of
@@ -52,7 +52,7 @@ from itertools import combinations
 import numpy as np
 
 __all__ = ["sleeman", "triplet_estimates", "self_noise", "self_noise_band_sums",
-           "effective_dof", "acceleration_band_matrices", "sample_complex_wishart",
+           "acceleration_band_matrices", "sample_complex_wishart",
            "wishart_interval", "block_bootstrap_interval", "SelfNoise", "estimate_self_noise",
            "period_band_weights", "below_resolution", "db"]
 
@@ -144,62 +144,6 @@ def acceleration_band_matrices(spectra):
 
 
 # --- sampling distribution ------------------------------------------------------------
-def _window_correlation(window, lags):
-    """|rho(lag, db)|^2 for white noise between the DFTs of two windowed
-    segments ``lag`` samples apart, ``db`` bins apart: (L, N) array."""
-    w = np.asarray(window, float)
-    N = w.size
-    norm = np.sum(w ** 2)
-    out = []
-    for lag in lags:
-        lag = abs(int(lag))
-        prod = np.zeros(N)
-        if lag < N:
-            prod[:N - lag] = w[lag:] * w[:N - lag]
-        out.append(np.abs(np.fft.fft(prod)) ** 2 / norm ** 2)
-    return np.array(out)
-
-
-def _overlap_lags(starts, n):
-    """Distinct start differences ``|s_i - s_j| < n`` over all ordered pairs
-    of the sorted ``starts`` (the pair with itself included) and how often
-    each occurs: what the K x K difference matrix gives, from the diagonals
-    that can overlap only (O(K) per diagonal instead of K^2 memory: a day
-    at 100 Hz in 2048-sample segments has 8400 of them)."""
-    diffs = [np.zeros(starts.size, int)]
-    for j in range(1, starts.size):
-        d = starts[j:] - starts[:-j]      # grows with j entry by entry (sorted)
-        d = d[d < n]
-        if d.size == 0:
-            break
-        diffs += [d, d]                   # (i, i + j) and (i + j, i)
-    return np.unique(np.concatenate(diffs), return_counts=True)
-
-
-def effective_dof(window, segment_starts, bins_per_band):
-    """(B,) degrees of freedom of a band-averaged cross-spectral matrix.
-
-    ``window`` (nperseg,) taper, ``segment_starts`` (K,) sample index of every
-    segment used (gaps allowed), ``bins_per_band`` (B,). Moment matching for
-    a spectrum flat over the band: ``nu = M^2 / sum_{m,m'} |rho_mm'|^2`` over
-    the ``M = K * bins`` (segment, bin) pairs.
-    """
-    w = np.asarray(window, float)
-    N = w.size
-    s = np.sort(np.asarray(segment_starts, int))
-    K = s.size
-    lags, counts = _overlap_lags(s, N)
-    rho2 = _window_correlation(w, lags)                    # (L, N)
-    seg_term = counts @ rho2                               # (N,) sum over segment pairs
-    out = []
-    for B in np.atleast_1d(bins_per_band):
-        B = int(B)
-        dbins = np.arange(-(B - 1), B)
-        tot = np.sum((B - np.abs(dbins)) * seg_term[dbins % N])
-        out.append((K * B) ** 2 / tot)
-    return np.array(out)
-
-
 def sample_complex_wishart(rng, sigma, dof, size):
     """``size`` draws of ``W / dof`` with ``W ~ CW(dof, sigma)``: complex Wishart
     by the Bartlett decomposition (real ``dof >= n`` allowed).
@@ -364,7 +308,7 @@ def estimate_self_noise(C, dof, freqs, level=0.9, n_boot=1000, seed=0, per_segme
     """Self-noise estimates with intervals from band-averaged matrices.
 
     ``C`` (B, n, n) band-averaged PSD matrices (already in the units wanted,
-    e.g. (m/s^2)^2/Hz), ``dof`` (B,) from :func:`effective_dof`, ``freqs``
+    e.g. (m/s^2)^2/Hz), ``dof`` (B,) from :func:`bayescal.core.spectra.dof.band_dof`, ``freqs``
     (B,) band centres. ``method``: "wishart" (default) or "block", which
     needs ``per_segment`` (K, B, n, n) summing, up to one positive factor per
     band, to ``C``. ``axis_mismatch``: see :func:`wishart_interval`.
