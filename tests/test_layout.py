@@ -129,3 +129,26 @@ def test_fit_path_does_not_import_heavy_modules():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_no_private_name_imported_from_another_module():
+    """A name with a leading underscore is its module's own: no module of
+    bayescal imports one from another (``from .x import _y``), nor reaches
+    one through an imported module (``x._y``)."""
+    bad = []
+    for path in PKG.rglob("*.py"):
+        tree = ast.parse(path.read_text())
+        modules = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                bad += [f"{_module_name(path)}:{node.lineno} imports {a.name}" for a in node.names
+                        if a.name.startswith("_") and not a.name.startswith("__")]
+                modules |= {a.asname or a.name for a in node.names}
+            elif isinstance(node, ast.Import):
+                modules |= {a.asname or a.name.split(".")[0] for a in node.names}
+        bad += [f"{_module_name(path)}:{node.lineno} uses {node.value.id}.{node.attr}"
+                for node in ast.walk(tree)
+                if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                and node.value.id in modules and node.attr.startswith("_")
+                and not node.attr.startswith("__")]
+    assert not bad, "private names used across modules:\n" + "\n".join(sorted(bad))

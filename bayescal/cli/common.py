@@ -9,7 +9,7 @@ import sys
 import tempfile
 
 
-def _time(text):
+def parse_time(text):
     import argparse
 
     from obspy import UTCDateTime
@@ -102,9 +102,9 @@ def add_pair_arguments(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")
-    parser.add_argument("--start", type=_time, metavar="T",
+    parser.add_argument("--start", type=parse_time, metavar="T",
                         help="start of the analysis window, e.g. 2010-08-24T02:00:00")
-    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress display (the band used and the results table are "

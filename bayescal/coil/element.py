@@ -225,7 +225,7 @@ def transfer_scale(model, theta):
     return num / den
 
 
-def _start(model):
+def nominal_start(model):
     """Nominal period and damping, and the least-squares scale of the nominal
     transfer to the data."""
     theta = np.array([1.0, 1.0, np.log(model.nominal.gain)])
@@ -345,7 +345,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
             iz = None if len(run.axes) == 1 else int(np.argmax(np.abs(coef)))
         start_model = model if iz is None else RunModel(model.spectra.select([iz]), coef[[iz]],
                                                         [run.families[iz]], nominal, priors)
-        theta0, scale = _start(start_model)
+        theta0, scale = nominal_start(start_model)
         if not scale > 0:
             raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} "
                            "with the opposite sign to the geometry: check the coil wiring, the "

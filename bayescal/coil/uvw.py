@@ -60,7 +60,7 @@ from ..io.read import InputError
 from ..core.posterior.samples import interval_summary
 from ..core.response.family import TwoPoleFamily
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix
-from .element import RunModel, _start, fit_run, run_spectra
+from .element import RunModel, nominal_start, fit_run, run_spectra
 from .runs import default_band
 
 
@@ -309,7 +309,7 @@ def _relative_coil_constant(runs, m, band, nperseg, fam):
         run = runs[e]
         sp = run_spectra(run, 1.0, band, nperseg)
         model = RunModel(sp, run.coefficients(m), run.families, run.families[-1])
-        _, scale = _start(model)
+        _, scale = nominal_start(model)
         if not scale > 0:
             raise FitError(f"{run.source}: the outputs respond to the coil of {e} with the "
                            "opposite sign to the geometry")

@@ -79,8 +79,8 @@ def reference_noise_test(model, theta, bic_keep=10.0):
                 None, None, None)
     quiet = _QuietUnderEIV(sp, model.ref_vectors, model.blocks, model.priors, ref_noise="estimate")
     quiet.adopt_noise(eiv.noise)
-    from .search import _refit
-    ll_q = _refit(quiet, (np.asarray(theta, float), th_e))[0]
+    from .search import best_refit
+    ll_q = best_refit(quiet, (np.asarray(theta, float), th_e))[0]
     ll_e = float(eiv.log_likelihood(th_e)[0])
     n = 2 * sp.n_bands * sp.n_u * sp.n_r
     k = 2 * sp.n_r

@@ -17,7 +17,7 @@ the response evaluation). So the checks work on two levels:
   that the response evaluates to a finite velocity response of a size a
   recording can have.
 
-Each problem is one sentence; :func:`bayescal.io.read._channel_meta` raises
+Each problem is one sentence; :func:`bayescal.io.read.channel_meta` raises
 it as an :class:`bayescal.io.read.InputError` naming the file and the
 channel, so the command line ends with one line and exit code 2.
 """

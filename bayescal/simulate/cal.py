@@ -23,7 +23,7 @@ from obspy.core.inventory.response import (CoefficientsTypeResponseStage, Instru
                                            PolesZerosResponseStage, Response)
 
 from ..core.response.family import paz_velocity_response
-from .coil import CalibrationSimulation, _white, prbs
+from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 
 #: Nominal STS-2-like channel: period (s), damping, gain (V per m/s).
@@ -143,7 +143,7 @@ def _simulate(u, kind, rng, truth, hf_true, nominal, hf_nominal, fs, coil_consta
     k = paz_velocity_response(freqs, *truth, extra_poles=_expand(hf_true),
                               digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
     a_f = np.fft.rfft(coil_constant * u)
-    noise = _white(rng, freqs.size, noise_std, n)
+    noise = white_rfft(rng, freqs.size, noise_std, n)
     x = np.fft.irfft(k * (a_f + noise) / iw, n=n) + digitizer_noise * rng.standard_normal(n)
     code = f"{band_code(fs)}HZ"
     hdr = dict(network=network, station=station, location=location, sampling_rate=fs,

@@ -79,7 +79,7 @@ class CalibrationSimulation:
         return paths
 
 
-def _white(rng, nf, std_time, n):
+def white_rfft(rng, nf, std_time, n):
     """Complex rfft coefficients of white noise with time-domain ``std_time``."""
     scale = std_time * np.sqrt(n / 2.0)
     out = scale * (rng.standard_normal(nf) + 1j * rng.standard_normal(nf))
@@ -129,7 +129,7 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
         a_rms = coil_constant * amplitude
         drive = np.zeros((3, freqs.size), complex)
         drive[idx] = a_f
-        noise = np.array([_white(rng, freqs.size, noise_ratio * a_rms, n) for _ in range(3)])
+        noise = np.array([white_rfft(rng, freqs.size, noise_ratio * a_rms, n) for _ in range(3)])
         elem = k * (drive + noise) / iw[None, :]                      # (3, F) counts
         out_f = mix.T @ elem
         out_t = np.fft.irfft(out_f, n=n, axis=1)
