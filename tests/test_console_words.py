@@ -112,7 +112,7 @@ def test_rarer_console_lines():
     """The lines of a failed model check, a multimodal posterior and a short
     record, from the functions the console prints them with."""
     from bayescal.core.checks.adequacy import adequacy, describe
-    from bayescal.core.fit.modes import describe as modes_line
+    from bayescal.core.posterior.modes import describe as modes_line
     from bayescal.core.checks.record_length import record_length
 
     misfit = np.ones((6, 3))

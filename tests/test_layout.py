@@ -124,7 +124,7 @@ def test_fit_path_does_not_import_heavy_modules():
 
     code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.fit.run, "
             "bayescal.core.fit.modes, bayescal.core.model.eiv, bayescal.core.checks.separation, "
-            "bayescal.core.selfnoise.pair_noise, bayescal.core.sampling.convergence, bayescal.core.posterior.samples; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
+            "bayescal.core.selfnoise.pair_noise, bayescal.core.posterior.convergence, bayescal.core.posterior.samples; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
             "'dask', 'emcee') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from bayescal.core.fit import modes
+from bayescal.core.posterior import modes as reported
 
 
 def test_curvature_of_a_quadratic_and_equal_modes():
@@ -50,7 +51,7 @@ def test_mark_only_when_a_significant_mode_lies_outside():
                         {"mass_fraction": 0.295, "channels": {"A": {"azimuth_deg": 40.0}}},
                         {"mass_fraction": 0.005, "channels": {"A": {"azimuth_deg": 90.0}}}]}
     entry = {"azimuth_deg": {"median": -1.0, "ci95": [-1.5, -0.5]}}
-    assert modes.mark_channel(entry, "A", report) == ["azimuth_deg"]
+    assert reported.mark_channel(entry, "A", report) == ["azimuth_deg"]
     az = entry["azimuth_deg"]
     assert az["multimodal"] is True
     # the sampled mode's 359 is shown as -1 (contiguous with its interval);
@@ -58,8 +59,8 @@ def test_mark_only_when_a_significant_mode_lies_outside():
     assert [m["value"] for m in az["modes"]] == [-1.0, 40.0]
     assert "70 %" in az["note"]
     inside = {"azimuth_deg": {"median": 10.0, "ci95": [-5.0, 45.0]}}
-    assert modes.mark_channel(inside, "A", report) == []
-    assert modes.mark_channel(entry, "A", {**report, "detected": False}) == []
+    assert reported.mark_channel(inside, "A", report) == []
+    assert reported.mark_channel(entry, "A", {**report, "detected": False}) == []
 
 
 def _mirror_direction(ref):
@@ -106,7 +107,7 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     res = json.loads((tmp_path / "result.json").read_text())
     mm = res["multimodal"]
     assert mm["detected"] is True
-    sig = modes.significant_modes(mm)
+    sig = reported.significant_modes(mm)
     d = _mirror_direction(ref)
     bh1 = "XX.SIM.10.BH1"
     found = sorted(m["channels"][bh1]["azimuth_deg"] for m in sig)

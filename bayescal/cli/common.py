@@ -139,7 +139,7 @@ def quiet_convergence_warnings():
     import warnings
 
     from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.sampling.convergence import NotConvergedWarning
+    from ..core.posterior.convergence import NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
@@ -149,7 +149,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.sampling.convergence import not_converged_line
+    from ..core.posterior.convergence import not_converged_line
 
     code = 0
     for label, conv in entries:

@@ -8,6 +8,7 @@
 * :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
 * :mod:`.noise`       files -> aligned sensors -> spectra -> self-noise estimates
                       of three or more co-located sensors, noise.json
+* :mod:`.result`      a fit's result.json / samples.npz written and read back
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
 
 May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline criticises a

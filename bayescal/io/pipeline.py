@@ -370,9 +370,10 @@ def write_results(posterior, folder):
     """
     import os
 
+    from .result import save_posterior
     from .stationxml import write_corrected
 
-    posterior.save(folder)
+    save_posterior(posterior, folder)
     names = ["result.json", "samples.npz"] + (["diagnostics.npz"] if posterior.diagnostics
                                               else [])
     inv = getattr(posterior, "sut_inventory", None)

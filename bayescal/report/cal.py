@@ -113,7 +113,7 @@ def parameter_lines(summary):
 
 def residuals_page(fit, summary, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
-    from ..core.sampling.convergence import describe_sampler, not_converged_line
+    from ..core.posterior.convergence import describe_sampler, not_converged_line
 
     m = fit.model
     med = np.median(fit.theta, axis=0)

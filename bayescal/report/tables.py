@@ -71,7 +71,7 @@ def _axis_angle(vectors, nominal):
 
 
 def _interval_row(cid, quantity, entry, nominal, deviation, note="", truth=None):
-    if entry.get("multimodal"):       # one mode's interval: core.fit.modes.mark
+    if entry.get("multimodal"):       # one mode's interval: core.posterior.modes.mark
         note = "multimodal: see modes" + (f"; {note}" if note else "")
     return Row(cid, quantity, entry.get("median"), entry.get("ci68"), entry.get("ci95"),
                nominal, deviation, note, truth)

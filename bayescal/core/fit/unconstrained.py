@@ -36,8 +36,6 @@ EARLY_RATIO = 0.5
 LATE_RATIO = 0.5
 #: A 95 % interval this close to a prior bound (fraction of the prior's width) is pinned.
 BOUND_FRACTION = 0.01
-#: Response parameter names in model coordinates -> physical names.
-PHYSICAL = {"log_gain": "gain"}
 
 
 def prior_box(model):
@@ -210,15 +208,6 @@ def describe_late(model, flags):
 
 def _physical(name, value):
     return float(np.exp(value)) if name.split(":")[-1].startswith("log_") else float(value)
-
-
-def by_channel(set_by_prior):
-    """``{channel id: {physical name: entry}}`` from ``meta["set_by_prior"]``."""
-    out = {}
-    for name, entry in (set_by_prior or {}).items():
-        cid, par = name.rsplit(":", 1)
-        out.setdefault(cid, {})[PHYSICAL.get(par, par)] = entry
-    return out
 
 
 def hold_unconstrained(model, theta_ls, cov):

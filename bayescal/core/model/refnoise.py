@@ -115,17 +115,6 @@ def treatment_meta(model, theta):
     return out
 
 
-def describe_treatment(meta):
-    """One line on how a fit treated the reference's self-noise, from its
-    ``meta["reference_noise"]`` (mode, assumption, who chose it)."""
-    chosen = {"default": "the default for this pair", "user": "chosen by the user",
-              "diagnose": "chosen by the diagnosis"}.get(meta.get("chosen_by"), "")
-    given = meta.get("input", {})
-    src = f"; from {given['source']}" if given.get("source") else ""
-    return (f"{meta.get('mode')} ({meta.get('assumption', '')}{src}"
-            f"{'; ' + chosen if chosen else ''})")
-
-
 #: Relative ridge on the profile system of ``rho``.
 RIDGE = 1e-9
 

@@ -1,6 +1,7 @@
 """Posterior samples and what users read from them: per-channel azimuth, dip
 (or tilt) and response summaries with credible intervals, convergence
-figures, and the ``result.json`` / ``samples.npz`` pair on disk.
+figures, and the ``result.json`` summary as plain JSON values (written and
+read by :mod:`bayescal.io.result`).
 
 Intervals are equal-tailed: ``ci68`` = [16, 84] %, ``ci90`` = [5, 95] %,
 ``ci95`` = [2.5, 97.5] % quantiles of the samples. Azimuths are unwrapped
@@ -11,22 +12,21 @@ intervals come from the credible region of its two lean components instead
 """
 from __future__ import annotations
 
-import json
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..checks.adequacy import from_diagnostics
-from ..fit.modes import mark_channel
 from ..response.pendulum import damping_over_period
-from ..fit.unconstrained import by_channel
 from ..orientation.geometry import (NEAR_VERTICAL_DIP_DEG, azimuth_dip, tilt_components,
-                       tilt_from_vertical, unwrap_azimuths)
+                                    tilt_from_vertical, unwrap_azimuths)
 from ..orientation.tilt_region import REGION_NOTE, tilt_intervals
+from .modes import mark_channel
 
 SCHEMA = "bayescal.fit/1"
 QUANTILES = {"ci68": (16.0, 84.0), "ci90": (5.0, 95.0), "ci95": (2.5, 97.5)}
+#: Response parameter names in model coordinates -> physical names.
+PHYSICAL = {"log_gain": "gain"}
 
 
 def interval_summary(x):
@@ -71,6 +71,26 @@ def relative_gain(gain_entry, nominal_gain, response_samples):
     out = interval_summary(np.asarray(response_samples)[:, 2] / nominal_gain)
     if gain_entry.get("set_by_prior"):
         out.update({k: gain_entry[k] for k in ("set_by_prior", "reason", "action")})
+    return out
+
+
+def describe_treatment(meta):
+    """One line on how a fit treated the reference's self-noise, from its
+    ``meta["reference_noise"]`` (mode, assumption, who chose it)."""
+    chosen = {"default": "the default for this pair", "user": "chosen by the user",
+              "diagnose": "chosen by the diagnosis"}.get(meta.get("chosen_by"), "")
+    given = meta.get("input", {})
+    src = f"; from {given['source']}" if given.get("source") else ""
+    return (f"{meta.get('mode')} ({meta.get('assumption', '')}{src}"
+            f"{'; ' + chosen if chosen else ''})")
+
+
+def by_channel(set_by_prior):
+    """``{channel id: {physical name: entry}}`` from ``meta["set_by_prior"]``."""
+    out = {}
+    for name, entry in (set_by_prior or {}).items():
+        cid, par = name.rsplit(":", 1)
+        out.setdefault(cid, {})[PHYSICAL.get(par, par)] = entry
     return out
 
 
@@ -200,7 +220,7 @@ class Posterior:
         """The ``result.json`` content (schema ``bayescal.fit/1``): plain
         JSON values (dicts, lists, str, float, int, bool, None)."""
         conv = self.convergence
-        return _jsonable({
+        return jsonable({
             "schema": SCHEMA,
             "adequacy": from_diagnostics(self.diagnostics),
             "multimodal": self.meta.get("multimodal") or {
@@ -226,67 +246,16 @@ class Posterior:
             "meta": {k: v for k, v in self.meta.items() if k != "multimodal"},
         })
 
-    # --- disk ---------------------------------------------------------------
-    def save(self, folder):
-        """Write ``result.json`` and ``samples.npz`` into ``folder`` atomically
-        (each file is written to a temporary name, then renamed)."""
-        os.makedirs(folder, exist_ok=True)
-        arrays = {"samples": self.samples, "log_prob": self.log_prob, "vectors": self.vectors}
-        for cid, r in self.response.items():
-            arrays[f"response::{cid}"] = r
-        if self.trace is not None:
-            arrays["trace"] = self.trace
-        extra = {"channel_ids": self.channel_ids, "kinds": self.kinds, "names": self.names,
-                 "convergence": _jsonable(self.convergence)}
-        tmp = os.path.join(folder, ".samples.tmp.npz")
-        np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
-        os.replace(tmp, os.path.join(folder, "samples.npz"))
-        if self.diagnostics:
-            tmp = os.path.join(folder, ".diagnostics.tmp.npz")
-            np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in self.diagnostics.items()})
-            os.replace(tmp, os.path.join(folder, "diagnostics.npz"))
-        write_json(os.path.join(folder, "result.json"), self.summary())
 
-    @classmethod
-    def load(cls, folder):
-        with open(os.path.join(folder, "result.json")) as fh:
-            summary = json.load(fh)
-        with np.load(os.path.join(folder, "samples.npz")) as z:
-            extra = json.loads(str(z["extra"]))
-            response = {k.split("::", 1)[1]: z[k] for k in z.files if k.startswith("response::")}
-            conv = {k: (np.asarray(v) if isinstance(v, list) else v)
-                    for k, v in extra["convergence"].items()}
-            post = cls(channel_ids=extra["channel_ids"], kinds=extra["kinds"], vectors=z["vectors"],
-                       response=response, samples=z["samples"], names=extra["names"],
-                       log_prob=z["log_prob"], convergence=conv,
-                       meta={**summary.get("meta", {}), "multimodal": summary.get("multimodal")},
-                       not_estimable=summary.get("not_estimable", {}),
-                       trace=z["trace"] if "trace" in z.files else None,
-                       self_noise=summary.get("self_noise", {}),
-                       sensor_order=summary.get("sensor_order", {}),
-                       criticism=summary.get("criticism", {}))
-        diag = os.path.join(folder, "diagnostics.npz")
-        if os.path.exists(diag):
-            with np.load(diag) as z:
-                post.diagnostics = {k: z[k] for k in z.files}
-        return post
-
-
-def write_json(path, obj):
-    """Write JSON atomically (temporary file, then rename)."""
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        json.dump(_jsonable(obj), fh, indent=2)
-    os.replace(tmp, path)
-
-
-def _jsonable(obj):
+def jsonable(obj):
+    """``obj`` as plain JSON values: numpy arrays as lists, numpy scalars as
+    Python numbers, non-finite floats as None."""
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
+        return jsonable(obj.tolist())
     if isinstance(obj, (np.floating, float)):
         return float(obj) if np.isfinite(obj) else None
     if isinstance(obj, (np.integer,)):
