@@ -20,6 +20,22 @@ ALLOWED = {
 }
 MAX_LINES = 520
 
+#: What each group of bayescal.core may import of the core (besides itself
+#: and the core's top-level modules, e.g. core.threads): the order data flow
+#: through them. A new likelihood term goes in model, a new emcee move in
+#: sampling; reading a result (posterior) needs no model.
+CORE_ALLOWED = {
+    "orientation": set(),
+    "response": set(),
+    "spectra": set(),
+    "checks": {"orientation", "response", "spectra", "model"},
+    "model": {"orientation", "response", "spectra"},
+    "posterior": {"orientation", "response", "checks"},
+    "sampling": {"posterior"},
+    "fit": {"orientation", "response", "spectra", "model", "checks", "sampling", "posterior"},
+    "selfnoise": {"spectra"},
+}
+
 
 def _module_name(path):
     rel = path.relative_to(PKG.parent).with_suffix("")
@@ -74,6 +90,58 @@ def test_imports_point_down_the_layers():
                 continue
             bad.append(f"{mod} imports {dep}")
     assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
+
+
+def test_core_groups_import_down_their_order():
+    bad = []
+    for mod, deps in _graph().items():
+        parts = mod.split(".")
+        if parts[:2] != ["bayescal", "core"] or len(parts) < 3:
+            continue
+        if parts[2] not in CORE_ALLOWED:
+            assert (PKG / "core" / f"{parts[2]}.py").exists(), f"{mod}: a group without rules"
+            continue
+        for dep in deps:
+            d = dep.split(".")
+            if d[:2] != ["bayescal", "core"] or len(d) < 3 or d[2] == parts[2]:
+                continue
+            if (PKG / "core" / f"{d[2]}.py").exists() or d[2] in CORE_ALLOWED[parts[2]]:
+                continue
+            bad.append(f"{mod} imports {dep}")
+    assert not bad, "imports against the core's order:\n" + "\n".join(sorted(bad))
+
+
+def test_core_group_docstrings_state_their_imports():
+    """Each core group's docstring says what of the core it may import, as
+    :data:`CORE_ALLOWED` has it."""
+    bad = []
+    for group, allowed in CORE_ALLOWED.items():
+        doc = ast.get_docstring(ast.parse((PKG / "core" / group / "__init__.py").read_text()))
+        if not allowed and "Imports no other part of :mod:`bayescal.core`" not in doc:
+            bad.append(f"core.{group} does not say it imports no other group")
+        bad += [f"core.{group} does not name core.{a}" for a in sorted(allowed)
+                if f":mod:`bayescal.core.{a}`" not in doc]
+    assert not bad, "\n".join(bad)
+
+
+def test_each_package_docstring_names_its_modules():
+    """Every package's ``__init__`` docstring names each of its modules and
+    subpackages (as ``:mod:`.name```), and names nothing that is not there."""
+    import re
+
+    bad = []
+    for init in PKG.rglob("__init__.py"):
+        here = init.parent
+        held = {p.stem for p in here.glob("*.py") if p.name not in ("__init__.py", "__main__.py")}
+        held |= {p.name for p in here.iterdir() if (p / "__init__.py").exists()}
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        named = set(re.findall(r":mod:`\.(\w+)`", doc))
+        if here == PKG:
+            continue             # the top level names its layers in prose
+        bad += [f"{_module_name(init)} does not name {m}" for m in sorted(held - named)]
+        bad += [f"{_module_name(init)} names {m}, which it does not hold"
+                for m in sorted(named - held)]
+    assert not bad, "\n".join(bad)
 
 
 def test_no_import_cycle():

@@ -8,7 +8,8 @@ calibration of one ordinary channel: response parametrisation with the
 high-frequency poles (:mod:`.hf`), random runs (:mod:`.random`), the
 time-domain likelihood with AR noise (:mod:`.timedomain`) of step runs
 (:mod:`.step`) and sine runs (:mod:`.sine`), the result and ``cal.json``
-(:mod:`.result`), corrected StationXML (:mod:`.calxml`).
+(:mod:`.result`), corrected StationXML (:mod:`.calxml`); the posterior every
+coil model shares (:mod:`.bounded`).
 
 May import :mod:`bayescal.core` and :mod:`bayescal.io`; nothing above them
 (no reports, no command line).

@@ -8,6 +8,9 @@
 * :mod:`.rotation`      one reference channel, two SUT horizontals: their
                         common rotation
 
-May import every other part of :mod:`bayescal.core` but
+May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
+:mod:`bayescal.core.spectra`, :mod:`bayescal.core.model`,
+:mod:`bayescal.core.checks`, :mod:`bayescal.core.sampling` and
+:mod:`bayescal.core.posterior`: every group but
 :mod:`bayescal.core.selfnoise`.
 """
