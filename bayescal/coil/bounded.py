@@ -7,8 +7,8 @@ sets, from the posterior's Gaussian approximation at its median."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from ..core.fit.leastsq import jacobian
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
 
@@ -67,8 +67,7 @@ class BoundedPosterior:
     def fisher(self, theta):
         """The likelihood's information ``2 s J^T J`` at ``theta`` (``J`` the
         Jacobian of :meth:`likelihood_residual`, ``s`` ``LIKELIHOOD_SCALE``)."""
-        jac = least_squares(self.likelihood_residual, np.asarray(theta, float), method="lm",
-                            max_nfev=1).jac
+        jac = jacobian(self.likelihood_residual, np.asarray(theta, float))
         return 2.0 * self.LIKELIHOOD_SCALE * jac.T @ jac
 
     def prior_sensitivity(self, theta, channel):

@@ -6,11 +6,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..core.response import pendulum
 from ..core.sampling.mcmc import sample
 from ..core.fit.errors import FitError
+from ..core.fit.leastsq import refine
 from ..io.read import InputError
 from ..core.model.likelihood import INFLATION_SHRINK, Priors
 from ..core.posterior.samples import interval_summary
@@ -235,24 +235,12 @@ def nominal_start(model):
 def least_squares_run(model, theta0):
     """Weighted least squares (the pendulum prior's rows included: the
     posterior's mode) with the noise model re-estimated twice; returns
-    ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.fit.least_squares_fit`."""
+    ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.core.fit.run.least_squares_fit` (bounded trust-region
+    passes, :func:`bayescal.core.fit.leastsq.refine`)."""
     lo, hi = model.bounds()
-    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
-    for _ in range(3):
-        model.estimate_noise(theta)
-        chol = np.linalg.cholesky(model.noise)
-        res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
-                            x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
-        theta = res.x
-    model.estimate_noise(theta)
-    chol = np.linalg.cholesky(model.noise)
-    res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
-                        x_scale="jac", method="trf", max_nfev=1)
-    try:
-        cov = np.linalg.inv(2.0 * res.jac.T @ res.jac)
-    except np.linalg.LinAlgError as exc:
-        raise FitError("the least-squares point is degenerate (singular information)") from exc
-    return theta, 0.5 * (cov + cov.T)
+    return refine(model.posterior_residual, theta0, lo, hi, model.estimate_noise, 3,
+                  noise_args=lambda: (np.linalg.cholesky(model.noise),), method="trf",
+                  x_scale="jac")
 
 
 def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, seed=0,

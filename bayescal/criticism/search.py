@@ -7,10 +7,10 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from . import effects as catalogue
 from ..core.model.jacobian import forward_jacobian
+from ..core.fit.leastsq import TIGHT, solve
 from ..core.fit.run import least_squares_fit
 from ..core.threads import single_threaded_blas
 from ..core.fit.unconstrained import prior_bounds
@@ -207,11 +207,9 @@ def best_refit(model, starts):
     bounded = bool(np.isfinite(lo).any())
     best = (-np.inf, None)
     for start in starts:
-        res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
-                            jac=forward_jacobian(model, matmul=True), args=(fac,),
-                            method="trf" if bounded else "lm",
-                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        res = solve(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
+                    *((lo, hi) if bounded else ()), method="trf" if bounded else "lm",
+                    jac=forward_jacobian(model, matmul=True), args=(fac,), **TIGHT)
         ll = float(model.log_likelihood(res.x)[0])
         if ll > best[0]:
             best = (ll, res.x)

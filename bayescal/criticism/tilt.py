@@ -50,8 +50,8 @@ likelihood guard against a base model that misfits for other reasons).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from ..core.fit.leastsq import solve
 from ..core.spectra.welch import make_bands
 
 #: Bounds of the common exponent (tilt power ~ f^-alpha). Tilt ``theta`` puts
@@ -261,8 +261,8 @@ class TiltModel:
                   + list(extra_starts))
         best = None
         for th in starts:
-            r = least_squares(self.resid, np.clip(th, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
-                              x_scale="jac", max_nfev=300)
+            r = solve(self.resid, np.clip(th, lo + 1e-9, hi - 1e-9), lo, hi, x_scale="jac",
+                      max_nfev=300)
             if best is None or r.cost < best.cost:
                 best = r
         return best

@@ -1,6 +1,7 @@
 """The whole fit, from spectra to posterior.
 
 * :mod:`.run`           start, least squares, sampling, the posterior
+* :mod:`.leastsq`       least squares: the one caller of scipy's, for every fit
 * :mod:`.modes`         several optima of one posterior: searched and weighed
 * :mod:`.unconstrained` a gain the data do not constrain: found and held
 * :mod:`.errors`        :class:`~bayescal.core.fit.errors.FitError`, raised

@@ -50,12 +50,12 @@ import copy
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.special import gammaincinv
 
 from ..orientation.geometry import Circle, Sphere, azimuth_dip
 from ..model.jacobian import forward_jacobian as _jacobian
 from ..model.jacobian import least_squares_objective
+from .leastsq import solve
 from .unconstrained import information, prior_bounds
 
 #: Smallest posterior mass fraction of a second mode that makes a fit multimodal.
@@ -124,11 +124,7 @@ def _polish(model, theta, factors):
 
 def _least_squares(model, theta, factors, lo, hi):
     fun, jac = least_squares_objective(model, _jacobian(model))
-    res = least_squares(fun, theta, jac=jac, args=(factors,), method="lm")
-    if np.any(res.x < lo) or np.any(res.x > hi):
-        res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac, args=(factors,),
-                            bounds=(lo, hi), method="trf")
-    return res.x
+    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,)).x
 
 
 def curvature(log_prob, theta, step):

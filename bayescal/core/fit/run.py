@@ -8,12 +8,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
 from .errors import FitError
+from .leastsq import refine
 from ..orientation.geometry import Circle, Fixed, Sphere
 from ..model.eiv import EIVModel
 from ..model.likelihood import ChannelBlock, Model, Priors
@@ -140,8 +140,9 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
 
 
 def least_squares_fit(model, theta0, iterations=2, jac=None):
-    """Refine ``theta0`` by :func:`scipy.optimize.least_squares` on the
-    whitened residual, re-estimating the noise model after each pass.
+    """Refine ``theta0`` by least squares on the whitened residual (Levenberg-
+    Marquardt, :func:`bayescal.core.fit.leastsq.refine`), re-estimating the
+    noise model after each pass.
     ``jac``: scipy's ``"2-point"``, a callable such as
     :func:`bayescal.core.model.jacobian.forward_jacobian`'s, or None: ``"2-point"``
     for the base model (whose numbers are fixed) and the one-call forward
@@ -160,35 +161,8 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
         jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
     fun, jac = least_squares_objective(model, jac)
     lo, hi = prior_bounds(model)
-    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
-    model.estimate_noise(theta)
-    tol = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)
-    for _ in range(iterations):
-        fac = model.noise.cholesky()
-        # Levenberg-Marquardt: the trust-region method stalls when the start
-        # is exactly zero in the tangent-plane coordinates (its first trust
-        # radius is |x0| = 0); fall back to it only when LM leaves the box.
-        # LM's trial steps are unbounded: one far outside the box overflows
-        # the response (exp of a large log-gain); its residual is rejected by
-        # LM and the box check below, so those warnings are noise
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            res = least_squares(fun, theta, jac=jac, args=(fac,), method="lm", **tol)
-        if np.any(res.x < lo) or np.any(res.x > hi):
-            res = least_squares(fun, np.clip(res.x, lo + 1e-9, hi - 1e-9), jac=jac, args=(fac,),
-                                bounds=(lo, hi), method="trf", **tol)
-        if not np.isfinite(res.x).all():
-            raise FitError("least squares left the finite parameter range (a non-finite "
-                           "residual); check the responses and the band")
-        theta = res.x
-        model.estimate_noise(theta)
-    fac = model.noise.cholesky()
-    jac = least_squares(fun, theta, jac=jac, args=(fac,), method="lm", max_nfev=1).jac
-    fisher = 2.0 * jac.T @ jac
-    try:
-        cov = np.linalg.inv(fisher)
-    except np.linalg.LinAlgError as exc:
-        raise FitError("the least-squares point is degenerate (singular information)") from exc
-    return theta, 0.5 * (cov + cov.T)
+    return refine(fun, theta0, lo, hi, model.estimate_noise, iterations,
+                  noise_args=lambda: (model.noise.cholesky(),), method="lm", jac=jac)
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",

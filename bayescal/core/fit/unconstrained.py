@@ -24,11 +24,11 @@ the corrected StationXML keeps its nominal value.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..response import pendulum
 from ..model.jacobian import least_squares_objective
 from ..response.family import gain_prior_factor
+from .leastsq import TIGHT, jacobian, solve
 
 #: Laplace sd / prior sd at or above which a parameter is held at nominal.
 EARLY_RATIO = 0.5
@@ -58,8 +58,7 @@ def nominal_theta(model):
 def information(model, theta):
     """Fisher information ``2 J^T J`` of the whitened residual at ``theta``
     (``-log L`` is its squared norm), the noise model as set."""
-    jac = least_squares(model.whitened_residual, theta, args=(model.noise.cholesky(),),
-                        method="lm", max_nfev=1).jac
+    jac = jacobian(model.whitened_residual, theta, args=(model.noise.cholesky(),))
     return 2.0 * jac.T @ jac
 
 
@@ -156,8 +155,7 @@ class Held:
         def fun(x):
             return objective(self.expand(x)[0], fac)
 
-        res = least_squares(fun, x0, bounds=(lo, hi), method="trf", xtol=1e-12, ftol=1e-12,
-                            gtol=1e-12)
+        res = solve(fun, x0, lo, hi, method="trf", **TIGHT)
         full = self.expand(res.x)[0]
         fisher = (information(self.model, full)
                   + pendulum_precision(self.model))[np.ix_(self.free, self.free)]
