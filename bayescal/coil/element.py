@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.response import pendulum
+from ..core.response.family import pendulum_coefficients, pendulum_denominator
 from ..core.sampling.mcmc import sample
 from ..core.fit.errors import FitError
 from ..core.fit.leastsq import refine
@@ -104,12 +105,12 @@ class RunModel(BoundedPosterior):
         self._s = 2j * np.pi * f
         self._sn = 2j * np.pi * np.array([fam.norm_freq for fam in families])
         # D = s^2 + c1 s + c0 with c0 = c0_rel w0n^2, c1 = c1_rel 2 h_n w0n
-        w0n = 2 * np.pi / nominal.period_s
-        self._c_nom = np.array([w0n * w0n, 2.0 * nominal.damping * w0n])
-        d_nom = np.array([fam._d(self._s, 2 * np.pi / fam.period_s, fam.damping)
-                          for fam in families])                       # (no, F)
-        self._dn_norm = np.array([abs(fam._d(sn, 2 * np.pi / fam.period_s, fam.damping))
-                                  for fam, sn in zip(families, self._sn)])
+        c1, c0 = pendulum_coefficients(nominal.period_s, nominal.damping)
+        self._c_nom = np.array([c0, c1])
+        d_nom = np.array([pendulum_denominator(self._s, *pendulum_coefficients(
+            fam.period_s, fam.damping)) for fam in families])          # (no, F)
+        self._dn_norm = np.array([abs(pendulum_denominator(sn, *pendulum_coefficients(
+            fam.period_s, fam.damping))) for fam, sn in zip(families, self._sn)])
         self._g_nom = np.array([fam.gain for fam in families])
         self._const = d_nom / self.base                               # (no, F)
         self._kernel = self.coef[:, None] * self._const * self._saa[None]
@@ -129,8 +130,8 @@ class RunModel(BoundedPosterior):
         theta = np.atleast_2d(theta)
         c0 = (theta[:, 0] * self._c_nom[0])[:, None]
         c1 = (theta[:, 1] * self._c_nom[1])[:, None]
-        inv = 1.0 / (self._s * self._s + c1 * self._s + c0)
-        d_sn = np.abs(self._sn[None] ** 2 + c1 * self._sn[None] + c0)              # (W, no)
+        inv = 1.0 / pendulum_denominator(self._s, c1, c0)
+        d_sn = np.abs(pendulum_denominator(self._sn[None], c1, c0))                 # (W, no)
         amp = np.exp(theta[:, 2])[:, None] / self._g_nom[None] * d_sn / self._dn_norm[None]
         return amp, inv
 

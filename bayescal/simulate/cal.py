@@ -22,7 +22,7 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.response.family import paz_velocity_response
+from ..core.response.family import paz_velocity_response, pendulum_poles
 from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 
@@ -42,16 +42,10 @@ def _expand(poles):
     return out
 
 
-def _pendulum(period_s, damping):
-    w0 = 2 * np.pi / period_s
-    p = -damping * w0 + 1j * w0 * np.sqrt(complex(1 - damping ** 2))
-    return [p, np.conj(p)] if damping < 1 else [p.real + p.imag * 1j, p.real - p.imag * 1j]
-
-
 def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_freq=NORM_FREQ):
     """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
     conjugates added), gain at ``norm_freq``, a flat digitizer."""
-    poles = _pendulum(period_s, damping) + _expand(hf_poles)
+    poles = list(pendulum_poles(period_s, damping)) + _expand(hf_poles)
     s = 2j * np.pi * norm_freq
     pz = s * s / np.prod([s - p for p in poles])
     st1 = PolesZerosResponseStage(

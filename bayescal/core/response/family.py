@@ -63,6 +63,30 @@ def evaluate_velocity_response(response, freqs):
     return np.asarray(h, dtype=complex)
 
 
+def pendulum_coefficients(period_s, damping):
+    """``(c1, c0) = (2 h w0, w0^2)``, ``w0 = 2 pi / T0``: the coefficients of
+    the pendulum pair's factor :func:`pendulum_denominator`."""
+    w0 = 2 * np.pi / period_s
+    return 2.0 * damping * w0, w0 * w0
+
+
+def pendulum_denominator(s, c1, c0):
+    """The pendulum pair's factor ``D(s) = s^2 + c1 s + c0`` (module
+    docstring; ``c1, c0`` from :func:`pendulum_coefficients`, or relative
+    ones times the nominal). Every two-pole response of bayescal is written
+    with it."""
+    return s * s + c1 * s + c0
+
+
+def pendulum_poles(period_s, damping):
+    """(..., 2) pole pair in rad/s of periods and dampings (conjugate first
+    with positive imaginary part; two real poles when overdamped)."""
+    w0 = 2 * np.pi / np.asarray(period_s, float)
+    h = np.asarray(damping, float)
+    disc = np.sqrt((h ** 2 - 1).astype(complex))
+    return np.stack([-w0 * (h - disc), -w0 * (h + disc)], axis=-1)
+
+
 def _first_paz_stage(response):
     stages = getattr(response, "response_stages", None) or []
     if not stages or not hasattr(stages[0], "poles"):
@@ -108,10 +132,9 @@ class TwoPoleFamily:
 
     @staticmethod
     def denominator(s, w0, h):
-        """The pendulum pair's factor ``D(s) = s^2 + 2 h w0 s + w0^2``."""
-        return s * s + 2.0 * h * w0 * s + w0 * w0
-
-    _d = denominator
+        """The pendulum pair's factor ``D(s) = s^2 + 2 h w0 s + w0^2``
+        (:func:`pendulum_denominator`)."""
+        return pendulum_denominator(s, 2.0 * h * w0, w0 * w0)
 
     def inverse_ratio_at(self, freqs):
         """A fast vectorised ``(T0, h, G) -> H_nom(f) / H(f; T0, h, G)`` for
@@ -123,11 +146,9 @@ class TwoPoleFamily:
         scale = self.gain * abs(self.denominator(sn, w0n, self.damping))
 
         def inverse(period_s, damping, gain):
-            w0 = (2 * np.pi / period_s)[:, None]
-            two_h_w0 = 2.0 * damping[:, None] * w0
-            w0sq = w0 * w0
-            d_new = s * s + two_h_w0 * s + w0sq
-            a_new = np.abs(sn * sn + two_h_w0 * sn + w0sq)
+            c1, c0 = pendulum_coefficients(period_s[:, None], damping[:, None])
+            d_new = pendulum_denominator(s, c1, c0)
+            a_new = np.abs(pendulum_denominator(sn, c1, c0))
             return (scale / (gain[:, None] * a_new)) * d_new * inv_d_nom
         return inverse
 
@@ -139,13 +160,13 @@ class TwoPoleFamily:
         """
         s = 2j * np.pi * np.asarray(freqs)[None, :]
         sn = 2j * np.pi * self.norm_freq
-        w0 = (2 * np.pi / np.atleast_1d(period_s))[:, None]
-        h = np.atleast_1d(damping)[:, None]
+        c1, c0 = pendulum_coefficients(np.atleast_1d(period_s)[:, None],
+                                       np.atleast_1d(damping)[:, None])
         g = np.atleast_1d(gain)[:, None]
-        w0n, hn = 2 * np.pi / self.period_s, self.damping
-        d_new = self._d(s, w0, h)
-        d_nom = self._d(s, w0n, hn)
-        a0 = np.abs(self._d(sn, w0, h)) / abs(self._d(sn, w0n, hn))
+        c1n, c0n = pendulum_coefficients(self.period_s, self.damping)
+        d_new = pendulum_denominator(s, c1, c0)
+        d_nom = pendulum_denominator(s, c1n, c0n)
+        a0 = np.abs(pendulum_denominator(sn, c1, c0)) / abs(pendulum_denominator(sn, c1n, c0n))
         return (g / self.gain) * a0 * d_nom / d_new
 
     def gain_only_ratio(self, gain):
