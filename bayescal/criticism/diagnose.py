@@ -38,9 +38,10 @@ from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
 from ..core.model.refnoise import treatment_meta as reference_noise_meta
 from ..core.sampling.mcmc import sample
-from ..core.fit.run import diagnostics, least_squares_fit, plugin_meta
+from ..core.fit.assemble import assemble_posterior, plugin_meta
+from ..core.fit.run import least_squares_fit
 from ..core.orientation.geometry import unit_vector
-from ..core.posterior.samples import Posterior, interval_summary
+from ..core.posterior.samples import interval_summary
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, theta_base, with_effects,
                      orientation_score, score, search)
 from .locate import ALPHA, true_runs, band_ratio, locate, ratio_weights, segment_timing
@@ -72,16 +73,14 @@ def reference_shape_caveat(mode):
 
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
-    """A :class:`Posterior` of ``model`` (with effects) from MCMC
+    """A :class:`~bayescal.core.posterior.samples.Posterior` of ``model`` (with effects) from MCMC
     (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:
         chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
         samples, lp = chain.samples, chain.log_prob
-        conv = {"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
-                "acceptance": chain.acceptance, "n_steps": chain.n_steps,
-                "n_walkers": chain.n_walkers, "burn": chain.burn, "converged": chain.converged}
+        conv = chain.convergence()
         trace = chain.trace
         meta = dict(meta, sampler=chain.sampler)
     else:
@@ -102,18 +101,10 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC",
                     sampler={"library": None, "draws": int(len(samples)),
                              "approximation": "Laplace (Gaussian at the least-squares point)"})
-    vecs, _ = model.unpack(samples)
-    resp = model.response_values(samples) if free != "none" else {}
-    kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
-    post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
-                     response=resp, samples=samples, names=model.names, log_prob=lp,
-                     convergence=conv,
-                     meta=dict(meta, effects=[e.name for e in model.effects],
-                               plugin_weights=plugin_meta(model)),   # the final model's own
-                     not_estimable=not_estimable, trace=trace,
-                     diagnostics=diagnostics(model, np.median(samples, axis=0)))
-    post.model = model
-    return post
+    return assemble_posterior(model, samples, lp, conv,
+                              dict(meta, effects=[e.name for e in model.effects],
+                                   plugin_weights=plugin_meta(model)),   # the final model's own
+                              free, not_estimable=not_estimable, trace=trace)
 
 
 # --- the whole diagnosis -------------------------------------------------------
@@ -290,7 +281,7 @@ def timing_consistency(model, theta):
 def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
     """Diagnose a base fit.
 
-    ``base`` is a :class:`Posterior` from :func:`bayescal.io.pipeline.calibrate`
+    ``base`` is a :class:`~bayescal.core.posterior.samples.Posterior` from :func:`bayescal.io.pipeline.calibrate`
     (with ``.model`` and ``.theta_ls`` attached). ``deadline``: a
     :func:`time.monotonic` value past which no further candidate effect is
     tried (the diagnosis is then incomplete: ``Diagnosis.incomplete``).

@@ -186,8 +186,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
     from ..core.selfnoise.pair_noise import for_fit
     used = post.meta.get("reference_noise", {}).get("mode", ref_noise)
-    post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
-                                                 getattr(post, "full_samples", None),
+    post.self_noise, post.sensor_order = for_fit(post.model, post.full_samples,
                                                  used, fit_response, seed,
                                                  (spectra.sut_ids, spectra.ref_ids),
                                                  _assumed_flat(ref_inventory)
@@ -198,7 +197,6 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                                                  .get("separation", {}))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
-    post.improved = None
     if diagnose:
         _criticise(post, diagnose_budget_s, seed, sample_kw)
     _warn_on_misfit(post)
@@ -210,7 +208,7 @@ def _criticise(post, budget_s, seed, sample_kw):
     :mod:`bayescal.criticism.verdict`), kept on ``post``."""
     from ..core.checks.adequacy import from_diagnostics
 
-    if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
+    if post.model is None or post.theta_ls is None:
         return
     from ..criticism.verdict import check_orientation, criticise, failed
     ok = from_diagnostics(post.diagnostics).get("ok")
@@ -326,8 +324,8 @@ def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=
     Returns
     -------
     Posterior
-        As :func:`calibrate`, with ``posterior.sut_inventory`` attached for
-        the corrected StationXML.
+        As :func:`calibrate` (its ``sut_inventory`` is what the corrected
+        StationXML is written from).
     """
     from obspy import UTCDateTime
 
@@ -365,7 +363,7 @@ def write_results(posterior, folder):
     list of str
         The paths written: ``result.json``, ``samples.npz``,
         ``diagnostics.npz`` and, when the posterior came from
-        :func:`calibrate_files` (or has a ``sut_inventory`` attribute),
+        :func:`calibrate_files` or :func:`calibrate` (it holds a ``sut_inventory``),
         ``sut_corrected.xml``. Each file is written atomically.
     """
     import os
@@ -376,10 +374,10 @@ def write_results(posterior, folder):
     save_posterior(posterior, folder)
     names = ["result.json", "samples.npz"] + (["diagnostics.npz"] if posterior.diagnostics
                                               else [])
-    inv = getattr(posterior, "sut_inventory", None)
+    inv = posterior.sut_inventory
     if inv is not None:
         crit = posterior.criticism or {}
-        improved = getattr(posterior, "improved", None)
+        improved = posterior.improved
         use = improved if crit.get("stationxml") == "improved model" and improved else posterior
         write_corrected(inv, use, os.path.join(folder, "sut_corrected.xml"),
                         criticism=crit if use is improved else None)

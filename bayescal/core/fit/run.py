@@ -13,6 +13,7 @@ from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
 from .errors import FitError
+from .assemble import assemble_posterior, plugin_meta
 from .leastsq import refine
 from ..orientation.geometry import Circle, Fixed, Sphere
 from ..model.eiv import EIVModel
@@ -183,11 +184,10 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     reference's self-noise given as band sums
     (:func:`bayescal.core.model.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
 
-    Returns a :class:`bayescal.core.posterior.samples.Posterior`; the least-squares point
-    and the model are kept in ``posterior.meta["least_squares"]`` and on the
-    returned object as ``posterior.model`` (not saved to disk).
+    Returns a :class:`bayescal.core.posterior.samples.Posterior`
+    (:func:`bayescal.core.fit.assemble.assemble_posterior`); the least-squares
+    point is also in ``posterior.meta["least_squares"]``.
     """
-    from ..posterior.samples import Posterior
     from .rotation import fit_rotation, orthogonal_pair
 
     pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free != "all" else None
@@ -230,9 +230,6 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
     sensitivity = _prior_sensitivity(model, np.median(full, axis=0))
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
-    vecs, _ = model.unpack(full)
-    resp = model.response_values(full) if free != "none" else {}
-    kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
     meta = dict(meta or {})
     meta.update({"free_response": free, "band_hz": [float(spectra.band_edges[0]),
                                                      float(spectra.band_edges[-1])],
@@ -253,19 +250,9 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                                         "shape": "log-normal around the metadata values"}}
                     if sensitivity else {}),
                  "sampler": chain.sampler})
-    post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
-                     response=resp, samples=chain.samples, names=target.names,
-                     log_prob=chain.log_prob,
-                     convergence={"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
-                                  "acceptance": chain.acceptance, "n_steps": chain.n_steps,
-                                  "n_walkers": chain.n_walkers, "burn": chain.burn,
-                                  "converged": chain.converged},
-                     meta=meta, not_estimable=setup.not_estimable, trace=chain.trace,
-                     diagnostics=diagnostics(model, np.median(full, axis=0)))
-    post.model = model
-    post.theta_ls = theta_ls
-    post.full_samples = full          # model coordinates (held parameters included)
-    return post
+    return assemble_posterior(model, chain.samples, chain.log_prob, chain.convergence(), meta,
+                              free, names=target.names, full=full, theta_ls=theta_ls,
+                              not_estimable=setup.not_estimable, trace=chain.trace)
 
 
 def _modes(model, theta_ls, cov, nominal, fitted):
@@ -294,24 +281,7 @@ def _prior_sensitivity(model, theta):
                                       pr.period_tolerance, pr.damping_tolerance)
 
 
-def plugin_meta(model):
-    """``meta.plugin_weights``: each band's likelihood weight for the plug-in
-    noise model's own sampling error (:mod:`bayescal.core.model.plugin`)."""
-    w = getattr(model.noise, "weight", None)
-    return None if w is None else [round(float(v), 4) for v in w]
-
-
 def _misfit_meta(model, theta):
     """``meta.misfit_scale``: the prior and each band's variance factor at ``theta``."""
     q, k = model.band_energy(np.atleast_2d(theta))
     return misfit_scale.describe(model.misfit_shape, q[0], k)
-
-
-def diagnostics(model, theta):
-    """Arrays a report or a model check needs, at parameter point ``theta``:
-    spectra, coherences and the per-band standardised misfit."""
-    sp = model.spectra
-    return {"freqs": sp.freqs, "psd": sp.psd(), "multiple_coherence": sp.multiple_coherence(),
-            "band_edges": sp.band_edges, "band_misfit": model.standardized_band_residuals(theta),
-            "noise_inflation": model.noise.inflation,
-            "sut_ids": np.array(sp.sut_ids), "ref_ids": np.array(sp.ref_ids)}

@@ -109,6 +109,15 @@ class Posterior:
     samples, names, log_prob : raw sampler output in model coordinates.
     convergence : tau, ESS, R-hat, acceptance, steps.
     meta : anything the caller wants kept (band, data used, nominal values).
+
+    A posterior just fitted also holds, in memory only (not saved, None when
+    read back from disk), what a refit or a model check needs: ``model`` (the
+    likelihood it sampled), ``theta_ls`` (its least-squares point),
+    ``full_samples`` (the samples in the model's coordinates, held
+    parameters included), ``spectra`` (the cross-spectra it was fitted to)
+    and ``sut_inventory`` (the SUT's metadata, for the corrected StationXML);
+    after a failed model check, ``improved`` the posterior of the criticism's
+    improved model.
     """
 
     channel_ids: list
@@ -128,6 +137,12 @@ class Posterior:
     #: the model criticism's findings when the model check failed
     #: (:mod:`bayescal.criticism.verdict`), empty when it did not run
     criticism: dict = field(default_factory=dict)
+    model: object = field(default=None, repr=False, compare=False)
+    theta_ls: np.ndarray | None = field(default=None, repr=False, compare=False)
+    full_samples: np.ndarray | None = field(default=None, repr=False, compare=False)
+    spectra: object = field(default=None, repr=False, compare=False)
+    sut_inventory: object = field(default=None, repr=False, compare=False)
+    improved: object = field(default=None, repr=False, compare=False)
 
     @property
     def azimuth_dip(self):

@@ -209,6 +209,13 @@ class Chain:
     trace: np.ndarray         # (steps, W, ndim), thinned for plots
     sampler: dict = field(default_factory=dict)   # what was run: see :func:`sample`
 
+    def convergence(self):
+        """Every parameter's convergence figures and the run's size: a
+        posterior's ``convergence``."""
+        return {"tau": self.tau, "ess": self.ess, "rhat": self.rhat,
+                "acceptance": self.acceptance, "n_steps": self.n_steps,
+                "n_walkers": self.n_walkers, "burn": self.burn, "converged": self.converged}
+
     def summary(self):
         """The ``convergence`` entry of a result file: the slowest parameter's
         figures, the run's size, whether the rule held, and the sampler."""
