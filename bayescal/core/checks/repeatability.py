@@ -1,6 +1,6 @@
 """Do the reported intervals match the data's own repeatability? The scatter
 of one quantity's medians over time windows of a record, against the
-intervals reported for each window (``benchmarks/repeatability.py``;
+intervals reported for each window (``validation/studies/repeatability.py``;
 docs/validation/repeatability.md).
 
 With window medians ``m_i`` and standard deviations ``sd_i`` (half the width

@@ -42,11 +42,6 @@ def unit_vector(azimuth_deg, dip_deg):
     return np.stack([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)], axis=-1)
 
 
-def orientation_matrix(azimuths_deg, dips_deg):
-    """The seed's matrix V: one row per channel, its sensitive axis (NED)."""
-    return unit_vector(azimuths_deg, dips_deg)
-
-
 def azimuth_dip(v):
     """SEED azimuth in [0, 360) and dip in [-90, 90] (degrees) of vectors ``v``."""
     v = np.asarray(v, dtype=float)
