@@ -22,7 +22,7 @@ from .version import __version__
 
 #: Public name -> module defining it. Imported on first use (PEP 562), so that
 #: ``bayescal --help`` or a sub-command pays only for what it uses.
-_LAZY = {"Posterior": "bayescal.core.posterior", "calibrate": "bayescal.io.pipeline",
+_LAZY = {"Posterior": "bayescal.core.posterior.samples", "calibrate": "bayescal.io.pipeline",
          "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
          "write_network": "bayescal.simulate"}

@@ -35,8 +35,8 @@ ROOT = Path(__file__).resolve().parents[1]
 CHILD = r"""
 import inspect, json, sys, time
 import numpy as np
-from bayescal.core.sampler import fit_spectra
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.fit.run import fit_spectra
+from bayescal.core.spectra.welch import cross_spectra
 try:
     from bayescal.io.align import align
 except ImportError:          # older trees kept align in io.read

@@ -41,7 +41,7 @@ def main(argv=None):
     import bayescal
     from bayescal.criticism import effects
     from bayescal.criticism.diagnose import diagnose
-    from bayescal.criticism.search import _with
+    from bayescal.criticism.search import with_effects
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600, fs=10, seed=4, coherence=0.98, sut_azimuth=(5, 95, 0),
@@ -50,8 +50,8 @@ def main(argv=None):
                               band=(0.05, 3.0), progress=False, diagnose=False)
     base, th = post.model, post.theta_ls
     base.estimate_noise(th)
-    offset = _with(base, [effects.TimingOffset([0, 1, 2])])
-    drift = _with(base, [effects.ClockDrift([0, 1, 2], post.spectra)])
+    offset = with_effects(base, [effects.TimingOffset([0, 1, 2])])
+    drift = with_effects(base, [effects.ClockDrift([0, 1, 2], post.spectra)])
     times = {"base": [], "timing_offset": [], "clock_drift": []}
     with threadpool_limits(1):
         for _ in range(args.repeats):

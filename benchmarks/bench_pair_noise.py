@@ -1,4 +1,4 @@
-"""Cost of the pair fit's self-noise product (bayescal.core.pair_noise),
+"""Cost of the pair fit's self-noise product (bayescal.core.selfnoise.pair_noise),
 which runs in every fit, against the fit it is part of.
 
     python benchmarks/bench_pair_noise.py [--repeats 5] [--out DIR]
@@ -23,7 +23,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
-    from bayescal.core import pair_noise
+    from bayescal.core.selfnoise import pair_noise
     from bayescal.io.pipeline import calibrate, write_results
     from bayescal.simulate.pair import simulate_pair
 

@@ -22,6 +22,7 @@ import time
 
 def make_result(folder, response):
     import bayescal
+    from bayescal.io.result import save_posterior
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0),
@@ -30,7 +31,7 @@ def make_result(folder, response):
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), fit_response="all" if response else "none",
                               progress=False)
-    post.save(folder)
+    save_posterior(post, folder)
     return folder
 
 

@@ -49,9 +49,9 @@ import emcee
 t_import = time.process_time() - t0
 import bayescal.coil, bayescal.criticism.diagnose
 try:
-    import bayescal.core.mcmc as home
+    import bayescal.core.sampling.mcmc as home
 except ImportError:
-    import bayescal.core.sampler as home
+    import bayescal.core.fit.run as home
 original = home.sample
 record = []
 

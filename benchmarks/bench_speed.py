@@ -24,10 +24,10 @@ import time
 
 import numpy as np
 
-from bayescal.core.sampler import build_model, fit_spectra
+from bayescal.core.fit.run import build_model, fit_spectra
 from bayescal.io.align import align
 from bayescal.simulate.pair import simulate_pair
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.spectra.welch import cross_spectra
 
 RESP = ((28.5, 0.69, 761.0), (31.0, 0.72, 744.0), (30.0, 0.70, 752.0))
 

@@ -75,7 +75,7 @@ def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
     import bayescal
     from bayescal.criticism.diagnose import diagnose
     from bayescal.report.diagnosis import write_page
-    from bayescal.core.posterior import write_json
+    from bayescal.io.result import write_json
 
     folder = os.path.join(out, name)
     os.makedirs(folder, exist_ok=True)

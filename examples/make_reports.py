@@ -39,12 +39,13 @@ ROOT = Path(__file__).resolve().parents[1]
 def _simulated_fit(folder, sim_kw, fit_kw):
     """Simulate a pair, fit it, save result and truth into ``folder``."""
     import bayescal
+    from bayescal.io.result import save_posterior
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(**sim_kw)
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               progress=False, **fit_kw)
-    post.save(folder)
+    save_posterior(post, folder)
     with open(os.path.join(folder, "truth.json"), "w") as fh:
         json.dump(sim.truth, fh, indent=2)
     return folder

@@ -50,11 +50,11 @@ def write_inputs(data, folder):
 def fitted_amplitude(result_dir, sut_xml, band=COMPARE_BAND, n=200):
     """Median over ``band`` of the fitted |H_unknown(f)| (counts per m/s),
     per posterior sample; returns (median, 2.5 %, 97.5 %)."""
-    from bayescal import Posterior
+    from bayescal.io.result import load_posterior
     from bayescal.io.read import read_metadata
-    from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
+    from bayescal.core.response.family import TwoPoleFamily, evaluate_velocity_response
 
-    post = Posterior.load(result_dir)
+    post = load_posterior(result_dir)
     resp = read_metadata(sut_xml)[0][0][0].response
     fam = TwoPoleFamily.from_response(resp)
     f = np.geomspace(band[0], band[1], n)

@@ -21,7 +21,7 @@ def pair_spectra(sim, band):
     """The cross-spectra of a simulated pair over ``band`` (Hz), computed as
     the fit computes them (aligned, deconvolved by the metadata responses,
     default segments), without fitting."""
-    from bayescal.core.spectra import cross_spectra
+    from bayescal.core.spectra.welch import cross_spectra
     from bayescal.io.align import align
 
     s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)

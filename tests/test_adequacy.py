@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayescal.core.adequacy import ALPHA, adequacy, band_p_values
+from bayescal.core.checks.adequacy import ALPHA, adequacy, band_p_values
 from tests.tolerance import Z_001
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))

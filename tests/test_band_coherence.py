@@ -1,4 +1,4 @@
-"""The band choice's lean coherence (:mod:`bayescal.core.coherence`) gives the
+"""The band choice's lean coherence (:mod:`bayescal.core.spectra.coherence`) gives the
 coherence of the full cross-spectra to rounding, and the band the stated
 rule picks from the full cross-spectra (the widest run, in log frequency,
 where every SUT channel's multiple coherence, running median over a tenth
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayescal.core.coherence import welch_multiple_coherence
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.spectra.coherence import welch_multiple_coherence
+from bayescal.core.spectra.welch import cross_spectra
 from bayescal.io.align import align
 from bayescal.io.band import choose_band
 
@@ -105,7 +105,7 @@ def test_huddle_band_follows_the_rule(tmp_path):
 
 
 def test_gaps_drop_segments_and_too_few_refuse():
-    from bayescal.core.spectra import SpectraError
+    from bayescal.core.spectra.welch import SpectraError
 
     rng = np.random.default_rng(1)
     g = rng.standard_normal(4096)

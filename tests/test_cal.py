@@ -14,9 +14,9 @@ from obspy import read_inventory
 from bayescal import cli, coil
 from bayescal.coil.hf import PZSpec, hf_items
 from bayescal.coil.random import fit_random
-from bayescal.core import pendulum
-from bayescal.core.geometry import STS2_UVW
-from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
+from bayescal.core.response import pendulum
+from bayescal.core.orientation.geometry import STS2_UVW
+from bayescal.core.response.family import TwoPoleFamily, evaluate_velocity_response
 from bayescal.simulate.cal import HF_NOMINAL, LP_NOMINAL, paz_response, simulate_random_cal
 from bayescal.simulate.coil import simulate_calibration
 from tests.tolerance import Z_001, interval_bounds, interval_power
@@ -156,7 +156,7 @@ def test_coil_prior_is_the_stated_prior_on_period_and_damping(hf_fit):
     import emcee
     from scipy import stats
 
-    from bayescal.core.likelihood import Priors
+    from bayescal.core.model.likelihood import Priors
     from tests.tolerance import LEVEL
 
     model = copy.copy(hf_fit[0].model)

@@ -15,8 +15,8 @@ from bayescal.coil.hf import PZSpec
 from bayescal.coil.sine import fit_sine, sine_frequency
 from bayescal.coil.step import StepModel, fit_step, least_squares_step
 from bayescal.coil.timedomain import Predictor, ar_fit, coil_transfer, padding
-from bayescal.core import pendulum
-from bayescal.core.response import TwoPoleFamily
+from bayescal.core.response import pendulum
+from bayescal.core.response.family import TwoPoleFamily
 from bayescal.simulate.cal import simulate_sine_cal, simulate_step_cal
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ
 from tests.tolerance import Z_001

@@ -111,9 +111,9 @@ def test_cal_console(data):
 def test_rarer_console_lines():
     """The lines of a failed model check, a multimodal posterior and a short
     record, from the functions the console prints them with."""
-    from bayescal.core.adequacy import adequacy, describe
-    from bayescal.core.modes import describe as modes_line
-    from bayescal.core.record_length import record_length
+    from bayescal.core.checks.adequacy import adequacy, describe
+    from bayescal.core.posterior.modes import describe as modes_line
+    from bayescal.core.checks.record_length import record_length
 
     misfit = np.ones((6, 3))
     misfit[-1, 1] = 40.0

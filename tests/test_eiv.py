@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayescal.core import refnoise
-from bayescal.core.sampler import build_model, least_squares_fit
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.model import refnoise
+from bayescal.core.fit.run import build_model, least_squares_fit
+from bayescal.core.spectra.welch import cross_spectra
 from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 
@@ -75,7 +75,7 @@ def test_gain_error_scales_with_the_noise_without_a_drift():
     0.999 (the simulator draws the same normals, scaled): the estimator is
     linear in the noise, so the standardised errors agree. With the plug-in
     noise held in ground units instead of the SUT's counts
-    (core/noisescale.py) the low-coherence fit drifted high by about
+    (core/model/noisescale.py) the low-coherence fit drifted high by about
     ``dim * sd``: +0.48 on these seeds (+0.55 in mode estimate with equal
     noise, whose profiled noise makes it less linear: -0.39 after the fix,
     hence not tested this way)."""
@@ -90,7 +90,7 @@ def test_gain_error_scales_with_the_noise_without_a_drift():
 def test_residual_rows_are_compared_in_the_counts_of_the_plugin_point():
     """Row i of the residual times |rho_i(a0)| / |rho_i(a)|: a gain 2 % above
     the plug-in point's multiplies that SUT row by 1.02 exactly (its noise in ground units is 1.02 times smaller)."""
-    from bayescal.core import noisescale
+    from bayescal.core.model import noisescale
     ratio = np.ones((1, 2, 5), complex)
     ratio[0, 1] /= 1.02                          # H_nom / H: gain 2 % higher
     r = np.ones((1, 1, 4, 2, 3))
@@ -112,8 +112,8 @@ def test_eiv_model_in_model_criticism_and_one_channel_refusal():
     under its own model (this crashed once), and a one-channel horizontal
     reference, which has no errors-in-variables model, is refused."""
     from bayescal import calibrate
-    from bayescal.core.eiv import EIVModel
-    from bayescal.core.sampler import FitError
+    from bayescal.core.model.eiv import EIVModel
+    from bayescal.core.fit.errors import FitError
     from bayescal.criticism.search import held_orientation_loglik
 
     sim = simulate_pair(duration=3600, fs=10, seed=2, coherence=0.95, ref_coherence=0.95,
@@ -148,7 +148,7 @@ def test_default_mode_and_gain_separation_note(capsys):
     that too, while each gain stays within 3.29 posterior sd of the truth."""
     from bayescal import calibrate
     from bayescal.cli.fit import print_summary
-    from bayescal.core.separation import WIDE_RATIO
+    from bayescal.core.checks.separation import WIDE_RATIO
 
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=11, coherence=0.99,
                         sut_azimuth=(3.0, 93.0, 0.0), sut_dip=(0.0, 0.5, -89.5),
@@ -200,14 +200,14 @@ def test_profiled_noise_columns_match_the_dense_design():
 
 
 def test_gain_separation_compares_like_with_like():
-    """The separation ratio (core/separation.py) compares the
+    """The separation ratio (core/checks/separation.py) compares the
     errors-in-variables gains' sd with the quiet model's under the same band
     weights: on a 15-minute record, where the weights of a 6x6 plug-in and a
     3x3 one differ most, it is what it is with the weights off on both sides
     (measured within 0.3 %); with each model's own weights it read 10 % or more
     higher on two such pairs, 0.78 against 0.64 on one channel here."""
-    from bayescal.core.jacobian import forward_jacobian
-    from bayescal.core.separation import gain_separation
+    from bayescal.core.model.jacobian import forward_jacobian
+    from bayescal.core.checks.separation import gain_separation
 
     setup = _estimate_model(simulate_pair(duration=900.0, fs=10.0, seed=1, coherence=0.99,
                                           ref_coherence=0.99, noise_in_counts=True))

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import obspy
-from bayescal.core.evalresp import NotHandled, velocity_response
-from bayescal.core.response import evaluate_velocity_response
+from bayescal.core.response.evalresp import NotHandled, velocity_response
+from bayescal.core.response.family import evaluate_velocity_response
 
 OBSPY = os.path.dirname(obspy.__file__)
 PATTERNS = ("signal/tests/data/RESP*", "io/xseed/tests/data/RESP*", "io/xseed/tests/data/*.dataless",

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import bayescal
-from bayescal.core.geometry import unwrap_azimuths
+from bayescal.core.orientation.geometry import unwrap_azimuths
+from bayescal.io.result import load_posterior, save_posterior
 from bayescal.simulate.pair import simulate_pair
 from tests.fitting import fit_sim
 from tests.tolerance import Z_001
@@ -92,8 +93,8 @@ def test_joint_response_recovered(tmp_path):
                         sut_azimuth=(5.0, 95.0, 0.0))
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.01, 1.0), fit_response="all", seed=2, progress=False)
-    post.save(tmp_path)
-    again = bayescal.Posterior.load(tmp_path).summary()["channels"]
+    save_posterior(post, tmp_path)
+    again = load_posterior(tmp_path).summary()["channels"]
     for cid in sim.truth["channels"]:
         r = again[cid]["response"]
         for name, truth in zip(("period_s", "damping", "gain"), resp[0]):

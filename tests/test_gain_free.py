@@ -79,7 +79,7 @@ def test_flat_metadata_gives_the_true_relative_gain(tmp_path):
 
 
 def test_flat_metadata_refuses_period_and_damping():
-    from bayescal.core.sampler import FitError
+    from bayescal.core.fit.errors import FitError
 
     sim = simulate_pair(**dict(SIM_KW, duration=1200.0))
     with pytest.raises(FitError, match="poles-and-zeros"):

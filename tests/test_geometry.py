@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from bayescal.core.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere, azimuth_dip, tilt_components,
-                               orientation_matrix, tilt_from_vertical, unit_vector,
-                               unwrap_azimuths)
+from bayescal.core.orientation.geometry import (STS2_UVW, TRILLIUM_UVW, Circle, Sphere,
+                                                azimuth_dip, tilt_components, tilt_from_vertical,
+                                                unit_vector, unwrap_azimuths)
 
 
 @pytest.mark.parametrize("az,dip,expected", [
@@ -21,7 +21,7 @@ def test_unit_vector_is_seed_convention(az, dip, expected):
 
 def test_seed_eq1_rows():
     a, e = np.radians([10.0, 100.0]), np.radians([3.0, -2.0])
-    v = orientation_matrix(np.degrees(a), np.degrees(e))
+    v = unit_vector(np.degrees(a), np.degrees(e))
     eq1 = np.stack([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)], axis=1)
     assert np.allclose(v, eq1)
 

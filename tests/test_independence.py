@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayescal.core.mcmc import sample
+from bayescal.core.sampling.mcmc import sample
 from bayescal.io.band import _smooth
 
 
@@ -77,7 +77,7 @@ def test_falls_back_to_de_when_proposal_accepts_too_rarely(monkeypatch):
     """Below MIN_ACCEPTANCE (forced here) the DE moves carry on from their
     burn-in: the chain still converges, counts the burn-in steps once, and
     samples the target."""
-    import bayescal.core.mcmc as sampler
+    import bayescal.core.sampling.mcmc as sampler
 
     monkeypatch.setattr(sampler, "MIN_ACCEPTANCE", 1.01)
     t, ch = _run("gauss", "independence")

@@ -1,4 +1,4 @@
-"""The batched forward-difference Jacobian (:mod:`bayescal.core.jacobian`)
+"""The batched forward-difference Jacobian (:mod:`bayescal.core.model.jacobian`)
 agrees with scipy's ``2-point`` on a per-time-block model with an effect (a
 diagnose search's), with either whitening product."""
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize._numdiff import approx_derivative
 
-from bayescal.core.jacobian import forward_jacobian
-from bayescal.core.likelihood import Model
+from bayescal.core.model.jacobian import forward_jacobian
+from bayescal.core.model.likelihood import Model
 
 
 def test_batched_jacobian_matches_scipy(sim_pair):
@@ -32,7 +32,7 @@ def test_batched_jacobian_matches_scipy(sim_pair):
 
 
 def test_band_fold_is_the_einsum():
-    from bayescal.core.bandfold import fold
+    from bayescal.core.spectra.bandfold import fold
 
     rng = np.random.default_rng(3)
     f, q, b, g = 40, 7, 4, 5
@@ -49,7 +49,7 @@ def test_batched_jacobian_errors_in_variables(sim_pair):
     """The errors-in-variables model's statistic (noise coefficients profiled
     per point) differentiated in one call agrees with scipy's ``2-point``."""
     import bayescal
-    from bayescal.core.eiv import EIVModel
+    from bayescal.core.model.eiv import EIVModel
 
     post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
                               ref_xml=sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,

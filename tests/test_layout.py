@@ -20,6 +20,22 @@ ALLOWED = {
 }
 MAX_LINES = 520
 
+#: What each group of bayescal.core may import of the core (besides itself
+#: and the core's top-level modules, e.g. core.threads): the order data flow
+#: through them. A new likelihood term goes in model, a new emcee move in
+#: sampling; reading a result (posterior) needs no model.
+CORE_ALLOWED = {
+    "orientation": set(),
+    "response": set(),
+    "spectra": set(),
+    "checks": {"orientation", "response", "spectra", "model"},
+    "model": {"orientation", "response", "spectra"},
+    "posterior": {"orientation", "response", "checks"},
+    "sampling": {"posterior"},
+    "fit": {"orientation", "response", "spectra", "model", "checks", "sampling", "posterior"},
+    "selfnoise": {"spectra"},
+}
+
 
 def _module_name(path):
     rel = path.relative_to(PKG.parent).with_suffix("")
@@ -76,6 +92,58 @@ def test_imports_point_down_the_layers():
     assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
 
 
+def test_core_groups_import_down_their_order():
+    bad = []
+    for mod, deps in _graph().items():
+        parts = mod.split(".")
+        if parts[:2] != ["bayescal", "core"] or len(parts) < 3:
+            continue
+        if parts[2] not in CORE_ALLOWED:
+            assert (PKG / "core" / f"{parts[2]}.py").exists(), f"{mod}: a group without rules"
+            continue
+        for dep in deps:
+            d = dep.split(".")
+            if d[:2] != ["bayescal", "core"] or len(d) < 3 or d[2] == parts[2]:
+                continue
+            if (PKG / "core" / f"{d[2]}.py").exists() or d[2] in CORE_ALLOWED[parts[2]]:
+                continue
+            bad.append(f"{mod} imports {dep}")
+    assert not bad, "imports against the core's order:\n" + "\n".join(sorted(bad))
+
+
+def test_core_group_docstrings_state_their_imports():
+    """Each core group's docstring says what of the core it may import, as
+    :data:`CORE_ALLOWED` has it."""
+    bad = []
+    for group, allowed in CORE_ALLOWED.items():
+        doc = ast.get_docstring(ast.parse((PKG / "core" / group / "__init__.py").read_text()))
+        if not allowed and "Imports no other part of :mod:`bayescal.core`" not in doc:
+            bad.append(f"core.{group} does not say it imports no other group")
+        bad += [f"core.{group} does not name core.{a}" for a in sorted(allowed)
+                if f":mod:`bayescal.core.{a}`" not in doc]
+    assert not bad, "\n".join(bad)
+
+
+def test_each_package_docstring_names_its_modules():
+    """Every package's ``__init__`` docstring names each of its modules and
+    subpackages (as ``:mod:`.name```), and names nothing that is not there."""
+    import re
+
+    bad = []
+    for init in PKG.rglob("__init__.py"):
+        here = init.parent
+        held = {p.stem for p in here.glob("*.py") if p.name not in ("__init__.py", "__main__.py")}
+        held |= {p.name for p in here.iterdir() if (p / "__init__.py").exists()}
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        named = set(re.findall(r":mod:`\.(\w+)`", doc))
+        if here == PKG:
+            continue             # the top level names its layers in prose
+        bad += [f"{_module_name(init)} does not name {m}" for m in sorted(held - named)]
+        bad += [f"{_module_name(init)} names {m}, which it does not hold"
+                for m in sorted(named - held)]
+    assert not bad, "\n".join(bad)
+
+
 def test_no_import_cycle():
     graph = _graph()
     state, cycles = {}, []
@@ -117,15 +185,38 @@ def test_fit_path_does_not_import_heavy_modules():
     """Start-up: importing the modules a pair fit runs through, or those that
     read and report a result, loads neither scipy.stats (about 1 s),
     matplotlib, Dask nor emcee: emcee (which imports scipy.stats) is
-    imported when sampling starts (bayescal.core.mcmc), by commands that
+    imported when sampling starts (bayescal.core.sampling.mcmc), by commands that
     sample."""
     import subprocess
     import sys
 
-    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.sampler, "
-            "bayescal.core.modes, bayescal.core.eiv, bayescal.core.separation, "
-            "bayescal.core.pair_noise, bayescal.core.convergence, bayescal.core.posterior; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
+    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.fit.run, "
+            "bayescal.core.fit.modes, bayescal.core.model.eiv, bayescal.core.checks.separation, "
+            "bayescal.core.selfnoise.pair_noise, bayescal.core.posterior.convergence, bayescal.core.posterior.samples; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
             "'dask', 'emcee') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_no_private_name_imported_from_another_module():
+    """A name with a leading underscore is its module's own: no module of
+    bayescal imports one from another (``from .x import _y``), nor reaches
+    one through an imported module (``x._y``)."""
+    bad = []
+    for path in PKG.rglob("*.py"):
+        tree = ast.parse(path.read_text())
+        modules = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                bad += [f"{_module_name(path)}:{node.lineno} imports {a.name}" for a in node.names
+                        if a.name.startswith("_") and not a.name.startswith("__")]
+                modules |= {a.asname or a.name for a in node.names}
+            elif isinstance(node, ast.Import):
+                modules |= {a.asname or a.name.split(".")[0] for a in node.names}
+        bad += [f"{_module_name(path)}:{node.lineno} uses {node.value.id}.{node.attr}"
+                for node in ast.walk(tree)
+                if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                and node.value.id in modules and node.attr.startswith("_")
+                and not node.attr.startswith("__")]
+    assert not bad, "private names used across modules:\n" + "\n".join(sorted(bad))

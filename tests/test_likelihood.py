@@ -3,10 +3,10 @@ form suffers at low coherence while bayescal's form does not."""
 import numpy as np
 import pytest
 
-from bayescal.core import pendulum
-from bayescal.core.sampler import build_model, least_squares_fit
+from bayescal.core.response import pendulum
+from bayescal.core.fit.run import build_model, least_squares_fit
 from bayescal.io.align import align
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.spectra.welch import cross_spectra
 from bayescal.simulate.pair import simulate_pair
 
 
@@ -68,11 +68,12 @@ def test_non_finite_least_squares_point_is_a_fit_error(monkeypatch):
     non-finite) is refused with a FitError, not carried into the sampler."""
     from types import SimpleNamespace
 
-    import bayescal.core.sampler as sampler
+    from bayescal.core.fit import leastsq
+    from bayescal.core.fit.errors import FitError
 
     sp, s, r = _spectra(0, 0.9)
     setup = build_model(sp, r.vectors, s.vectors, s.families(), free="gain")
-    monkeypatch.setattr(sampler, "least_squares",
+    monkeypatch.setattr(leastsq, "least_squares",
                         lambda fun, x0, **kw: SimpleNamespace(x=np.full_like(x0, np.nan)))
-    with pytest.raises(sampler.FitError, match="non-finite"):
+    with pytest.raises(FitError, match="non-finite"):
         least_squares_fit(setup.model, setup.theta0)

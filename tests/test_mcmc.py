@@ -1,4 +1,4 @@
-"""emcee samples every posterior (:mod:`bayescal.core.mcmc`): a chain is
+"""emcee samples every posterior (:mod:`bayescal.core.sampling.mcmc`): a chain is
 emcee's own chain for the same moves and seed, the same seed gives the same
 chain, what was run is recorded, the convergence rule has a known answer,
 and a chain that reaches ``max_steps`` says so where a user looks (the
@@ -13,8 +13,8 @@ import emcee
 import numpy as np
 import pytest
 
-from bayescal.core import mcmc
-from bayescal.core.convergence import NotConvergedWarning
+from bayescal.core.sampling import mcmc
+from bayescal.core.posterior.convergence import NotConvergedWarning
 from tests.conftest import SIM_BAND
 
 

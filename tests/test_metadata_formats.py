@@ -48,7 +48,7 @@ def _stream(net="XX", sta="RJOB", cha="EHZ", n=100):
 
 
 def test_gse2_paz_response_is_the_formula(tmp_path):
-    from bayescal.core.response import evaluate_velocity_response
+    from bayescal.core.response.family import evaluate_velocity_response
     from bayescal.io import metadata_format, read_metadata
 
     path = tmp_path / "le3d.cal"
@@ -81,9 +81,9 @@ def test_gse2_without_recordings_and_bad_resp_are_one_line_errors(tmp_path):
 
 
 def test_resp_recognised_by_content(tmp_path):
-    from bayescal.core.response import evaluate_velocity_response
+    from bayescal.core.response.family import evaluate_velocity_response
     from bayescal.io import metadata_format, read_metadata
-    from bayescal.io.read import _channel_meta
+    from bayescal.io.read import channel_meta
 
     path = tmp_path / "sts2.xml"   # the name says StationXML; the content decides
     shutil.copy(_resp_file(), path)
@@ -91,7 +91,7 @@ def test_resp_recognised_by_content(tmp_path):
     inv = read_metadata(path)
     tr = _stream(net="XX", sta="NS085", cha="BHZ")[0]
     tr.stats.starttime = "2011-02-15"
-    ch, az, dip = _channel_meta(inv, tr, str(path))
+    ch, az, dip = channel_meta(inv, tr, str(path))
     assert (az, dip) == (0.0, -90.0)   # RESP has no orientation: the code's
     # the file's stage-1 gain 1500 at 1 Hz (B058F04), normalised there
     assert abs(abs(evaluate_velocity_response(ch.response, np.array([1.0]))[0]) - 1500) < 1.5

@@ -1,4 +1,4 @@
-"""The per-band noise scale (bayescal.core.misfit_scale): the closed form
+"""The per-band noise scale (bayescal.core.model.misfit_scale): the closed form
 against numerical integration over the scale, and on simulated pairs:
 intervals widen where the model misses (a timing offset the model leaves
 out) and stay as they were where it fits."""
@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.stats import invgamma
 
-from bayescal.core.misfit_scale import band_loglik, band_scale
+from bayescal.core.model.misfit_scale import band_loglik, band_scale
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair
 

@@ -23,7 +23,8 @@ import json
 import numpy as np
 import pytest
 
-from bayescal.core import modes
+from bayescal.core.fit import modes
+from bayescal.core.posterior import modes as reported
 
 
 def test_curvature_of_a_quadratic_and_equal_modes():
@@ -50,7 +51,7 @@ def test_mark_only_when_a_significant_mode_lies_outside():
                         {"mass_fraction": 0.295, "channels": {"A": {"azimuth_deg": 40.0}}},
                         {"mass_fraction": 0.005, "channels": {"A": {"azimuth_deg": 90.0}}}]}
     entry = {"azimuth_deg": {"median": -1.0, "ci95": [-1.5, -0.5]}}
-    assert modes.mark_channel(entry, "A", report) == ["azimuth_deg"]
+    assert reported.mark_channel(entry, "A", report) == ["azimuth_deg"]
     az = entry["azimuth_deg"]
     assert az["multimodal"] is True
     # the sampled mode's 359 is shown as -1 (contiguous with its interval);
@@ -58,8 +59,8 @@ def test_mark_only_when_a_significant_mode_lies_outside():
     assert [m["value"] for m in az["modes"]] == [-1.0, 40.0]
     assert "70 %" in az["note"]
     inside = {"azimuth_deg": {"median": 10.0, "ci95": [-5.0, 45.0]}}
-    assert modes.mark_channel(inside, "A", report) == []
-    assert modes.mark_channel(entry, "A", {**report, "detected": False}) == []
+    assert reported.mark_channel(inside, "A", report) == []
+    assert reported.mark_channel(entry, "A", {**report, "detected": False}) == []
 
 
 def _mirror_direction(ref):
@@ -73,7 +74,7 @@ def _mirror_direction(ref):
 def _grid_masses(model, sig, half_deg=3.0, n=241):
     """Posterior mass (relative) within +-``half_deg`` of each mode of a
     two-angle model (two circles), by a Riemann sum of ``exp(log_prob)``."""
-    from bayescal.core.geometry import unit_vector
+    from bayescal.core.orientation.geometry import unit_vector
 
     h = np.radians(np.linspace(-half_deg, half_deg, n))
     out = []
@@ -106,7 +107,7 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     res = json.loads((tmp_path / "result.json").read_text())
     mm = res["multimodal"]
     assert mm["detected"] is True
-    sig = modes.significant_modes(mm)
+    sig = reported.significant_modes(mm)
     d = _mirror_direction(ref)
     bh1 = "XX.SIM.10.BH1"
     found = sorted(m["channels"][bh1]["azimuth_deg"] for m in sig)

@@ -118,7 +118,7 @@ def test_a_failed_model_check_is_a_python_warning():
     with its gains only: the model check fails, and a script hears of it,
     with the criticism's verdict (the period named, its value measured)."""
     from bayescal import calibrate
-    from bayescal.core.adequacy import ModelMisfitWarning
+    from bayescal.core.checks.adequacy import ModelMisfitWarning
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999,
@@ -143,7 +143,7 @@ def test_a_failed_model_check_is_a_python_warning():
 # --- what the consoles and reports say ---------------------------------------------------
 
 def test_units_read_as_users_write_them():
-    from bayescal.core.response import units_label
+    from bayescal.core.response.family import units_label
 
     assert units_label("V", "M/S") == "V/(m/s)"
     assert units_label("COUNTS", "M/S**2") == "counts/(m/s^2)"

@@ -177,7 +177,7 @@ def test_figure_draws_upper_bounds_not_points(tmp_path):
     and a marker at the upper bound."""
     import obspy
 
-    from bayescal.core.selfnoise import db
+    from bayescal.core.selfnoise.sleeman import db
     from bayescal.io.noise import self_noise_streams
     from bayescal.io.read import flat_inventory
     from bayescal.report.noise import figure_component

@@ -1,4 +1,4 @@
-"""Self-noise of both sensors from a pair fit (bayescal.core.pair_noise) and
+"""Self-noise of both sensors from a pair fit (bayescal.core.selfnoise.pair_noise) and
 the swapped-sensors warning: the estimators exact at the expected matrix,
 the intervals holding the simulation's true noise at their rate, and the
 reference-minus-SUT margin against its expected value given the truth."""
@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-from bayescal.core import pair_noise
+from bayescal.core.selfnoise import pair_noise
 from bayescal.io.pipeline import calibrate, write_results
 from bayescal.simulate.harness import band_noise_truth
 from bayescal.simulate.pair import simulate_pair

@@ -26,13 +26,14 @@ def mediaboxes(path):
 def gain_result(tmp_path_factory):
     """A fit with free gains (so the report has a response corner page too)."""
     import bayescal
+    from bayescal.io.result import save_posterior
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0))
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), progress=False, fit_response="gain")
     folder = tmp_path_factory.mktemp("paper") / "result"
-    post.save(str(folder))
+    save_posterior(post, str(folder))
     return folder
 
 
@@ -100,6 +101,7 @@ def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
     angle estimated) gets no 'Angle credible intervals' page."""
     import bayescal
     from bayescal.report.fit import write_report
+    from bayescal.io.result import save_posterior
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800, fs=10, seed=7, coherence=0.99)
@@ -107,7 +109,7 @@ def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
                               ref=sim.ref.select(channel="BHZ"), ref_xml=sim.ref_inventory,
                               band=(0.03, 1.0), progress=False, fit_response="gain")
     folder = tmp_path / "z"
-    post.save(str(folder))
+    save_posterior(post, str(folder))
     paths = write_report(str(folder))
     texts = [p.extract_text() for p in pypdf.PdfReader(paths[0]).pages]
     assert not any("Angle credible intervals" in t for t in texts)

@@ -1,5 +1,5 @@
 """The pendulum's sampling coordinates, its prior and the prior-sensitivity
-test (bayescal.core.pendulum), against closed forms."""
+test (bayescal.core.response.pendulum), against closed forms."""
 from __future__ import annotations
 
 import emcee
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayescal.core import pendulum
+from bayescal.core.response import pendulum
 from tests.tolerance import LEVEL
 
 

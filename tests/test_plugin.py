@@ -1,4 +1,4 @@
-"""The plug-in noise model's own sampling error (:mod:`bayescal.core.plugin`).
+"""The plug-in noise model's own sampling error (:mod:`bayescal.core.model.plugin`).
 
 1. The weight's formula against a Monte Carlo of its own model: a parameter
    combined over bands by generalised least squares whose noise covariances
@@ -26,7 +26,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayescal.core import plugin
+from bayescal.core.model import plugin
+from bayescal.core.spectra.dof import band_dof
+from bayescal.core.spectra.welch import hann
 from bayescal.simulate import harness
 
 
@@ -90,12 +92,12 @@ def test_effective_samples_of_a_welch_band(bins, starts):
     nperseg, first = 256, 20
     sp = SimpleNamespace(nperseg=nperseg, segment_starts=np.array(starts),
                          bins_per_band=np.array([bins]))
-    nu = plugin.effective_samples(sp)[0]
+    nu = band_dof(sp)[0]
     shuffled = SimpleNamespace(nperseg=nperseg, bins_per_band=sp.bins_per_band,
                                segment_starts=np.random.default_rng(0).permutation(starts))
-    assert plugin.effective_samples(shuffled)[0] == pytest.approx(nu, rel=1e-12)
+    assert band_dof(shuffled)[0] == pytest.approx(nu, rel=1e-12)
     rng = np.random.default_rng(3)
-    win = plugin.hann(nperseg)
+    win = hann(nperseg)
     idx = np.array(starts)[:, None] + np.arange(nperseg)
     totals = []
     for _ in range(8):                                             # 40000 draws
@@ -126,7 +128,7 @@ def test_models_carry_the_weights(pair, mode):
     model = post.model
     sp = model.spectra
     p = sp.n_u + (0 if mode == "quiet" else sp.n_r)
-    expected = plugin.band_weights(plugin.effective_samples(sp), p)
+    expected = plugin.band_weights(band_dof(sp), p)
     np.testing.assert_allclose(model.noise.weight, expected)
     assert post.meta["plugin_weights"] == [round(float(v), 4) for v in expected]
     assert 0.5 < expected.min() < expected.max() < 1.0

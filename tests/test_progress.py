@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 
-from bayescal.core.mcmc import sample
+from bayescal.core.sampling.mcmc import sample
 
 
 class Gaussian:

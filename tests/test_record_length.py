@@ -1,4 +1,4 @@
-"""The short-record note (bayescal/core/record_length.py): said when the record
+"""The short-record note (bayescal/core/checks/record_length.py): said when the record
 used holds fewer than 35 periods of the band's lower edge, where simulations
 showed the angles' intervals too narrow (12 and 31 periods), and not where they
 held (38 and 68)."""
@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 import bayescal
-from bayescal.core.record_length import MIN_PERIODS, record_length
+from bayescal.core.checks.record_length import MIN_PERIODS, record_length
 from bayescal.simulate import simulate_pair
 
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from bayescal.core import reference_tolerance
-from bayescal.core.likelihood import Priors
+from bayescal.core.response import reference_tolerance
+from bayescal.core.model.likelihood import Priors
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair, velocity_response
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from bayescal.core import refnoise
+from bayescal.core.model import refnoise
 
 
 class _Spectra:

@@ -3,7 +3,7 @@ on numbers with a known answer."""
 import numpy as np
 import pytest
 
-from bayescal.core.repeatability import reduced_chi_square, sd_from_ci68
+from bayescal.core.checks.repeatability import reduced_chi_square, sd_from_ci68
 
 
 def test_equal_sds_give_the_plain_sample_variance_ratio():

@@ -15,6 +15,7 @@ pypdf = pytest.importorskip("pypdf")
 import bayescal  # noqa: E402
 from bayescal.cli import main as cli_main  # noqa: E402
 from bayescal.io.read import InputError  # noqa: E402
+from bayescal.io.result import save_posterior  # noqa: E402
 from bayescal.report.fit import write_report  # noqa: E402
 from bayescal.simulate.pair import simulate_pair  # noqa: E402
 
@@ -29,7 +30,7 @@ def _fit(tmp, name, sim, ref=None, **kw):
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=ref or sim.ref, ref_xml=sim.ref_inventory,
                               band=BAND, progress=False, **kw)
     folder = str(tmp / name)
-    post.save(folder)
+    save_posterior(post, folder)
     with open(os.path.join(folder, "truth.json"), "w") as fh:
         json.dump(sim.truth, fh)
     return folder
@@ -262,16 +263,35 @@ def test_renders_without_display(flagged, tmp_path):
     assert len(pypdf.PdfReader(out).pages) == 6
 
 
+def test_reading_a_result_imports_no_model(flagged, tmp_path):
+    """Reading a stored result (``load_posterior``, its summary, and ``bayescal
+    report`` on the folder) loads no module of the model, the spectra, the
+    fit or the sampler: the result stands on its own."""
+    import shutil
+
+    folder = str(tmp_path / "copy")
+    shutil.copytree(flagged[0], folder)
+    code = ("import sys; from bayescal.io.result import load_posterior; "
+            f"load_posterior({folder!r}).summary(); from bayescal.cli import main; "
+            f"main(['report', {folder!r}]); "
+            "print(sorted(m for m in sys.modules if m.split('.')[:3] in "
+            "(['bayescal', 'core', g] for g in ('model', 'spectra', 'sampling', 'fit'))))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "MPLBACKEND": "Agg"})
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "[]"
+
+
 def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     """A result whose sampler did not converge says so on pages 1 and 5; a
     result without diagnostics.npz still renders, saying what is missing."""
-    from bayescal.core.posterior import Posterior
+    from bayescal.io.result import load_posterior
 
-    post = Posterior.load(flagged[0])
+    post = load_posterior(flagged[0])
     post.convergence["converged"] = False
     post.diagnostics = {}
     folder = str(tmp_path / "unconverged")
-    post.save(folder)
+    save_posterior(post, folder)
     assert not os.path.exists(os.path.join(folder, "diagnostics.npz"))
     write_report(folder)
     _, pages = _pages(folder)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from obspy.core.inventory.response import Response
 
-from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response, paz_velocity_response
+from bayescal.core.response.family import TwoPoleFamily, evaluate_velocity_response, paz_velocity_response
 from bayescal.simulate.pair import DIGITIZER_GAIN, velocity_response
 
 F = np.geomspace(0.003, 8.0, 40)

@@ -24,7 +24,8 @@ import pytest
 from scipy import stats
 
 from bayescal.cli import main
-from bayescal.core import selfnoise as sn
+from bayescal.core.selfnoise import sleeman as sn
+from bayescal.core.spectra import dof
 from bayescal.simulate.selfnoise import estimate_and_truth, simulate_colocated
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
@@ -81,10 +82,10 @@ def test_band_sums_for_the_pair_fit():
 def test_effective_dof_exact_without_overlap():
     w = np.hanning(64)
     starts = np.arange(10) * 64                       # 10 non-overlapping segments
-    assert sn.effective_dof(np.ones(64), starts, [1, 4])[1] == pytest.approx(40)  # orthogonal bins
-    assert sn.effective_dof(w, starts, [1])[0] == pytest.approx(10)
+    assert dof.effective_dof(np.ones(64), starts, [1, 4])[1] == pytest.approx(40)  # orthogonal bins
+    assert dof.effective_dof(w, starts, [1])[0] == pytest.approx(10)
     # 50 % overlap with Hann: more than K, fewer than the 19 segments
-    over = sn.effective_dof(w, np.arange(19) * 32, [1])[0]
+    over = dof.effective_dof(w, np.arange(19) * 32, [1])[0]
     assert 10 < over < 19
 
 
@@ -100,7 +101,7 @@ def test_effective_dof_matches_brute_force():
     seg = x[:, starts[:, None] + np.arange(n)] * w
     p = np.mean(np.abs(np.fft.rfft(seg, axis=-1)[:, :, 40:44]) ** 2, axis=(1, 2))
     empirical = p.mean() ** 2 / p.var()
-    predicted = sn.effective_dof(w, starts, [4])[0]
+    predicted = dof.effective_dof(w, starts, [4])[0]
     assert 40 * 4 / 2 < predicted < 40 * 4                # overlap and leakage cost dof
     assert empirical == pytest.approx(predicted, rel=0.12)
 
@@ -263,7 +264,7 @@ def test_overlap_lags_match_the_full_difference_matrix():
                       (np.sort(rng.integers(0, 50000, 300)), 2048), (np.array([0]), 256)]:
         d = (starts[None, :] - starts[:, None]).ravel()
         want = np.unique(np.abs(d[np.abs(d) < n]), return_counts=True)
-        got = sn._overlap_lags(starts, n)
+        got = dof._overlap_lags(starts, n)
         assert all(np.array_equal(a, b) for a, b in zip(want, got)), starts
-    lags, counts = sn._overlap_lags(np.arange(0, 8400 * 1024, 1024), 2048)
+    lags, counts = dof._overlap_lags(np.arange(0, 8400 * 1024, 1024), 2048)
     assert lags.tolist() == [0, 1024] and counts.tolist() == [8400, 2 * 8399]

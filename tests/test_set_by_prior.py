@@ -17,7 +17,7 @@ import obspy
 import pytest
 
 from bayescal.cli.fit import response_lines
-from bayescal.core.likelihood import Priors
+from bayescal.core.model.likelihood import Priors
 from bayescal.io.pipeline import calibrate, write_results
 from bayescal.io.read import read_metadata
 from bayescal.io.stationxml import write_corrected
@@ -103,7 +103,7 @@ def test_gain_pinned_at_the_prior_bound_keeps_nominal(tmp_path):
         g = e["response"]["gain"]
         # the prior's upper bound (the truth, 15000, is twice beyond it); the
         # pile-up's width follows the likelihood's slope there, which the
-        # plug-in band weights (core/plugin.py) temper: 7491 on this pair
+        # plug-in band weights (core/model/plugin.py) temper: 7491 on this pair
         assert g["ci95"][1] == pytest.approx(7500.0, rel=5e-3)
         assert g["set_by_prior"] and "upper bound" in g["reason"]
     write_results(post, str(tmp_path))

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.signal import csd
 
-from bayescal.core.spectra import SpectraError, cross_spectra
+from bayescal.core.spectra.welch import SpectraError, cross_spectra
 
 FS = 10.0
 
@@ -50,8 +50,8 @@ def test_too_little_data_is_an_error():
 
 def test_whole_run_deconvolution_is_exact_in_band():
     """Counts made by a known response come back as the ground velocity."""
-    from bayescal.core.response import paz_velocity_response
-    from bayescal.core.spectra import deconvolve_runs
+    from bayescal.core.response.family import paz_velocity_response
+    from bayescal.core.spectra.welch import deconvolve_runs
     rng = np.random.default_rng(3)
     n = 2 ** 15
     ground = rng.standard_normal(n)
@@ -62,7 +62,7 @@ def test_whole_run_deconvolution_is_exact_in_band():
                            (0.02, 2.0), margin=1000)[0]
     # compare in band, away from the edges, after the same band limitation
     keep = slice(2000, n - 2000)
-    from bayescal.core.spectra import band_taper
+    from bayescal.core.spectra.welch import band_taper
     want = np.fft.irfft(np.fft.rfft(ground) * band_taper(f, (0.02, 2.0)), n=n)
     assert np.isnan(back[:1000]).all()
     assert np.max(np.abs(back[keep] - want[keep])) < 0.02 * np.std(want)

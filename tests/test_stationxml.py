@@ -9,7 +9,7 @@ import obspy
 import pytest
 
 import bayescal
-from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
+from bayescal.core.response.family import TwoPoleFamily, evaluate_velocity_response
 from bayescal.io.stationxml import corrected_inventory, write_corrected
 from tests.conftest import SIM_BAND
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayescal.core import transients
+from bayescal.core.spectra import transients
 from bayescal.io.align import align
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair
@@ -36,7 +36,7 @@ def _pair(seed, bursts=BURSTS_S):
 
 
 def _spectra(p, ref, band=(0.05, 0.5)):
-    from bayescal.core.spectra import cross_spectra
+    from bayescal.core.spectra.welch import cross_spectra
     s, r, fs, _ = align(p.sut, p.sut_inventory, ref, p.ref_inventory, "SUT", "reference",
                         None, None)
     return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band)

@@ -13,10 +13,10 @@ from tests.tolerance import interval_bounds
 
 from bayescal import cli, coil
 from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
-from bayescal.core import pendulum
-from bayescal.core.geometry import STS2_UVW, TRILLIUM_UVW
+from bayescal.core.response import pendulum
+from bayescal.core.orientation.geometry import STS2_UVW, TRILLIUM_UVW
 from bayescal.io.read import InputError
-from bayescal.core.response import paz_velocity_response
+from bayescal.core.response.family import paz_velocity_response
 from bayescal.simulate.pair import NORM_FREQ
 
 TILT_DEG = 54.7356          # arccos(1/sqrt(3)), elements' angle from the vertical
@@ -143,7 +143,7 @@ def test_without_coil_constant_the_scale_is_removed():
 def test_relative_gain_summary():
     """Without a coil constant every gain (elements, Z-only, XYZ) is reported
     over the elements' geometric mean, sample by sample."""
-    from bayescal.core.response import TwoPoleFamily
+    from bayescal.core.response.family import TwoPoleFamily
     from bayescal.simulate.pair import velocity_response
     fam = TwoPoleFamily.from_response(velocity_response(*STS2_NOMINAL, sample_rate=1.0))
     rng = np.random.default_rng(8)

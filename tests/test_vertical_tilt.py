@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from bayescal.core.geometry import tilt_components, unit_vector
-from bayescal.core.tilt_region import lean_region, tilt_intervals
+from bayescal.core.orientation.geometry import tilt_components, unit_vector
+from bayescal.core.orientation.tilt_region import lean_region, tilt_intervals
 
 ALPHA = 0.001
 

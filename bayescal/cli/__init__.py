@@ -1,11 +1,12 @@
 """The ``bayescal`` command: a thin dispatcher over its sub-commands.
 
 Each sub-command is a module of this package named in ``COMMANDS`` and
-defining ``HELP`` (one line), ``configure(parser)`` and ``run(args) -> int``;
-:mod:`.common` holds what several of them share. This is the top layer: it may
-import every other subpackage, and nothing imports it. Errors a user can fix
-(bad files, no overlap, too little data...) end with one line on stderr and
-exit code 2, never a traceback.
+defining ``HELP`` (one line), ``configure(parser)`` and ``run(args) -> int``:
+:mod:`.fit`, :mod:`.report`, :mod:`.diagnose`, :mod:`.noise`, :mod:`.cal`,
+:mod:`.uvw` and :mod:`.batch`; :mod:`.common` holds what several of them
+share. This is the top layer: it may import every other subpackage, and
+nothing imports it. Errors a user can fix (bad files, no overlap, too little
+data...) end with one line on stderr and exit code 2, never a traceback.
 """
 from __future__ import annotations
 
@@ -20,10 +21,10 @@ COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
 
 def _user_errors():
-    from ..core.sampler import FitError
+    from ..core.fit.errors import FitError
     from ..io.read import InputError
-    from ..core.response import ResponseError
-    from ..core.spectra import SpectraError
+    from ..core.response.family import ResponseError
+    from ..core.spectra.welch import SpectraError
     return (InputError, SpectraError, FitError, ResponseError)
 
 

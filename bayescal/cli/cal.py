@@ -105,7 +105,7 @@ def load_runs(args):
 def write_outputs(fits, inventory, out, paper="a4"):
     """Write everything into a temporary folder, then move it into ``out``."""
     from ..coil.calxml import write_corrected_cal
-    from ..core.posterior import write_json
+    from ..io.result import write_json
     from ..report.cal import write_report
 
     parent = os.path.dirname(os.path.abspath(out)) or "."

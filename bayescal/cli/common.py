@@ -9,7 +9,7 @@ import sys
 import tempfile
 
 
-def _time(text):
+def parse_time(text):
     import argparse
 
     from obspy import UTCDateTime
@@ -35,8 +35,8 @@ def _percent_or_zero(text):
 
 
 def priors_from(args):
-    """The fit's :class:`bayescal.core.likelihood.Priors` from the options."""
-    from ..core.likelihood import Priors
+    """The fit's :class:`bayescal.core.model.likelihood.Priors` from the options."""
+    from ..core.model.likelihood import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
                   damping_tolerance=args.damping_tolerance / 100.0,
                   reference_tolerance=getattr(args, "ref_tolerance", 0.0) / 100.0)
@@ -44,9 +44,9 @@ def priors_from(args):
 
 def add_tolerance_arguments(parser, when):
     """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
-    stated prior on natural period and damping (:mod:`bayescal.core.pendulum`),
+    stated prior on natural period and damping (:mod:`bayescal.core.response.pendulum`),
     which applies ``when`` (e.g. "with --fit-response all")."""
-    from ..core.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+    from ..core.response.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
 
     parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
                         metavar="PERCENT",
@@ -120,9 +120,9 @@ def add_pair_arguments(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="analysis band in Hz (default: chosen from the data where the "
                              "sensors are coherent)")
-    parser.add_argument("--start", type=_time, metavar="T",
+    parser.add_argument("--start", type=parse_time, metavar="T",
                         help="start of the analysis window, e.g. 2010-08-24T02:00:00")
-    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress display (the band used and the results table are "
@@ -156,8 +156,8 @@ def quiet_convergence_warnings():
     and a failed model check in its summary, not as Python warnings."""
     import warnings
 
-    from ..core.adequacy import ModelMisfitWarning
-    from ..core.convergence import NotConvergedWarning
+    from ..core.checks.adequacy import ModelMisfitWarning
+    from ..core.posterior.convergence import NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
@@ -167,7 +167,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.convergence import not_converged_line
+    from ..core.posterior.convergence import not_converged_line
 
     code = 0
     for label, conv in entries:

@@ -48,7 +48,7 @@ def run(args):
     """Run the diagnosis; returns the exit code."""
     from ..io.read import InputError
     from ..io.pipeline import write_results
-    from ..core.posterior import write_json
+    from ..io.result import write_json
 
     out = os.path.abspath(args.out)
     if os.path.exists(out) and not os.path.isdir(out):

@@ -40,7 +40,7 @@ import sys
 import time
 import warnings
 
-from .common import _time, say, staging
+from .common import parse_time, say, staging
 
 HELP = "self-noise of three or more co-located sensors, with 90-percent intervals"
 
@@ -58,8 +58,9 @@ def configure(parser):
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
                         help="frequency band in Hz (default: periods up to 100 s or a 40th "
                              "of the record, up to 0.8 of Nyquist)")
-    parser.add_argument("--start", type=_time, metavar="T", help="start of the analysis window")
-    parser.add_argument("--end", type=_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--start", type=parse_time, metavar="T",
+                        help="start of the analysis window")
+    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--interval", choices=["wishart", "block"], default="wishart",
                         help="interval: parametric complex-Wishart bootstrap (default) or block "
                              "bootstrap over time segments (under-covers; see docs)")

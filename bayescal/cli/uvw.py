@@ -133,7 +133,7 @@ def write_outputs(result, out, quiet=True, paper="a4"):
     """Write ``uvw.json``, ``uvw_samples.npz`` and the report into ``out``:
     everything goes to a temporary folder first and is moved in at the end,
     so a failure leaves nothing half-written."""
-    from ..core.posterior import write_json
+    from ..io.result import write_json
     from ..report.uvw import write_report
 
     parent = os.path.dirname(os.path.abspath(out)) or "."

@@ -1,16 +1,15 @@
 """The posterior shared by every coil model: a flat prior inside the
 model's ``bounds()``, times, for a model of the pendulum pair, the stated
 prior on period and damping carried to the sampling coordinates
-``(c0_rel, c1_rel)`` with its Jacobian (:mod:`bayescal.core.pendulum`),
+``(c0_rel, c1_rel)`` with its Jacobian (:mod:`bayescal.core.response.pendulum`),
 plus its ``log_likelihood``, vectorised over walkers; and what the prior
 sets, from the posterior's samples reweighted to a rescaled prior."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..core import pendulum
-from ..core.likelihood import Priors
+from ..core.response import pendulum
+from ..core.model.likelihood import Priors
 
 
 class BoundedPosterior:
@@ -29,7 +28,7 @@ class BoundedPosterior:
 
     def log_prior(self, theta):
         """Flat strictly inside the bounds, -inf outside; with the pendulum's
-        stated prior (:func:`bayescal.core.pendulum.log_prior`), shape (W,)."""
+        stated prior (:func:`bayescal.core.response.pendulum.log_prior`), shape (W,)."""
         theta = np.atleast_2d(theta)
         lo, hi = self.bounds()
         lp = np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
@@ -65,7 +64,7 @@ class BoundedPosterior:
                                        pr.damping_tolerance)[0] / np.sqrt(self.LIKELIHOOD_SCALE)
 
     def prior_sensitivity(self, samples, channel):
-        """:func:`bayescal.core.pendulum.reweighted_sensitivity` of the
+        """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of the
         pendulum pair from the posterior's ``samples`` as ``{channel: ...}``;
         empty without a pendulum pair."""
         i = self.pendulum_index
@@ -85,7 +84,7 @@ def prior_meta(priors):
 
 def mark_set_by_prior(params, entries, channel):
     """Mark ``params`` entries (``period_s``, ``damping``,
-    ``damping_over_period``) that :func:`bayescal.core.pendulum.set_by_prior_entries`
+    ``damping_over_period``) that :func:`bayescal.core.response.pendulum.set_by_prior_entries`
     names for ``channel`` with ``set_by_prior``, ``reason`` and ``action``."""
     for key, why in entries.items():
         cid, _, name = key.rpartition(":")

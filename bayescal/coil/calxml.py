@@ -4,7 +4,7 @@ zeros (``hf``/``all``) replaced by posterior medians with ``plusError`` /
 ``minusError`` from the 68 % interval; the normalization factor rescaled so
 the gain keeps its meaning at the normalization frequency; the overall
 sensitivity recalculated; a comment says where the values come from. A
-period or damping the prior sets (:mod:`bayescal.core.pendulum`) keeps its
+period or damping the prior sets (:mod:`bayescal.core.response.pendulum`) keeps its
 nominal value, except that when the data fix damping/period the damping
 carries it (:func:`bayescal.io.stationxml.written_period_damping`).
 Everything else is left untouched."""

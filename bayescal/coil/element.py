@@ -6,15 +6,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..core import pendulum
-from ..core.mcmc import sample
-from ..core.sampler import FitError
+from ..core.response import pendulum
+from ..core.response.family import pendulum_coefficients, pendulum_denominator
+from ..core.sampling.mcmc import sample
+from ..core.fit.errors import FitError
+from ..core.fit.leastsq import refine
 from ..io.read import InputError
-from ..core.likelihood import INFLATION_SHRINK, Priors
-from ..core.posterior import interval_summary
-from ..core.spectra import SpectraError, cross_spectra
+from ..core.model.likelihood import INFLATION_SHRINK, Priors
+from ..core.posterior.samples import interval_summary
+from ..core.spectra.welch import SpectraError, cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
@@ -69,7 +70,7 @@ def regularise(sigma, power):
 class RunModel(BoundedPosterior):
     """Posterior of one element's ``theta = (c0_rel, c1_rel, ln G)`` from one
     run: the pendulum pair in the coordinates the data see, relative to the
-    ``nominal`` family's period and damping (:mod:`bayescal.core.pendulum`),
+    ``nominal`` family's period and damping (:mod:`bayescal.core.response.pendulum`),
     under the stated prior of ``priors`` (period and damping tolerances),
     and the gain log-uniform within ``priors.gain_factor`` of nominal.
 
@@ -104,12 +105,12 @@ class RunModel(BoundedPosterior):
         self._s = 2j * np.pi * f
         self._sn = 2j * np.pi * np.array([fam.norm_freq for fam in families])
         # D = s^2 + c1 s + c0 with c0 = c0_rel w0n^2, c1 = c1_rel 2 h_n w0n
-        w0n = 2 * np.pi / nominal.period_s
-        self._c_nom = np.array([w0n * w0n, 2.0 * nominal.damping * w0n])
-        d_nom = np.array([fam._d(self._s, 2 * np.pi / fam.period_s, fam.damping)
-                          for fam in families])                       # (no, F)
-        self._dn_norm = np.array([abs(fam._d(sn, 2 * np.pi / fam.period_s, fam.damping))
-                                  for fam, sn in zip(families, self._sn)])
+        c1, c0 = pendulum_coefficients(nominal.period_s, nominal.damping)
+        self._c_nom = np.array([c0, c1])
+        d_nom = np.array([pendulum_denominator(self._s, *pendulum_coefficients(
+            fam.period_s, fam.damping)) for fam in families])          # (no, F)
+        self._dn_norm = np.array([abs(pendulum_denominator(sn, *pendulum_coefficients(
+            fam.period_s, fam.damping))) for fam, sn in zip(families, self._sn)])
         self._g_nom = np.array([fam.gain for fam in families])
         self._const = d_nom / self.base                               # (no, F)
         self._kernel = self.coef[:, None] * self._const * self._saa[None]
@@ -129,8 +130,8 @@ class RunModel(BoundedPosterior):
         theta = np.atleast_2d(theta)
         c0 = (theta[:, 0] * self._c_nom[0])[:, None]
         c1 = (theta[:, 1] * self._c_nom[1])[:, None]
-        inv = 1.0 / (self._s * self._s + c1 * self._s + c0)
-        d_sn = np.abs(self._sn[None] ** 2 + c1 * self._sn[None] + c0)              # (W, no)
+        inv = 1.0 / pendulum_denominator(self._s, c1, c0)
+        d_sn = np.abs(pendulum_denominator(self._sn[None], c1, c0))                 # (W, no)
         amp = np.exp(theta[:, 2])[:, None] / self._g_nom[None] * d_sn / self._dn_norm[None]
         return amp, inv
 
@@ -225,7 +226,7 @@ def transfer_scale(model, theta):
     return num / den
 
 
-def _start(model):
+def nominal_start(model):
     """Nominal period and damping, and the least-squares scale of the nominal
     transfer to the data."""
     theta = np.array([1.0, 1.0, np.log(model.nominal.gain)])
@@ -235,24 +236,12 @@ def _start(model):
 def least_squares_run(model, theta0):
     """Weighted least squares (the pendulum prior's rows included: the
     posterior's mode) with the noise model re-estimated twice; returns
-    ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.fit.least_squares_fit`."""
+    ``(theta, covariance (2 J^T J)^-1)`` like :func:`bayescal.core.fit.run.least_squares_fit` (bounded trust-region
+    passes, :func:`bayescal.core.fit.leastsq.refine`)."""
     lo, hi = model.bounds()
-    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
-    for _ in range(3):
-        model.estimate_noise(theta)
-        chol = np.linalg.cholesky(model.noise)
-        res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
-                            x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
-        theta = res.x
-    model.estimate_noise(theta)
-    chol = np.linalg.cholesky(model.noise)
-    res = least_squares(model.posterior_residual, theta, args=(chol,), bounds=(lo, hi),
-                        x_scale="jac", method="trf", max_nfev=1)
-    try:
-        cov = np.linalg.inv(2.0 * res.jac.T @ res.jac)
-    except np.linalg.LinAlgError as exc:
-        raise FitError("the least-squares point is degenerate (singular information)") from exc
-    return theta, 0.5 * (cov + cov.T)
+    return refine(model.posterior_residual, theta0, lo, hi, model.estimate_noise, 3,
+                  noise_args=lambda: (np.linalg.cholesky(model.noise),), method="trf",
+                  x_scale="jac")
 
 
 def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, seed=0,
@@ -266,7 +255,7 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
     ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the segment windows smooth
     only the nearly flat ratio of true to fitted response),
     ``make_model(spectra, base)``, least squares, then the posterior sampled by
-    :func:`bayescal.core.mcmc.sample`. Returns ``(model, chain, spectra,
+    :func:`bayescal.core.sampling.mcmc.sample`. Returns ``(model, chain, spectra,
     theta_ls, cov_ls)`` (the second pass's least-squares point and Laplace
     covariance).
     """
@@ -301,13 +290,13 @@ class ElementFit:
     band_hz: tuple
     model: RunModel = field(repr=False, default=None)
     sampler: dict = field(default_factory=dict)     # what emcee ran (Chain.sampler)
-    #: :func:`bayescal.core.pendulum.prior_sensitivity` of the element's pair
+    #: :func:`bayescal.core.response.pendulum.prior_sensitivity` of the element's pair
     prior_sensitivity: dict = field(default_factory=dict)
     response_prior: dict = field(default_factory=dict)
 
     def summary(self):
         out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
-        # what a band above the corner fixes (bayescal.core.pendulum)
+        # what a band above the corner fixes (bayescal.core.response.pendulum)
         out["damping_over_period"] = interval_summary(
             pendulum.damping_over_period(self.samples[:, 0], self.samples[:, 1]))
         mark_set_by_prior(out, pendulum.set_by_prior_entries(self.prior_sensitivity),
@@ -345,7 +334,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
             iz = None if len(run.axes) == 1 else int(np.argmax(np.abs(coef)))
         start_model = model if iz is None else RunModel(model.spectra.select([iz]), coef[[iz]],
                                                         [run.families[iz]], nominal, priors)
-        theta0, scale = _start(start_model)
+        theta0, scale = nominal_start(start_model)
         if not scale > 0:
             raise FitError(f"{run.source}: the outputs respond to the coil of {run.element} "
                            "with the opposite sign to the geometry: check the coil wiring, the "

@@ -6,7 +6,7 @@ The response is the nominal one with the free parts replaced, so
 
     H(f; theta) / H_nom(f) = rho_lp(f; T, h, G) * prod_k phi_k(f) / |prod_k phi_k(f_n)|,
 
-with ``rho_lp`` :meth:`bayescal.core.response.TwoPoleFamily.ratio` (gain and
+with ``rho_lp`` :meth:`bayescal.core.response.family.TwoPoleFamily.ratio` (gain and
 pendulum pair, normalised at the first stage's normalisation frequency
 ``f_n``) and, per free high-frequency pole ``q`` (nominal ``q0``, its
 conjugate tied to it), ``phi = (s - q0)(s - q0*) / ((s - q)(s - q*))`` (one
@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core import pendulum
-from ..core.likelihood import Priors
-from ..core.sampler import FitError
-from ..core.response import TwoPoleFamily
+from ..core.response import pendulum
+from ..core.model.likelihood import Priors
+from ..core.fit.errors import FitError
+from ..core.response.family import TwoPoleFamily
 from ..io.read import InputError
 
 #: A pole or zero is free when its frequency is at most this times the band's top.
@@ -108,7 +108,7 @@ class PZSpec:
     ``theta`` is ``(c0_rel, c1_rel, ln G)`` for ``fit="lp"``, ``(ln G,
     hf...)`` for ``"hf"`` and ``(c0_rel, c1_rel, ln G, hf...)`` for
     ``"all"``: the pendulum pair in the coordinates the data see, relative to
-    the nominal period and damping (:mod:`bayescal.core.pendulum`; its prior,
+    the nominal period and damping (:mod:`bayescal.core.response.pendulum`; its prior,
     log-normal in period and damping with the tolerances of ``priors``, is
     the model's); ``hf`` holds ``Re q / |q0|`` (and ``Im q / |q0|`` for a
     pair) per item. The gain's prior is log-uniform within

@@ -7,9 +7,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
-from ..core import pendulum
-from ..core.posterior import interval_summary
-from ..core.response import evaluate_velocity_response
+from ..core.response import pendulum
+from ..core.posterior.samples import interval_summary
+from ..core.response.family import evaluate_velocity_response
 from .bounded import mark_set_by_prior, prior_meta
 
 SCHEMA = "bayescal.cal/1"
@@ -69,7 +69,7 @@ class CalFit:
         for p in ("period_s", "damping", "gain"):
             if p in phys:
                 params[p] = interval_summary(phys[p])
-        if "period_s" in phys:      # what a band above the corner fixes (core.pendulum)
+        if "period_s" in phys:      # what a band above the corner fixes (core.response.pendulum)
             params["damping_over_period"] = interval_summary(
                 pendulum.damping_over_period(phys["period_s"], phys["damping"]))
             mark_set_by_prior(params, self.meta.get("set_by_prior", {}), self.channel)

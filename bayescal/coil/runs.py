@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..io.read import InputError
-from ..core.response import ResponseError, TwoPoleFamily, evaluate_velocity_response
+from ..core.response.family import ResponseError, TwoPoleFamily, evaluate_velocity_response
 from .triaxial import ELEMENTS, XYZ, output_axis
 
 

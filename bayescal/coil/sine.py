@@ -26,9 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..core.posterior import interval_summary
-from ..core.mcmc import sample
-from ..core.sampler import FitError, single_threaded_blas
+from ..core.posterior.samples import interval_summary
+from ..core.sampling.mcmc import sample
+from ..core.fit.errors import FitError
+from ..core.threads import single_threaded_blas
 from ..io.read import InputError
 from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,

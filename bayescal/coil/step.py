@@ -18,9 +18,10 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.likelihood import Priors
-from ..core.mcmc import sample
-from ..core.sampler import single_threaded_blas
+from ..core.model.likelihood import Priors
+from ..core.response.family import pendulum_coefficients, pendulum_denominator
+from ..core.sampling.mcmc import sample
+from ..core.threads import single_threaded_blas
 from ..io.read import InputError
 from .hf import PZSpec, scale_start
 from .result import CalFit
@@ -43,13 +44,12 @@ class StepModel(TimeModel):
             raise ValueError("StepModel fits the long-period pair and gain only")
         fam = spec.family
         self._s = 2j * np.pi * predictor.freqs
-        self._s2 = self._s * self._s
-        w0n = 2 * np.pi / fam.period_s
-        self._d_nom = fam.denominator(self._s, w0n, fam.damping)
-        self._sn = 2j * np.pi * fam.norm_freq
-        self._dn = abs(fam.denominator(self._sn, w0n, fam.damping)) * fam.gain
         # D = s^2 + c1 s + c0 with c0 = c0_rel w0n^2, c1 = c1_rel 2 h_n w0n
-        self._c_nom = np.array([w0n * w0n, 2.0 * fam.damping * w0n])
+        c1, c0 = pendulum_coefficients(fam.period_s, fam.damping)
+        self._c_nom = np.array([c0, c1])
+        self._d_nom = pendulum_denominator(self._s, c1, c0)
+        self._sn = 2j * np.pi * fam.norm_freq
+        self._dn = abs(pendulum_denominator(self._sn, c1, c0)) * fam.gain
         self._cache = {}
         super().__init__(x, fs, predictor)
         self.set_prefilter(*acceleration_prefilter(fam, fs))
@@ -71,8 +71,8 @@ class StepModel(TimeModel):
             self._cache[key] = x * self._d_nom
         const = self._cache[key]
         b, c = theta[:, 1] * self._c_nom[1], theta[:, 0] * self._c_nom[0]
-        amp = np.exp(theta[:, 2]) * np.abs(self._sn ** 2 + b * self._sn + c) / self._dn
-        d = self._s2[None] + b[:, None] * self._s[None] + c[:, None]
+        amp = np.exp(theta[:, 2]) * np.abs(pendulum_denominator(self._sn, b, c)) / self._dn
+        d = pendulum_denominator(self._s[None], b[:, None], c[:, None])
         spec = (amp[:, None] * const[None]) / d
         return irfft(spec, n=self.predictor.nfft, axis=1)[:, :self.predictor.n]
 

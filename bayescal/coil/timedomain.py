@@ -25,7 +25,7 @@ settling time left out. A model may set a fixed prefilter ``Q``
 and the whitening is ``L Q`` (the step kind takes the output back to
 equivalent acceleration, where an all-pole model can describe the noise). Whitening the model is one product with the AR
 filter's frequency response inside the same FFT. The posterior is sampled by
-:func:`bayescal.core.mcmc.sample` (the sampler and convergence rule of
+:func:`bayescal.core.sampling.mcmc.sample` (the sampler and convergence rule of
 every bayescal fit), started from the least-squares point and its Laplace
 covariance.
 
@@ -37,11 +37,10 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
-from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.sampler import FitError
+from ..core.fit.leastsq import refine
 from ..io.read import InputError
 from .bounded import BoundedPosterior
 
@@ -235,19 +234,9 @@ def least_squares_time(model, theta0, passes=3):
     of a model of the pendulum pair), the AR noise re-estimated after each
     pass. Returns ``(theta, Laplace covariance (J^T J)^-1)``."""
     lo, hi = model.bounds()
-    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
 
     def fun(t):
         return np.concatenate([model.innovations(t[None])[0], model.prior_residual(t)])
 
-    for _ in range(passes):
-        res = least_squares(fun, theta, bounds=(lo, hi), x_scale="jac", method="trf",
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
-        theta = res.x
-        model.estimate_noise(theta)
-    res = least_squares(fun, theta, bounds=(lo, hi), x_scale="jac", method="trf", max_nfev=1)
-    try:
-        cov = np.linalg.inv(res.jac.T @ res.jac)
-    except np.linalg.LinAlgError as exc:
-        raise FitError("the least-squares point is degenerate (singular information)") from exc
-    return theta, 0.5 * (cov + cov.T)
+    return refine(fun, theta0, lo, hi, model.estimate_noise, passes, method="trf", scale=1.0,
+                  reestimate_first=False, x_scale="jac")

@@ -2,7 +2,7 @@
 
 Geometry and conventions (written down once, here)
 --------------------------------------------------
-``M`` is the UVW matrix of :mod:`bayescal.core.geometry`: rows U, V, W over
+``M`` is the UVW matrix of :mod:`bayescal.core.orientation.geometry`: rows U, V, W over
 columns X, Y, Z of the sensor frame (X = channel 1/N, Y = channel 2/E,
 Z = vertical, positive up). Row ``n`` is element ``n``'s sensitive axis in
 XYZ, so an element's output is ``u_n = M[n] . x`` and the sensor's XYZ
@@ -32,9 +32,9 @@ mode) is
 with ``m_c = M[n, c]`` (XYZ outputs) or ``delta_nc`` (UVW outputs) and
 ``K_n = H_c,nom * rho_c(f; T_n, h_n, G_n)``: channel c's nominal response with
 its two long-period poles and first-stage gain replaced by the element's
-(:class:`bayescal.core.response.TwoPoleFamily`). Outputs are deconvolved to m/s by
+(:class:`bayescal.core.response.family.TwoPoleFamily`). Outputs are deconvolved to m/s by
 their nominal response and the input to m/s by ``2 pi i f / C`` through
-:func:`bayescal.core.spectra.cross_spectra` (Welch, Hann, 50 % overlap). The
+:func:`bayescal.core.spectra.welch.cross_spectra` (Welch, Hann, 50 % overlap). The
 residual per narrow band b (20 per decade) is
 
     R_b,c(theta) = sum_{f in b} [ Y_c A^* - m_c rho_c(f; theta) |A|^2 ],
@@ -44,7 +44,7 @@ zero-mean at the truth; its covariance is ``c_b Sigma_b S_AA,b`` with
 outputs: element noise mixes into X, Y, Z) and ``c_b`` the ratio of the
 scatter of per-segment band residuals (with the lag-one term of overlapping
 segments) to the independent-bin formula, shrunk toward its pooled value, as
-in :mod:`bayescal.core.likelihood`. After the least-squares fit the spectra are
+in :mod:`bayescal.core.model.likelihood`. After the least-squares fit the spectra are
 recomputed deconvolved by the fitted response, so the per-segment residuals
 that calibrate ``c_b`` are free of in-band model curvatu"""
 from __future__ import annotations
@@ -53,14 +53,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core import pendulum
-from ..core.likelihood import Priors
-from ..core.sampler import FitError
+from ..core.response import pendulum
+from ..core.model.likelihood import Priors
+from ..core.fit.errors import FitError
 from ..io.read import InputError
-from ..core.posterior import interval_summary
-from ..core.response import TwoPoleFamily
+from ..core.posterior.samples import interval_summary
+from ..core.response.family import TwoPoleFamily
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix
-from .element import RunModel, _start, fit_run, run_spectra
+from .element import RunModel, nominal_start, fit_run, run_spectra
 from .runs import default_band
 
 
@@ -257,7 +257,7 @@ def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, 
     coil_constant : m/s^2 per input count, or None (gains then relative).
     band : (fmin, fmax) Hz; default ``(0.5 / T_nom, min(25 / T_nom, fs / 4))``.
     z_only : use only each run's Z output (the seed's procedure).
-    priors : :class:`bayescal.core.likelihood.Priors` (the tolerances of
+    priors : :class:`bayescal.core.model.likelihood.Priors` (the tolerances of
         period and damping; the gain's range).
     """
     missing = [e for e in ELEMENTS if e not in runs]
@@ -309,7 +309,7 @@ def _relative_coil_constant(runs, m, band, nperseg, fam):
         run = runs[e]
         sp = run_spectra(run, 1.0, band, nperseg)
         model = RunModel(sp, run.coefficients(m), run.families, run.families[-1])
-        _, scale = _start(model)
+        _, scale = nominal_start(model)
         if not scale > 0:
             raise FitError(f"{run.source}: the outputs respond to the coil of {e} with the "
                            "opposite sign to the geometry")

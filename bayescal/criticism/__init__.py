@@ -5,6 +5,7 @@
 * :mod:`.locate`    where the misfit is: per band and channel, with p-values
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
 * :mod:`.diagnose`  the whole diagnosis and its summary
+* :mod:`.verdict`   the criticism of a fit that failed its model check
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the
                     mismatch (a noise-model term, tested before any physics is named)

@@ -36,14 +36,15 @@ import numpy as np
 
 from . import effects as catalogue, tilt
 from .reference_noise import reference_noise_test
-from ..core.refnoise import treatment_meta as reference_noise_meta
-from ..core.mcmc import sample
-from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
-from ..core.geometry import unit_vector
-from ..core.posterior import Posterior, interval_summary
-from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
+from ..core.model.refnoise import treatment_meta as reference_noise_meta
+from ..core.sampling.mcmc import sample
+from ..core.fit.assemble import assemble_posterior, plugin_meta
+from ..core.fit.run import least_squares_fit
+from ..core.orientation.geometry import unit_vector
+from ..core.posterior.samples import interval_summary
+from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, theta_base, with_effects,
                      orientation_score, score, search)
-from .locate import ALPHA, _runs, band_ratio, locate, ratio_weights, segment_timing
+from .locate import ALPHA, true_runs, band_ratio, locate, ratio_weights, segment_timing
 
 
 SCHEMA = "bayescal.diagnose/1"
@@ -72,16 +73,14 @@ def reference_shape_caveat(mode):
 
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
-    """A :class:`Posterior` of ``model`` (with effects) from MCMC
-    (:func:`bayescal.core.mcmc.sample`, the pair fit's independence
+    """A :class:`~bayescal.core.posterior.samples.Posterior` of ``model`` (with effects) from MCMC
+    (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
     if mcmc:
         chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
         samples, lp = chain.samples, chain.log_prob
-        conv = {"tau": chain.tau, "ess": chain.ess, "rhat": chain.rhat,
-                "acceptance": chain.acceptance, "n_steps": chain.n_steps,
-                "n_walkers": chain.n_walkers, "burn": chain.burn, "converged": chain.converged}
+        conv = chain.convergence()
         trace = chain.trace
         meta = dict(meta, sampler=chain.sampler)
     else:
@@ -102,18 +101,10 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC",
                     sampler={"library": None, "draws": int(len(samples)),
                              "approximation": "Laplace (Gaussian at the least-squares point)"})
-    vecs, _ = model.unpack(samples)
-    resp = model.response_values(samples) if free != "none" else {}
-    kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
-    post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
-                     response=resp, samples=samples, names=model.names, log_prob=lp,
-                     convergence=conv,
-                     meta=dict(meta, effects=[e.name for e in model.effects],
-                               plugin_weights=plugin_meta(model)),   # the final model's own
-                     not_estimable=not_estimable, trace=trace,
-                     diagnostics=diagnostics(model, np.median(samples, axis=0)))
-    post.model = model
-    return post
+    return assemble_posterior(model, samples, lp, conv,
+                              dict(meta, effects=[e.name for e in model.effects],
+                                   plugin_weights=plugin_meta(model)),   # the final model's own
+                              free, not_estimable=not_estimable, trace=trace)
 
 
 # --- the whole diagnosis -------------------------------------------------------
@@ -185,9 +176,10 @@ def orientation_effects(base, model0, th0, ids, sig=None):
 def _without(model, theta, drop):
     """(model, theta) with the effects whose keys are in ``drop`` removed
     (the channel blocks' and the other effects' parameters kept)."""
-    keep = [(e, sl) for e, sl in zip(model.effects, model.effect_slices) if _key(e) not in drop]
-    m = _with(model, [e for e, _ in keep])
-    th = np.concatenate([_theta_base(model, theta)] + [np.asarray(theta)[sl] for _, sl in keep])
+    keep = [(e, sl) for e, sl in zip(model.effects, model.effect_slices)
+            if effect_key(e) not in drop]
+    m = with_effects(model, [e for e, _ in keep])
+    th = np.concatenate([theta_base(model, theta)] + [np.asarray(theta)[sl] for _, sl in keep])
     return m, th
 
 
@@ -201,8 +193,8 @@ def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
     while len(model.effects) > min_effects - 1 and model.effects:
         gains = []
         for e in model.effects:
-            m, th = _without(model, theta, {_key(e)})
-            gains.append((score(m, th, model, theta)["delta_bic"], _key(e)))
+            m, th = _without(model, theta, {effect_key(e)})
+            gains.append((score(m, th, model, theta)["delta_bic"], effect_key(e)))
         gain, key = min(gains)
         if gain > keep:
             break
@@ -210,7 +202,7 @@ def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
             log(f"  {key} dropped: BIC gain {gain:.1f} for keeping it, {keep:.1f} needed")
         m, th = _without(model, theta, {key})
         m.adopt_noise(model.noise)
-        model, theta = m, _refit(m, (th,))[1]
+        model, theta = m, best_refit(m, (th,))[1]
         dropped.append({"effect": key, "delta_bic": float(gain), "needed": float(keep)})
     return model, theta, dropped
 
@@ -289,7 +281,7 @@ def timing_consistency(model, theta):
 def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
     """Diagnose a base fit.
 
-    ``base`` is a :class:`Posterior` from :func:`bayescal.io.pipeline.calibrate`
+    ``base`` is a :class:`~bayescal.core.posterior.samples.Posterior` from :func:`bayescal.io.pipeline.calibrate`
     (with ``.model`` and ``.theta_ls`` attached). ``deadline``: a
     :func:`time.monotonic` value past which no further candidate effect is
     tried (the diagnosis is then incomplete: ``Diagnosis.incomplete``).
@@ -313,7 +305,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
         model0, th0 = eiv, th_e
     # when a drift is a candidate, every model of the search is scored on the
     # per-time-block likelihood (candidates ranked on the same data)
-    start = _with(model0, [], per_block=_drift_candidate(model0, sig["clock_drift"]))
+    start = with_effects(model0, [], per_block=drift_candidate(model0, sig["clock_drift"]))
     if start.per_block:
         start.estimate_noise(th0)
     model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
@@ -331,7 +323,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
                     log("  timing_offset dropped: not consistent across sub-bands")
                 m, t = _without(model, th2, {"timing_offset"})
                 m.adopt_noise(model.noise)
-                model, th2 = m, _refit(m, (t,))[1]
+                model, th2 = m, best_refit(m, (t,))[1]
                 dropped.append({"effect": "timing_offset", "reason": "its size differs between "
                                 "the lower and the upper half of the band"})
         if dropped:
@@ -345,9 +337,9 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     after = locate(model, th)
     # the base model's misfit under the final noise model: the base's own
     # noise estimate is inflated by the misfit it leaves (before/after on one scale)
-    common = _with(model0, [], per_block=model.per_block)
+    common = with_effects(model0, [], per_block=model.per_block)
     common.adopt_noise(model.noise)
-    before_common = locate(common, _refit(common, (th0,))[1])
+    before_common = locate(common, best_refit(common, (th0,))[1])
     if mcmc and deadline is not None and (model.effects or eiv is not None):
         # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
         # steps from the cost of one ensemble's evaluation; too few, or none
@@ -374,8 +366,8 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
     for e, sl in zip(model.effects, model.effect_slices):
-        entry = _effect_entry(model, e, sl, final.samples, kept.get(_key(e)))
-        entry["signature"] = sig.get(_key(e), {})
+        entry = _effect_entry(model, e, sl, final.samples, kept.get(effect_key(e)))
+        entry["signature"] = sig.get(effect_key(e), {})
         effects.append(entry)
     effects += orientation_effects(base, model0, th0, ids, sig)
     nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
@@ -449,7 +441,7 @@ class Diagnosis:
         if fixed.any() and any(e.get("score_gain") for e in self.effects):
             before = self.before_common["misfit"][fixed].max()
             after = self.after["misfit"][fixed].max()
-            where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in _runs(fixed))
+            where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in true_runs(fixed))
             out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
                        f"misfit in {where} Hz (largest standardised misfit there "
                        f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")

@@ -1,6 +1,6 @@
 """A catalogue of physics that the base calibration model leaves out.
 
-Each entry is an :class:`bayescal.core.likelihood.Effect` (a factor on the SUT
+Each entry is an :class:`bayescal.core.model.likelihood.Effect` (a factor on the SUT
 deconvolution that equals 1 at the effect's null value, so the extended model
 nests the base model), a *signature* test that scores how well the misfit
 located after the base fit looks like it, and a sentence in plain words.
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.likelihood import Effect
+from ..core.model.likelihood import Effect
 
 #: Angle (degrees) within which a fitted axis "matches" a metadata axis.
 MATCH_DEG = 30.0

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.adequacy import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
+from ..core.checks.adequacy import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
 
 # --- locate -----------------------------------------------------------------
 
@@ -52,7 +52,7 @@ def locate(model, theta):
     flag = mismatch_flags(p)
     ids = [b.channel_id for b in model.blocks]
     runs = []
-    for b, e in _runs(flag.any(axis=1)):
+    for b, e in true_runs(flag.any(axis=1)):
         runs.append({"band_hz": [float(sp.band_edges[b]), float(sp.band_edges[e])],
                      "channels": [ids[i] for i in np.flatnonzero(flag[b:e].any(axis=0))],
                      "p_value": float(p[b:e].min()),
@@ -85,7 +85,7 @@ def segment_timing(model, theta):
 
 # --- candidates -------------------------------------------------------------
 
-def _runs(mask):
+def true_runs(mask):
     """(first, end) band indices of each run of True in ``mask``."""
     edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
     return list(zip(edges[::2], edges[1::2]))

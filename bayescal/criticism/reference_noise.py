@@ -11,7 +11,7 @@ are named as physics that is not there. The reference's noise is a noise-model
 term, not physics: this module tests for it and, when present, the
 diagnosis criticises the model that includes it.
 
-Test: the errors-in-variables model of :mod:`bayescal.core.eiv` in mode
+Test: the errors-in-variables model of :mod:`bayescal.core.model.eiv` in mode
 ``estimate`` (the reference's noise a combination of two spectral shapes per
 reference channel, white in ground units and white in its counts, profiled
 out) nests the quiet model at zero noise coefficients. Both are scored under
@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import refnoise
-from ..core.eiv import EIVModel
-from ..core.likelihood import Model
-from ..core.sampler import least_squares_fit
+from ..core.model import refnoise
+from ..core.model.eiv import EIVModel
+from ..core.model.likelihood import Model
+from ..core.fit.run import least_squares_fit
 
 
 class _QuietUnderEIV(EIVModel):
@@ -79,8 +79,8 @@ def reference_noise_test(model, theta, bic_keep=10.0):
                 None, None, None)
     quiet = _QuietUnderEIV(sp, model.ref_vectors, model.blocks, model.priors, ref_noise="estimate")
     quiet.adopt_noise(eiv.noise)
-    from .search import _refit
-    ll_q = _refit(quiet, (np.asarray(theta, float), th_e))[0]
+    from .search import best_refit
+    ll_q = best_refit(quiet, (np.asarray(theta, float), th_e))[0]
     ll_e = float(eiv.log_likelihood(th_e)[0])
     n = 2 * sp.n_bands * sp.n_u * sp.n_r
     k = 2 * sp.n_r

@@ -7,16 +7,17 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from . import effects as catalogue
-from ..core.jacobian import forward_jacobian
-from ..core.sampler import least_squares_fit, single_threaded_blas
-from ..core.unconstrained import prior_bounds
-from ..core.geometry import Fixed
-from ..core.eiv import EIVModel, EIVNoise
-from ..core.likelihood import MIN_TIME_BLOCKS, Model
-from ..core.response import TwoPoleFamily
+from ..core.model.jacobian import forward_jacobian
+from ..core.fit.leastsq import TIGHT, solve
+from ..core.fit.run import least_squares_fit
+from ..core.threads import single_threaded_blas
+from ..core.fit.unconstrained import prior_bounds
+from ..core.orientation.geometry import Fixed
+from ..core.model.eiv import EIVModel, EIVNoise
+from ..core.model.likelihood import MIN_TIME_BLOCKS, Model
+from ..core.response.family import TwoPoleFamily
 
 
 #: An effect is kept when it improves the BIC by more than this ("very
@@ -36,14 +37,14 @@ def _candidates(model, free, current, drift=None):
     sp = model.spectra
     rows = list(range(sp.n_u))
     fmin, fmax = float(sp.band_edges[0]), float(sp.band_edges[-1])
-    have = {_key(e) for e in current}
+    have = {effect_key(e) for e in current}
     out = []
     span = min(5.0, 0.5 / fmin)
     step = 0.05 / fmax
     if not any(e.name == "clock_drift" for e in current):
         out.append(("timing_offset", catalogue.TimingOffset(rows),
                     np.arange(-span, span + step, step)[:, None]))
-    if _drift_candidate(model, drift):
+    if drift_candidate(model, drift):
         taus = np.arange(-span, span + step, step)
         out.append(("clock_drift", catalogue.ClockDrift(rows, sp),
                     np.column_stack([taus, np.full(taus.size, drift["ppm"])])))
@@ -55,7 +56,7 @@ def _candidates(model, free, current, drift=None):
         e.index = n + 1
         if n:   # unique parameter names for a second pole on the same sensor
             e.param_names = (f"inverse_corner_s_{n + 1}",)
-        out.append((_key(e), e, x[:, None]))
+        out.append((effect_key(e), e, x[:, None]))
     pendulum = [i for i, b in enumerate(model.blocks)
                 if b.free != "all" and isinstance(b.family, TwoPoleFamily)]
     if pendulum:
@@ -86,7 +87,7 @@ def _fitted_offset(model, theta, tried):
     return None
 
 
-def _drift_candidate(model, drift):
+def drift_candidate(model, drift):
     """Whether a clock drift is tried: the per-segment timing trend passes
     the screen and the spectra have enough time blocks."""
     bt = model.spectra.block_totals
@@ -94,7 +95,7 @@ def _drift_candidate(model, drift):
             and bt.shape[0] >= MIN_TIME_BLOCKS)
 
 
-def _key(effect):
+def effect_key(effect):
     if effect.name == "extra_pole":
         k = getattr(effect, "index", 1)
         return f"extra_pole:{effect.which}" + (f"#{k}" if k > 1 else "")
@@ -103,7 +104,7 @@ def _key(effect):
     return effect.name
 
 
-def _with(model, effects, per_block=False):
+def with_effects(model, effects, per_block=False):
     """``model`` with ``effects`` and its noise model. Once a time-dependent
     effect is in, the likelihood is per time block (and stays so, so that the
     models a search compares use the same data)."""
@@ -121,14 +122,15 @@ def _with(model, effects, per_block=False):
     return m
 
 
-def _theta_base(model, theta):
+def theta_base(model, theta):
     """The channel-block part of ``theta`` (effects stripped)."""
     n = sum(b.n_params for b in model.blocks)
     return np.asarray(theta)[:n]
 
 
 def _effect_params(model, theta):
-    return {_key(e): np.asarray(theta)[sl] for e, sl in zip(model.effects, model.effect_slices)}
+    return {effect_key(e): np.asarray(theta)[sl]
+            for e, sl in zip(model.effects, model.effect_slices)}
 
 
 def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
@@ -136,16 +138,16 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     effect at ``new_index`` starts at the best point of ``grid`` under the
     current noise model). Returns (model, theta, cov) or None when the fit
     leaves the effect's prior support."""
-    m = _with(cur_model, effects)
+    m = with_effects(cur_model, effects)
     old = _effect_params(cur_model, cur_theta)
-    base = list(_theta_base(cur_model, cur_theta))
+    base = list(theta_base(cur_model, cur_theta))
     pieces, new_slice, i = [], None, len(base)
     for k, e in enumerate(effects):
         if k == new_index:
             pieces.append(np.zeros(e.n_params))
             new_slice = slice(i, i + e.n_params)
         else:
-            pieces.append(old.get(_key(e), np.zeros(e.n_params)))
+            pieces.append(old.get(effect_key(e), np.zeros(e.n_params)))
         i += e.n_params
     theta0 = np.concatenate([base] + pieces)
     trial = np.repeat(theta0[None], len(grid), axis=0)
@@ -192,10 +194,10 @@ def _starts(trial, ll, n):
 def _best_loglik(model, starts):
     """Largest log-likelihood of ``model`` under its (fixed) noise model,
     maximised by least squares from each of ``starts``."""
-    return _refit(model, starts)[0]
+    return best_refit(model, starts)[0]
 
 
-def _refit(model, starts):
+def best_refit(model, starts):
     """(log-likelihood, theta) of the best least-squares refit of ``model``
     from ``starts`` under its fixed noise model."""
     if model.ndim == 0:
@@ -205,11 +207,9 @@ def _refit(model, starts):
     bounded = bool(np.isfinite(lo).any())
     best = (-np.inf, None)
     for start in starts:
-        res = least_squares(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
-                            jac=forward_jacobian(model, matmul=True), args=(fac,),
-                            method="trf" if bounded else "lm",
-                            bounds=(lo, hi) if bounded else (-np.inf, np.inf),
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        res = solve(model.whitened_residual, np.clip(start, lo + 1e-9, hi - 1e-9),
+                    *((lo, hi) if bounded else ()), method="trf" if bounded else "lm",
+                    jac=forward_jacobian(model, matmul=True), args=(fac,), **TIGHT)
         ll = float(model.log_likelihood(res.x)[0])
         if ll > best[0]:
             best = (ll, res.x)
@@ -248,13 +248,13 @@ def orientation_score(model, theta, nominal, finding):
 def score(cur_model, cur_theta, ext_model, ext_theta):
     """BIC gain of ``ext_model`` over ``cur_model`` under the extended
     model's noise model (the current model re-optimised under it)."""
-    cur = _with(cur_model, cur_model.effects, per_block=ext_model.per_block)
+    cur = with_effects(cur_model, cur_model.effects, per_block=ext_model.per_block)
     cur.adopt_noise(ext_model.noise)
     # start from the current optimum and from the extended optimum's shared
     # parameters (the plug-in noise moves the optimum), keep the better
     ext_params = _effect_params(ext_model, ext_theta)
-    shared = np.concatenate([_theta_base(ext_model, ext_theta)] + [
-        ext_params.get(_key(e), np.asarray(cur_theta)[sl])
+    shared = np.concatenate([theta_base(ext_model, ext_theta)] + [
+        ext_params.get(effect_key(e), np.asarray(cur_theta)[sl])
         for e, sl in zip(cur.effects, cur.effect_slices)])
     ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])

@@ -50,9 +50,9 @@ likelihood guard against a base model that misfits for other reasons).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..core.spectra import make_bands
+from ..core.fit.leastsq import solve
+from ..core.spectra.welch import make_bands
 
 #: Bounds of the common exponent (tilt power ~ f^-alpha). Tilt ``theta`` puts
 #: ``g theta`` on a horizontal's acceleration, so its velocity PSD is
@@ -261,8 +261,8 @@ class TiltModel:
                   + list(extra_starts))
         best = None
         for th in starts:
-            r = least_squares(self.resid, np.clip(th, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
-                              x_scale="jac", max_nfev=300)
+            r = solve(self.resid, np.clip(th, lo + 1e-9, hi - 1e-9), lo, hi, x_scale="jac",
+                      max_nfev=300)
             if best is None or r.cost < best.cost:
                 best = r
         return best
@@ -301,7 +301,7 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
 
     Parameters
     ----------
-    sp : :class:`bayescal.core.spectra.CrossSpectra` (SUT channels first).
+    sp : :class:`bayescal.core.spectra.welch.CrossSpectra` (SUT channels first).
     horizontal : boolean mask over SUT channels (True = horizontal).
     bic_keep : keep the tilt model when its ``delta_bic`` exceeds this.
     channel_keep : a horizontal is named when dropping its own tilt term

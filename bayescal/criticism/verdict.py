@@ -131,9 +131,9 @@ def _held_response_moves(effect):
 def _good_band(edges, flag):
     """(lo, hi) of the widest run of bands without a mismatch (the whole
     band's edges when every band misfits or none does)."""
-    from .locate import _runs
+    from .locate import true_runs
     ok = ~flag.any(axis=1)
-    runs = _runs(ok)
+    runs = true_runs(ok)
     if not runs or ok.all():
         return None
     a, b = max(runs, key=lambda r: np.log(edges[r[1]] / edges[r[0]]))

@@ -11,9 +11,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..core.geometry import unit_vector
-from ..core.response import evaluate_velocity_response, response_family
-from .read import InputError, InputWarning, _channel_meta
+from ..core.orientation.geometry import unit_vector
+from ..core.response.family import evaluate_velocity_response, response_family
+from .read import InputError, InputWarning, channel_meta
 
 #: Sub-sample offsets smaller than this fraction of a sample are rounded.
 SUBSAMPLE_TOLERANCE = 0.01
@@ -50,7 +50,7 @@ class Side:
 
     def families(self):
         """Per channel the parametric family of its response
-        (:func:`bayescal.core.response.response_family`: a
+        (:func:`bayescal.core.response.family.response_family`: a
         :class:`TwoPoleFamily`, a gain-only :class:`ScaleFamily` when the
         first stage is not a pendulum pair, or None)."""
         return [response_family(r) for r in self.responses]
@@ -254,7 +254,7 @@ def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=N
         ids, data, vecs, resps, azs, dips, srcs = [], [], [], [], [], [], []
         for tid, (x, tr) in gridded.items():
             file = getattr(tr.stats, "bayescal_source", source)
-            ch, az, dip = _channel_meta(inv, tr, source)
+            ch, az, dip = channel_meta(inv, tr, source)
             _check_channel(x, tid, file)
             ids.append(tid)
             data.append(x)

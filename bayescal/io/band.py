@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .read import InputError
-from ..core.coherence import welch_multiple_coherence
+from ..core.spectra.coherence import welch_multiple_coherence
 
 #: Default coherence a band must have on every visible SUT channel.
 DEFAULT_THRESHOLD = 0.9
@@ -113,7 +113,7 @@ def _widest_run(mask, freqs):
 
 def _inside_span(sut, ref):
     """Indices of SUT channels whose nominal axis the reference can see."""
-    from ..core.sampler import SPAN_TOLERANCE_DEG, span_basis
+    from ..core.fit.run import SPAN_TOLERANCE_DEG, span_basis
 
     basis, _ = span_basis(np.asarray(ref.vectors, float))
     if basis.shape[0] == 3:
@@ -141,7 +141,7 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     if fmin >= fmax:
         raise InputError(f"{source}too little data to choose a band: {n / fs:.0f} s")
     # coherence is unchanged by each channel's own (invertible) response: no
-    # deconvolution, so no run-edge margins either (core.coherence computes
+    # deconvolution, so no run-edge margins either (core.spectra.coherence computes
     # only the coherence, not the fit's per-band and per-segment matrices)
     freqs, raw = welch_multiple_coherence(sut.data, ref.data, fs, (fmin, fmax), nperseg)
     coh = _smooth(freqs, np.clip(raw, 0, 1))

@@ -1,6 +1,6 @@
 """Files -> aligned sensors -> cross-spectra -> self-noise of co-located sensors.
 
-The shell around :mod:`bayescal.core.selfnoise`, reusing the calibration
+The shell around :mod:`bayescal.core.selfnoise.sleeman`, reusing the calibration
 pipeline's pieces:
 
 * :func:`.read.read_waveforms` reads one recording per sensor and
@@ -12,11 +12,11 @@ pipeline's pieces:
 * channels are grouped by component (Z, N, E: the axis nearest the
   StationXML azimuth and dip), one channel per sensor per group; a
   component seen by fewer than three sensors is skipped (and said so);
-* :func:`bayescal.core.spectra.cross_spectra` removes every response per
+* :func:`bayescal.core.spectra.welch.cross_spectra` removes every response per
   gap-free run (to ground velocity), cuts Hann segments (50 % overlap) and
   sums the cross-spectral matrix per log-spaced band and per segment;
-* :func:`bayescal.core.selfnoise.acceleration_band_matrices` turns them into
-  acceleration PSD matrices and :func:`bayescal.core.selfnoise.estimate_self_noise`
+* :func:`bayescal.core.selfnoise.sleeman.acceleration_band_matrices` turns them into
+  acceleration PSD matrices and :func:`bayescal.core.selfnoise.sleeman.estimate_self_noise`
   gives the estimates and their 90 % intervals, per band and as means over
   a few period bands (:data:`PERIOD_EDGES_S`); an interval that reaches
   zero power is below resolution: its upper bound is the result.
@@ -34,10 +34,10 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal.windows import hann
 
-from ..core import selfnoise as core
-from ..core.spectra import cross_spectra
+from ..core.selfnoise import sleeman as core
+from ..core.spectra.dof import band_dof
+from ..core.spectra.welch import cross_spectra
 from .read import InputError, read_waveforms
 from .align import Side, align_sensors
 
@@ -51,7 +51,7 @@ LONGEST_PERIOD = 100.0
 NYQUIST_FRACTION = 0.8
 #: Default allowance (rad rms per sensor and horizontal direction) for
 #: differences between the sensors' sensitive axes (see
-#: :func:`bayescal.core.selfnoise.wishart_interval`): a levelling tolerance,
+#: :func:`bayescal.core.selfnoise.sleeman.wishart_interval`): a levelling tolerance,
 #: an assumption, not a measurement.
 AXIS_MISMATCH = 1e-3
 #: Components in output order; index = position in the NED unit vector.
@@ -138,15 +138,14 @@ def _check_distinct(data, sources, ids):
 
 def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart", block=4,
                        axis_mismatch=AXIS_MISMATCH, period_edges=None):
-    """:class:`bayescal.core.selfnoise.SelfNoise` (acceleration PSD) of the
+    """:class:`bayescal.core.selfnoise.sleeman.SelfNoise` (acceleration PSD) of the
     channels of ``spectra``: one component of n >= 3 sensors, in velocity.
     Also returns the (B, n, n) acceleration matrices. With ``period_edges``
     (s) returns a third and a fourth item: the estimates averaged over those
-    period bands (:func:`bayescal.core.selfnoise.period_band_weights`) and
+    period bands (:func:`bayescal.core.selfnoise.sleeman.period_band_weights`) and
     the bands' (shortest, longest) periods."""
     C, fc = core.acceleration_band_matrices(spectra)
-    dof = core.effective_dof(hann(spectra.nperseg, sym=False), spectra.segment_starts,
-                             spectra.bins_per_band)
+    dof = band_dof(spectra)
     kw = dict(level=level, n_boot=n_boot, seed=seed, per_segment=spectra.per_segment,
               method=method, block=block, axis_mismatch=axis_mismatch, ids=spectra.sut_ids)
     est = core.estimate_self_noise(C, dof, fc, **kw)

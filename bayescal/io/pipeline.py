@@ -17,15 +17,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.sampler import fit_spectra
+from ..core.fit.run import fit_spectra
 from .channels import check_distinct, select_channels
 from .read import InputError, flat_inventory, read_metadata, read_waveforms
 from .align import align
-from ..core.likelihood import Priors
-from ..core.spectra import SpectraError, cross_spectra
-from ..core.transients import find as find_transients, summary as transient_summary
-from ..core.record_length import record_length
-from ..core import reference_tolerance
+from ..core.model.likelihood import Priors
+from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.spectra.transients import find as find_transients, summary as transient_summary
+from ..core.checks.record_length import record_length
+from ..core.response import reference_tolerance
 
 
 def _describe_files(side):
@@ -73,7 +73,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         "all" (period, damping and gain per channel; needs a poles-and-zeros
         first stage) or "none" (angles only, gains held at their metadata
         values). With a one-channel horizontal reference the gains are held
-        whatever is asked short of "all" (see :mod:`bayescal.core.rotation`).
+        whatever is asked short of "all" (see :mod:`bayescal.core.fit.rotation`).
     seed : int
         Random seed (results are reproducible).
     ref_noise : {None, "estimate", "quiet", "equal"}
@@ -83,7 +83,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         SUT's in ground units); None (the default): "estimate" with two or
         more channels on each side (unbiased whatever the split of noise),
         "quiet" otherwise (a one-channel pair cannot separate the
-        reference's noise); see :mod:`bayescal.core.refnoise`. The mode used
+        reference's noise); see :mod:`bayescal.core.model.refnoise`. The mode used
         is in ``posterior.meta["reference_noise"]``.
     ref_noise_psd : str, dict or None
         The reference's self-noise as known (mode "fixed"): a file path or
@@ -92,15 +92,15 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         period / dB text file): the remedy for a one-channel pair.
     start, end : obspy.UTCDateTime or None
         Limits of the analysis window.
-    priors : bayescal.core.likelihood.Priors
+    priors : bayescal.core.model.likelihood.Priors
         The priors; with ``fit_response="all"`` its ``period_tolerance`` and
         ``damping_tolerance`` (relative standard deviations of the log-normal
         priors on period and damping, default 0.05) are the manufacturer's
-        tolerance (:mod:`bayescal.core.pendulum`); its
+        tolerance (:mod:`bayescal.core.response.pendulum`); its
         ``reference_tolerance`` (default 0: the reference's metadata taken as
         exact) the relative standard deviation of the reference's gain,
         period and damping, carried into the SUT's response intervals
-        (:mod:`bayescal.core.reference_tolerance`).
+        (:mod:`bayescal.core.response.reference_tolerance`).
     diagnose : bool
         When the model check fails, criticise the fit (True, the default):
         find what the model leaves out, model it from the fit's own
@@ -117,7 +117,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         "drop" (the default): Welch segments in which one sensor records
         noise the other does not, well beyond the minutes around them (a
         transient near one sensor), are left out of the fit
-        (:mod:`bayescal.core.transients`; how many and when in
+        (:mod:`bayescal.core.spectra.transients`; how many and when in
         ``posterior.meta["data_used"]["transients"]``); "keep" fits every
         segment (as ``bayescal fit --keep-transients``).
 
@@ -130,7 +130,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     Warns
     -----
     ModelMisfitWarning
-        When the model check fails (:mod:`bayescal.core.adequacy`).
+        When the model check fails (:mod:`bayescal.core.checks.adequacy`).
     NotConvergedWarning
         When the sampler stopped before meeting its convergence rule.
     """
@@ -214,10 +214,9 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
-    from ..core.pair_noise import for_fit
+    from ..core.selfnoise.pair_noise import for_fit
     used = post.meta.get("reference_noise", {}).get("mode", ref_noise)
-    post.self_noise, post.sensor_order = for_fit(getattr(post, "model", None),
-                                                 getattr(post, "full_samples", None),
+    post.self_noise, post.sensor_order = for_fit(post.model, post.full_samples,
                                                  used, fit_response, seed,
                                                  (spectra.sut_ids, spectra.ref_ids),
                                                  _assumed_flat(ref_inventory)
@@ -228,7 +227,6 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                                                  .get("separation", {}))
     post.spectra = spectra
     post.sut_inventory = sut_inventory
-    post.improved = None
     if diagnose:
         _criticise(post, diagnose_budget_s, seed, sample_kw)
     # after the criticism, which judges how far its improved model moves the
@@ -244,9 +242,9 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 def _criticise(post, budget_s, seed, sample_kw):
     """When the model check fails, the criticism of the fit (see
     :mod:`bayescal.criticism.verdict`), kept on ``post``."""
-    from ..core.adequacy import from_diagnostics
+    from ..core.checks.adequacy import from_diagnostics
 
-    if getattr(post, "model", None) is None or getattr(post, "theta_ls", None) is None:
+    if post.model is None or post.theta_ls is None:
         return
     from ..criticism.verdict import check_orientation, criticise, failed
     ok = from_diagnostics(post.diagnostics).get("ok")
@@ -269,7 +267,7 @@ def _warn_on_misfit(post):
     so a script sees it as the console does."""
     import warnings
 
-    from ..core.adequacy import ModelMisfitWarning, describe, from_diagnostics
+    from ..core.checks.adequacy import ModelMisfitWarning, describe, from_diagnostics
     verdict = from_diagnostics(post.diagnostics)
     if verdict.get("ok") is False:
         c = post.criticism.get("verdict_text") if post.criticism else None
@@ -279,7 +277,7 @@ def _warn_on_misfit(post):
 
 def _known_reference_noise(psd, ref_noise, spectra):
     """(mode "fixed", (B, n_r) band sums, a JSON-safe note) from ``psd``."""
-    from ..core.refnoise import band_sums_of_psd
+    from ..core.model.refnoise import band_sums_of_psd
     from .refnoise_file import for_channels, read_reference_noise
 
     if ref_noise not in (None, "fixed"):
@@ -362,8 +360,8 @@ def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=
     Returns
     -------
     Posterior
-        As :func:`calibrate`, with ``posterior.sut_inventory`` attached for
-        the corrected StationXML.
+        As :func:`calibrate` (its ``sut_inventory`` is what the corrected
+        StationXML is written from).
     """
     from obspy import UTCDateTime
 
@@ -401,20 +399,21 @@ def write_results(posterior, folder):
     list of str
         The paths written: ``result.json``, ``samples.npz``,
         ``diagnostics.npz`` and, when the posterior came from
-        :func:`calibrate_files` (or has a ``sut_inventory`` attribute),
+        :func:`calibrate_files` or :func:`calibrate` (it holds a ``sut_inventory``),
         ``sut_corrected.xml``. Each file is written atomically.
     """
     import os
 
+    from .result import save_posterior
     from .stationxml import write_corrected
 
-    posterior.save(folder)
+    save_posterior(posterior, folder)
     names = ["result.json", "samples.npz"] + (["diagnostics.npz"] if posterior.diagnostics
                                               else [])
-    inv = getattr(posterior, "sut_inventory", None)
+    inv = posterior.sut_inventory
     if inv is not None:
         crit = posterior.criticism or {}
-        improved = getattr(posterior, "improved", None)
+        improved = posterior.improved
         use = improved if crit.get("stationxml") == "improved model" and improved else posterior
         write_corrected(inv, use, os.path.join(folder, "sut_corrected.xml"),
                         criticism=crit if use is improved else None)

@@ -162,7 +162,7 @@ def read_metadata(path, side="StationXML", stream=None):
 def _mark_read(inventory, path, problems):
     """Keep on ``inventory`` the file it was read from and the numbers of
     its channel epochs that are not finite as written (see
-    :func:`_channel_meta`)."""
+    :func:`channel_meta`)."""
     inventory.bayescal_read = {"path": path, "problems": problems, "checked": set()}
     return inventory
 
@@ -287,7 +287,7 @@ def _check_values(inventory, ch, tr, source):
         info["checked"].add(key)
 
 
-def _channel_meta(inventory, tr, source):
+def channel_meta(inventory, tr, source):
     """The StationXML channel of trace ``tr`` and its (azimuth, dip)."""
     try:
         ch = inventory.select(network=tr.stats.network, station=tr.stats.station,

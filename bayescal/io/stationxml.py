@@ -17,7 +17,7 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   comment with the relative gain (fitted / metadata) and its interval
   (StationXML's Gain has no error fields);
 * except that a response parameter the data do not constrain ("set by the
-  prior", :mod:`bayescal.core.unconstrained`, :mod:`bayescal.core.pendulum`)
+  prior", :mod:`bayescal.core.fit.unconstrained`, :mod:`bayescal.core.response.pendulum`)
   keeps its nominal value, and the comment says why; when the data fix
   damping/period but neither separately, the period stays nominal and the
   damping carries the measured damping/period (:func:`written_period_damping`);
@@ -58,15 +58,6 @@ def find_channel(inventory, cid, time):
     raise InputError(f"channel {cid} is not in the SUT StationXML")
 
 
-def _pendulum_poles(period_s, damping):
-    """(W,) period and damping -> (W, 2) pole pair, rad/s (conjugate first
-    with positive imaginary part; two real poles when overdamped)."""
-    w0 = 2 * np.pi / np.asarray(period_s, float)
-    h = np.asarray(damping, float)
-    disc = np.sqrt((h ** 2 - 1).astype(complex))
-    return np.stack([-w0 * (h - disc), -w0 * (h + disc)], axis=-1)
-
-
 def pole_with_errors(samples):
     """ComplexWithUncertainties from complex pole samples (median and 68 %)."""
     re = np.percentile(samples.real, [16, 50, 84])
@@ -80,7 +71,7 @@ def written_period_damping(summary, family):
     """The period and damping the corrected StationXML holds (None, None when
     it keeps the nominal pair): a measured value as measured, one the prior
     sets at nominal, except that when the data fix damping/period
-    (:mod:`bayescal.core.pendulum`) the damping carries it: the poles' real
+    (:mod:`bayescal.core.response.pendulum`) the damping carries it: the poles' real
     part ``-h w0`` is then the measured one, their modulus the written
     period's."""
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
@@ -95,7 +86,8 @@ def written_period_damping(summary, family):
 
 def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response import response_family
+    from ..core.response.family import (pendulum_coefficients, pendulum_denominator,
+                                        pendulum_poles, response_family)
 
     resp = channel.response
     stage = resp.response_stages[0]
@@ -106,8 +98,8 @@ def update_response(channel, samples, free, summary):
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
     period, damping = written_period_damping(summary, fam) if free == "all" else (None, None)
     if period is not None:
-        new = _pendulum_poles([period], [damping])[0]
-        pole_samples = _pendulum_poles(samples[:, 0], samples[:, 1])
+        new = pendulum_poles([period], [damping])[0]
+        pole_samples = pendulum_poles(samples[:, 0], samples[:, 1])
         current = [complex(p) / scale for p in stage.poles]
         pair = sorted(np.argsort(np.abs(current))[:2], key=lambda i: -current[i].imag)
         for k, idx in enumerate(pair):
@@ -116,10 +108,9 @@ def update_response(channel, samples, free, summary):
                 new[k] * scale, lower_uncertainty=err.lower_uncertainty * scale,
                 upper_uncertainty=err.upper_uncertainty * scale)
         sn = 2j * np.pi * fam.norm_freq
-        w0n, hn = 2 * np.pi / fam.period_s, fam.damping
-        w0, h = 2 * np.pi / period, damping
-        a0_ratio = abs(sn * sn + 2 * h * w0 * sn + w0 * w0) / abs(sn * sn + 2 * hn * w0n * sn
-                                                                  + w0n * w0n)
+        a0_ratio = (abs(pendulum_denominator(sn, *pendulum_coefficients(period, damping)))
+                    / abs(pendulum_denominator(sn, *pendulum_coefficients(fam.period_s,
+                                                                          fam.damping))))
         stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
     if "gain" in prior:
         if free != "all" or period is None:
@@ -139,8 +130,8 @@ def update_response(channel, samples, free, summary):
     sens = resp.instrument_sensitivity
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
-        # ObsPy's recalculation in numpy (bayescal.core.evalresp; no obspy.signal import)
-        from ..core.evalresp import NotHandled, velocity_response
+        # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
+        from ..core.response.evalresp import NotHandled, velocity_response
         sens.frequency = float(freq)
         try:
             sens.value = float(abs(velocity_response(resp, [freq])[0]))
@@ -228,8 +219,8 @@ def _decimating_stage(channel):
 def _lean_azimuth(posterior, cid):
     """Interval summary of the SEED azimuth of a near-vertical channel's axis
     (the direction of its horizontal part), unwrapped around its mean."""
-    from ..core.geometry import azimuth_dip, unwrap_azimuths
-    from ..core.posterior import interval_summary
+    from ..core.orientation.geometry import azimuth_dip, unwrap_azimuths
+    from ..core.posterior.samples import interval_summary
 
     az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
     return interval_summary(unwrap_azimuths(az))

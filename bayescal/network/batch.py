@@ -36,7 +36,7 @@ import time
 import uuid
 import warnings
 
-from ..core.posterior import write_json
+from ..io.result import save_posterior, write_json
 
 LOG = "batch_log.jsonl"
 TMP = ".tmp"
@@ -66,8 +66,8 @@ def run_item(item, out):
     thread, worker, error); never
     raises for a problem of the item itself.
     """
-    from ..core.adequacy import ModelMisfitWarning
-    from ..core.convergence import NotConvergedWarning
+    from ..core.checks.adequacy import ModelMisfitWarning
+    from ..core.posterior.convergence import NotConvergedWarning
     from ..io.stationxml import write_corrected
 
     t, cpu = time.time(), time.thread_time()
@@ -81,7 +81,7 @@ def run_item(item, out):
             warnings.filterwarnings("ignore", category=NotConvergedWarning)
             post, sut_inv = _fit_item(item, opts)
         post.meta["batch_label"] = item["label"]
-        post.save(tmp)
+        save_posterior(post, tmp)
         if sut_inv is not None and not isinstance(sut_inv, str):
             write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
     except Exception as exc:   # recorded, never fatal to the batch

@@ -209,10 +209,6 @@ def read_inventories(path):
     return inv
 
 
-def _first_line(exc):
-    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-
-
 def read_sds_item(item):
     """``(sut, ref, inventory, sut_source, ref_source)`` of an SDS item, read
     with ObsPy's SDS client (on the worker)."""

@@ -1,8 +1,12 @@
 """PDF/PNG reports, one module per kind, figures beside them.
 
+* :mod:`.layout`     what every page shares: context, style, tables, headers
+* :mod:`.axes`       axis helpers: log-frequency ticks, the PSD's unit
 * :mod:`.tables`     rows of the fit report (intervals, nominal, deviations)
 * :mod:`.fit`        the fit report from a result folder
 * :mod:`.fit_pages`  its pages
+* :mod:`.corner_pages` its corner plots (angles; response parameters per channel)
+* :mod:`.pair_noise` its self-noise page: both sensors of the pair
 * :mod:`.diagnosis`  the diagnosis page
 * :mod:`.uvw`        the UVW calibration report
 * :mod:`.cal`        the coil calibration report of one channel (random, step)

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.geometry import unit_vector
-from ..core.pendulum import damping_over_period
+from ..core.orientation.geometry import unit_vector
+from ..core.response.pendulum import damping_over_period
 from .tables import truth_values, wrap180
-from .layout import CORNER_LEVELS, CORNER_QUANTILES, _header
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_header
 
 
 def _truth_or_nan(value):
@@ -78,7 +78,7 @@ def response_columns(ctx):
         labels = [f"{n.replace('_s', '')} ({units[n]})" for n in drawn]
         truths = [_truth_or_nan(tru.get(n)) for n in drawn]
         if {"period_s", "damping"} <= set(drawn):
-            # what a band above the corner fixes (bayescal.core.pendulum)
+            # what a band above the corner fixes (bayescal.core.response.pendulum)
             r = post.response[cid]
             data = np.column_stack([data[:, :2], damping_over_period(r[:, 0], r[:, 1]),
                                     data[:, 2:]])
@@ -141,7 +141,7 @@ def page_corner_angles(ctx):
     fig = Figure(figsize=(width, width + box[3] - box[1]))
     drawn = _corner(fig, data, labels, truths if ctx.truth else None, width,
                     fig.get_figheight(), box)
-    _header(fig, "Posterior of the orientation angles", _corner_note(drawn, labels), width)
+    page_header(fig, "Posterior of the orientation angles", _corner_note(drawn, labels), width)
     return fig
 
 
@@ -166,7 +166,7 @@ def page_corner_response(ctx):
         box = (0.8, 0.75, 0.2, 0.35)
         drawn |= _corner(sf, data, labels, truths if ctx.truth else None, sub_w, sub_h, box)
         sf.text(0.5, 1 - 0.12 / sub_h, cid, ha="center", va="top", fontweight="bold")
-    _header(fig, "Posterior of the response parameters, per channel",
+    page_header(fig, "Posterior of the response parameters, per channel",
             _corner_note(drawn, []) + "\nGain: first-stage sensitivity in the StationXML's"
             " stage-1 output units (e.g. V) per m/s."
             + ("\nh/T0: damping over period, what a band above the corner fixes; a period or"

@@ -44,12 +44,12 @@ def _check_folder(folder):
 
 
 def load_result(folder):
-    """Load a saved :class:`~bayescal.core.posterior.Posterior`, turning any
+    """Load a saved :class:`~bayescal.core.posterior.samples.Posterior`, turning any
     reading problem into an :class:`InputError` naming the folder."""
-    from ..core.posterior import Posterior
+    from ..io.result import load_posterior
     _check_folder(folder)
     try:
-        return Posterior.load(folder)
+        return load_posterior(folder)
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
 

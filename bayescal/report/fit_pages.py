@@ -17,13 +17,13 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from scipy import stats
 
-from ..core.adequacy import describe
+from ..core.checks.adequacy import describe
 from ..criticism.verdict import lines as criticism_lines
-from ..core.modes import multimodal_line
-from ..core.geometry import tilt_from_vertical
+from ..core.posterior.modes import multimodal_line
+from ..core.orientation.geometry import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
-from .layout import LINESTYLES, MARKERS, PARAM_UNITS, _header_lines, _table
+from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
 
 
 def page_summary(ctx):
@@ -45,20 +45,20 @@ def page_summary(ctx):
         fig.text(0.06, top, "\n".join(modes), va="top", fontsize=9, fontweight="bold",
                  linespacing=1.5)
         top -= 0.0155 * len(modes) + 0.008
-    lines = _header_lines(ctx)
+    lines = header_lines(ctx)
     fig.text(0.06, top, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
     top = top - 0.0143 * len(lines) - 0.02
     rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
     resp = response_rows(ctx.summary, ctx.truth)
-    y = _table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down from"
-               " horizontal; deviation = estimate - nominal)", bool(ctx.truth))
+    y = summary_table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down "
+                      "from horizontal; deviation = estimate - nominal)", bool(ctx.truth))
     if resp:
         gain_only = [c for c, e in ctx.summary["channels"].items() if e.get("response")
                      and not two_pole_nominal(e.get("nominal") or {})]
-        y = _table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation in %"
-                   " of nominal)" if not gain_only else
-                   "Response (gain-only metadata, e.g. 'flat': no nominal response to deviate "
-                   "from; the fitted gain is the measurement)", bool(ctx.truth))
+        y = summary_table(fig, y, resp, "Response (first-stage two-pole velocity sensor; deviation "
+                          "in % of nominal)" if not gain_only else
+                          "Response (gain-only metadata, e.g. 'flat': no nominal response to "
+                          "deviate from; the fitted gain is the measurement)", bool(ctx.truth))
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
     if verdict["ok"] is False and crit:
         text.append("  MODEL CHECK FAILED; what the criticism found (the verdict is in the first "
@@ -356,10 +356,10 @@ def page_convergence(ctx):
     tab.auto_set_font_size(False)
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
-    from ..core.convergence import describe_sampler
+    from ..core.posterior.convergence import describe_sampler
     sampler = describe_sampler(post.meta.get("sampler"))
     fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
-             + "Default convergence rule of bayescal.core.mcmc.sample: kept chain >= 50 tau,"
+             + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
              " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
              fontsize=6.5, wrap=True)
     return fig

@@ -142,7 +142,7 @@ def _fmt_dev(row):
 ROW_H = 0.0150
 
 
-def _table(fig, top, rows, title, with_truth):
+def summary_table(fig, top, rows, title, with_truth):
     """Draw a summary table whose top edge is at figure fraction ``top``;
     returns the figure fraction just below it."""
     labels = ["channel", "quantity", "median", "68 % interval", "95 % interval", "nominal",
@@ -171,7 +171,7 @@ def _files_line(label, files, width=110):
     return textwrap.shorten(f"{label}: {text}", width, placeholder=" ...")
 
 
-def _header_lines(ctx):
+def header_lines(ctx):
     """Page-1 header: what was measured, with which data, how."""
     post, m = ctx.post, ctx.post.meta
     conv = ctx.summary["convergence"]
@@ -221,7 +221,7 @@ def _header_lines(ctx):
     if m.get("assumption"):
         lines += textwrap.wrap(f"Assumed: {m['assumption']}", 120)
     if m.get("reference_noise"):
-        from ..core.refnoise import describe_treatment
+        from ..core.posterior.samples import describe_treatment
         lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m['reference_noise'])}",
                                120)
     if m.get("method"):
@@ -233,7 +233,7 @@ def _header_lines(ctx):
     return lines
 
 
-def _header(fig, title, note, width):
+def page_header(fig, title, note, width):
     height = fig.get_figheight()
     note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
     fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")

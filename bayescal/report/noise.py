@@ -17,7 +17,7 @@ import textwrap
 
 import numpy as np
 
-from ..core.selfnoise import below_resolution, db
+from ..core.selfnoise.sleeman import below_resolution, db
 from .layout import A4, LINESTYLES, MARKERS, style
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
@@ -57,7 +57,7 @@ def draw_estimates(ax, e, ids):
     """Draw self-noise estimates on ``ax``: each channel's estimate with its
     interval band and its recorded PSD (dotted), and Peterson's NLNM and
     NHNM, in dB re 1 (m/s^2)^2/Hz against period. ``e`` a
-    :class:`bayescal.core.selfnoise.SelfNoise` (or anything with its
+    :class:`bayescal.core.selfnoise.sleeman.SelfNoise` (or anything with its
     ``period_s``, ``psd``, ``lo``, ``hi``, ``signal``, ``level``), ``ids``
     its channel labels. Also used by the pair fit's self-noise page.
 

@@ -1,7 +1,7 @@
 """Report page of a pair fit's self-noise: every channel of both sensors
 against Peterson's NLNM and NHNM (drawn as ``bayescal noise`` draws them,
 :func:`bayescal.report.noise.draw_estimates`), from result.json's
-``self_noise`` entry (:mod:`bayescal.core.pair_noise`). A pair that cannot
+``self_noise`` entry (:mod:`bayescal.core.selfnoise.pair_noise`). A pair that cannot
 separate the two sensors' noise gets the reason instead of a figure."""
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.geometry import NEAR_VERTICAL_DIP_DEG, unit_vector
+from ..core.orientation.geometry import NEAR_VERTICAL_DIP_DEG, unit_vector
 from ..io.read import InputError
 
 
@@ -71,7 +71,7 @@ def _axis_angle(vectors, nominal):
 
 
 def _interval_row(cid, quantity, entry, nominal, deviation, note="", truth=None):
-    if entry.get("multimodal"):       # one mode's interval: core.modes.mark
+    if entry.get("multimodal"):       # one mode's interval: core.posterior.modes.mark
         note = "multimodal: see modes" + (f"; {note}" if note else "")
     return Row(cid, quantity, entry.get("median"), entry.get("ci68"), entry.get("ci95"),
                nominal, deviation, note, truth)

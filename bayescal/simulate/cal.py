@@ -9,7 +9,7 @@ signal's rms), and the digitizer white noise in counts:
     X(f) = H(f) (C U(f) + N(f)) / (2 pi i f) + digitizer noise,
 
 with ``H`` the *true* velocity response built by
-:func:`bayescal.core.response.paz_velocity_response` (pendulum pair, two zeros
+:func:`bayescal.core.response.family.paz_velocity_response` (pendulum pair, two zeros
 at the origin, the high-frequency poles), applied exactly through the FFT of a
 periodic record. The StationXML holds the *nominal* response, the same form
 with nominal values (:func:`paz_response`), built independently via ObsPy.
@@ -22,8 +22,8 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.response import paz_velocity_response
-from .coil import CalibrationSimulation, _white, prbs
+from ..core.response.family import paz_velocity_response, pendulum_poles
+from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 
 #: Nominal STS-2-like channel: period (s), damping, gain (V per m/s).
@@ -42,16 +42,10 @@ def _expand(poles):
     return out
 
 
-def _pendulum(period_s, damping):
-    w0 = 2 * np.pi / period_s
-    p = -damping * w0 + 1j * w0 * np.sqrt(complex(1 - damping ** 2))
-    return [p, np.conj(p)] if damping < 1 else [p.real + p.imag * 1j, p.real - p.imag * 1j]
-
-
 def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_freq=NORM_FREQ):
     """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
     conjugates added), gain at ``norm_freq``, a flat digitizer."""
-    poles = _pendulum(period_s, damping) + _expand(hf_poles)
+    poles = list(pendulum_poles(period_s, damping)) + _expand(hf_poles)
     s = 2j * np.pi * norm_freq
     pz = s * s / np.prod([s - p for p in poles])
     st1 = PolesZerosResponseStage(
@@ -143,7 +137,7 @@ def _simulate(u, kind, rng, truth, hf_true, nominal, hf_nominal, fs, coil_consta
     k = paz_velocity_response(freqs, *truth, extra_poles=_expand(hf_true),
                               digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
     a_f = np.fft.rfft(coil_constant * u)
-    noise = _white(rng, freqs.size, noise_std, n)
+    noise = white_rfft(rng, freqs.size, noise_std, n)
     x = np.fft.irfft(k * (a_f + noise) / iw, n=n) + digitizer_noise * rng.standard_normal(n)
     code = f"{band_code(fs)}HZ"
     hdr = dict(network=network, station=station, location=location, sampling_rate=fs,

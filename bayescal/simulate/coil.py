@@ -12,7 +12,7 @@ outputs are
     XYZ output: X_c(f) = sum_m M[m, c] E_m(f) + digitizer noise,
 
 with ``k_m`` the element's true velocity response (counts per m/s, from
-:func:`bayescal.core.response.paz_velocity_response`) and ``M`` the UVW matrix
+:func:`bayescal.core.response.family.paz_velocity_response`) and ``M`` the UVW matrix
 (rows U, V, W over columns X, Y, Z). With ``outputs="uvw"`` the sensor is in
 UVW mode and the outputs are the ``E_m`` themselves. Signals are built
 periodically with the inverse FFT, so responses apply exactly. The StationXML
@@ -29,8 +29,8 @@ from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
 from scipy.signal import max_len_seq
 
-from ..core.geometry import STS2_UVW, azimuth_dip
-from ..core.response import paz_velocity_response
+from ..core.orientation.geometry import STS2_UVW, azimuth_dip
+from ..core.response.family import paz_velocity_response
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 ELEMENTS = ("U", "V", "W")
@@ -79,7 +79,7 @@ class CalibrationSimulation:
         return paths
 
 
-def _white(rng, nf, std_time, n):
+def white_rfft(rng, nf, std_time, n):
     """Complex rfft coefficients of white noise with time-domain ``std_time``."""
     scale = std_time * np.sqrt(n / 2.0)
     out = scale * (rng.standard_normal(nf) + 1j * rng.standard_normal(nf))
@@ -129,7 +129,7 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
         a_rms = coil_constant * amplitude
         drive = np.zeros((3, freqs.size), complex)
         drive[idx] = a_f
-        noise = np.array([_white(rng, freqs.size, noise_ratio * a_rms, n) for _ in range(3)])
+        noise = np.array([white_rfft(rng, freqs.size, noise_ratio * a_rms, n) for _ in range(3)])
         elem = k * (drive + noise) / iw[None, :]                      # (3, F) counts
         out_f = mix.T @ elem
         out_t = np.fft.irfft(out_f, n=n, axis=1)

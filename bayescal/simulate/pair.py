@@ -35,8 +35,8 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.geometry import unit_vector
-from ..core.response import paz_velocity_response
+from ..core.orientation.geometry import unit_vector
+from ..core.response.family import paz_velocity_response, pendulum_poles
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz
@@ -65,9 +65,7 @@ def velocity_response(period_s, damping, gain, norm_freq=NORM_FREQ, digitizer_ga
                       sample_rate=20.0, input_units="M/S"):
     """ObsPy ``Response`` of a broadband: two pendulum poles, two zeros at 0,
     gain ``gain`` (V per m/s) at ``norm_freq``, a flat digitizer."""
-    w0 = 2 * np.pi / period_s
-    p = -damping * w0 + 1j * w0 * np.sqrt(complex(1 - damping ** 2))
-    poles = [p, np.conj(p)] if damping < 1 else [p.real + p.imag * 1j, p.real - p.imag * 1j]
+    poles = list(pendulum_poles(period_s, damping))
     s = 2j * np.pi * norm_freq
     a0 = 1.0 / abs(s * s / ((s - poles[0]) * (s - poles[1])))
     st1 = PolesZerosResponseStage(

@@ -1,5 +1,5 @@
 """Three co-located vertical sensors with known self-noise: the truth against
-which :mod:`bayescal.core.selfnoise` and ``bayescal noise`` are checked.
+which :mod:`bayescal.core.selfnoise.sleeman` and ``bayescal noise`` are checked.
 
 Two STS-1 and one Trillium 240 (the nominal poles and zeros of the II.XPFO
 sensors, Q330HR digitizer) record one ground acceleration (Peterson's NLNM +
@@ -79,8 +79,8 @@ def noise_acceleration_psd(i, f):
 
 def true_band_noise(spectra):
     """(3, B) true self-noise per band of ``spectra`` (a
-    :class:`bayescal.core.spectra.CrossSpectra` of the three channels), with
-    the band definition of :func:`bayescal.core.selfnoise.acceleration_band_matrices`."""
+    :class:`bayescal.core.spectra.welch.CrossSpectra` of the three channels), with
+    the band definition of :func:`bayescal.core.selfnoise.sleeman.acceleration_band_matrices`."""
     f = spectra.freqs
     w2 = (2 * np.pi * f) ** 2
     nb = spectra.bins_per_band
@@ -173,21 +173,20 @@ def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
     """Run a simulation through the same spectra and estimator as real data.
 
     Returns ``(estimate, truth, matrices)``: the
-    :class:`bayescal.core.selfnoise.SelfNoise`, the (3, B) true band
+    :class:`bayescal.core.selfnoise.sleeman.SelfNoise`, the (3, B) true band
     self-noise and the (B, 3, 3) acceleration matrices. ``band`` defaults to
     0.01 Hz up to 0.8 of Nyquist.
     """
-    from scipy.signal.windows import hann
-
-    from ..core import selfnoise as core
-    from ..core.spectra import cross_spectra
+    from ..core.selfnoise import sleeman as core
+    from ..core.spectra.dof import band_dof
+    from ..core.spectra.welch import cross_spectra
 
     n = sim.data.shape[1]
     band = band or (0.01, 0.4 * sim.fs)
     sp = cross_spectra(sim.data, np.empty((0, n)), sim.fs, sim.response_fn(), None, band,
                        bands_per_decade=bands_per_decade, min_bins=min_bins)
     C, fc = core.acceleration_band_matrices(sp)
-    dof = core.effective_dof(hann(sp.nperseg, sym=False), sp.segment_starts, sp.bins_per_band)
+    dof = band_dof(sp)
     est = core.estimate_self_noise(C, dof, fc, level=level, n_boot=n_boot,
                                    seed=sim.seed if seed is None else seed,
                                    per_segment=sp.per_segment, method=method,

@@ -37,7 +37,7 @@ from bayescal import coil
 from bayescal.coil.random import fit_random
 from bayescal.coil.sine import fit_sine
 from bayescal.coil.step import fit_step, least_squares_step
-from bayescal.core import pendulum
+from bayescal.core.response import pendulum
 from bayescal.simulate.cal import (HF_NOMINAL, LP_NOMINAL, simulate_random_cal,
                                    simulate_sine_cal, simulate_step_cal)
 

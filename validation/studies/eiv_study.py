@@ -30,8 +30,8 @@ import time
 
 import numpy as np
 
-from bayescal.core.sampler import build_model, least_squares_fit
-from bayescal.core.spectra import cross_spectra
+from bayescal.core.fit.run import build_model, least_squares_fit
+from bayescal.core.spectra.welch import cross_spectra
 from bayescal.io.align import align
 from bayescal.simulate import simulate_pair
 

@@ -55,8 +55,8 @@ import warnings
 import numpy as np
 import study_results                          # the sibling module, run as a script
 
-from bayescal.core import pendulum
-from bayescal.core.likelihood import Priors
+from bayescal.core.response import pendulum
+from bayescal.core.model.likelihood import Priors
 from bayescal.io.pipeline import calibrate
 from bayescal.io.read import InputError
 from bayescal.simulate.coverage import binomial_band, coverage_checks, draw_case

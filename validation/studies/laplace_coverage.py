@@ -32,8 +32,8 @@ class _Stop(Exception):
 
 def apply_variant(variant):
     """Monkeypatches for one probe; returns extra ``calibrate`` keywords."""
-    import bayescal.core.likelihood as lk
-    import bayescal.core.noisescale as ns
+    import bayescal.core.model.likelihood as lk
+    import bayescal.core.model.noisescale as ns
     import bayescal.io.pipeline as pl
     kw = {}
     for v in filter(None, variant.split("+")):
@@ -46,7 +46,7 @@ def apply_variant(variant):
             pl.cross_spectra = functools.partial(pl.cross_spectra, bands_per_decade=int(bpd),
                                                  min_bins=int(mb or 8))
         elif v.startswith("shrink"):               # inflation-factor shrinkage weight
-            import bayescal.core.eiv as ev         # both models' (eiv imports the value)
+            import bayescal.core.model.eiv as ev         # both models' (eiv imports the value)
             lk.INFLATION_SHRINK = ev.INFLATION_SHRINK = float(v[6:])
         elif v == "quiet":                         # the reference taken as noise-free
             kw["ref_noise"] = "quiet"
@@ -62,7 +62,7 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coher
     """(coherence, {channel:kind: z}) at the least-squares point of one case:
     the coverage study's case ``seed``, or with ``case`` that case's truth
     (and ``coherence`` if given) simulated with noise and waves of ``seed``."""
-    import bayescal.core.sampler as sm
+    import bayescal.core.fit.run as sm
     from bayescal.io.pipeline import calibrate
     from bayescal.simulate.coverage import NOMINAL, draw_case
     from bayescal.simulate.pair import simulate_pair

@@ -1,5 +1,5 @@
 """The numbers the README quotes for the pair fit's self-noise
-(bayescal.core.pair_noise) beyond tests/test_pair_noise.py: standardised
+(bayescal.core.selfnoise.pair_noise) beyond tests/test_pair_noise.py: standardised
 errors of the estimates (self-noise shaped like the ground motion, the
 simulator's default, and white in counts; gains held and the default fit),
 sensor-order margins of equal-noise pairs, and the swap check under each
@@ -21,7 +21,7 @@ SEEDS = (3, 5, 6, 7, 8, 9)
 
 
 def main():
-    from bayescal.core import pair_noise
+    from bayescal.core.selfnoise import pair_noise
     from bayescal.io.pipeline import calibrate
     from bayescal.simulate.harness import band_noise_truth
     from bayescal.simulate.pair import simulate_pair

@@ -1,4 +1,4 @@
-"""The plug-in noise model's band weights (``bayescal/core/plugin.py``),
+"""The plug-in noise model's band weights (``bayescal/core/model/plugin.py``),
 before and after, on the same seeds.
 
 Each cell fits the same seeded pairs of ``validation/studies/eiv_coverage.py`` (10
@@ -23,7 +23,7 @@ import time
 
 import eiv_coverage as ec                      # the sibling study, run as a script
 
-from bayescal.core import plugin
+from bayescal.core.model import plugin
 
 CELLS = [(mode, ratio, duration) for duration in (900.0, 3600.0)
          for mode, ratio in (("quiet", 0.0), ("estimate", 0.0), ("estimate", 1.0),

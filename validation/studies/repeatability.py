@@ -6,7 +6,7 @@ windows; each window is fitted with :func:`bayescal.calibrate` as a user
 would (fixed band, ``progress=False``, no report); for every quantity
 (azimuth of a horizontal, gain where fitted) the scatter of the window
 medians is compared with each window's 68 % interval by the reduced
-chi-square (:mod:`bayescal.core.repeatability`). Relative orientation and
+chi-square (:mod:`bayescal.core.checks.repeatability`). Relative orientation and
 gain do not change within a record, so ``sqrt(chi2_red)`` is the factor by
 which the intervals are too narrow (above 1) or too wide (below 1). Goal:
 median ratio at most 1.3, none above 2.
@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bayescal.core.geometry import unwrap_azimuths
-from bayescal.core.repeatability import reduced_chi_square, sd_from_ci68
+from bayescal.core.orientation.geometry import unwrap_azimuths
+from bayescal.core.checks.repeatability import reduced_chi_square, sd_from_ci68
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "real"
@@ -155,7 +155,7 @@ def main(argv=None):
     t0 = time.perf_counter()
     recordings = [r for gen in (cowi, huddle, xpfo) for r in gen(a.data)]
     rows = run(recordings, a.misfit_shape)
-    from bayescal.core.misfit_scale import MISFIT_SHAPE
+    from bayescal.core.model.misfit_scale import MISFIT_SHAPE
     shape = MISFIT_SHAPE if a.misfit_shape is None else a.misfit_shape
     ratios = [r["ratio"] for r in rows]
     out = {"misfit_shape": None if not np.isfinite(shape) else shape,

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from bayescal.core.selfnoise import db
+from bayescal.core.selfnoise.sleeman import db
 from bayescal.simulate.selfnoise import estimate_and_truth, simulate_colocated
 
 ROOT = Path(__file__).resolve().parents[2]

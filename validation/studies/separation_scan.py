@@ -1,4 +1,4 @@
-"""Does the separation check (:mod:`bayescal.core.separation`) tell the
+"""Does the separation check (:mod:`bayescal.core.checks.separation`) tell the
 regime where the reference's self-noise cannot be told from the SUT's gains?
 
 48 seeded pairs (seeds 700-707; 1 h at 10 Hz, band 0.02-1 Hz, pair
@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from bayescal.core.separation import WIDE_RATIO
+from bayescal.core.checks.separation import WIDE_RATIO
 from bayescal.simulate.harness import NOMINAL, coherences, draw_truth
 from bayescal.io.pipeline import calibrate  # noqa: E402
 from bayescal.simulate import simulate_pair  # noqa: E402

@@ -50,7 +50,7 @@ def least_squares_point(sim, seed, nperseg, noise=None, which="both"):
     ``bayescal.calibrate`` (gains fitted, quiet reference); with ``noise``
     (a long record's noise model and its length factor) the model's noise
     estimate is replaced by it (``which``: "both" or "sigma")."""
-    import bayescal.core.sampler as sm
+    import bayescal.core.fit.run as sm
     orig = sm.least_squares_fit
 
     def stop(model, theta0, iterations=2, jac=None):

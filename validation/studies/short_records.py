@@ -1,6 +1,6 @@
 """Short records: where the angles' intervals come out too narrow, and what
 it is not (the table of ``docs/validation/errors_in_variables.md``, "Short records", and
-of :mod:`bayescal.core.record_length`).
+of :mod:`bayescal.core.checks.record_length`).
 
 Each variant fits the same 40 seeded pairs of ``validation/studies/eiv_coverage.py``
 (10 Hz, coherence 0.9, reference noise-free, self-noise white in counts,
@@ -46,7 +46,7 @@ def _diagonal_noise():
     """Hold the base model's SUT noise covariance diagonal (a study switch:
     its off-diagonal terms are what the SUT channels' noise shares); the
     inflation factors stay those estimated with the full covariance."""
-    from bayescal.core import likelihood
+    from bayescal.core.model import likelihood
     est = likelihood.Model.estimate_noise
 
     def estimate_noise(self, theta0):

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import study_results                          # the sibling module, run as a script
 
-from bayescal.core.repeatability import reduced_chi_square, sd_from_ci68
+from bayescal.core.checks.repeatability import reduced_chi_square, sd_from_ci68
 
 ROOT = Path(__file__).resolve().parents[2]
 COWI = ROOT.parent / "shared" / "data" / "real" / "asl_cowi_azimuth"

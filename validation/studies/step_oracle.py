@@ -31,8 +31,8 @@ from scipy.fft import rfft
 from cal_coverage import COIL, _step_run  # the sibling study, run as a script
 
 from bayescal.coil.step import least_squares_step
-from bayescal.core import pendulum  # noqa: E402
-from bayescal.core.response import paz_velocity_response  # noqa: E402
+from bayescal.core.response import pendulum  # noqa: E402
+from bayescal.core.response.family import paz_velocity_response  # noqa: E402
 from bayescal.simulate.pair import DIGITIZER_GAIN, NORM_FREQ  # noqa: E402
 
 

@@ -1,0 +1,285 @@
+"""From spectra to posterior samples: global closed-form start, least-squares
+refinement, then emcee run until converged (:func:`bayescal.core.sampling.mcmc.sample`,
+a differential-evolution burn-in followed by an independence move with a
+frozen t proposal; the convergence rule is stated there).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import misfit_scale, refnoise
+from ..response import pendulum
+from ..threads import single_threaded_blas
+from .errors import FitError
+from .assemble import assemble_posterior, plugin_meta
+from .leastsq import refine
+from ..orientation.geometry import Circle, Fixed, Sphere
+from ..model.eiv import EIVModel
+from ..model.likelihood import ChannelBlock, Model, Priors
+from .unconstrained import prior_bounds
+
+#: A SUT channel is fitted against a two- or one-channel reference only when
+#: its nominal axis lies within this angle (degrees) of the reference's span.
+SPAN_TOLERANCE_DEG = 30.0
+
+
+def closed_form_transfer(spectra):
+    """Global start: the real 3x3 (n_u x n_r) transfer ``T = Re(S_ur) Re(S_rr)^-1``
+    from all bands together. Independent of any nominal orientation, so a
+    sensor turned round, or with reversed or swapped channels, is found."""
+    s = spectra.band_sums().sum(axis=0)
+    nu = spectra.n_u
+    return np.real(s[:nu, nu:]) @ np.linalg.inv(np.real(s[nu:, nu:]))
+
+
+def span_basis(ref_vectors):
+    """Orthonormal basis (rows) of the span of the reference axes."""
+    _, sv, vt = np.linalg.svd(ref_vectors)
+    rank = int(np.sum(sv > 1e-6 * sv[0]))
+    return vt[:rank], vt[rank:]
+
+
+def _plane_circle(basis):
+    """A Circle on the plane spanned by ``basis`` (2 x 3), with e1 the
+    projection of North (so the angle is the azimuth for a horizontal plane)."""
+    normal = np.cross(basis[0], basis[1])
+    if normal[2] < 0:
+        normal = -normal
+    north = np.array([1.0, 0.0, 0.0])
+    e1 = north - normal * (normal @ north)
+    if np.linalg.norm(e1) < 1e-6:
+        e1 = np.array([0.0, 1.0, 0.0]) - normal * normal[1]
+    e1 /= np.linalg.norm(e1)
+    return Circle(e1=e1, e2=np.cross(normal, e1))
+
+
+@dataclass
+class Setup:
+    """What can be estimated, and where the fit starts."""
+
+    model: Model
+    theta0: np.ndarray
+    fitted: list            # indices of the SUT channels in the model
+    not_estimable: dict     # SUT channel id -> reason
+
+
+def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
+                priors=Priors(), ref_noise=None, known_noise=None):
+    """Decide each SUT channel's parametrisation and the starting point.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra over all SUT channels.
+    ref_vectors : (n_r, 3) reference axes.
+    sut_nominal_vectors : (n_u, 3) SUT axes from its metadata: used only to
+        decide which channels a partial (one- or two-channel) reference can
+        see, never as a starting point.
+    families : per SUT channel a :class:`TwoPoleFamily`, a gain-only
+        :class:`ScaleFamily` (``flat`` metadata) or None.
+    free : "none" (gains held at their metadata values), "gain" (each
+        channel's gain free: the relative gain is fitted / metadata) or
+        "all" (period, damping and gain).
+    ref_noise : how the reference's self-noise enters: "quiet" (negligible,
+        the base :class:`Model`), "estimate" or "equal" (:class:`EIVModel`,
+        see :mod:`bayescal.core.model.refnoise`); None: "quiet"; "fixed" with
+        ``known_noise`` (B, n_r): the reference's self-noise given.
+    """
+    ref_vectors = np.asarray(ref_vectors, float)
+    basis, _ = span_basis(ref_vectors)
+    rank = basis.shape[0]
+    t_hat = closed_form_transfer(spectra)
+    v_hat = t_hat @ ref_vectors                                   # (nu, 3)
+    fitted, skipped = [], {}
+    for i, cid in enumerate(spectra.sut_ids or range(spectra.n_u)):
+        if rank < 3:
+            vn = np.asarray(sut_nominal_vectors[i], float)
+            inside = np.linalg.norm(basis @ vn)
+            if inside < np.cos(np.radians(SPAN_TOLERANCE_DEG)):
+                skipped[str(cid)] = (f"its axis lies outside the span of the {rank} reference "
+                                     "channel(s); the reference cannot see it")
+                continue
+        if np.linalg.norm(v_hat[i]) == 0 or not np.all(np.isfinite(v_hat[i])):
+            skipped[str(cid)] = "no signal coherent with the reference"
+            continue
+        fitted.append(i)
+    if not fitted:
+        raise FitError("no SUT channel can be estimated from this reference")
+    if free != "none" and any(families[i] is None for i in fitted):
+        raise FitError("gain fitting needs a response with a gain on every fitted channel")
+    if free == "all" and any(not np.isfinite(families[i].period_s) for i in fitted):
+        raise FitError("fitting period and damping (--fit-response all) needs a poles-and-zeros "
+                       "first stage with a pendulum pair on every fitted channel ('flat' has "
+                       "none: use the default, which fits each channel's gain)")
+    sub = spectra.select(fitted)
+    blocks, theta0 = [], []
+    for i in fitted:
+        v = v_hat[i]
+        norm = np.linalg.norm(v)
+        if rank == 3:
+            manifold = Sphere(v0=v / norm)
+        elif rank == 2:
+            manifold = _plane_circle(basis)
+        else:
+            manifold = Fixed(v0=np.sign(v @ basis[0]) * basis[0])
+        theta0.extend(manifold.params(v / norm))
+        fam = families[i]
+        if free == "gain":
+            theta0.append(np.log(fam.gain * norm))
+        elif free == "all":
+            theta0.extend([1.0, 1.0, np.log(fam.gain * norm)])     # nominal c0_rel, c1_rel
+        blocks.append(ChannelBlock(channel_id=str(sub.sut_ids[len(blocks)]) if sub.sut_ids
+                                   else str(i), manifold=manifold, family=fam, free=free))
+    if ref_noise in (None, "quiet"):
+        model = Model(sub, ref_vectors, blocks, priors)
+    else:
+        model = EIVModel(sub, ref_vectors, blocks, priors, ref_noise=ref_noise,
+                         known_noise=known_noise)
+    return Setup(model=model, theta0=np.asarray(theta0, float), fitted=fitted,
+                 not_estimable=skipped)
+
+
+def least_squares_fit(model, theta0, iterations=2, jac=None):
+    """Refine ``theta0`` by least squares on the whitened residual (Levenberg-
+    Marquardt, :func:`bayescal.core.fit.leastsq.refine`), re-estimating the
+    noise model after each pass.
+    ``jac``: scipy's ``"2-point"``, a callable such as
+    :func:`bayescal.core.model.jacobian.forward_jacobian`'s, or None: ``"2-point"``
+    for the base model (whose numbers are fixed) and the one-call forward
+    Jacobian for the errors-in-variables model (its residual costs several
+    times the base model's; the columns agree to rounding).
+
+    Returns ``(theta, covariance)``; the covariance is the inverse Fisher
+    information ``(2 J^T J)^-1`` (``-log L`` is the squared residual norm),
+    the pendulum priors' included
+    (:func:`bayescal.core.model.jacobian.least_squares_objective`): along a
+    direction the data hardly fix, the point stays where the prior puts it.
+    """
+    from ..model.jacobian import least_squares_objective
+    if jac is None:
+        from ..model.jacobian import forward_jacobian
+        jac = forward_jacobian(model) if isinstance(model, EIVModel) else "2-point"
+    fun, jac = least_squares_objective(model, jac)
+    lo, hi = prior_bounds(model)
+    return refine(fun, theta0, lo, hi, model.estimate_noise, iterations,
+                  noise_args=lambda: (model.noise.cholesky(),), method="lm", jac=jac)
+
+
+def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
+                priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
+                misfit_shape=None, known_noise=None, **sample_kw):
+    """Whole inference from spectra: start, least squares, sampling.
+
+    ``misfit_shape``: shape ``a`` of the per-band noise-scale prior
+    (:mod:`bayescal.core.model.misfit_scale`); None: its default
+    ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood.
+
+    ``ref_noise``: None (the default) is
+    :func:`bayescal.core.model.refnoise.recommended_mode` of the pair: "estimate"
+    (the reference's self-noise estimated, unbiased whatever the split of
+    noise) with two or more channels a side, "quiet" otherwise; the mode
+    used and whether it was the default are in
+    ``posterior.meta["reference_noise"]``. ``known_noise`` (B, n_r): the
+    reference's self-noise given as band sums
+    (:func:`bayescal.core.model.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
+
+    Returns a :class:`bayescal.core.posterior.samples.Posterior`
+    (:func:`bayescal.core.fit.assemble.assemble_posterior`); the least-squares
+    point is also in ``posterior.meta["least_squares"]``.
+    """
+    from .rotation import fit_rotation, orthogonal_pair
+
+    pair = orthogonal_pair(ref_vectors, sut_nominal_vectors) if free != "all" else None
+    if pair is not None:   # one horizontal reference channel: ASL's orthogonal rotation
+        # (gains held: one reference channel cannot tell the two horizontals'
+        # gains from their rotation; a gain common to both does not bias it)
+        if ref_noise not in (None, "quiet"):
+            raise FitError(f"--ref-noise {ref_noise} is not available with a one-channel "
+                           "horizontal reference (ASL's orthogonal-pair rotation, which assumes "
+                           "the reference quiet)")
+        return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
+    chosen_by = "user"
+    if ref_noise is None:       # the default: unbiased whatever the split of noise
+        from ..model.refnoise import recommended_mode
+        ref_noise, chosen_by = recommended_mode(spectra.n_r, spectra.n_u), "default"
+    setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
+                        ref_noise=ref_noise, known_noise=known_noise)
+    model = setup.model
+    model.misfit_shape = misfit_scale.MISFIT_SHAPE if misfit_shape is None else misfit_shape
+    if model.ndim == 0:
+        raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
+                       "fixed to the reference's (one channel each), so only its response can "
+                       "be estimated: do not hold it with --fit-response none")
+    from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
+    with single_threaded_blas():
+        theta_ls, cov = least_squares_fit(model, setup.theta0)
+        # other optima: the most probable mode is sampled
+        model, theta_ls, cov, multimodal = _modes(model, theta_ls, cov, sut_nominal_vectors,
+                                                  setup.fitted)
+        separation = {}
+        if getattr(model, "ref_noise", None) == "estimate":
+            from ..checks.separation import gain_separation
+            separation = gain_separation(model, theta_ls, cov)
+        # parameters the data do not constrain are held at nominal
+        target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
+        from ..sampling.mcmc import sample
+        chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
+    full = full_samples(target, chain.samples)
+    held = [j for j, n in enumerate(model.names) if n in set_by_prior]
+    set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
+    sensitivity = _prior_sensitivity(model, full)
+    set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
+    meta = dict(meta or {})
+    meta.update({"free_response": free, "band_hz": [float(spectra.band_edges[0]),
+                                                     float(spectra.band_edges[-1])],
+                 "band_edges_hz": spectra.band_edges, "n_segments": spectra.n_segments,
+                 "n_segments_possible": spectra.n_segments_possible,
+                 "segment_s": spectra.nperseg / spectra.fs,
+                 "noise_inflation": model.noise.inflation,
+                 "plugin_weights": plugin_meta(model),
+                 "reference_noise": dict(refnoise.treatment_meta(model, theta_ls),
+                                         chosen_by=chosen_by,
+                                         **({"separation": separation} if separation else {})),
+                 "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
+                 "least_squares": dict(zip(model.names, theta_ls)),
+                 "set_by_prior": set_by_prior, "multimodal": multimodal,
+                 **({"prior_sensitivity": sensitivity,
+                     "response_prior": {"period_tolerance": priors.period_tolerance,
+                                        "damping_tolerance": priors.damping_tolerance,
+                                        "shape": "log-normal around the metadata values"}}
+                    if sensitivity else {}),
+                 "sampler": chain.sampler})
+    return assemble_posterior(model, chain.samples, chain.log_prob, chain.convergence(), meta,
+                              free, names=target.names, full=full, theta_ls=theta_ls,
+                              not_estimable=setup.not_estimable, trace=chain.trace)
+
+
+def _modes(model, theta_ls, cov, nominal, fitted):
+    """:func:`bayescal.core.fit.modes.search`; when another mode is the most
+    probable, the fit restarts there (noise model re-estimated)."""
+    from .modes import search
+
+    best, report = search(model, theta_ls, np.asarray(nominal, float)[fitted])
+    if best.label.startswith("closed-form"):
+        return model, theta_ls, cov, report
+    theta_ls, cov = least_squares_fit(best.model, best.theta)
+    return best.model, theta_ls, cov, report
+
+
+def _prior_sensitivity(model, samples):
+    """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of every channel
+    whose period and damping are free, from the posterior's samples."""
+    blocks = {b.channel_id: (sr.start, sr.start + 1)
+              for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
+    if not blocks:
+        return {}
+    pr = model.priors
+    return pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
+                                           pr.damping_tolerance)
+
+
+def _misfit_meta(model, theta):
+    """``meta.misfit_scale``: the prior and each band's variance factor at ``theta``."""
+    q, k = model.band_energy(np.atleast_2d(theta))
+    return misfit_scale.describe(model.misfit_shape, q[0], k)

@@ -1,0 +1,16 @@
+"""The likelihood: a new likelihood term or noise model goes here.
+
+* :mod:`.likelihood`   the Frobenius residual, its noise model, vectorised
+                       log-probability
+* :mod:`.eiv`          the likelihood when both sensors are noisy (errors in
+                       variables)
+* :mod:`.refnoise`     the reference's self-noise statistic and its covariance
+* :mod:`.noisescale`   the SUT's self-noise held fixed in its counts
+* :mod:`.plugin`       band weights for the plug-in noise model's sampling error
+* :mod:`.misfit_scale` the per-band noise scale, marginalised
+* :mod:`.effect`       the hook by which a physical effect extends the likelihood
+* :mod:`.jacobian`     forward-difference Jacobian of the whitened residual
+
+May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`
+and :mod:`bayescal.core.spectra`.
+"""

@@ -1,0 +1,459 @@
+"""Every MCMC posterior of bayescal is sampled here, by emcee.
+
+:func:`sample` starts, runs and checks every chain (pair fits, a diagnosis's
+final model, coil elements, step and sine runs, UVW): an
+:class:`emcee.EnsembleSampler` (``vectorize=True``, one log-probability call
+per sub-ensemble or per step) driven in phases, each phase a new sampler
+started from the last :class:`emcee.State` of the one before, with the
+random stream handed on:
+
+* ``move="de"``: emcee's ``DEMove`` (weight 0.8) and ``DESnookerMove``
+  (weight 0.2) throughout;
+* ``move="independence"`` (the default, every posterior of bayescal):
+  :data:`DE_BURN` steps of those moves
+  find the posterior's scale; then :class:`IndependenceMove`, an
+  :class:`emcee.moves.Move` whose proposal is a multivariate Student t
+  fitted to the DE draws (:class:`TProposal`), runs :data:`ADAPT` steps, is
+  refitted to them and frozen for the kept chain. On the near-Gaussian
+  posteriors of pair and coil fits it mixes in one or two steps where the
+  DE moves need 10-40. If it accepts less than :data:`MIN_ACCEPTANCE` (a posterior
+  far from Gaussian), the DE sampler carries on from its burn-in instead.
+
+Convergence rule (all must hold, checked after every chunk of steps):
+
+* at least ``n_tau`` (50) integrated autocorrelation times of kept chain for
+  the slowest parameter (tau from :func:`emcee.autocorr.integrated_time`,
+  averaged over walkers);
+* at least ``min_ess`` (1000) effective samples for every parameter;
+* split R-hat below ``rhat_max`` (1.01) between the two halves of the kept
+  chain (:func:`split_rhat`). Walkers of one ensemble are not independent,
+  so R-hat across walkers would not be valid; each half counts its effective
+  (not raw) draws.
+
+A chain that reaches ``max_steps`` first is returned with
+``converged=False`` and a :class:`NotConvergedWarning`. What was run (emcee's
+version, the walkers, each phase's moves with their weights, steps and
+acceptance) is in :attr:`Chain.sampler`.
+
+``import emcee`` imports scipy.stats (through its KDE move), about 0.4-1 s:
+this module is imported only by code that samples.
+"""
+from __future__ import annotations
+
+import sys
+import warnings
+from dataclasses import dataclass, field
+
+import emcee
+import numpy as np
+
+from ..posterior.convergence import NotConvergedWarning, not_converged_line
+
+#: ``move="independence"``: DE steps before the first proposal is fitted (from
+#: their second half), independence steps before it is refitted, and the
+#: acceptance below which the DE moves carry on instead.
+DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
+#: Points per log-probability call of :class:`IndependenceMove`'s batches.
+BATCH = 2048
+#: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
+#: for a Gaussian target with the covariance fitted from 3600 draws).
+NU = 10.0
+#: The differential-evolution mixture: (move, weight).
+DE_WEIGHTS = (("DEMove", 0.8), ("DESnookerMove", 0.2))
+
+
+class TProposal:
+    """Multivariate Student t with location ``mean``, scale matrix ``cov`` and
+    ``nu`` degrees of freedom: heavier tails than a near-Gaussian posterior,
+    so the ratio target / proposal stays bounded."""
+
+    def __init__(self, mean, cov, nu=NU):
+        self.mean = np.asarray(mean, float)
+        self.nu = float(nu)
+        self.chol = np.linalg.cholesky(np.atleast_2d(cov))
+        self.ndim = self.mean.size
+
+    @classmethod
+    def fit(cls, draws, nu=NU):
+        """Mean and covariance of ``draws`` (n, ndim)."""
+        draws = np.asarray(draws, float)
+        return cls(draws.mean(axis=0), np.atleast_2d(np.cov(draws, rowvar=False)), nu)
+
+    def draw(self, random, n):
+        """``n`` draws, from a ``numpy.random.RandomState`` (emcee's)."""
+        z = random.standard_normal((n, self.ndim)) @ self.chol.T
+        w = np.sqrt(random.chisquare(self.nu, size=(n, 1)) / self.nu)
+        return self.mean + z / w
+
+    def log_pdf(self, x):
+        """Log density up to a constant (it cancels in the acceptance ratio)."""
+        y = np.linalg.solve(self.chol, (np.atleast_2d(x) - self.mean).T)
+        return -0.5 * (self.nu + self.ndim) * np.log1p(np.sum(y * y, axis=0) / self.nu)
+
+
+class VectorSampler(emcee.EnsembleSampler):
+    """:class:`emcee.EnsembleSampler` for a vectorised log-probability that
+    returns one float per walker and no blobs: ``compute_log_prob`` checks
+    the coordinates and the result as emcee does (no inf or NaN coordinate,
+    no NaN log-probability) without emcee's per-walker loop for blobs.
+
+    ``moves`` is a list of (move, weight) or of moves (equal weights);
+    ``label`` names the phase it runs in the sampler's record, and
+    ``recorded`` holds the steps and per-walker
+    acceptances already recorded (:class:`_Phases`)."""
+
+    def __init__(self, nwalkers, ndim, log_prob_fn, moves, label=""):
+        moves = [m if isinstance(m, tuple) else (m, 1.0) for m in moves]
+        super().__init__(nwalkers, ndim, log_prob_fn, moves=moves, vectorize=True)
+        self.move_list = [m for m, _ in moves]
+        self.phase = {"label": label,
+                      "moves": [{"move": _move_name(m), "weight": float(w)} for m, w in moves]}
+        self.recorded = (0, np.zeros(nwalkers))
+
+    def compute_log_prob(self, coords):
+        if not np.all(np.isfinite(coords)):
+            raise ValueError("At least one parameter value was infinite or NaN")
+        log_prob = np.asarray(self.log_prob_fn(coords), dtype=float).reshape(len(coords))
+        if np.any(np.isnan(log_prob)):
+            raise ValueError("Probability function returned NaN")
+        return log_prob, None
+
+
+class IndependenceMove(emcee.moves.Move):
+    """Independence Metropolis-Hastings as an emcee move: every walker
+    proposes a fresh draw ``q`` of a fixed :class:`TProposal` ``g``, whatever
+    its position ``x``, accepted with probability
+    ``min(1, pi(q) g(x) / (pi(x) g(q)))``, which leaves the posterior ``pi``
+    invariant. Each walker is its own Markov chain.
+
+    Proposals do not depend on the walkers' positions, so the proposals of a
+    run of steps announced by :meth:`plan` are drawn, and their
+    log-probabilities computed through emcee's ``compute_log_prob_fn``, in a
+    few calls of up to :data:`BATCH` points; each ``propose`` (one emcee
+    step) then takes its step's proposals and decides acceptance, as
+    :class:`emcee.moves.MHMove` would."""
+
+    def __init__(self, proposal):
+        self.proposal = proposal
+        self._planned = 1
+        self._queue = []         # [(q, log pi(q), log g(q)) per step]
+        self._lg = None          # log g at the walkers' current positions
+
+    def plan(self, n_steps):
+        """The next run of emcee steps is ``n_steps`` long: draw and evaluate
+        that many steps of proposals at once (proposals left over are dropped)."""
+        self._planned, self._queue = max(1, int(n_steps)), []
+
+    def _refill(self, model, n_walkers):
+        n = self._planned * n_walkers
+        q = self.proposal.draw(model.random, n)
+        lp = np.concatenate([model.compute_log_prob_fn(q[i:i + BATCH])[0]
+                             for i in range(0, n, BATCH)])
+        lg = self.proposal.log_pdf(q)
+        shape = (self._planned, n_walkers)
+        self._queue = list(zip(q.reshape(shape + (-1,)), lp.reshape(shape), lg.reshape(shape)))
+        self._queue.reverse()
+        self._planned = 1
+
+    def propose(self, model, state):
+        """One step: returns the new state and which walkers accepted."""
+        n_walkers = state.coords.shape[0]
+        if not self._queue:
+            self._refill(model, n_walkers)
+        q, lp_q, lg_q = self._queue.pop()
+        if self._lg is None or self._lg.shape[0] != n_walkers:
+            self._lg = self.proposal.log_pdf(state.coords)
+        accepted = np.log(model.random.rand(n_walkers)) < lp_q - state.log_prob + self._lg - lg_q
+        state = self.update(state, emcee.State(q, log_prob=lp_q), accepted)
+        self._lg = np.where(accepted, lg_q, self._lg)
+        return state, accepted
+
+
+def integrated_time(x):
+    """Integrated autocorrelation time per parameter of ``x`` (steps,
+    walkers, ndim): :func:`emcee.autocorr.integrated_time` (c = 5), without
+    its chain-length check (the convergence rule applies its own)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return emcee.autocorr.integrated_time(x, c=5, tol=0)
+
+
+def split_rhat(chain, ess):
+    """Split R-hat between the two halves of ``chain`` (n, W, ndim), each half
+    flattened over walkers and counted as ``ess / 2`` effective draws: the
+    potential scale reduction of Gelman et al. (BDA3, eqs. 11.3-11.4) for two
+    sequences of ``n = ess / 2`` draws, ``sqrt(((n - 1) / n W + B / n) / W)``."""
+    n = chain.shape[0] // 2
+    a = chain[:n].reshape(-1, chain.shape[2])
+    b = chain[n:2 * n].reshape(-1, chain.shape[2])
+    m_eff = np.maximum(ess / 2.0, 2.0)
+    w = 0.5 * (a.var(axis=0, ddof=1) + b.var(axis=0, ddof=1))
+    between = m_eff * (a.mean(axis=0) - b.mean(axis=0)) ** 2 / 2.0
+    var_plus = (m_eff - 1) / m_eff * w + between / m_eff
+    return np.sqrt(var_plus / w)
+
+
+@dataclass
+class Chain:
+    """Kept (post burn-in, thinned) samples and convergence figures."""
+
+    samples: np.ndarray       # (N, ndim)
+    log_prob: np.ndarray      # (N,)
+    tau: np.ndarray           # (ndim,)
+    ess: np.ndarray           # (ndim,)
+    rhat: np.ndarray          # (ndim,)
+    acceptance: float
+    n_steps: int
+    n_walkers: int
+    burn: int
+    converged: bool
+    trace: np.ndarray         # (steps, W, ndim), thinned for plots
+    sampler: dict = field(default_factory=dict)   # what was run: see :func:`sample`
+
+    def convergence(self):
+        """Every parameter's convergence figures and the run's size: a
+        posterior's ``convergence``."""
+        return {"tau": self.tau, "ess": self.ess, "rhat": self.rhat,
+                "acceptance": self.acceptance, "n_steps": self.n_steps,
+                "n_walkers": self.n_walkers, "burn": self.burn, "converged": self.converged}
+
+    def summary(self):
+        """The ``convergence`` entry of a result file: the slowest parameter's
+        figures, the run's size, whether the rule held, and the sampler."""
+        return {"tau_max": float(np.max(self.tau)), "ess_min": float(np.min(self.ess)),
+                "rhat_max": float(np.max(self.rhat)), "n_steps": int(self.n_steps),
+                "n_walkers": int(self.n_walkers), "acceptance": float(self.acceptance),
+                "converged": bool(self.converged)}
+
+
+class _Phases:
+    """emcee samplers run one after another on the same walkers: each starts
+    from the last state of the one before and continues its random stream;
+    :meth:`record` lists what each ran."""
+
+    def __init__(self, log_prob, n_walkers, ndim, bar):
+        self.log_prob, self.n_walkers, self.ndim, self.bar = log_prob, n_walkers, ndim, bar
+        self.phases = []
+
+    def new(self, moves, label):
+        """An emcee sampler with ``moves``, a list of (move, weight)."""
+        return VectorSampler(self.n_walkers, self.ndim, self.log_prob, moves, label)
+
+    def run(self, sampler, state, n_steps):
+        """Advance ``sampler`` ``n_steps`` from ``state``; returns the last state."""
+        for move in sampler.move_list:
+            if isinstance(move, IndependenceMove):
+                move.plan(n_steps)
+        for state in sampler.sample(state, iterations=n_steps, skip_initial_state_check=True):
+            if self.bar.step is not None:
+                self.bar.step()
+        return state
+
+    def close(self, sampler, label=None):
+        """Record what ``sampler`` ran since it was last recorded: its moves,
+        steps and mean acceptance."""
+        done_steps, done_acc = sampler.recorded
+        steps = sampler.iteration - done_steps
+        accepted = sampler.backend.accepted - done_acc
+        self.phases.append(dict(sampler.phase, label=label or sampler.phase["label"],
+                                steps=int(steps),
+                                acceptance=float(np.mean(accepted) / max(steps, 1))))
+        sampler.recorded = (sampler.iteration, sampler.backend.accepted.copy())
+
+    def record(self):
+        return {"library": "emcee", "version": emcee.__version__,
+                "walkers": int(self.n_walkers), "vectorize": True,
+                "steps": int(sum(p["steps"] for p in self.phases)), "phases": self.phases}
+
+
+def _move_name(move):
+    if isinstance(move, IndependenceMove):
+        return f"IndependenceMove (multivariate t proposal, nu={move.proposal.nu:g})"
+    return type(move).__name__
+
+
+def _de_moves():
+    return [(emcee.moves.DEMove(), DE_WEIGHTS[0][1]), (emcee.moves.DESnookerMove(),
+                                                       DE_WEIGHTS[1][1])]
+
+
+def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
+           rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
+    """Sample ``model``'s posterior with emcee from around ``theta_start``
+    until the convergence rule holds or ``max_steps`` steps are run.
+
+    Parameters
+    ----------
+    model : object with ``ndim`` and a vectorised ``log_prob((k, ndim)) -> (k,)``.
+    theta_start, cov : the walkers start from a Gaussian with covariance
+        ``cov`` (the least-squares Laplace approximation) around ``theta_start``.
+    seed : the chain is a function of the seed alone (same seed, same chain).
+    n_walkers : default ``max(32, 4 ndim)``, made even.
+    min_ess, n_tau, rhat_max : the convergence rule (module docstring).
+    max_steps : steps of the kept phase after which the chain stops unconverged
+        (it always runs at least one step).
+    progress : a progress bar toward the rule (tqdm, on stderr).
+    move : "independence" (the default: a DE burn-in, then
+        :class:`IndependenceMove`; the DE moves carry on where it accepts too
+        rarely) or "de" (emcee's differential-evolution moves throughout).
+
+    Returns
+    -------
+    Chain
+        Kept samples; ``sampler`` records emcee's version, the walkers and
+        each phase's moves, weights, steps and acceptance. An unconverged
+        chain also raises a :class:`NotConvergedWarning`.
+    """
+    if move not in ("de", "independence"):
+        raise ValueError(f"unknown move {move!r}")
+    ndim = model.ndim
+    n_walkers = n_walkers or max(32, 4 * ndim)
+    n_walkers += n_walkers % 2
+    rng = np.random.default_rng(seed)
+    p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
+    for _ in range(100):
+        bad = ~np.isfinite(model.log_prob(p0))
+        if not bad.any():
+            break
+        p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
+    chunk, min_burn, min_chunk = 1000, 100, 200
+    bar = _progress(progress, chunk, n_tau, min_ess, rhat_max)
+    phases = _Phases(model.log_prob, n_walkers, ndim, bar)
+    sampler = phases.new(_de_moves(), "differential evolution")
+    state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
+    pre = np.empty((0, n_walkers, ndim))
+    if move == "independence":
+        state = phases.run(sampler, state, DE_BURN)
+        frozen = _frozen_proposal(phases, sampler, state)
+        if frozen is not None:
+            pre, sampler, state = frozen
+            min_burn, min_chunk = 10, 50
+            # the first run: what the rule needs at the adaptation's mixing
+            # (its tau, at least 1), with a fifth to spare; then as below
+            tau0 = max(1.0, float(np.max(integrated_time(pre[-ADAPT:]))))
+            chunk = int(np.ceil(1.2 * (min_burn + max(n_tau, min_ess / n_walkers) * tau0)))
+            chunk = min(max(chunk, min_chunk), 150)
+    # (a DE fallback keeps its burn-in steps in its own chain)
+    offset, steps, converged = pre.shape[0], sampler.iteration, False
+    chunk = max(1, min(chunk, max_steps - steps))
+    while True:
+        state = phases.run(sampler, state, chunk)
+        steps += chunk
+        full = sampler.get_chain()
+        tau_all = integrated_time(full[steps // 2:])
+        burn = int(min(steps // 2, max(min_burn, 5 * np.max(tau_all))))
+        kept = full[burn:]
+        tau = integrated_time(kept)
+        ess = kept.shape[0] * n_walkers / tau
+        rhat = split_rhat(kept, ess)
+        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
+        if kept.shape[0] >= n_tau * tau.max() and ess.min() >= min_ess and rhat.max() < rhat_max:
+            converged = True
+            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+            break
+        chunk = int(min(max(min_chunk, 1.1 * need - steps), max_steps - steps))
+        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+        if steps >= max_steps:
+            break
+    bar.close()
+    phases.close(sampler)
+    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1   # a very short chain
+    kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
+    full = np.concatenate([pre, full]) if offset else full
+    chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
+                  log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
+                  acceptance=float(np.mean(sampler.acceptance_fraction)),
+                  n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
+                  converged=converged, trace=full[:: max(1, (offset + steps) // 1000)],
+                  sampler=phases.record())
+    if not converged:
+        warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
+                      stacklevel=2)
+    return chain
+
+
+def _frozen_proposal(phases, de, state):
+    """One adaptation round of the t proposal after the DE burn-in; returns
+    (burn-in chain, the sampler with the frozen proposal, its start state),
+    or None (the DE sampler carries on) when the proposal cannot be fitted or
+    accepts too rarely."""
+    phases.close(de, "differential evolution (burn-in)")
+    try:
+        adapt = phases.new([(IndependenceMove(TProposal.fit(
+            de.get_chain(discard=DE_BURN // 2, flat=True))), 1.0)], "independence (adapting)")
+        last = phases.run(adapt, state, ADAPT)
+        if np.mean(adapt.acceptance_fraction) < MIN_ACCEPTANCE:
+            phases.close(adapt, "independence (adapting; accepted too rarely: the "
+                                "differential-evolution moves carry on)")
+            return None
+        phases.close(adapt)
+        final = phases.new([(IndependenceMove(TProposal.fit(adapt.get_chain(flat=True))), 1.0)],
+                           "independence (frozen proposal)")
+    except np.linalg.LinAlgError:   # a degenerate spread: no proposal
+        return None
+    return np.concatenate([de.get_chain(), adapt.get_chain()]), final, last
+
+
+class _NoBar:
+    step = None
+
+    def goal(self, *args):
+        pass
+
+    def close(self):
+        pass
+
+
+class _GoalBar:
+    """Progress toward the convergence rule: the bar's total is the current
+    estimate of the steps the rule needs (re-estimated at every check, so
+    the time left is tqdm's estimate toward it), the postfix each target:
+    kept chain in autocorrelation times, smallest ESS and largest R-hat
+    against their goals."""
+
+    def __init__(self, first, n_tau, min_ess, rhat_max):
+        from tqdm.auto import tqdm
+        self.goals = (n_tau, min_ess, rhat_max)
+        self.bar = tqdm(total=first, unit="step", desc="sampling to convergence", leave=False,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} steps "
+                                   "[{elapsed}<{remaining}]{postfix}")
+        self.bar.set_postfix_str(f"goals: {n_tau} tau, ESS {min_ess}, R-hat < {rhat_max}")
+
+    def step(self):
+        self.bar.update(1)
+
+    def goal(self, need_steps, kept_tau, ess, rhat):
+        """New estimate of the steps needed (the next check of the rule),
+        and where each target stands."""
+        n_tau, min_ess, rhat_max = self.goals
+        self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
+        self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
+                                 f"R-hat {rhat:.3f} (< {rhat_max})")
+
+    def close(self):
+        self.bar.close()
+
+
+class _LogLine(_NoBar):
+    """Without a terminal (a log file): one line when the sampling ends."""
+
+    def __init__(self, n_tau, min_ess, rhat_max):
+        self.goals, self.state = (n_tau, min_ess, rhat_max), None
+
+    def goal(self, need_steps, kept_tau, ess, rhat):
+        self.state = (need_steps, kept_tau, ess, rhat)
+
+    def close(self):
+        if self.state is not None:
+            steps, kept_tau, ess, rhat = self.state
+            n_tau, min_ess, rhat_max = self.goals
+            print(f"sampling to convergence: {steps:.0f} steps; chain {kept_tau:.0f}/{n_tau} tau, "
+                  f"ESS {ess:.0f}/{min_ess}, R-hat {rhat:.3f} (< {rhat_max})", file=sys.stderr)
+
+
+def _progress(enabled, first, n_tau, min_ess, rhat_max):
+    """A progress bar on a terminal, one line in a log, or nothing."""
+    if not enabled:
+        return _NoBar()
+    if not getattr(sys.stderr, "isatty", lambda: False)():
+        return _LogLine(n_tau, min_ess, rhat_max)
+    return _GoalBar(first, n_tau, min_ess, rhat_max)
