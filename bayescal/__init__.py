@@ -24,10 +24,12 @@ from .version import __version__
 #: ``bayescal --help`` or a sub-command pays only for what it uses.
 _LAZY = {"Posterior": "bayescal.core.posterior.samples", "calibrate": "bayescal.io.pipeline",
          "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
+         "load_posterior": "bayescal.io.result",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
          "write_network": "bayescal.simulate"}
 
-__all__ = ["calibrate", "calibrate_files", "write_results", "Posterior", "simulate_pair",
+__all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Posterior",
+           "simulate_pair",
            "simulate_calibration", "write_network", "__version__"]
 
 

@@ -61,7 +61,9 @@ def test_cowi_horizontal_azimuths_match_asl(cowi_data, tmp_path, gains):
     kept, possible = expected_segments(n, meta["sampling_rate"], meta["band_hz"][0],
                                        meta["segment_s"])
     used = meta["data_used"]
-    assert (used["segments"], used["segments_possible"]) == (kept, possible)
+    # every gap-free segment is used but those holding a transient in one sensor
+    transients = used.get("transients", {}).get("dropped", 0)
+    assert (used["segments"] + transients, used["segments_possible"]) == (kept, possible)
 
 
 def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):

@@ -264,15 +264,15 @@ def test_renders_without_display(flagged, tmp_path):
 
 
 def test_reading_a_result_imports_no_model(flagged, tmp_path):
-    """Reading a stored result (``load_posterior``, its summary, and ``bayescal
-    report`` on the folder) loads no module of the model, the spectra, the
-    fit or the sampler: the result stands on its own."""
+    """Reading a stored result (``bayescal.load_posterior``, its summary,
+    and ``bayescal report`` on the folder) loads no module of the model, the
+    spectra, the fit or the sampler: the result stands on its own."""
     import shutil
 
     folder = str(tmp_path / "copy")
     shutil.copytree(flagged[0], folder)
-    code = ("import sys; from bayescal.io.result import load_posterior; "
-            f"load_posterior({folder!r}).summary(); from bayescal.cli import main; "
+    code = ("import sys, bayescal; "
+            f"bayescal.load_posterior({folder!r}).summary(); from bayescal.cli import main; "
             f"main(['report', {folder!r}]); "
             "print(sorted(m for m in sys.modules if m.split('.')[:3] in "
             "(['bayescal', 'core', g] for g in ('model', 'spectra', 'sampling', 'fit'))))")

@@ -20,7 +20,12 @@ and ``sigma_b,k`` is estimated robustly, from the median over the
 of them hold a transient): a transient stands out from the minutes around
 it, while noise that rises and falls over hours (the day's cultural noise,
 the microseism's) is the record's own and is left to the likelihoods'
-inflation. The sum
+inflation. Where the model misses the signal (a timing offset, a response
+a few per cent off), part of the signal leaks into the leftover and rises
+with it; ``sigma`` then carries that leak, in proportion to how much
+stronger the segment's signal is than its neighbours' (:func:`_expected`),
+so that a segment is not left out for the model's own misfit, which the
+model check and its criticism are there to find. The sum
 over bands and reference channels is the segment's statistic; a segment
 whose chi-square tail probability is below ``alpha / K`` (Bonferroni over
 the ``K`` segments: one false drop in ``1 / alpha`` stationary records) and
@@ -81,14 +86,43 @@ def find(spectra, alpha=ALPHA):
                         np.broadcast_to(np.eye(spectra.n_r), (per.shape[1], spectra.n_r,
                                                               spectra.n_r))], axis=2)
     resid = np.real(np.einsum("bki,sbij,bkj->sbk", a, per, a.conj()))  # (K, B, nr)
+    # the part of each reference channel the SUT's explain: its signal
+    c = np.concatenate([np.swapaxes(coef, 1, 2).conj(),
+                        np.zeros((per.shape[1], spectra.n_r, spectra.n_r))], axis=2)
+    signal = np.real(np.einsum("bki,sbij,bkj->sbk", c, per, c.conj()))  # (K, B, nr)
     median = 2.0 * gammainccinv(dof / 2.0, 0.5) / dof                 # chi2 median / dof
-    sigma = _running_median(resid, NEIGHBOURS) / median[None, :, None]
+    sigma = _expected(resid, signal) / median[None, :, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(sigma > 0, resid / sigma, 0.0) * dof[None, :, None]
     q = z.sum(axis=(1, 2))
     n = float(dof.sum() * spectra.n_r)
     dropped = (gammaincc(n / 2.0, q / 2.0) < alpha / k) & (q / n >= MIN_RATIO)   # chi2 tail
     return Transients(dropped=dropped, ratio=q / n, alpha=float(alpha))
+
+
+def _expected(resid, signal):
+    """Each segment's typical leftover power: the running median of its
+    neighbours' plus, where the model misses the signal (a timing offset, a
+    response a few per cent off), the share of the segment's own signal
+    that leaks into the leftover, ``beta (P_s - median P)``. ``beta`` per
+    band and channel is the median over the segments stronger than their
+    neighbours of ``(r_s - median r) / (P_s - median P)``: the misfit's
+    leak if there is one (a minority of transients does not move it), about
+    zero under stationary noise (clipped there). A segment whose signal is
+    strong is then not taken for a transient because the model misses that
+    signal."""
+    m_r = _running_median(resid, NEIGHBOURS)
+    m_p = _running_median(signal, NEIGHBOURS)
+    excess = signal - m_p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.where(excess > 0, (resid - m_r) / excess, np.nan)
+    beta = np.zeros(resid.shape[1:])
+    ok = np.isfinite(slope)
+    for idx in np.ndindex(*resid.shape[1:]):
+        col = slope[(slice(None),) + idx][ok[(slice(None),) + idx]]
+        if col.size:
+            beta[idx] = max(float(np.median(col)), 0.0)
+    return m_r + beta[None] * np.maximum(excess, 0.0)
 
 
 def _running_median(x, half):
