@@ -40,6 +40,7 @@ from ..core.refnoise import treatment_meta as reference_noise_meta
 from ..core.mcmc import sample
 from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
 from ..core.geometry import unit_vector
+from ..core.eiv import EIVModel
 from ..core.posterior import Posterior, interval_summary
 from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
                      orientation_score, score, search)
@@ -201,8 +202,12 @@ def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
     while len(model.effects) > min_effects - 1 and model.effects:
         gains = []
         for e in model.effects:
+            if not getattr(e, "prunable", True):
+                continue
             m, th = _without(model, theta, {_key(e)})
             gains.append((score(m, th, model, theta)["delta_bic"], _key(e)))
+        if not gains:
+            break
         gain, key = min(gains)
         if gain > keep:
             break
@@ -317,7 +322,8 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     if start.per_block:
         start.estimate_noise(th0)
     model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
-                                   deadline=deadline)
+                                   deadline=deadline,
+                                   eiv=model0 if start.per_block and isinstance(model0, EIVModel) else None)
     stop = steps[-1][-1] if steps and steps[-1] else {}
     incomplete = stop if stop.get("stopped") else None
     tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
