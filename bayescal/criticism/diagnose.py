@@ -40,6 +40,8 @@ from ..core.refnoise import treatment_meta as reference_noise_meta
 from ..core.mcmc import sample
 from ..core.sampler import diagnostics, least_squares_fit, plugin_meta
 from ..core.geometry import unit_vector
+from ..core import pendulum
+from ..core.unconstrained import describe_late, information, late_flags
 from ..core.eiv import EIVModel
 from ..core.posterior import Posterior, interval_summary
 from .search import (BIC_KEEP, _drift_candidate, _key, _refit, _theta_base, _with,
@@ -106,6 +108,7 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
     vecs, _ = model.unpack(samples)
     resp = model.response_values(samples) if free != "none" else {}
     kinds = [{2: "sphere", 1: "circle", 0: "fixed"}[b.manifold.n_params] for b in model.blocks]
+    meta = dict(meta, **prior_set(model, samples))
     post = Posterior(channel_ids=[b.channel_id for b in model.blocks], kinds=kinds, vectors=vecs,
                      response=resp, samples=samples, names=model.names, log_prob=lp,
                      convergence=conv,
@@ -115,6 +118,28 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
                      diagnostics=diagnostics(model, np.median(samples, axis=0)))
     post.model = model
     return post
+
+
+def prior_set(model, samples):
+    """The improved model's own ``set_by_prior`` (and ``prior_sensitivity``)
+    meta entries, from its samples (model coordinates): sampled response
+    parameters whose posterior is about as wide as their prior box or
+    pinned at its bound (:func:`bayescal.core.unconstrained.late_flags`),
+    and the period, damping or damping/period the pendulum prior sets
+    (:func:`bayescal.core.pendulum.prior_sensitivity`, with the likelihood's
+    information of this model at the samples' median). Nothing is held
+    here: every parameter of the model is sampled."""
+    med = np.median(samples, axis=0)
+    out = describe_late(model, late_flags(model, samples))
+    blocks = {b.channel_id: (sr.start, sr.start + 1)
+              for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
+    sens = {}
+    if blocks:
+        pr = model.priors
+        sens = pendulum.prior_sensitivity(information(model, med), med, blocks,
+                                          pr.period_tolerance, pr.damping_tolerance)
+        out.update(pendulum.set_by_prior_entries(sens))
+    return {"set_by_prior": out, **({"prior_sensitivity": sens} if sens else {})}
 
 
 # --- the whole diagnosis -------------------------------------------------------
@@ -127,6 +152,12 @@ def _nominal_vectors(meta, ids):
 def _effect_entry(model, effect, sl, samples, step_score):
     phys = effect.physical(samples[:, sl])
     params = {k: interval_summary(v) for k, v in phys.items()}
+    sbp = None
+    if effect.name == "response_parameters":
+        # what the prior sets is no measurement: left out, and said
+        theta = np.median(samples, axis=0)
+        sens = effect.prior_sensitivity(information(model, theta), theta, sl)
+        params, sbp = catalogue.measured(params, sens)
     med = {k: v["median"] for k, v in params.items()}
     ids = [model.blocks[r].channel_id for r in effect.rows]
     if effect.name == "extra_pole":
@@ -134,9 +165,8 @@ def _effect_entry(model, effect, sl, samples, step_score):
     entry = {"name": effect.name, "channels": ids, "parameters": params,
              "score_gain": step_score, "explanation": effect.explain(med)}
     if effect.name == "response_parameters":     # the metadata values the fit held
-        entry["nominal"] = {f"{k}:{c}": getattr(fam, k) for fam, c in
-                            zip(effect.families, effect.channel_ids)
-                            for k in ("period_s", "damping")}
+        entry["nominal"] = effect.nominal()
+        entry["set_by_prior"] = sbp
     return entry
 
 

@@ -33,6 +33,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..core import pendulum
 from ..core.likelihood import Effect
 
 #: Angle (degrees) within which a fitted axis "matches" a metadata axis.
@@ -251,57 +252,139 @@ class GainError(Effect):
 class ResponseParameters(Effect):
     """The SUT's natural period and damping off their metadata values on
     the channels ``rows`` (a fit that holds them at nominal: gains only or
-    none). Parameters per row: ``log(T0 / T0_nom)`` and ``h - h_nom``; the
-    amplitude at the normalisation frequency is kept (the gain, free or
-    held, carries it). All rows at once: one name for one cause (a sensor
-    whose metadata give the wrong pendulum)."""
+    none). Parameters per row: the pendulum's coordinates ``c0_rel`` and
+    ``c1_rel`` (:mod:`bayescal.core.pendulum`; 1 at the metadata values), with
+    the sensor's stated prior: log-normal period and damping around their
+    metadata values with the tolerances of ``priors`` (the main fit's prior
+    when it fits them, ``--fit-response all``). The amplitude at the
+    normalisation frequency is kept (the gain, free or held, carries it).
+    All rows at once: one name for one cause (a sensor whose metadata give
+    the wrong pendulum)."""
 
     name = "response_parameters"
 
-    def __init__(self, rows, families, channel_ids):
+    def __init__(self, rows, families, channel_ids, priors=None):
+        from ..core.likelihood import Priors
+
         self.rows = list(rows)
         self.families = list(families)
         self.channel_ids = list(channel_ids)
-        self.param_names = tuple(n for c in self.channel_ids
-                                 for n in (f"{c.split('.')[-1]}:log_period_ratio",
-                                           f"{c.split('.')[-1]}:damping_offset"))
+        pr = priors if priors is not None else Priors()
+        self.tolerances = (pr.period_tolerance, pr.damping_tolerance)
+        self.param_names = tuple(f"{c.split('.')[-1]}:{n}" for c in self.channel_ids
+                                 for n in pendulum.NAMES)
         self._cache = (None, None)
+
+    def grid(self, steps):
+        """Starting points (one row per ``(log period ratio, damping
+        offset)`` in ``steps``, the same on every channel) in the effect's
+        coordinates."""
+        out = []
+        for a, b in steps:
+            row = []
+            for fam in self.families:
+                row += [float(x) for x in pendulum.from_physical(
+                    fam.period_s * np.exp(a), fam.damping + b, fam.period_s, fam.damping)]
+            out.append(row)
+        return np.array(out)
 
     def _inverses(self, f):
         if self._cache[0] is not f:
             self._cache = (f, [fam.inverse_ratio_at(f) for fam in self.families])
         return self._cache[1]
 
+    def _physical(self, p, k):
+        fam = self.families[k]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return pendulum.to_physical(p[:, 2 * k], p[:, 2 * k + 1], fam.period_s, fam.damping)
+
     def factor(self, f, p):
         out = np.empty((p.shape[0], len(self.rows), np.size(f)), dtype=complex)
         for k, (fam, inv) in enumerate(zip(self.families, self._inverses(f))):
-            period = fam.period_s * np.exp(p[:, 2 * k])
-            damping = fam.damping + p[:, 2 * k + 1]
+            period, damping = self._physical(p, k)
             with np.errstate(all="ignore"):
                 out[:, k] = inv(period, damping, np.full(p.shape[0], fam.gain))
         return out
 
     def log_prior(self, p):
-        lp = p[:, 0::2]
-        h = np.stack([fam.damping + p[:, 2 * k + 1] for k, fam in enumerate(self.families)], 1)
-        ok = np.all(np.abs(lp) < np.log(3.0), axis=1) & np.all((h > 0.05) & (h < 2.0), axis=1)
-        return np.where(ok, 0.0, -np.inf)
+        return sum(pendulum.log_prior(p[:, 2 * k], p[:, 2 * k + 1], *self.tolerances)
+                   for k in range(len(self.rows)))
+
+    def prior_residual(self, p):
+        """The prior's least-squares rows ``(r, J)`` at ``p`` (n_params,)
+        (:func:`bayescal.core.pendulum.prior_residual` per channel)."""
+        n = len(self.rows)
+        r, jac = np.zeros(2 * n), np.zeros((2 * n, 2 * n))
+        for k in range(n):
+            rk, jk = pendulum.prior_residual(p[2 * k], p[2 * k + 1], *self.tolerances)
+            r[2 * k:2 * k + 2], jac[2 * k:2 * k + 2, 2 * k:2 * k + 2] = rk, jk
+        return r, jac
+
+    def prior_sensitivity(self, fisher, theta, sl):
+        """:func:`bayescal.core.pendulum.prior_sensitivity` of each channel's
+        period, damping and damping/period: ``fisher`` the likelihood's
+        information of the whole model at ``theta``, ``sl`` the effect's
+        slice in it."""
+        blocks = {cid: (sl.start + 2 * k, sl.start + 2 * k + 1)
+                  for k, cid in enumerate(self.channel_ids)}
+        return pendulum.prior_sensitivity(fisher, theta, blocks, *self.tolerances)
 
     def physical(self, p):
         out = {}
-        for k, (fam, cid) in enumerate(zip(self.families, self.channel_ids)):
-            out[f"period_s:{cid}"] = fam.period_s * np.exp(p[:, 2 * k])
-            out[f"damping:{cid}"] = fam.damping + p[:, 2 * k + 1]
+        for k, cid in enumerate(self.channel_ids):
+            period, damping = self._physical(p, k)
+            out[f"period_s:{cid}"] = period
+            out[f"damping:{cid}"] = damping
+            out[f"damping_over_period:{cid}"] = pendulum.damping_over_period(period, damping)
+        return out
+
+    def nominal(self):
+        """The metadata values, keyed as :meth:`physical`."""
+        out = {}
+        for fam, cid in zip(self.families, self.channel_ids):
+            out[f"period_s:{cid}"] = fam.period_s
+            out[f"damping:{cid}"] = fam.damping
+            out[f"damping_over_period:{cid}"] = float(pendulum.damping_over_period(
+                fam.period_s, fam.damping))
         return out
 
     def explain(self, med):
+        """``med``: the medians of what the data measure (values the prior
+        sets left out: :func:`measured`)."""
         parts = []
-        for fam, cid in zip(self.families, self.channel_ids):
-            t, h = med[f"period_s:{cid}"], med[f"damping:{cid}"]
-            parts.append(f"{cid} period {t:.4g} s (metadata {fam.period_s:.4g}), damping "
-                         f"{h:.3g} (metadata {fam.damping:.3g})")
+        nom = self.nominal()
+        for cid in self.channel_ids:
+            said = []
+            for name, unit, fmt in (("period_s", " s", ".4g"), ("damping", "", ".3g"),
+                                    ("damping_over_period", " 1/s", ".3g")):
+                key = f"{name}:{cid}"
+                if key in med:
+                    label = {"period_s": "period", "damping_over_period": "damping/period"}.get(
+                        name, name)
+                    said.append(f"{label} {med[key]:{fmt}}{unit} (metadata {nom[key]:{fmt}})")
+            parts.append(f"{cid} " + (", ".join(said) if said else "not measured apart from "
+                                      "its prior"))
         return ("the SUT's natural period and damping differ from its metadata: "
                 + "; ".join(parts) + "; fit them with --fit-response all")
+
+
+def measured(params, sensitivity):
+    """``params`` (physical name -> summary, keys ``<name>:<channel>``)
+    without the values the prior sets (``sensitivity``:
+    :meth:`ResponseParameters.prior_sensitivity`), and without
+    damping/period where the period and the damping are both measured (it
+    adds nothing then). Returns (kept, the ``set_by_prior`` entries)."""
+    sbp = pendulum.set_by_prior_entries(sensitivity)
+    out = {}
+    for key, v in params.items():
+        name, cid = key.split(":", 1)
+        if f"{cid}:{name}" in sbp:
+            continue
+        if name == "damping_over_period" and not any(
+                f"{cid}:{n}" in sbp for n in ("period_s", "damping")):
+            continue
+        out[key] = v
+    return out, sbp
 
 
 # --- signatures -------------------------------------------------------------

@@ -61,10 +61,10 @@ def _candidates(model, free, current, drift=None):
     if pendulum:
         fams = [model.blocks[i].family for i in pendulum]
         steps = [(a, b) for a in (-0.1, 0.0, 0.1) for b in (-0.05, 0.0, 0.05)]
-        out.append(("response_parameters",
-                    catalogue.ResponseParameters(pendulum, fams,
-                                                 [model.blocks[i].channel_id for i in pendulum]),
-                    np.array([[a, b] * len(pendulum) for a, b in steps])))
+        e = catalogue.ResponseParameters(pendulum, fams,
+                                         [model.blocks[i].channel_id for i in pendulum],
+                                         model.priors)
+        out.append(("response_parameters", e, e.grid(steps)))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
