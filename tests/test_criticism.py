@@ -79,6 +79,16 @@ def test_concealed_clock_offset_named_once_with_its_size(late):
         assert moved["ci95"][0] <= truth <= moved["ci95"][1]
 
 
+def test_improved_posterior_has_the_fits_likelihood(late):
+    """The improved model is sampled with the fit's per-band noise scale
+    (core.misfit_scale, shape 2 by default), not the search's Gaussian
+    likelihood: where it still misfits, its intervals widen as the fit's do."""
+    from bayescal.core import misfit_scale
+    _, post = late
+    assert post.model.misfit_shape == misfit_scale.MISFIT_SHAPE == 2.0
+    assert post.improved.model.misfit_shape == 2.0
+
+
 def test_corrected_stationxml_holds_the_offset(late, tmp_path):
     from obspy import read_inventory
 

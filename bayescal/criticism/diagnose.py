@@ -394,6 +394,11 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
         else:
             sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
     if model.effects or eiv is not None:
+        # sampled with the fit's likelihood: each band's noise scale
+        # marginalised as in the fit (core.misfit_scale), so that intervals
+        # widen where the improved model still misfits (the search compares
+        # the Gaussian likelihoods)
+        model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
         meta = base.meta if eiv is None else dict(
             base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
                                             chosen_by="diagnose",
