@@ -297,3 +297,33 @@ def test_huddle_misfit_left_unexplained_with_a_band_advice(huddle_data, tmp_path
     hi = float(band[0].split()[2])
     assert 1.0 < hi < 6.0          # the two-pole picture stops holding above about 5 Hz
     assert not np.isnan(c["misfit_after"])
+
+
+def test_an_effect_is_named_only_when_its_posterior_excludes_its_absence():
+    """``weak_effects`` on posterior draws of known mean and spread: a 1 ms
+    offset with a 1 ms sd (distance^2 1 against chi2_1's 99 % quantile 6.63)
+    is not named, a 10 ms one is; a missing pole whose corner is 1 Hz in a
+    0.02-2 Hz band is named, one whose posterior reaches corners above three
+    times the band's top (not identifiable there) is not, however far its
+    inverse corner is from 0."""
+    from types import SimpleNamespace
+
+    from bayescal.criticism import effects as catalogue
+    from bayescal.criticism.diagnose import weak_effects
+
+    rng = np.random.default_rng(0)
+    spectra = SimpleNamespace(band_edges=np.geomspace(0.02, 2.0, 21))
+
+    def judged(effect, draws):
+        model = SimpleNamespace(effects=[effect], effect_slices=[slice(0, 1)], spectra=spectra)
+        return weak_effects(model, draws[:, None])
+
+    offset = catalogue.TimingOffset([0, 1, 2])
+    weak = judged(offset, rng.normal(0.001, 0.001, 4000))
+    assert len(weak) == 1 and weak[0][2] == pytest.approx(1.0, rel=0.1)
+    assert judged(offset, rng.normal(0.010, 0.001, 4000)) == []
+    pole = catalogue.ExtraPole([0, 1, 2], "sut")
+    assert judged(pole, rng.normal(1.0, 0.02, 4000)) == []          # 1 Hz, sd 2 %
+    # inverse corner 0.2 s (5 Hz) +- 0.05 s: far from 0, but corners up to 10 Hz
+    far = judged(pole, rng.normal(0.2, 0.05, 4000))
+    assert len(far) == 1 and "not identifiable" in far[0][4]

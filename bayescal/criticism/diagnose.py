@@ -250,6 +250,53 @@ def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
     return model, theta, dropped
 
 
+#: An effect is named only when its posterior (the fit's likelihood, the
+#: improved model) puts its null value (no effect) outside this central
+#: region: at most 1 - NAME_LEVEL of absent effects named per candidate
+#: kept by the search, when the posterior is calibrated.
+NAME_LEVEL = 0.99
+
+
+def weak_effects(model, samples, level=NAME_LEVEL):
+    """The effects of ``model`` whose absence the posterior ``samples``
+    (model coordinates) does not exclude: the squared Mahalanobis distance
+    of the effect's null value (``effect.null``, 0 by default) from the
+    posterior mean of its parameters, against the ``level`` quantile of a
+    chi-square with one degree of freedom per parameter (a clock drift
+    carried to the errors-in-variables model: its rate over its standard
+    deviation). An effect with an identifiability rule (a missing pole: its
+    corner below three times the band's top) must meet it at the posterior's
+    ``1 - level`` quantile too, else it counts as not excluded (distance 0).
+    Returns [(distance^2 / quantile, key, distance^2, dof, reason)]."""
+    from scipy.stats import chi2
+
+    out = []
+    sp = model.spectra
+    for e, sl in zip(model.effects, model.effect_slices):
+        if hasattr(e, "identifiable"):
+            low = np.quantile(samples[:, sl], 1.0 - level, axis=0)
+            if not e.identifiable(low, sp.band_edges[0], sp.band_edges[-1]):
+                out.append((0.0, _key(e), 0.0, e.n_params,
+                            f"it is not identifiable in the band at {100 * level:g} %"))
+                continue
+        if hasattr(e, "ppm_sd"):
+            d2, k = (e.ppm / e.ppm_sd) ** 2 if e.ppm_sd > 0 else np.inf, 1
+        else:
+            x = samples[:, sl] - getattr(e, "null", 0.0)
+            mean = x.mean(axis=0)
+            cov = np.atleast_2d(np.cov(x.T)) if len(x) > 1 else np.full((1, 1), np.nan)
+            k = e.n_params
+            if not (np.all(np.isfinite(cov)) and np.all(np.isfinite(mean))):
+                continue        # no posterior spread to judge by (a single point)
+            d2 = float(mean @ np.linalg.pinv(cov) @ mean)
+        q = float(chi2.ppf(level, k))
+        if d2 < q:
+            out.append((d2 / q, _key(e), float(d2), int(k),
+                        f"its posterior does not exclude its absence at {100 * level:g} % "
+                        f"(squared distance {d2:.3g} with {k} parameter(s))"))
+    return out
+
+
 def overdispersion(model, theta):
     """The median standardised misfit of ``model`` over bands and channels,
     at least 1: how much more than its noise the model still misses by
@@ -282,14 +329,21 @@ def prune_overdispersed(model, theta, log=None):
 #: Sub-band timing offsets agree when they differ by less than this many
 #: standard errors or this fraction of the offset, whichever is larger.
 TIMING_AGREE_SD, TIMING_AGREE_FRACTION = 4.0, 0.25
+#: A clock offset delays every frequency: each half of the band must show it
+#: on its own, at least this many of its standard errors from zero.
+TIMING_SEEN_SD = 2.0
 
 
 def timing_consistency(model, theta):
     """A timing offset in ``model`` read separately from the lower and upper
     half of the bands: the offset plus the phase slope of the
     recorded/predicted ratio that the model with the offset leaves there (a
-    residual phase, so no wrapping). Returns a JSON-safe dict with
-    ``consistent``."""
+    residual phase, so no wrapping). ``consistent``: the two agree (same
+    sign, within :data:`TIMING_AGREE_SD` standard errors or
+    :data:`TIMING_AGREE_FRACTION` of the offset) and each is at least
+    :data:`TIMING_SEEN_SD` standard errors from zero (a clock delays every
+    frequency; a phase that one half alone shows is a response's). Returns
+    a JSON-safe dict."""
     i = next(k for k, e in enumerate(model.effects) if e.name == "timing_offset")
     sl = model.effect_slices[i]
     tau = float(np.asarray(theta)[sl][0])
@@ -317,7 +371,8 @@ def timing_consistency(model, theta):
     diff = abs(a["seconds"] - b["seconds"])
     ok = (np.sign(a["seconds"]) == np.sign(b["seconds"])
           and diff <= max(TIMING_AGREE_SD * np.hypot(a["sd"], b["sd"]),
-                          TIMING_AGREE_FRACTION * abs(tau)))
+                          TIMING_AGREE_FRACTION * abs(tau))
+          and all(abs(x["seconds"]) >= TIMING_SEEN_SD * x["sd"] for x in out))
     return {"seconds": tau, "sub_bands": out, "consistent": bool(ok)}
 
 
@@ -375,25 +430,28 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
                 th, cov = least_squares_fit(model, th2)
             else:
                 model, th, cov = start, th0, None
-    if cov is None:
-        model, th = model0, th0
-        cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
-    after = locate(model, th)
-    # the base model's misfit under the final noise model: the base's own
-    # noise estimate is inflated by the misfit it leaves (before/after on one scale)
-    common = _with(model0, [], per_block=model.per_block)
-    common.adopt_noise(model.noise)
-    before_common = locate(common, _refit(common, (th0,))[1])
-    if mcmc and deadline is not None and (model.effects or eiv is not None):
-        # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
-        # steps from the cost of one ensemble's evaluation; too few, or none
-        # left, and the Gaussian approximation stands in for it
-        n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
-        if n_steps < MIN_CHAIN_STEPS:
-            mcmc = False
-        else:
-            sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
-    if model.effects or eiv is not None:
+    while True:
+        if cov is None:
+            model, th = model0, th0
+            cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
+        after = locate(model, th)
+        # the base model's misfit under the final noise model: the base's own
+        # noise estimate is inflated by the misfit it leaves (before/after on one scale)
+        common = _with(model0, [], per_block=model.per_block)
+        common.adopt_noise(model.noise)
+        before_common = locate(common, _refit(common, (th0,))[1])
+        if mcmc and deadline is not None and (model.effects or eiv is not None):
+            # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
+            # steps from the cost of one ensemble's evaluation; too few, or none
+            # left, and the Gaussian approximation stands in for it
+            n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
+            if n_steps < MIN_CHAIN_STEPS:
+                mcmc = False
+            else:
+                sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
+        if not (model.effects or eiv is not None):
+            final = base    # nothing to add to the response model: the final fit is the base fit
+            break
         # sampled with the fit's likelihood: each band's noise scale
         # marginalised as in the fit (core.misfit_scale), so that intervals
         # widen where the improved model still misfits (the search compares
@@ -410,8 +468,22 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
             # the Gaussian approximation at the least-squares point instead
             final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
                                  base.not_estimable, free, seed=seed, mcmc=False)
-    else:       # nothing to add to the response model: the final fit is the base fit
-        final = base
+        weak = weak_effects(model, final.samples)
+        if not weak:
+            break
+        # an effect whose absence its posterior does not exclude is not named:
+        # the weakest goes, the rest are re-fitted and sampled again
+        _, key, _, _, why = min(weak)
+        if log:
+            log(f"  {key} dropped: {why}")
+        dropped.append({"effect": key, "reason": why})
+        m, t = _without(model, th, {key})
+        m.adopt_noise(model.noise)
+        if m.effects:
+            model = m
+            th, cov = least_squares_fit(model, t)
+        else:
+            cov = None
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
     for e, sl in zip(model.effects, model.effect_slices):

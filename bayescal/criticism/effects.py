@@ -262,6 +262,8 @@ class ResponseParameters(Effect):
     the wrong pendulum)."""
 
     name = "response_parameters"
+    #: The parameters' value with no effect (the metadata's pendulum).
+    null = 1.0
 
     def __init__(self, rows, families, channel_ids, priors=None):
         from ..core.likelihood import Priors

@@ -11,9 +11,9 @@ the product's defaults (gains free, reference noise estimated, the criticism
 on when the model check fails); the run's sampler is shortened (``min_ess``
 200, 20 autocorrelation times) for time.
 
-Seeds are fixed before any result is seen: two sets (``SEED_SETS``,
+Seeds are fixed before any result is seen: three sets (``SEED_SETS``,
 ``--seeds``), clean pairs 7000- and single-effect pairs 8000- in the first,
-7100- and 9000- in the second; the effect of seed ``s`` is
+7100- and 9000- in the second, 7200- and 10000- in the third; the effect of seed ``s`` is
 ``KINDS[s % len(KINDS)]`` and every other draw comes from
 ``numpy.random.default_rng(s)``.
 
@@ -32,7 +32,7 @@ Scoring (per run):
   the prior sets those and the effect names damping/period instead).
 
     python validation/studies/criticism_harness.py --clean 60 --effects 60 \\
-        --seeds second --out validation/results/criticism/harness_second.json
+        --seeds third --out validation/results/criticism/harness_third.json
 
 About 10 s a run on an idle core (a clock drift in a 4 h record up to the
 criticism's 60 s budget). ``--shard I/N`` runs every N-th pair of (clean,
@@ -84,10 +84,11 @@ class study_results:  # noqa: N801 - the interface of validation/studies/study_r
 
 KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
          "channel_swap", "tilt_noise", "response_parameters"]
-#: Fixed before the results were seen: ``--seeds first`` (the first set) and
-#: ``--seeds second`` (a second set, fixed before any run with it).
+#: Fixed before the results were seen: ``--seeds first``, ``second`` and
+#: ``third``, each fixed before any run with it.
 SEED_SETS = {"first": (list(range(7000, 7100)), list(range(8000, 8100))),
-             "second": (list(range(7100, 7200)), list(range(9000, 9100)))}
+             "second": (list(range(7100, 7200)), list(range(9000, 9100))),
+             "third": (list(range(7200, 7300)), list(range(10000, 10100)))}
 CLEAN_SEEDS, EFFECT_SEEDS = SEED_SETS["first"]
 FS = 10.0
 BAND = (0.02, 2.0)
@@ -259,8 +260,8 @@ def main(argv=None):
     ap.add_argument("--effects", type=int, default=60)
     ap.add_argument("--out", default="validation/results/criticism/harness.json")
     ap.add_argument("--seeds", choices=sorted(SEED_SETS), default="first",
-                    help="which fixed seed set: first (clean 7000-, effects 8000-) or second "
-                         "(clean 7100-, effects 9000-)")
+                    help="which fixed seed set: first (clean 7000-, effects 8000-), second "
+                         "(clean 7100-, effects 9000-) or third (clean 7200-, effects 10000-)")
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new run starts (the summary says so)")
     ap.add_argument("--shard", default=None, metavar="I/N",
