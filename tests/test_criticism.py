@@ -327,3 +327,31 @@ def test_an_effect_is_named_only_when_its_posterior_excludes_its_absence():
     # inverse corner 0.2 s (5 Hz) +- 0.05 s: far from 0, but corners up to 10 Hz
     far = judged(pole, rng.normal(0.2, 0.05, 4000))
     assert len(far) == 1 and "not identifiable" in far[0][4]
+
+
+def test_timing_offset_must_show_in_each_half_of_the_band(monkeypatch):
+    """A 2 ms offset that the recorded/predicted ratio leaves no phase slope
+    about (each half of 0.02-2 Hz reads 2 ms) is consistent when both halves
+    are measured well (sd 0.36 ms in the lower half); with the lower half's
+    weights a thousand times smaller (sd 11 ms) the lower half does not show
+    it on its own (0.2 sd from zero), and it is not a clock's offset."""
+    from types import SimpleNamespace
+
+    from bayescal.criticism import diagnose as dg
+    from bayescal.criticism import effects as catalogue
+
+    edges = np.geomspace(0.02, 2.0, 21)
+    sp = SimpleNamespace(band_centres=np.sqrt(edges[:-1] * edges[1:]), band_edges=edges)
+    model = SimpleNamespace(effects=[catalogue.TimingOffset([0])], effect_slices=[slice(0, 1)],
+                            spectra=sp)
+    monkeypatch.setattr(dg, "band_ratio", lambda m, th: np.ones((20, 1), complex))
+    weights = np.full((20, 1), 1e6)
+    monkeypatch.setattr(dg, "ratio_weights", lambda s: weights)
+    tc = dg.timing_consistency(model, np.array([0.002]))
+    low, high = tc["sub_bands"]
+    assert low["seconds"] == pytest.approx(0.002) and high["seconds"] == pytest.approx(0.002)
+    assert low["sd"] == pytest.approx(3.6e-4, rel=0.1) and tc["consistent"]
+    weights[:10] = 1e3
+    tc = dg.timing_consistency(model, np.array([0.002]))
+    assert tc["sub_bands"][0]["sd"] == pytest.approx(0.0114, rel=0.1)
+    assert not tc["consistent"]
