@@ -13,7 +13,8 @@ where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
   flat amplitude (SUT late by tau: phase ``-2 pi f tau`` on every channel).
 * ``clock_drift``: the per-segment timing (phase slope) changes steadily
   through the record (a screen; the drift is fitted on the per-time-block
-  likelihood, :class:`ClockDrift`).
+  likelihood, :class:`ClockDrift`, then carried to the errors-in-variables
+  model with its rate taken out of the spectra, :class:`CorrectedDrift`).
 * ``extra_pole``: amplitude rolls off (SUT has a pole its metadata lacks:
   ``|q|`` falls, phase lags) or rises (the reference lacks one: ``|q|``
   rises, phase leads) toward high frequency.
