@@ -258,7 +258,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clean", type=int, default=60)
     ap.add_argument("--effects", type=int, default=60)
-    ap.add_argument("--out", default="validation/results/criticism/harness.json")
+    ap.add_argument("--out", default=None,
+                    help="default validation/results/criticism/harness_<seed set>.json")
     ap.add_argument("--seeds", choices=sorted(SEED_SETS), default="first",
                     help="which fixed seed set: first (clean 7000-, effects 8000-), second "
                          "(clean 7100-, effects 9000-) or third (clean 7200-, effects 10000-)")
@@ -270,6 +271,8 @@ def main(argv=None):
     ap.add_argument("--merge", nargs="+", default=None, metavar="CHECKPOINT",
                     help="write OUT from these shard checkpoints (and remove them)")
     args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = f"validation/results/criticism/harness_{args.seeds}.json"
     if args.merge:
         parts = [json.load(open(f)) for f in args.merge]
         records = sorted((r for p in parts for r in p["runs"]),
