@@ -355,3 +355,21 @@ def test_timing_offset_must_show_in_each_half_of_the_band(monkeypatch):
     tc = dg.timing_consistency(model, np.array([0.002]))
     assert tc["sub_bands"][0]["sd"] == pytest.approx(0.0114, rel=0.1)
     assert not tc["consistent"]
+
+
+def test_a_drift_is_judged_by_its_rate():
+    """A per-block clock drift whose offset at mid-record is far from 0 but
+    whose rate is 0.5 +- 1 ppm is not named: its absence is a zero rate."""
+    from types import SimpleNamespace
+
+    from bayescal.criticism.diagnose import weak_effects
+
+    rng = np.random.default_rng(1)
+    drift = SimpleNamespace(name="clock_drift", n_params=2, absence=(1,), rows=[0])
+    model = SimpleNamespace(effects=[drift], effect_slices=[slice(0, 2)],
+                            spectra=SimpleNamespace(band_edges=np.array([0.02, 2.0])))
+    draws = np.column_stack([rng.normal(0.2, 0.001, 4000), rng.normal(0.5, 1.0, 4000)])
+    weak = weak_effects(model, draws)
+    assert len(weak) == 1 and weak[0][3] == 1 and weak[0][2] == pytest.approx(0.25, abs=0.1)
+    draws[:, 1] += 10.0
+    assert weak_effects(model, draws) == []

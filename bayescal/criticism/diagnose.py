@@ -261,7 +261,8 @@ def weak_effects(model, samples, level=NAME_LEVEL):
     """The effects of ``model`` whose absence the posterior ``samples``
     (model coordinates) does not exclude: the squared Mahalanobis distance
     of the effect's null value (``effect.null``, 0 by default) from the
-    posterior mean of its parameters, against the ``level`` quantile of a
+    posterior mean of its parameters (those in ``effect.absence``, all by
+    default), against the ``level`` quantile of a
     chi-square with one degree of freedom per parameter (a clock drift
     carried to the errors-in-variables model: its rate over its standard
     deviation). An effect with an identifiability rule (a missing pole: its
@@ -283,9 +284,10 @@ def weak_effects(model, samples, level=NAME_LEVEL):
             d2, k = (e.ppm / e.ppm_sd) ** 2 if e.ppm_sd > 0 else np.inf, 1
         else:
             x = samples[:, sl] - getattr(e, "null", 0.0)
+            x = x[:, list(getattr(e, "absence", range(e.n_params)))]
             mean = x.mean(axis=0)
             cov = np.atleast_2d(np.cov(x.T)) if len(x) > 1 else np.full((1, 1), np.nan)
-            k = e.n_params
+            k = x.shape[1]
             if not (np.all(np.isfinite(cov)) and np.all(np.isfinite(mean))):
                 continue        # no posterior spread to judge by (a single point)
             d2 = float(mean @ np.linalg.pinv(cov) @ mean)

@@ -92,6 +92,9 @@ class ClockDrift(Effect):
     param_names = ("seconds_mid", "ppm")
     blocked = True
     multimodal = True
+    #: The parameters whose null value is the effect's absence (a drift's
+    #: rate; its offset at mid-record alone is a timing offset).
+    absence = (1,)
 
     def __init__(self, rows, spectra, limit_ppm=1000.0):
         self.rows = list(rows)
