@@ -337,7 +337,7 @@ def test_timing_offset_must_show_in_each_half_of_the_band(monkeypatch):
     it on its own (0.2 sd from zero), and it is not a clock's offset."""
     from types import SimpleNamespace
 
-    from bayescal.criticism import diagnose as dg
+    from bayescal.criticism import naming as dg
     from bayescal.criticism import effects as catalogue
 
     edges = np.geomspace(0.02, 2.0, 21)

@@ -282,9 +282,8 @@ class ResponseParameters(Effect):
         self._cache = (None, None)
 
     def grid(self, steps):
-        """Starting points (one row per ``(log period ratio, damping
-        offset)`` in ``steps``, the same on every channel) in the effect's
-        coordinates."""
+        """Starting points in the effect's coordinates, one row per ``(log
+        period ratio, damping offset)`` in ``steps`` (every channel alike)."""
         out = []
         for a, b in steps:
             row = []
@@ -354,9 +353,8 @@ class ResponseParameters(Effect):
                 fam.period_s, fam.damping))
         return out
 
-    def explain(self, med):
-        """``med``: the medians of what the data measure (values the prior
-        sets left out: :func:`measured`)."""
+    def explain(self, med, set_by_prior=None):
+        """``med``: medians of what the data measure (:func:`measured`)."""
         parts = []
         nom = self.nominal()
         for cid in self.channel_ids:
@@ -370,8 +368,15 @@ class ResponseParameters(Effect):
                     said.append(f"{label} {med[key]:{fmt}}{unit} (metadata {nom[key]:{fmt}})")
             parts.append(f"{cid} " + (", ".join(said) if said else "not measured apart from "
                                       "its prior"))
-        return ("the SUT's natural period and damping differ from its metadata: "
-                + "; ".join(parts) + "; fit them with --fit-response all")
+        text = ("the SUT's natural period and damping differ from its metadata: "
+                + "; ".join(parts))
+        if set_by_prior:
+            tail = any("tail" in e.get("reason", "") for e in set_by_prior.values())
+            text += ("; the period and the damping apart are set by the sensor's prior, not "
+                     "measured" + (" (the data put them in its tail: a wider "
+                                   "--period-tolerance and --damping-tolerance lets the data "
+                                   "decide)" if tail else ""))
+        return text + "; fit them with --fit-response all"
 
 
 def measured(params, sensitivity):

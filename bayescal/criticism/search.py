@@ -17,6 +17,7 @@ from ..core.geometry import Fixed
 from ..core.eiv import EIVModel, EIVNoise
 from ..core.likelihood import MIN_TIME_BLOCKS, Model
 from ..core.response import TwoPoleFamily
+from .locate import overdispersion
 
 
 #: An effect is kept when it improves the BIC by more than this ("very
@@ -348,8 +349,6 @@ def drift_under_eiv(eiv, model, theta, cov, log=None):
     model leaves (:func:`overdispersion`: the median standardised misfit,
     at least 1), the reference's noise that model lacks included.
     Returns (model, theta, cov)."""
-    from .diagnose import overdispersion
-
     k = next(i for i, e in enumerate(model.effects) if e.name == "clock_drift")
     drift, sl = model.effects[k], model.effect_slices[k]
     tau, ppm = (float(x) for x in np.asarray(theta)[sl])
