@@ -63,7 +63,7 @@ def main(argv=None):
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in cases(tmp).items():
-            fit, full, verdict = [], [], None
+            fit, full, verdict, named = [], [], None, []
             for _ in range(args.repeats):
                 for diagnose, store in ((False, fit), (True, full)):
                     t0 = time.perf_counter()
@@ -73,12 +73,13 @@ def main(argv=None):
                     store.append(time.perf_counter() - t0)
                     if diagnose:
                         verdict = post.criticism.get("verdict")
+                        named = [e["name"] for e in post.criticism.get("effects", [])]
             f, a = float(np.median(fit)), float(np.median(full))
             out[name] = {"fit_s": f, "fit_with_criticism_s": a, "added_s": a - f,
                          "limit_s": max(15.0, f), "within": a - f <= max(15.0, f),
-                         "verdict": verdict, "repeats": args.repeats}
+                         "verdict": verdict, "named": named, "repeats": args.repeats}
             print(f"{name:28s} fit {f:5.1f} s, with criticism {a:5.1f} s (+{a - f:.1f} s; "
-                  f"limit {max(15.0, f):.0f} s) verdict {verdict}", flush=True)
+                  f"limit {max(15.0, f):.0f} s) verdict {verdict}, named {named}", flush=True)
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     with open(args.out, "w") as fh:
         json.dump({"cases": out, "note": "wall-clock medians in one process, 2-core machine "

@@ -228,3 +228,32 @@ def test_a_stalled_start_does_not_outweigh_the_real_optimum():
     lo, hi = bh1["azimuth_deg"]["ci95"]
     assert abs(bh1["azimuth_deg"]["median"] - azs[0]) < 1.0 and hi - lo > 0.5, (azs[0], lo, hi)
     assert s["convergence"]["converged"]
+
+
+def test_optimum_curvature_carries_the_pendulum_prior():
+    """A 30-s sensor seen at 0.5-3 Hz with its period and damping fitted:
+    the likelihood hardly fixes ``c0_rel`` (the period), so the Laplace
+    curvature at an optimum must carry the pendulum prior's precision; on
+    the likelihood's alone its step sizes run c0_rel out of its support and
+    the curvature falls back to a near-singular information."""
+    import warnings
+
+    import bayescal
+    from bayescal.core import pendulum
+    from bayescal.simulate.pair import simulate_pair
+
+    sim = simulate_pair(duration=1800.0, fs=10.0, seed=5, coherence=0.99,
+                        sut_azimuth=(3.0, 93.0, 0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                                  ref_xml=sim.ref_inventory, band=(0.5, 3.0), fit_response="all",
+                                  progress=False, diagnose=False, min_ess=100, n_tau=10)
+    model, theta = post.model, post.theta_ls
+    opt = modes.optimum(model, theta, "test", model.noise.cholesky())
+    i = model.names.index(next(n for n in model.names if n.endswith("c0_rel")))
+    pr = model.priors
+    prior = pendulum.prior_precision(theta[i], theta[i + 1], pr.period_tolerance,
+                                     pr.damping_tolerance)[0]
+    assert np.all(np.isfinite(opt.hessian)) and np.isfinite(opt.log_mass)
+    assert opt.hessian[i, i] >= 0.5 * prior[0, 0], (opt.hessian[i, i], prior[0, 0])

@@ -116,7 +116,10 @@ def test_summary_is_plain_json_and_a_vertical_has_no_azimuth(sim_pair):
 def test_a_failed_model_check_is_a_python_warning():
     """A SUT whose natural period is 20 s where its metadata say 30 s, fitted
     with its gains only: the model check fails, and a script hears of it,
-    with the criticism's verdict (the period named, its value measured)."""
+    with the criticism's verdict (the period and damping named). Under the
+    sensor's 5 % prior a 33 % error lies in the prior's tail: the period and
+    the damping apart are set by the prior (said, with the tolerance to
+    widen), damping/period is measured: 0.707 / 20 inside its interval."""
     from bayescal import calibrate
     from bayescal.core.checks.adequacy import ModelMisfitWarning
     from bayescal.simulate.pair import simulate_pair
@@ -128,10 +131,12 @@ def test_a_failed_model_check_is_a_python_warning():
                          sut_xml=sim.sut_inventory,
                          band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
     assert post.summary()["adequacy"]["ok"] is False
-    size = post.criticism["effects"][0]["size"]
+    effect = post.criticism["effects"][0]
     for tr in sim.sut:
-        lo, hi = size[f"period_s:{tr.id}"]["ci95"]
-        assert lo <= 20.0 <= hi
+        lo, hi = effect["size"][f"damping_over_period:{tr.id}"]["ci95"]
+        assert lo <= 0.707 / 20.0 <= hi
+        assert "tail" in effect["set_by_prior"][f"{tr.id}:period_s"]["reason"]
+    assert "--period-tolerance" in effect["explanation"]
     clean = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelMisfitWarning)

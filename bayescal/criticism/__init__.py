@@ -4,6 +4,9 @@
                     each a nested extension of the likelihood
 * :mod:`.locate`    where the misfit is: per band and channel, with p-values
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
+* :mod:`.naming`    which kept effects are named: pruning, a timing offset's
+                    consistency across the band, the posterior's exclusion of
+                    each effect's absence
 * :mod:`.diagnose`  the whole diagnosis and its summary
 * :mod:`.verdict`   the criticism of a fit that failed its model check
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model

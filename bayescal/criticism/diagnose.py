@@ -41,10 +41,14 @@ from ..core.sampling.mcmc import sample
 from ..core.fit.assemble import assemble_posterior, plugin_meta
 from ..core.fit.run import least_squares_fit
 from ..core.orientation.geometry import unit_vector
+from ..core.response import pendulum
+from ..core.fit.unconstrained import describe_late, late_flags
+from ..core.model.eiv import EIVModel
 from ..core.posterior.samples import interval_summary
-from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, theta_base, with_effects,
-                     orientation_score, score, search)
+from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
+                     orientation_score, search)
 from .locate import ALPHA, true_runs, band_ratio, locate, ratio_weights, segment_timing
+from .naming import without_effects, prune_overdispersed, timing_consistency, weak_effects
 
 
 SCHEMA = "bayescal.diagnose/1"
@@ -101,10 +105,32 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC",
                     sampler={"library": None, "draws": int(len(samples)),
                              "approximation": "Laplace (Gaussian at the least-squares point)"})
+    meta = dict(meta, **prior_set(model, samples))
     return assemble_posterior(model, samples, lp, conv,
                               dict(meta, effects=[e.name for e in model.effects],
                                    plugin_weights=plugin_meta(model)),   # the final model's own
                               free, not_estimable=not_estimable, trace=trace)
+
+
+def prior_set(model, samples):
+    """The improved model's own ``set_by_prior`` (and ``prior_sensitivity``)
+    meta entries, from its samples (model coordinates): sampled response
+    parameters whose posterior is about as wide as their prior box or
+    pinned at its bound (:func:`bayescal.core.fit.unconstrained.late_flags`),
+    and the period, damping or damping/period the pendulum prior sets
+    (:func:`bayescal.core.response.pendulum.reweighted_sensitivity`, the
+    samples reweighted to the halved and doubled prior, as the fit's own).
+    Nothing is held here: every parameter of the model is sampled."""
+    out = describe_late(model, late_flags(model, samples))
+    blocks = {b.channel_id: (sr.start, sr.start + 1)
+              for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
+    sens = {}
+    if blocks:
+        pr = model.priors
+        sens = pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
+                                               pr.damping_tolerance)
+        out.update(pendulum.set_by_prior_entries(sens))
+    return {"set_by_prior": out, **({"prior_sensitivity": sens} if sens else {})}
 
 
 # --- the whole diagnosis -------------------------------------------------------
@@ -117,16 +143,21 @@ def _nominal_vectors(meta, ids):
 def _effect_entry(model, effect, sl, samples, step_score):
     phys = effect.physical(samples[:, sl])
     params = {k: interval_summary(v) for k, v in phys.items()}
+    sbp = None
+    if effect.name == "response_parameters":
+        # what the prior sets is no measurement: left out, and said
+        sens = effect.prior_sensitivity(samples, sl)
+        params, sbp = catalogue.measured(params, sens)
     med = {k: v["median"] for k, v in params.items()}
     ids = [model.blocks[r].channel_id for r in effect.rows]
     if effect.name == "extra_pole":
         params["which"] = effect.which
     entry = {"name": effect.name, "channels": ids, "parameters": params,
-             "score_gain": step_score, "explanation": effect.explain(med)}
+             "score_gain": step_score,
+             "explanation": effect.explain(med, sbp) if sbp else effect.explain(med)}
     if effect.name == "response_parameters":     # the metadata values the fit held
-        entry["nominal"] = {f"{k}:{c}": getattr(fam, k) for fam, c in
-                            zip(effect.families, effect.channel_ids)
-                            for k in ("period_s", "damping")}
+        entry["nominal"] = effect.nominal()
+        entry["set_by_prior"] = sbp
     return entry
 
 
@@ -173,111 +204,6 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     return out
 
 
-def _without(model, theta, drop):
-    """(model, theta) with the effects whose keys are in ``drop`` removed
-    (the channel blocks' and the other effects' parameters kept)."""
-    keep = [(e, sl) for e, sl in zip(model.effects, model.effect_slices)
-            if effect_key(e) not in drop]
-    m = with_effects(model, [e for e, _ in keep])
-    th = np.concatenate([theta_base(model, theta)] + [np.asarray(theta)[sl] for _, sl in keep])
-    return m, th
-
-
-def prune(model, theta, log=None, keep=BIC_KEEP, min_effects=1):
-    """Backward elimination: drop a kept effect whose removal (the rest
-    re-fitted under the final noise model) costs no more than ``keep``; one
-    at a time, the weakest first. One cause absorbed by two entries (a delay
-    and a pole far above the band, say) leaves one. Returns (model, theta,
-    dropped keys with their BIC gain)."""
-    dropped = []
-    while len(model.effects) > min_effects - 1 and model.effects:
-        gains = []
-        for e in model.effects:
-            m, th = _without(model, theta, {effect_key(e)})
-            gains.append((score(m, th, model, theta)["delta_bic"], effect_key(e)))
-        gain, key = min(gains)
-        if gain > keep:
-            break
-        if log:
-            log(f"  {key} dropped: BIC gain {gain:.1f} for keeping it, {keep:.1f} needed")
-        m, th = _without(model, theta, {key})
-        m.adopt_noise(model.noise)
-        model, theta = m, best_refit(m, (th,))[1]
-        dropped.append({"effect": key, "delta_bic": float(gain), "needed": float(keep)})
-    return model, theta, dropped
-
-
-def overdispersion(model, theta):
-    """The median standardised misfit of ``model`` over bands and channels,
-    at least 1: how much more than its noise the model still misses by
-    everywhere (1 for a model that fits)."""
-    return max(1.0, float(np.median(locate(model, theta)["misfit"])))
-
-
-def prune_overdispersed(model, theta, log=None):
-    """:func:`prune` with the evidence needed scaled by the overdispersion
-    the final model leaves (a quasi-likelihood guard, as for tilt noise): an
-    effect that improves a model still missing everywhere by a factor
-    ``phi`` must gain more than ``phi`` times :data:`BIC_KEEP`; what the
-    noise model cannot describe is not physics to name. First the effects
-    the others explain (no scaling), then the overdispersed test, repeated
-    while it drops (dropping raises the misfit)."""
-    model, theta, dropped = prune(model, theta, log=log, min_effects=2)
-    phi = 1.0
-    while model.effects:
-        phi = overdispersion(model, theta)
-        if phi <= 1.0:
-            break
-        model, theta, more = prune(model, theta, log=log, keep=BIC_KEEP * phi)
-        dropped += [dict(d, reason=f"the model still misses by a factor {phi:.2g} everywhere: "
-                         "its gain is within what that misfit explains") for d in more]
-        if not more:
-            break
-    return model, theta, dropped, phi
-
-
-#: Sub-band timing offsets agree when they differ by less than this many
-#: standard errors or this fraction of the offset, whichever is larger.
-TIMING_AGREE_SD, TIMING_AGREE_FRACTION = 4.0, 0.25
-
-
-def timing_consistency(model, theta):
-    """A timing offset in ``model`` read separately from the lower and upper
-    half of the bands: the offset plus the phase slope of the
-    recorded/predicted ratio that the model with the offset leaves there (a
-    residual phase, so no wrapping). Returns a JSON-safe dict with
-    ``consistent``."""
-    i = next(k for k, e in enumerate(model.effects) if e.name == "timing_offset")
-    sl = model.effect_slices[i]
-    tau = float(np.asarray(theta)[sl][0])
-    q = band_ratio(model, np.asarray(theta, float))
-    w = ratio_weights(model.spectra)
-    f = model.spectra.band_centres
-    phase = np.unwrap(np.angle(q), axis=0)
-    half = len(f) // 2
-    out = []
-    for sel in (slice(0, max(half, 1)), slice(max(half, 1), None)):
-        ff, ph, ww = f[sel, None], phase[sel], 2.0 * w[sel]
-        if ph.size == 0:
-            continue
-        den = np.sum(ww * ff * ff)
-        t = -np.sum(ww * ff * ph) / (2 * np.pi * den)
-        # the phase's scatter about the line sets the error (at least its noise)
-        chi = np.sum(ww * (ph + 2 * np.pi * ff * t) ** 2) / max(ph.size - 1, 1)
-        sd = np.sqrt(max(chi, 1.0) / den) / (2 * np.pi)
-        out.append({"band_hz": [float(model.spectra.band_edges[sel][0]),
-                                float(model.spectra.band_edges[1:][sel][-1])],
-                    "seconds": float(tau + t), "sd": float(sd)})
-    if len(out) < 2:
-        return {"seconds": tau, "sub_bands": out, "consistent": True}
-    a, b = out
-    diff = abs(a["seconds"] - b["seconds"])
-    ok = (np.sign(a["seconds"]) == np.sign(b["seconds"])
-          and diff <= max(TIMING_AGREE_SD * np.hypot(a["sd"], b["sd"]),
-                          TIMING_AGREE_FRACTION * abs(tau)))
-    return {"seconds": tau, "sub_bands": out, "consistent": bool(ok)}
-
-
 def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
     """Diagnose a base fit.
 
@@ -309,7 +235,8 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     if start.per_block:
         start.estimate_noise(th0)
     model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
-                                   deadline=deadline)
+                                   deadline=deadline,
+                                   eiv=model0 if start.per_block and isinstance(model0, EIVModel) else None)
     stop = steps[-1][-1] if steps and steps[-1] else {}
     incomplete = stop if stop.get("stopped") else None
     tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
@@ -321,7 +248,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
             if not tc["consistent"]:
                 if log:
                     log("  timing_offset dropped: not consistent across sub-bands")
-                m, t = _without(model, th2, {"timing_offset"})
+                m, t = without_effects(model, th2, {"timing_offset"})
                 m.adopt_noise(model.noise)
                 model, th2 = m, best_refit(m, (t,))[1]
                 dropped.append({"effect": "timing_offset", "reason": "its size differs between "
@@ -331,25 +258,33 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
                 th, cov = least_squares_fit(model, th2)
             else:
                 model, th, cov = start, th0, None
-    if cov is None:
-        model, th = model0, th0
-        cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
-    after = locate(model, th)
-    # the base model's misfit under the final noise model: the base's own
-    # noise estimate is inflated by the misfit it leaves (before/after on one scale)
-    common = with_effects(model0, [], per_block=model.per_block)
-    common.adopt_noise(model.noise)
-    before_common = locate(common, best_refit(common, (th0,))[1])
-    if mcmc and deadline is not None and (model.effects or eiv is not None):
-        # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
-        # steps from the cost of one ensemble's evaluation; too few, or none
-        # left, and the Gaussian approximation stands in for it
-        n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
-        if n_steps < MIN_CHAIN_STEPS:
-            mcmc = False
-        else:
-            sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
-    if model.effects or eiv is not None:
+    while True:
+        if cov is None:
+            model, th = model0, th0
+            cov = cov_e if eiv is not None else least_squares_fit(model0, th0)[1]
+        after = locate(model, th)
+        # the base model's misfit under the final noise model: the base's own
+        # noise estimate is inflated by the misfit it leaves (before/after on one scale)
+        common = with_effects(model0, [], per_block=model.per_block)
+        common.adopt_noise(model.noise)
+        before_common = locate(common, best_refit(common, (th0,))[1])
+        if mcmc and deadline is not None and (model.effects or eiv is not None):
+            # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
+            # steps from the cost of one ensemble's evaluation; too few, or none
+            # left, and the Gaussian approximation stands in for it
+            n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
+            if n_steps < MIN_CHAIN_STEPS:
+                mcmc = False
+            else:
+                sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
+        if not (model.effects or eiv is not None):
+            final = base    # nothing to add to the response model: the final fit is the base fit
+            break
+        # sampled with the fit's likelihood: each band's noise scale
+        # marginalised as in the fit (core.model.misfit_scale), so that intervals
+        # widen where the improved model still misfits (the search compares
+        # the Gaussian likelihoods)
+        model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
         meta = base.meta if eiv is None else dict(
             base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
                                             chosen_by="diagnose",
@@ -361,8 +296,22 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
             # the Gaussian approximation at the least-squares point instead
             final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
                                  base.not_estimable, free, seed=seed, mcmc=False)
-    else:       # nothing to add to the response model: the final fit is the base fit
-        final = base
+        weak = weak_effects(model, final.samples)
+        if not weak:
+            break
+        # an effect whose absence its posterior does not exclude is not named:
+        # the weakest goes, the rest are re-fitted and sampled again
+        _, key, _, _, why = min(weak)
+        if log:
+            log(f"  {key} dropped: {why}")
+        dropped.append({"effect": key, "reason": why})
+        m, t = without_effects(model, th, {key})
+        m.adopt_noise(model.noise)
+        if m.effects:
+            model = m
+            th, cov = least_squares_fit(model, t)
+        else:
+            cov = None
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
     for e, sl in zip(model.effects, model.effect_slices):

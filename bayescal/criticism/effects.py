@@ -13,7 +13,8 @@ where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
   flat amplitude (SUT late by tau: phase ``-2 pi f tau`` on every channel).
 * ``clock_drift``: the per-segment timing (phase slope) changes steadily
   through the record (a screen; the drift is fitted on the per-time-block
-  likelihood, :class:`ClockDrift`).
+  likelihood, :class:`ClockDrift`, then carried to the errors-in-variables
+  model with its rate taken out of the spectra, :class:`CorrectedDrift`).
 * ``extra_pole``: amplitude rolls off (SUT has a pole its metadata lacks:
   ``|q|`` falls, phase lags) or rises (the reference lacks one: ``|q|``
   rises, phase leads) toward high frequency.
@@ -29,8 +30,11 @@ where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from ..core.response import pendulum
 from ..core.model.likelihood import Effect
 
 #: Angle (degrees) within which a fitted axis "matches" a metadata axis.
@@ -88,6 +92,9 @@ class ClockDrift(Effect):
     param_names = ("seconds_mid", "ppm")
     blocked = True
     multimodal = True
+    #: The parameters whose null value is the effect's absence (a drift's
+    #: rate; its offset at mid-record alone is a timing offset).
+    absence = (1,)
 
     def __init__(self, rows, spectra, limit_ppm=1000.0):
         self.rows = list(rows)
@@ -123,6 +130,58 @@ class ClockDrift(Effect):
         return (f"the SUT's clock {'gains' if s > 0 else 'loses'} {abs(s):.3g} ppm against the "
                 f"reference's (its offset grows through the record; {med['seconds_mid']:.3g} s "
                 "at mid-record, + = SUT late)")
+
+
+class CorrectedDrift(TimingOffset):
+    """A clock drift (see :class:`ClockDrift`) whose rate has been taken out
+    of the spectra (:func:`drift_corrected`): what is left of it is a constant
+    offset, ``seconds_mid``, so the model needs no per-time-block likelihood
+    and keeps its errors-in-variables treatment of the reference's
+    self-noise. The rate ``ppm`` is measured by its profile likelihood under
+    that model (the spectra corrected at each trial rate, the other
+    parameters re-fitted): its posterior is taken as Gaussian with the
+    profile's curvature, independent of the rest. Not dropped by the
+    backward elimination (its evidence is the per-block comparison that named
+    it; the corrected spectra have no drift left to test)."""
+
+    name = "clock_drift"
+    param_names = ("seconds_mid",)
+    prunable = False
+
+    def __init__(self, rows, ppm, ppm_sd, limit_s=30.0):
+        super().__init__(rows, limit_s)
+        self.ppm, self.ppm_sd = float(ppm), float(ppm_sd)
+
+    def physical(self, p):
+        rng = np.random.default_rng(0)
+        return {"seconds_mid": p[:, 0], "ppm": rng.normal(self.ppm, self.ppm_sd, p.shape[0])}
+
+    explain = staticmethod(ClockDrift.explain)
+
+
+def drift_corrected(spectra, drift, ppm):
+    """``spectra`` with the time-varying part of a clock drift of ``ppm``
+    taken out: in time block ``g`` the SUT-reference cross-spectra are
+    multiplied by :class:`ClockDrift`'s factor at zero mid-record offset
+    (its phase and its within-block decoherence undone), each segment's
+    band sums by the phase at the band's centre; the SUT's own spectra do
+    not change. ``drift``: the :class:`ClockDrift` of these spectra (its
+    block times)."""
+    sp, nu = spectra, spectra.n_u
+    p = np.array([[0.0, float(ppm)]])
+    rot = drift.factor(sp.freqs, p)[0, :, 0]                                     # (G, F)
+    blocks = np.array(sp.block_totals, dtype=complex)
+    change = np.zeros_like(blocks)
+    change[:, :, :nu, nu:] = blocks[:, :, :nu, nu:] * (rot - 1)[:, :, None, None]
+    change[:, :, nu:, :nu] = blocks[:, :, nu:, :nu] * (np.conj(rot) - 1)[:, :, None, None]
+    total = sp.total + change.sum(axis=0)
+    t = sp.segment_times() - drift.t_mid
+    seg = np.array(sp.per_segment, dtype=complex)
+    ph = np.exp(2j * np.pi * sp.band_centres[None, :] * 1e-6 * float(ppm) * t[:, None])  # (K, B)
+    seg[:, :, :nu, nu:] *= ph[:, :, None, None]
+    seg[:, :, nu:, :nu] *= np.conj(ph)[:, :, None, None]
+    return replace(sp, total=total, per_segment=seg,
+                   block_totals=(blocks + change).astype(sp.block_totals.dtype))
 
 
 class ExtraPole(Effect):
@@ -197,57 +256,145 @@ class GainError(Effect):
 class ResponseParameters(Effect):
     """The SUT's natural period and damping off their metadata values on
     the channels ``rows`` (a fit that holds them at nominal: gains only or
-    none). Parameters per row: ``log(T0 / T0_nom)`` and ``h - h_nom``; the
-    amplitude at the normalisation frequency is kept (the gain, free or
-    held, carries it). All rows at once: one name for one cause (a sensor
-    whose metadata give the wrong pendulum)."""
+    none). Parameters per row: the pendulum's coordinates ``c0_rel`` and
+    ``c1_rel`` (:mod:`bayescal.core.response.pendulum`; 1 at the metadata values), with
+    the sensor's stated prior: log-normal period and damping around their
+    metadata values with the tolerances of ``priors`` (the main fit's prior
+    when it fits them, ``--fit-response all``). The amplitude at the
+    normalisation frequency is kept (the gain, free or held, carries it).
+    All rows at once: one name for one cause (a sensor whose metadata give
+    the wrong pendulum)."""
 
     name = "response_parameters"
+    #: The parameters' value with no effect (the metadata's pendulum).
+    null = 1.0
 
-    def __init__(self, rows, families, channel_ids):
+    def __init__(self, rows, families, channel_ids, priors=None):
+        from ..core.model.likelihood import Priors
+
         self.rows = list(rows)
         self.families = list(families)
         self.channel_ids = list(channel_ids)
-        self.param_names = tuple(n for c in self.channel_ids
-                                 for n in (f"{c.split('.')[-1]}:log_period_ratio",
-                                           f"{c.split('.')[-1]}:damping_offset"))
+        pr = priors if priors is not None else Priors()
+        self.tolerances = (pr.period_tolerance, pr.damping_tolerance)
+        self.param_names = tuple(f"{c.split('.')[-1]}:{n}" for c in self.channel_ids
+                                 for n in pendulum.NAMES)
         self._cache = (None, None)
+
+    def grid(self, steps):
+        """Starting points in the effect's coordinates, one row per ``(log
+        period ratio, damping offset)`` in ``steps`` (every channel alike)."""
+        out = []
+        for a, b in steps:
+            row = []
+            for fam in self.families:
+                row += [float(x) for x in pendulum.from_physical(
+                    fam.period_s * np.exp(a), fam.damping + b, fam.period_s, fam.damping)]
+            out.append(row)
+        return np.array(out)
 
     def _inverses(self, f):
         if self._cache[0] is not f:
             self._cache = (f, [fam.inverse_ratio_at(f) for fam in self.families])
         return self._cache[1]
 
+    def _physical(self, p, k):
+        fam = self.families[k]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return pendulum.to_physical(p[:, 2 * k], p[:, 2 * k + 1], fam.period_s, fam.damping)
+
     def factor(self, f, p):
         out = np.empty((p.shape[0], len(self.rows), np.size(f)), dtype=complex)
         for k, (fam, inv) in enumerate(zip(self.families, self._inverses(f))):
-            period = fam.period_s * np.exp(p[:, 2 * k])
-            damping = fam.damping + p[:, 2 * k + 1]
+            period, damping = self._physical(p, k)
             with np.errstate(all="ignore"):
                 out[:, k] = inv(period, damping, np.full(p.shape[0], fam.gain))
         return out
 
     def log_prior(self, p):
-        lp = p[:, 0::2]
-        h = np.stack([fam.damping + p[:, 2 * k + 1] for k, fam in enumerate(self.families)], 1)
-        ok = np.all(np.abs(lp) < np.log(3.0), axis=1) & np.all((h > 0.05) & (h < 2.0), axis=1)
-        return np.where(ok, 0.0, -np.inf)
+        return sum(pendulum.log_prior(p[:, 2 * k], p[:, 2 * k + 1], *self.tolerances)
+                   for k in range(len(self.rows)))
+
+    def prior_residual(self, p):
+        """The prior's least-squares rows ``(r, J)`` at ``p`` (n_params,)
+        (:func:`bayescal.core.response.pendulum.prior_residual` per channel)."""
+        n = len(self.rows)
+        r, jac = np.zeros(2 * n), np.zeros((2 * n, 2 * n))
+        for k in range(n):
+            rk, jk = pendulum.prior_residual(p[2 * k], p[2 * k + 1], *self.tolerances)
+            r[2 * k:2 * k + 2], jac[2 * k:2 * k + 2, 2 * k:2 * k + 2] = rk, jk
+        return r, jac
+
+    def prior_sensitivity(self, samples, sl):
+        """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of
+        each channel's period, damping and damping/period: ``samples`` the
+        whole model's posterior samples, ``sl`` the effect's slice in them."""
+        blocks = {cid: (sl.start + 2 * k, sl.start + 2 * k + 1)
+                  for k, cid in enumerate(self.channel_ids)}
+        return pendulum.reweighted_sensitivity(samples, blocks, *self.tolerances)
 
     def physical(self, p):
         out = {}
-        for k, (fam, cid) in enumerate(zip(self.families, self.channel_ids)):
-            out[f"period_s:{cid}"] = fam.period_s * np.exp(p[:, 2 * k])
-            out[f"damping:{cid}"] = fam.damping + p[:, 2 * k + 1]
+        for k, cid in enumerate(self.channel_ids):
+            period, damping = self._physical(p, k)
+            out[f"period_s:{cid}"] = period
+            out[f"damping:{cid}"] = damping
+            out[f"damping_over_period:{cid}"] = pendulum.damping_over_period(period, damping)
         return out
 
-    def explain(self, med):
-        parts = []
+    def nominal(self):
+        """The metadata values, keyed as :meth:`physical`."""
+        out = {}
         for fam, cid in zip(self.families, self.channel_ids):
-            t, h = med[f"period_s:{cid}"], med[f"damping:{cid}"]
-            parts.append(f"{cid} period {t:.4g} s (metadata {fam.period_s:.4g}), damping "
-                         f"{h:.3g} (metadata {fam.damping:.3g})")
-        return ("the SUT's natural period and damping differ from its metadata: "
-                + "; ".join(parts) + "; fit them with --fit-response all")
+            out[f"period_s:{cid}"] = fam.period_s
+            out[f"damping:{cid}"] = fam.damping
+            out[f"damping_over_period:{cid}"] = float(pendulum.damping_over_period(
+                fam.period_s, fam.damping))
+        return out
+
+    def explain(self, med, set_by_prior=None):
+        """``med``: medians of what the data measure (:func:`measured`)."""
+        parts = []
+        nom = self.nominal()
+        for cid in self.channel_ids:
+            said = []
+            for name, unit, fmt in (("period_s", " s", ".4g"), ("damping", "", ".3g"),
+                                    ("damping_over_period", " 1/s", ".3g")):
+                key = f"{name}:{cid}"
+                if key in med:
+                    label = {"period_s": "period", "damping_over_period": "damping/period"}.get(
+                        name, name)
+                    said.append(f"{label} {med[key]:{fmt}}{unit} (metadata {nom[key]:{fmt}})")
+            parts.append(f"{cid} " + (", ".join(said) if said else "not measured apart from "
+                                      "its prior"))
+        text = ("the SUT's natural period and damping differ from its metadata: "
+                + "; ".join(parts))
+        if set_by_prior:
+            tail = any("tail" in e.get("reason", "") for e in set_by_prior.values())
+            text += ("; the period and the damping apart are set by the sensor's prior, not "
+                     "measured" + (" (the data put them in its tail: a wider "
+                                   "--period-tolerance and --damping-tolerance lets the data "
+                                   "decide)" if tail else ""))
+        return text + "; fit them with --fit-response all"
+
+
+def measured(params, sensitivity):
+    """``params`` (physical name -> summary, keys ``<name>:<channel>``)
+    without the values the prior sets (``sensitivity``:
+    :meth:`ResponseParameters.prior_sensitivity`), and without
+    damping/period where the period and the damping are both measured (it
+    adds nothing then). Returns (kept, the ``set_by_prior`` entries)."""
+    sbp = pendulum.set_by_prior_entries(sensitivity)
+    out = {}
+    for key, v in params.items():
+        name, cid = key.split(":", 1)
+        if f"{cid}:{name}" in sbp:
+            continue
+        if name == "damping_over_period" and not any(
+                f"{cid}:{n}" in sbp for n in ("period_s", "damping")):
+            continue
+        out[key] = v
+    return out, sbp
 
 
 # --- signatures -------------------------------------------------------------

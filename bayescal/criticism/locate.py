@@ -89,3 +89,10 @@ def true_runs(mask):
     """(first, end) band indices of each run of True in ``mask``."""
     edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
     return list(zip(edges[::2], edges[1::2]))
+
+
+def overdispersion(model, theta):
+    """The median standardised misfit of ``model`` over bands and channels,
+    at least 1: how much more than its noise the model still misses by
+    everywhere (1 for a model that fits)."""
+    return max(1.0, float(np.median(locate(model, theta)["misfit"])))

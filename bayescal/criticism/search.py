@@ -18,6 +18,7 @@ from ..core.orientation.geometry import Fixed
 from ..core.model.eiv import EIVModel, EIVNoise
 from ..core.model.likelihood import MIN_TIME_BLOCKS, Model
 from ..core.response.family import TwoPoleFamily
+from .locate import overdispersion
 
 
 #: An effect is kept when it improves the BIC by more than this ("very
@@ -62,10 +63,10 @@ def _candidates(model, free, current, drift=None):
     if pendulum:
         fams = [model.blocks[i].family for i in pendulum]
         steps = [(a, b) for a in (-0.1, 0.0, 0.1) for b in (-0.05, 0.0, 0.05)]
-        out.append(("response_parameters",
-                    catalogue.ResponseParameters(pendulum, fams,
-                                                 [model.blocks[i].channel_id for i in pendulum]),
-                    np.array([[a, b] * len(pendulum) for a, b in steps])))
+        e = catalogue.ResponseParameters(pendulum, fams,
+                                         [model.blocks[i].channel_id for i in pendulum],
+                                         model.priors)
+        out.append(("response_parameters", e, e.grid(steps)))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
@@ -111,7 +112,8 @@ def with_effects(model, effects, per_block=False):
     per_block = per_block or model.per_block or any(e.blocked for e in effects)
     if isinstance(model, EIVModel) and not per_block:
         m = EIVModel(model.spectra, model.ref_vectors, model.blocks, model.priors,
-                     ref_noise=model.ref_noise, effects=effects)
+                     ref_noise=model.ref_noise, effects=effects,
+                     known_noise=getattr(model, "known_noise", None))
     else:   # the per-block likelihood exists for the base model only
         m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
                   per_block=per_block)
@@ -267,18 +269,22 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
             "n_data": n, "n_extra_params": k}
 
 
-def search(model, theta, free, log=None, drift=None, deadline=None):
+def search(model, theta, free, log=None, drift=None, deadline=None, eiv=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
     ``deadline`` (a :func:`time.monotonic` value): checked before each
     candidate; past it the search stops and its last step holds
     ``{"stopped": "budget"}`` (the candidates not tried are listed there).
+    ``eiv``: the errors-in-variables base model, when ``model`` is the
+    per-block base model a clock drift needs; once a drift is named the
+    search goes on under ``eiv`` on the spectra with the drift taken out
+    (:func:`drift_under_eiv`).
     BLAS runs single-threaded (small products: threads only add latency)."""
     with single_threaded_blas():
-        return _search(model, theta, free, log, drift, deadline)
+        return _search(model, theta, free, log, drift, deadline, eiv)
 
 
-def _search(model, theta, free, log, drift, deadline=None):
+def _search(model, theta, free, log, drift, deadline=None, eiv=None):
     import time
 
     cur, th, cov = model, theta, None
@@ -322,7 +328,44 @@ def _search(model, theta, free, log, drift, deadline=None):
                 best = timing
         cur, th, cov = best["fit"]
         steps[-1].append({"kept": best["effect"], "delta_bic": best["delta_bic"]})
+        if best["effect"] == "clock_drift" and eiv is not None:
+            cur, th, cov = drift_under_eiv(eiv, cur, th, cov, log)
     return cur, th, cov, steps
+
+
+def drift_under_eiv(eiv, model, theta, cov, log=None):
+    """A clock drift named on the per-block likelihood (``model``, which has
+    no errors-in-variables treatment of the reference's self-noise: its
+    dilution of the transfer function by that noise would be left for
+    further effects to take up) carried over to the errors-in-variables
+    model ``eiv``: the drift's rate is taken out of the spectra
+    (:func:`.effects.drift_corrected`) and its offset at mid-record stays a
+    parameter (:class:`.effects.CorrectedDrift`).
+
+    The rate is the per-block estimate: only the time blocks see it (the
+    record's totals under ``eiv`` do to second order only, through the
+    decoherence). Its standard deviation is the per-block one scaled as a
+    quasi-likelihood's, by the square root of the dispersion the per-block
+    model leaves (:func:`overdispersion`: the median standardised misfit,
+    at least 1), the reference's noise that model lacks included.
+    Returns (model, theta, cov)."""
+    k = next(i for i, e in enumerate(model.effects) if e.name == "clock_drift")
+    drift, sl = model.effects[k], model.effect_slices[k]
+    tau, ppm = (float(x) for x in np.asarray(theta)[sl])
+    phi = overdispersion(model, theta)
+    sd = float(np.sqrt(cov[sl, sl][1, 1] * phi))
+    others = [(e, np.asarray(theta)[s]) for e, s in zip(model.effects, model.effect_slices)
+              if e is not drift]
+    sp = catalogue.drift_corrected(model.spectra, drift, ppm)
+    eff = [e for e, _ in others] + [catalogue.CorrectedDrift(drift.rows, ppm, sd)]
+    m = EIVModel(sp, eiv.ref_vectors, eiv.blocks, eiv.priors, ref_noise=eiv.ref_noise,
+                 effects=eff, known_noise=getattr(eiv, "known_noise", None))
+    th0 = np.concatenate([theta_base(model, theta)] + [p for _, p in others] + [[tau]])
+    th, c = least_squares_fit(m, th0, jac=forward_jacobian(m, matmul=True))
+    if log:
+        log(f"  clock_drift carried to the errors-in-variables model: {ppm:.4g} +- {sd:.2g} ppm "
+            f"(per-block dispersion {phi:.3g})")
+    return m, th, c
 
 
 # --- posterior of the final model --------------------------------------------

@@ -209,7 +209,8 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     advice = []
     ref = d.signatures.get("reference_noise", {})
     effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], "")}
+                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], ""),
+                **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
                for e in named]
     names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
     if d.incomplete:

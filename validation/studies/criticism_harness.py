@@ -11,9 +11,10 @@ the product's defaults (gains free, reference noise estimated, the criticism
 on when the model check fails); the run's sampler is shortened (``min_ess``
 200, 20 autocorrelation times) for time.
 
-Seeds are fixed before any result is seen: clean pairs use seeds
-``CLEAN_SEEDS``, single-effect pairs ``EFFECT_SEEDS``, the effect of seed
-``s`` is ``KINDS[s % len(KINDS)]`` and every other draw comes from
+Seeds are fixed before any result is seen: three sets (``SEED_SETS``,
+``--seeds``), clean pairs 7000- and single-effect pairs 8000- in the first,
+7100- and 9000- in the second, 7200- and 10000- in the third; the effect of seed ``s`` is
+``KINDS[s % len(KINDS)]`` and every other draw comes from
 ``numpy.random.default_rng(s)``.
 
 Scoring (per run):
@@ -26,10 +27,12 @@ Scoring (per run):
   (the default fit leaves gains free, so a gain error is no misfit);
   "extra names" counts other effects named beside it; "miss" when nothing is
   named, "wrong name" when only others are.
-* each recovered size: inside its 95 % interval or not.
+* each recovered size: inside its 95 % interval or not (a period and
+  damping: each channel's period and damping, or its damping/period where
+  the prior sets those and the effect names damping/period instead).
 
     python validation/studies/criticism_harness.py --clean 60 --effects 60 \\
-        --out validation/results/criticism/harness.json
+        --seeds third --out validation/results/criticism/harness_third.json
 
 About 10 s a run on an idle core (a clock drift in a 4 h record up to the
 criticism's 60 s budget). ``--shard I/N`` runs every N-th pair of (clean,
@@ -81,9 +84,12 @@ class study_results:  # noqa: N801 - the interface of validation/studies/study_r
 
 KINDS = ["timing_offset", "clock_drift", "extra_pole", "gain_error", "polarity_reversal",
          "channel_swap", "tilt_noise", "response_parameters"]
-#: Fixed before the results were seen.
-CLEAN_SEEDS = list(range(7000, 7100))
-EFFECT_SEEDS = list(range(8000, 8100))
+#: Fixed before the results were seen: ``--seeds first``, ``second`` and
+#: ``third``, each fixed before any run with it.
+SEED_SETS = {"first": (list(range(7000, 7100)), list(range(8000, 8100))),
+             "second": (list(range(7100, 7200)), list(range(9000, 9100))),
+             "third": (list(range(7200, 7300)), list(range(10000, 10100)))}
+CLEAN_SEEDS, EFFECT_SEEDS = SEED_SETS["first"]
 FS = 10.0
 BAND = (0.02, 2.0)
 NOMINAL = (30.0, 0.707, 750.0)
@@ -140,6 +146,8 @@ def draw(seed, kind):
         kw["sut_response"] = resp
         truth = {f"period_s:{r}": resp[r][0] for r in range(3)}
         truth.update({f"damping:{r}": resp[r][1] for r in range(3)})
+        # named instead of the two where the prior sets them
+        truth.update({f"damping_over_period:{r}": resp[r][1] / resp[r][0] for r in range(3)})
     return kw, truth, regime
 
 
@@ -250,7 +258,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clean", type=int, default=60)
     ap.add_argument("--effects", type=int, default=60)
-    ap.add_argument("--out", default="validation/results/criticism/harness.json")
+    ap.add_argument("--out", default=None,
+                    help="default validation/results/criticism/harness_<seed set>.json")
+    ap.add_argument("--seeds", choices=sorted(SEED_SETS), default="first",
+                    help="which fixed seed set: first (clean 7000-, effects 8000-), second "
+                         "(clean 7100-, effects 9000-) or third (clean 7200-, effects 10000-)")
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new run starts (the summary says so)")
     ap.add_argument("--shard", default=None, metavar="I/N",
@@ -259,6 +271,8 @@ def main(argv=None):
     ap.add_argument("--merge", nargs="+", default=None, metavar="CHECKPOINT",
                     help="write OUT from these shard checkpoints (and remove them)")
     args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = f"validation/results/criticism/harness_{args.seeds}.json"
     if args.merge:
         parts = [json.load(open(f)) for f in args.merge]
         records = sorted((r for p in parts for r in p["runs"]),
@@ -268,19 +282,21 @@ def main(argv=None):
                    stopped_early=any(p["stopped_early"] for p in parts),
                    seconds=max(p["seconds"] for p in parts),
                    command=("python validation/studies/criticism_harness.py --clean 60 "
-                            f"--effects 60 --shard I/{len(parts)} for I in 0..{len(parts) - 1}, "
-                            "then --merge"))
+                            f"--effects 60 --seeds {parts[0]['settings'].get('seed_set', 'first')} "
+                            f"--out {args.out} --shard I/{len(parts)} for I in "
+                            f"0..{len(parts) - 1}, then --merge"))
         study_results.write(args.out, out)
         for f in args.merge:
             os.remove(f)
         print(json.dumps(out["summary"], indent=1))
         return 0
+    clean_seeds, effect_seeds = SEED_SETS[args.seeds]
     plan = []
     for k in range(max(args.clean, args.effects)):      # interleaved: a stop leaves both kinds
         if k < args.clean:
-            plan.append((CLEAN_SEEDS[k], None))
+            plan.append((clean_seeds[k], None))
         if k < args.effects:
-            s = EFFECT_SEEDS[k]
+            s = effect_seeds[k]
             plan.append((s, KINDS[s % len(KINDS)]))
     shard = None
     if args.shard:
@@ -301,8 +317,9 @@ def main(argv=None):
         out = {"summary": summarise(records), "planned": len(plan), "done": len(records),
                "stopped_early": False, "seconds": time.perf_counter() - t0,
                "settings": {"fs": FS, "band_hz": BAND, "sampler": "min_ess 200, 20 tau",
-                            "clean_seeds": CLEAN_SEEDS[:args.clean],
-                            "effect_seeds": EFFECT_SEEDS[:args.effects], "kinds": KINDS},
+                            "seed_set": args.seeds,
+                            "clean_seeds": clean_seeds[:args.clean],
+                            "effect_seeds": effect_seeds[:args.effects], "kinds": KINDS},
                "runs": records}
         study_results.checkpoint(shard or args.out, out)
     out["stopped_early"] = stopped
@@ -310,7 +327,7 @@ def main(argv=None):
         study_results.checkpoint(shard, out)
     else:
         out["command"] = (f"python validation/studies/criticism_harness.py --clean {args.clean} "
-                          f"--effects {args.effects}")
+                          f"--effects {args.effects} --seeds {args.seeds} --out {args.out}")
         study_results.write(args.out, out)
         study_results.done(args.out)
     print(json.dumps(summarise(records), indent=1), flush=True)

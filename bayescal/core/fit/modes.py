@@ -56,7 +56,7 @@ from ..orientation.geometry import Circle, Sphere, azimuth_dip
 from ..model.jacobian import forward_jacobian as _jacobian
 from ..model.jacobian import least_squares_objective
 from .leastsq import solve
-from .unconstrained import information, prior_bounds
+from .unconstrained import information, pendulum_precision, prior_bounds
 
 #: Smallest posterior mass fraction of a second mode that makes a fit multimodal.
 MODE_MASS = 0.01
@@ -162,9 +162,13 @@ def optimum(model, theta, label, factors, first=None):
         if distance(first, probe) < merge_threshold(model.ndim):
             return None
     lp = float(model.log_prob(theta[None])[0])
+    # the posterior's curvature: the likelihood's and the pendulum prior's
     jac = _jacobian(model)
-    fisher = information(model, theta) if isinstance(jac, str) else \
-        2.0 * jac(theta, factors).T @ jac(theta, factors)
+    if isinstance(jac, str):
+        fisher = information(model, theta) + pendulum_precision(model)
+    else:
+        rows = least_squares_objective(model, jac)[1](theta, factors)
+        fisher = 2.0 * rows.T @ rows
     sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(fisher)), 1e-18, None))
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         grad, hess = curvature(model.log_prob, theta, 0.5 * sd)

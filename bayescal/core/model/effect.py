@@ -18,6 +18,11 @@ class Effect:
     effect's null value, so the extended model nests the base model.
     Subclasses set ``name``, ``param_names``, ``rows`` and implement
     ``factor`` and ``log_prior`` (vectorised, -inf outside the support).
+    An effect with a proper prior may give its least-squares rows,
+    ``prior_residual(p) -> (r, J)`` for ``p`` (n_params,), ``|r|^2`` its
+    ``-log prior`` up to a constant: least squares then finds the
+    posterior's mode and its Laplace precision
+    (:func:`bayescal.core.model.jacobian.least_squares_objective`).
 
     An effect that changes through the record (a drifting clock) sets
     ``blocked = True``; its ``factor`` then returns one factor per time block

@@ -69,13 +69,18 @@ def least_squares_objective(model, jac):
     """``(fun, jac)`` for :func:`scipy.optimize.least_squares` on ``model``
     (args ``(factors,)``): the whitened residual and, for each channel whose
     period and damping are free, the pendulum prior's rows appended
-    (:func:`bayescal.core.response.pendulum.prior_residual`), so that a direction the
+    (:func:`bayescal.core.response.pendulum.prior_residual`), and those of each
+    effect with a ``prior_residual`` (see :class:`bayescal.core.model.effect.Effect`), so that a direction the
     data hardly fix stays where the prior puts it and ``2 J^T J`` is the
     posterior's Laplace precision. ``jac``: the whitened residual's (a
     callable or scipy's ``"2-point"``)."""
     pr = model.priors
     blocks = [sr.start for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"]
-    if not blocks:
+    # an effect with a proper prior gives its rows too (Effect.prior_residual)
+    effects = [(e, sl) for e, sl in zip(getattr(model, "effects", ()),
+                                        getattr(model, "effect_slices", ()))
+               if hasattr(e, "prior_residual")]
+    if not blocks and not effects:
         return model.whitened_residual, jac
 
     def prior_rows(theta):
@@ -85,6 +90,12 @@ def least_squares_objective(model, jac):
                                            pr.damping_tolerance)
             full = np.zeros((2, theta.size))
             full[:, i:i + 2] = d
+            rows.append(r)
+            out.append(full)
+        for e, sl in effects:
+            r, d = e.prior_residual(theta[sl])
+            full = np.zeros((r.size, theta.size))
+            full[:, sl] = d
             rows.append(r)
             out.append(full)
         return np.concatenate(rows), np.vstack(out)
