@@ -83,7 +83,7 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     """The improved model is sampled with the fit's per-band noise scale
     (core.model.misfit_scale, shape 2 by default), not the search's Gaussian
     likelihood: where it still misfits, its intervals widen as the fit's do."""
-    from bayescal.core import misfit_scale
+    from bayescal.core.model import misfit_scale
     _, post = late
     assert post.model.misfit_shape == misfit_scale.MISFIT_SHAPE == 2.0
     assert post.improved.model.misfit_shape == 2.0

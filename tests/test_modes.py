@@ -239,7 +239,7 @@ def test_optimum_curvature_carries_the_pendulum_prior():
     import warnings
 
     import bayescal
-    from bayescal.core import pendulum
+    from bayescal.core.response import pendulum
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=5, coherence=0.99,

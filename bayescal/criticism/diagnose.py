@@ -42,7 +42,7 @@ from ..core.fit.assemble import assemble_posterior, plugin_meta
 from ..core.fit.run import least_squares_fit
 from ..core.orientation.geometry import unit_vector
 from ..core.response import pendulum
-from ..core.fit.unconstrained import describe_late, late_flags
+from ..core.fit.unconstrained import describe_late, information, late_flags
 from ..core.model.eiv import EIVModel
 from ..core.posterior.samples import interval_summary
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
@@ -118,17 +118,20 @@ def prior_set(model, samples):
     parameters whose posterior is about as wide as their prior box or
     pinned at its bound (:func:`bayescal.core.fit.unconstrained.late_flags`),
     and the period, damping or damping/period the pendulum prior sets
-    (:func:`bayescal.core.response.pendulum.reweighted_sensitivity`, the
-    samples reweighted to the halved and doubled prior, as the fit's own).
-    Nothing is held here: every parameter of the model is sampled."""
+    (:func:`bayescal.core.response.pendulum.prior_sensitivity`, with the
+    likelihood's information of this model at the samples' median: its
+    samples may be a Laplace approximation's, which reweighting to a
+    doubled prior reads poorly). Nothing is held here: every parameter of
+    the model is sampled."""
+    med = np.median(samples, axis=0)
     out = describe_late(model, late_flags(model, samples))
     blocks = {b.channel_id: (sr.start, sr.start + 1)
               for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
     sens = {}
     if blocks:
         pr = model.priors
-        sens = pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
-                                               pr.damping_tolerance)
+        sens = pendulum.prior_sensitivity(information(model, med), med, blocks,
+                                          pr.period_tolerance, pr.damping_tolerance)
         out.update(pendulum.set_by_prior_entries(sens))
     return {"set_by_prior": out, **({"prior_sensitivity": sens} if sens else {})}
 
@@ -146,7 +149,8 @@ def _effect_entry(model, effect, sl, samples, step_score):
     sbp = None
     if effect.name == "response_parameters":
         # what the prior sets is no measurement: left out, and said
-        sens = effect.prior_sensitivity(samples, sl)
+        theta = np.median(samples, axis=0)
+        sens = effect.prior_sensitivity(information(model, theta), theta, sl)
         params, sbp = catalogue.measured(params, sens)
     med = {k: v["median"] for k, v in params.items()}
     ids = [model.blocks[r].channel_id for r in effect.rows]

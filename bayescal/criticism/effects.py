@@ -325,13 +325,14 @@ class ResponseParameters(Effect):
             r[2 * k:2 * k + 2], jac[2 * k:2 * k + 2, 2 * k:2 * k + 2] = rk, jk
         return r, jac
 
-    def prior_sensitivity(self, samples, sl):
-        """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of
-        each channel's period, damping and damping/period: ``samples`` the
-        whole model's posterior samples, ``sl`` the effect's slice in them."""
+    def prior_sensitivity(self, fisher, theta, sl):
+        """:func:`bayescal.core.response.pendulum.prior_sensitivity` of each
+        channel's period, damping and damping/period: ``fisher`` the
+        likelihood's information of the whole model at ``theta``, ``sl`` the
+        effect's slice in it."""
         blocks = {cid: (sl.start + 2 * k, sl.start + 2 * k + 1)
                   for k, cid in enumerate(self.channel_ids)}
-        return pendulum.reweighted_sensitivity(samples, blocks, *self.tolerances)
+        return pendulum.prior_sensitivity(fisher, theta, blocks, *self.tolerances)
 
     def physical(self, p):
         out = {}

@@ -39,7 +39,8 @@ ratio of the two priors; :func:`reweighted_sensitivity`): no second fit, and
 no Gaussian assumption; where the reweighted posterior would reach beyond
 the samples (their effective number under the weights below
 :data:`MIN_WEIGHT_ESS` of them) the prior's width decides by that fact
-alone. Without samples (a model criticism's candidate) it uses the
+alone. A model criticism's improved model (whose samples may be a Laplace
+approximation's, which a doubled prior's weights read poorly) uses the
 posterior's Gaussian approximation about its median: the likelihood's
 Fisher information plus the prior's, with the prior rescaled
 (:func:`prior_sensitivity`). A parameter
