@@ -31,7 +31,7 @@ import numpy as np
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
 from ..core.fit.errors import FitError
-from ..core.response.family import TwoPoleFamily
+from ..core.response.family import TwoPoleFamily, pendulum_coefficients
 from ..io.read import InputError
 
 #: A pole or zero is free when its frequency is at most this times the band's top.
@@ -239,10 +239,8 @@ class PZSpec:
         w = theta.shape[0]
         p, z = np.ones((w, 1)), np.ones((w, 1))
         if self.has_lp:
-            fam = self.family
-            w0n = 2 * np.pi / fam.period_s
-            p = np.column_stack([theta[:, 0] * w0n * w0n,
-                                 theta[:, 1] * 2.0 * fam.damping * w0n, np.ones(w)])
+            c1n, c0n = pendulum_coefficients(self.family.period_s, self.family.damping)
+            p = np.column_stack([theta[:, 0] * c0n, theta[:, 1] * c1n, np.ones(w)])
         q = self.roots(theta)
         for k, it in enumerate(self.items):
             if it.complex_pair:      # (s - q)(s - q*) = s^2 - 2 Re q s + |q|^2
