@@ -50,6 +50,17 @@ def late():
     return sim, _calibrate(sim, band=(0.03, 2.0))
 
 
+def test_a_fit_option_does_not_stop_the_criticism(late):
+    """A fit with its own options (the Gaussian likelihood, ``misfit_shape``
+    infinite) is still criticised: the option is the fit's, not the
+    sampler's, and the late clock is named."""
+    sim, _ = late
+    post = _calibrate(sim, band=(0.03, 2.0), misfit_shape=np.inf)
+    c = post.summary()["criticism"]
+    assert "error" not in c.get("verdict_text", "")
+    assert [e["name"] for e in c["effects"]] == ["timing_offset"]
+
+
 @pytest.fixture(scope="module")
 def pendulum():
     from bayescal.simulate.pair import simulate_pair

@@ -187,6 +187,9 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     if pinned:
         return Criticism(_pinned(pinned, budget_s))
     sample_kw.pop("progress", None)
+    # the fit's own options, not the sampler's: the improved model takes the
+    # fit's misfit shape from its model (criticism.diagnose)
+    sample_kw.pop("misfit_shape", None)
     # the improved model's sampler is bounded too: a chain that does not
     # converge in MAX_STEPS falls back to the Gaussian approximation
     sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)
