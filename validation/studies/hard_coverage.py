@@ -131,7 +131,12 @@ def _logs(post, cid):
 def exact_flags(posts, cid):
     """The prior-sensitivity rule on the samples of the fits with the
     prior's width x1, x0.5 and x2."""
-    base, half, double = (_logs(p, cid) for p in posts)
+    return rule_on_samples(*(_logs(p, cid) for p in posts))
+
+
+def rule_on_samples(base, half, double):
+    """The prior-sensitivity rule on three fits' log period, damping and
+    damping/period samples (prior width x1, x0.5, x2)."""
     out = {}
     for name in NAMES:
         sd1 = base[name].std()
@@ -218,14 +223,8 @@ def run_coil_case(i):
         entry[name] = {"inside90": bool(e["ci90"][0] <= t <= e["ci90"][1]),
                        "z": float((e["median"] - t) / e["sd"]),
                        "flag": bool(e.get("set_by_prior", False))}
-    base, half, double = logs
-    for name in NAMES:
-        sd1 = base[name].std()
-        width = max(max(x[name].std() / sd1, sd1 / x[name].std()) for x in (half, double))
-        shift = abs(np.median(double[name]) - np.median(base[name])) / sd1
-        entry[name]["exact"] = {"set_by_prior": bool(width > pendulum.WIDTH_RATIO
-                                                     or shift > pendulum.SHIFT_SD),
-                                "width_ratio": float(width), "shift_sd": float(shift)}
+    for name, e in rule_on_samples(*logs).items():
+        entry[name]["exact"] = e
     return {"seed": i, "duration": duration, "truth": truth, "band_hz": list(fits[0].band_hz),
             "channel": entry,
             "converged": all(f.summary()["convergence"]["converged"] for f in fits)}
