@@ -81,3 +81,38 @@ def test_time_blocks_sum_to_the_totals_and_a_gap_drops_an_empty_block():
     assert np.allclose(gapped.block_totals.sum(axis=0), gapped.total, rtol=1e-5)
     # block numbers follow time
     assert np.all(np.diff(gapped.block_of) >= 0)
+
+
+def test_a_narrow_band_is_split_into_three_noise_bands():
+    """ASL's azimuth band 1/8-1/3 Hz with 64-s segments holds 14 bins: six
+    bands a decade with eight bins each would leave one noise level for
+    bins whose noise differs five-fold on COWI; it is split in three."""
+    from bayescal.core.spectra.welch import make_bands
+    f = np.fft.rfftfreq(64, 1.0)
+    f = f[(f >= 1 / 8) & (f <= 1 / 3)]
+    edges = make_bands(f, 1 / 8, 1 / 3)
+    assert edges.size == 4
+    counts = np.histogram(f, edges)[0]
+    assert counts.sum() == f.size and counts.min() >= 4
+    # too few bins for three bands of four: as many as hold four
+    assert make_bands(f[:9], 1 / 8, f[8]).size == 3
+
+
+def test_a_wide_band_keeps_six_bands_a_decade_of_eight_bins():
+    from bayescal.core.spectra.welch import make_bands
+    f = np.fft.rfftfreq(2048, 0.1)
+    f = f[(f >= 0.02) & (f <= 2.0)]
+    edges = make_bands(f, 0.02, 2.0)
+    counts = np.histogram(f, edges)[0]
+    assert counts.min() >= 8
+    # the lowest bands merge upward until they hold eight bins; above, one per sixth of a decade
+    assert np.allclose(edges[-8:], np.geomspace(0.02, 2.0, 13)[-8:])
+
+
+def test_segments_lengthen_for_a_narrow_band_while_enough_remain():
+    from bayescal.core.spectra.welch import default_nperseg
+    # ten minutes at 1 Hz: 32-s segments give 36 of them but 7 bins in 1/8-1/3 Hz
+    assert default_nperseg(1.0, 1 / 8, 600) == 32
+    assert default_nperseg(1.0, 1 / 8, 600, fmax=1 / 3) == 64        # 14 bins, 17 segments
+    assert default_nperseg(1.0, 1 / 8, 300, fmax=1 / 3) == 32        # 64 s would leave 8
+    assert default_nperseg(10.0, 0.02, 36_000, fmax=2.0) == default_nperseg(10.0, 0.02, 36_000)

@@ -179,22 +179,59 @@ class CrossSpectra:
                             else self.response_power[keep]))
 
 
-def default_nperseg(fs, fmin, n_samples, cycles=10, min_cycles=4, min_segments=24):
+#: A band split into fewer noise bands than this is narrow (:func:`make_bands`).
+MIN_NOISE_BANDS = 3
+#: Fewest bins a noise band of a narrow band may hold.
+NARROW_MIN_BINS = 4
+#: Fewest half-overlapping segments a narrow band's longer segments must leave.
+NARROW_MIN_SEGMENTS = 12
+
+
+def default_nperseg(fs, fmin, n_samples, cycles=10, min_cycles=4, min_segments=24, fmax=None):
     """Power-of-two segment length: ``cycles`` periods of ``fmin`` (so the
     lowest band holds enough bins), halved while the record would give fewer
     than ``min_segments`` half-overlapping segments, but never below
     ``min_cycles`` periods. Many segments make the plug-in noise model (and so
-    the credible intervals) reliable; long ones keep window leakage small."""
+    the credible intervals) reliable; long ones keep window leakage small.
+
+    A narrow band (``fmax`` given) is then given longer segments while it
+    holds fewer than ``MIN_NOISE_BANDS x NARROW_MIN_BINS`` bins and at least
+    :data:`NARROW_MIN_SEGMENTS` segments remain: its noise model can then
+    follow the noise across the band in :data:`MIN_NOISE_BANDS` bands
+    (:func:`make_bands`) instead of one, whose single noise level gives the
+    bins where the signal is weak and the noise strong the weight of the
+    strong ones."""
     want = int(2 ** np.ceil(np.log2(cycles * fs / fmin)))
     while want / 2 >= min_cycles * fs / fmin and 2 * n_samples / want - 1 < min_segments:
         want //= 2
+    if fmax is not None:
+        def n_bins(n):
+            f = np.fft.rfftfreq(n, 1.0 / fs)
+            return int(np.count_nonzero((f >= fmin) & (f <= fmax)))
+        while (n_bins(want) < MIN_NOISE_BANDS * NARROW_MIN_BINS
+               and 2 * n_samples / (2 * want) - 1 >= NARROW_MIN_SEGMENTS):
+            want *= 2
     return want
 
 
 def make_bands(freqs, fmin, fmax, bands_per_decade=6, min_bins=8):
     """Log-spaced band edges within [fmin, fmax]; a band with fewer than
-    ``min_bins`` bins is merged with its upper neighbour."""
+    ``min_bins`` bins is merged with its upper neighbour. A narrow band that
+    this leaves in fewer than :data:`MIN_NOISE_BANDS` bands is split into
+    that many, or as many as hold :data:`NARROW_MIN_BINS` bins each (equal
+    in log frequency, merged as above)."""
     n = max(1, int(np.ceil(np.log10(fmax / fmin) * bands_per_decade)))
+    edges = _log_bands(freqs, fmin, fmax, n, min_bins)
+    if edges.size - 1 < MIN_NOISE_BANDS and min_bins > NARROW_MIN_BINS:
+        want = min(MIN_NOISE_BANDS, np.asarray(freqs).size // NARROW_MIN_BINS)
+        if want > edges.size - 1:
+            finer = _log_bands(freqs, fmin, fmax, want, NARROW_MIN_BINS)
+            if finer.size > edges.size:
+                edges = finer
+    return edges
+
+
+def _log_bands(freqs, fmin, fmax, n, min_bins):
     edges = list(np.geomspace(fmin, fmax, n + 1))
     merged = [edges[0]]
     for hi in edges[1:]:
@@ -285,7 +322,7 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     if fmax > fs / 2:
         raise SpectraError(f"band upper edge {fmax} Hz is above Nyquist ({fs / 2} Hz)")
     n_samples = sut.shape[1]
-    nperseg = int(nperseg or default_nperseg(fs, fmin, n_samples))
+    nperseg = int(nperseg or default_nperseg(fs, fmin, n_samples, fmax=fmax))
     step = max(1, int(round(nperseg * (1 - overlap))))
     if n_samples < nperseg + 3 * step:
         raise SpectraError(
