@@ -296,3 +296,27 @@ def test_single_component_pair_not_identifiable():
         assert e == {"not_identifiable": pair_noise.NOT_IDENTIFIABLE}
     assert "use bayescal noise with a third sensor" in post.self_noise["basis"]
     assert post.sensor_order == {}
+
+
+def test_unresolved_bands_are_not_left_to_the_resolved_ones():
+    """The COWI 11-hour fit's split (dB, three bands): the reference's noise
+    is below what the split resolves in the top band, and above the SUT's in
+    the lowest only. The median over the bands both resolve reads 3.2 dB (a
+    swap warning); counted with the unresolved band for the reference, the
+    margin is -0.84 dB (the median of -inf, -inf, -1.34, -0.34, 6.75, 7.06)
+    and no swap is suggested. Where most bands are
+    unresolved on one side, the resolved bands' median is kept."""
+    def p(*v):
+        return np.array([10 ** (x / 10) if x is not None else -1.0 for x in v])
+    result = {"n_u": 2, "identified": [True] * 4,
+              "psd": [p(15.12, 18.11, 21.60), p(12.24, 14.89, 19.36),
+                      p(21.87, 16.77, None), p(19.30, 14.55, None)]}
+    along = [0, 1]
+    assert pair_noise.reference_margin_db(result, along) == pytest.approx(3.2, abs=0.01)
+    margin = pair_noise.reference_margin(result, along)
+    assert margin == pytest.approx(-0.84, abs=1e-9)
+    assert pair_noise.swap_message(margin) is None
+    quiet_sut = dict(result, psd=[p(None, None, 1.0), p(None, None, 1.0),
+                                  p(20.0, 20.0, 11.0), p(20.0, 20.0, 11.0)])
+    assert pair_noise.reference_margin(quiet_sut, along) == pytest.approx(10.0)
+    assert "were --ref and --sut swapped?" in pair_noise.swap_message(10.0)

@@ -217,6 +217,20 @@ def reference_margin_db(result, along, signed=False):
     return float(np.median(diffs)) if diffs.size else float("nan")
 
 
+def reference_margin(result, along):
+    """The margin of :func:`summarise`: :func:`reference_margin_db` with a
+    band where one sensor's estimate is not positive counted for the other
+    (its noise is below what the split resolves there, as at the metadata
+    gains), so that the bands a split does resolve do not speak for those it
+    does not; where that median is unbounded (most bands unresolved on one
+    side), the median over the resolved bands, if it has the same sign."""
+    signed = reference_margin_db(result, along, signed=True)
+    if np.isfinite(signed) or np.isnan(signed):
+        return signed
+    resolved = reference_margin_db(result, along)
+    return resolved if np.isfinite(resolved) and np.sign(resolved) == np.sign(signed) else signed
+
+
 def at_metadata_gain(model, theta, factor=1.0):
     """``theta`` with every fitted SUT gain set to its metadata value times
     ``factor`` (period, damping and angles as fitted)."""
@@ -286,10 +300,11 @@ def order_entry(margins, spread=METADATA_GAIN_SPREAD, fitted_db=None):
 
 def swap_message(margin_db):
     """The warning of a reference noisier than the SUT, or None."""
-    if not np.isfinite(margin_db) or margin_db <= SWAP_MARGIN_DB:
+    if np.isnan(margin_db) or margin_db <= SWAP_MARGIN_DB:
         return None
-    return (f"the reference is noisier than the sensor under test by {margin_db:.1f} dB in the "
-            "band; were --ref and --sut swapped?")
+    by = (f"by {margin_db:.1f} dB in the band" if np.isfinite(margin_db) else
+          "in most bands (the sensor under test's noise is below what the split resolves there)")
+    return f"the reference is noisier than the sensor under test {by}; were --ref and --sut swapped?"
 
 
 def summarise(result, along, basis):
@@ -303,7 +318,7 @@ def summarise(result, along, basis):
         out[cid] = {"freq_hz": result["freq_hz"], "psd_db": db(result["psd"][j]),
                     f"ci{round(100 * result['level'])}_db": [lo_db[j], hi_db[j]],
                     "recorded_db": db(result["recorded"][j])}
-    margin = reference_margin_db(result, along)
+    margin = reference_margin(result, along)
     msg = swap_message(margin)
     order = {"reference_minus_sut_db": margin, "reference_noisier": msg is not None,
              "threshold_db": SWAP_MARGIN_DB}
