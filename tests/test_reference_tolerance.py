@@ -70,3 +70,27 @@ def test_a_reference_gain_off_is_covered_only_with_its_tolerance():
     assert lo <= 750.0 <= hi
     assert 0.05 < (hi - lo) / 750.0 < 0.25
     assert post.meta["reference_tolerance"]["relative_sd"] == 0.04
+
+
+def test_the_prior_flag_judges_the_reported_values_once_the_tolerance_is_in():
+    """A damping the data fix only as well as its 5 % prior (posterior sd
+    0.71 of the prior's: halving the prior narrows it by 1.58, beyond the
+    rule's 1.5), reported with a reference tolerance ten times wider: refits
+    with the prior halved or doubled would report nearly the same spread
+    (the tolerance's), so the prior no longer sets the reported value;
+    judged on the model's own samples it does."""
+    from bayescal.core.response import pendulum
+
+    rng = np.random.default_rng(3)
+    n, tol = 40_000, 0.05
+    x = 0.002 * rng.standard_normal(n)           # log period: fixed by the data
+    y = tol / np.sqrt(2) * rng.standard_normal(n)   # log damping: data as wide as the prior
+    c0, c1 = np.exp(-2 * x), np.exp(y + x)       # model coordinates (log_deviations' inverse)
+    samples = np.column_stack([c0, c1])
+    blocks = {"X": (0, 1)}
+    own = pendulum.reweighted_sensitivity(samples, blocks, tol, tol)["X"]
+    assert own["damping"]["set_by_prior"]
+    reported = np.column_stack([120 * np.exp(x), 0.707 * np.exp(y + 0.5 * rng.standard_normal(n))])
+    judged = pendulum.reweighted_sensitivity(samples, blocks, tol, tol, {"X": reported})["X"]
+    assert not judged["damping"]["set_by_prior"]
+    assert judged["damping"]["width_ratio"] < 1.05

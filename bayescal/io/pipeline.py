@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.fit.run import fit_spectra
+from ..core.fit.run import fit_spectra, judge_reported_response
 from .channels import check_distinct, select_channels
 from .read import InputError, flat_inventory, read_metadata, read_waveforms
 from .align import align
@@ -235,6 +235,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         if p is not None:
             reference_tolerance.apply(p, np.asarray(s.vectors)[keep], r.vectors, r.families(),
                                       priors.reference_tolerance, seed)
+    if priors.reference_tolerance:
+        judge_reported_response(post)
     _warn_on_misfit(post)
     return post
 

@@ -267,7 +267,7 @@ def _modes(model, theta_ls, cov, nominal, fitted):
     return best.model, theta_ls, cov, report
 
 
-def _prior_sensitivity(model, samples):
+def _prior_sensitivity(model, samples, reported=None):
     """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of every channel
     whose period and damping are free, from the posterior's samples."""
     blocks = {b.channel_id: (sr.start, sr.start + 1)
@@ -276,7 +276,28 @@ def _prior_sensitivity(model, samples):
         return {}
     pr = model.priors
     return pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
-                                           pr.damping_tolerance)
+                                           pr.damping_tolerance, reported)
+
+
+def judge_reported_response(post):
+    """Redo the prior-sensitivity flags of ``post`` (a fit's Posterior) on the
+    period and damping it reports, once the reference's metadata tolerance
+    has been drawn into them (``post.response``, row for row with
+    ``post.full_samples``): the flag then asks what refits with the prior
+    halved or doubled would report. ``meta["prior_sensitivity"]`` and the
+    period and damping entries of ``meta["set_by_prior"]`` are replaced."""
+    model = post.model
+    if model is None or post.full_samples is None or not post.meta.get("prior_sensitivity"):
+        return post
+    sens = _prior_sensitivity(model, post.full_samples,
+                              {cid: post.response[cid] for cid in post.response})
+    entries = post.meta.setdefault("set_by_prior", {})
+    for cid in sens:
+        for name in ("period_s", "damping", "damping_over_period"):
+            entries.pop(f"{cid}:{name}", None)
+    entries.update(pendulum.set_by_prior_entries(sens))
+    post.meta["prior_sensitivity"] = sens
+    return post
 
 
 def _misfit_meta(model, theta):

@@ -186,7 +186,7 @@ def _weighted_quantiles(x, w, q):
     return np.interp(np.asarray(q) * cw[-1], cw, x[order])
 
 
-def reweighted_sensitivity(samples, blocks, period_tol, damping_tol):
+def reweighted_sensitivity(samples, blocks, period_tol, damping_tol, reported=None):
     """:func:`prior_sensitivity`'s answer from posterior samples: each
     channel's samples reweighted to its prior with the width halved and
     doubled (weights ``p_s / p_1 = exp(-(1/s^2 - 1) (x^2 / 2 sT^2 + y^2 /
@@ -197,13 +197,22 @@ def reweighted_sensitivity(samples, blocks, period_tol, damping_tol):
     :data:`MIN_WEIGHT_ESS` of the samples effective sets the values.
 
     ``samples`` (N, n) in model coordinates; ``blocks`` ``{channel id: (i0,
-    i1)}`` the columns of ``c0_rel`` and ``c1_rel``."""
+    i1)}`` the columns of ``c0_rel`` and ``c1_rel``. ``reported`` (optional)
+    ``{channel id: (N, 2)}`` the period and damping the result reports for
+    the same samples, row for row, when they are not the model's own (the
+    reference's metadata tolerance drawn into them,
+    :mod:`bayescal.core.response.reference_tolerance`): the weights still
+    come from the prior on the model's coordinates, and the rule judges the
+    reported values, as refits with the prior rescaled would."""
     samples = np.asarray(samples, float)
     n = samples.shape[0]
     out = {}
     for cid, (i0, i1) in blocks.items():
         x, y = log_deviations(samples[:, i0], samples[:, i1])
         quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
+        if reported is not None and cid in reported:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                x, y = np.log(np.asarray(reported[cid], float)[:, :2]).T
         values = {"period_s": x, "damping": y, "damping_over_period": y - x}
         entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0}
                    for name in values}
