@@ -304,6 +304,10 @@ def test_huddle_misfit_left_unexplained_with_a_band_advice(huddle_data, tmp_path
     assert c["verdict"] == "unexplained" and c["stationxml"] == "fit"
     poles = [e for e in c["effects"] if e["name"] == "extra_pole"]
     assert poles and all("reference's response" in e["explanation"] for e in poles)
+    # the misfit the model leaves pulls the sizes: they are not given as measurements
+    assert all(e["size_is_measurement"] is False for e in c["effects"])
+    from bayescal.criticism.verdict import lines
+    assert any(ln.startswith("  note: the sizes above are conditional") for ln in lines(c))
     band = [a for a in c["advice"] if a.startswith("--band")]
     assert len(band) == 1
     hi = float(band[0].split()[2])
@@ -385,3 +389,56 @@ def test_a_drift_is_judged_by_its_rate():
     assert len(weak) == 1 and weak[0][3] == 1 and weak[0][2] == pytest.approx(0.25, abs=0.1)
     draws[:, 1] += 10.0
     assert weak_effects(model, draws) == []
+
+
+def test_a_posterior_that_did_not_move_is_no_measurement():
+    """An improved model whose sampler fell back to its least-squares point
+    (or a size whose interval has no width) gives no verdict "improved": the
+    misfit stays unexplained, the sizes are not measurements, the corrected
+    StationXML keeps the fit's values; and the console's lines survive values
+    result.json could not hold (None)."""
+    from types import SimpleNamespace
+
+    from bayescal.criticism.verdict import _degenerate, lines
+
+    post = object()
+    final = SimpleNamespace(meta={"posterior_failed": "no draw inside"})
+    assert _degenerate(SimpleNamespace(final=final), post, []) == "no draw inside"
+    ok = SimpleNamespace(final=SimpleNamespace(meta={}))
+    flat = [{"size": {"ppm": {"median": 77.9, "ci95": [77.9, 77.9]}}}]
+    assert "no width" in _degenerate(ok, post, flat)
+    assert _degenerate(ok, post, [{"size": {"ppm": {"median": 78, "ci95": [77, 79]}}}]) is None
+    c = {"verdict": "improved", "verdict_text": "x", "effects": [{"explanation": "e"}],
+         "misfit_before": None, "misfit_after": 2.0, "move_threshold_sd": 0.3,
+         "improved_estimates": {"A": {"gain": {"median": None, "ci95": [None, None],
+                                               "fit_median": 1.0, "moved_sd": 2.0},
+                                      "dip_deg": {"median": 1.0, "moved_sd": None}}}}
+    text = "\n".join(lines(c))
+    assert "n/a -> 2" in text and "A gain n/a [n/a, n/a]" in text
+
+
+def test_a_drift_that_wraps_the_segments_phases_is_named():
+    """200 ppm over two hours: the SUT's clock runs 0.72 s off from start to
+    end, past a quarter period of the band's 2 Hz top, so each segment's
+    phase slope wraps and its timing trend does not pass the screen (t
+    about 1); the time blocks' lags see the drift, and it is named with its
+    rate inside its interval."""
+    import bayescal
+    from bayescal.criticism import effects as catalogue
+    from bayescal.criticism.locate import block_timing, segment_timing
+    from bayescal.simulate.pair import simulate_pair
+
+    sim = simulate_pair(duration=7200.0, fs=10.0, seed=4, coherence=0.98, clock_drift_ppm=200.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                                  ref_xml=sim.ref_inventory, band=(0.02, 2.0), progress=False,
+                                  seed=1, min_ess=200, n_tau=20)
+    m, th = post.model, post.theta_ls
+    assert abs(catalogue.drift_signature(*segment_timing(m, th))["t_stat"]) < 3
+    blocks = catalogue.drift_signature(*block_timing(m, th))
+    assert blocks["t_stat"] > 3 and abs(blocks["ppm"] - 200) < 3 * blocks["sd_ppm"]
+    c = post.summary()["criticism"]
+    assert [e["name"] for e in c["effects"]] == ["clock_drift"]
+    lo, hi = c["effects"][0]["size"]["ppm"]["ci95"]
+    assert lo < 200 < hi

@@ -47,7 +47,8 @@ from ..core.model.eiv import EIVModel
 from ..core.posterior.samples import interval_summary
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
                      orientation_score, search)
-from .locate import ALPHA, true_runs, band_ratio, locate, ratio_weights, segment_timing
+from .locate import (ALPHA, true_runs, band_ratio, block_timing, locate, ratio_weights,
+                     segment_timing)
 from .naming import without_effects, prune_overdispersed, timing_consistency, weak_effects
 
 
@@ -98,6 +99,8 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True
         if not len(samples):                    # no draw inside: the point itself
             samples = np.asarray(theta, float)[None]
             lp = model.log_prob(samples)
+            meta = dict(meta, posterior_failed="no draw of its Gaussian approximation lies "
+                                               "inside the prior's support")
         one = np.ones(model.ndim)
         conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
                 "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}
@@ -228,6 +231,12 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     sig = catalogue.signatures(sp.band_centres, q, ratio_weights(sp))
     times, tau_k, w_k = segment_timing(model0, th0)
     sig["clock_drift"] = catalogue.drift_signature(times, tau_k, w_k)
+    blocks = block_timing(model0, th0)
+    if blocks is not None:
+        # a drift large enough to wrap the segments' phases shows in the blocks' lags
+        by_block = catalogue.drift_signature(*blocks)
+        if abs(by_block["t_stat"]) > abs(sig["clock_drift"]["t_stat"]):
+            sig["clock_drift"] = dict(by_block, screen="time blocks' lags")
     # the reference's own noise first: a noise-model term, not physics; when it
     # is there, every effect is judged against the model that includes it
     sig["reference_noise"], eiv, th_e, cov_e = reference_noise_test(model0, th0, BIC_KEEP)

@@ -32,6 +32,12 @@ DEFAULT_BUDGET_S = 60.0
 #: approximation at the least-squares point, said in its meta).
 MAX_STEPS = 5000
 
+#: Why a named effect's size is not a measurement when a misfit stays: its
+#: interval is conditional on the improved model, which the recordings reject.
+SIZE_NOTE = ("the sizes above are conditional on a model that still misfits the recordings: "
+             "their intervals are not measurements (a misfit the model leaves pulls them by "
+             "more than their width says)")
+
 #: What the user can do about each named effect (the option to pass, or the
 #: change to make in the metadata).
 ADVICE = {
@@ -106,6 +112,21 @@ def _effect_sizes(effect):
         elif isinstance(v, dict):     # a per-channel table (tilt noise)
             out[k] = v
     return out
+
+
+def _degenerate(d, post, effects):
+    """Why the improved model's posterior cannot be read as a measurement,
+    or None: its sampler fell back to the least-squares point itself, or an
+    effect's size has an interval of zero width (a posterior that did not
+    move; an interval that claims exact knowledge)."""
+    if d.final is not post and d.final.meta.get("posterior_failed"):
+        return d.final.meta["posterior_failed"]
+    for e in effects:
+        for k, v in e["size"].items():
+            ci = v.get("ci95") if isinstance(v, dict) else None
+            if ci is not None and not ci[1] > ci[0]:
+                return f"the interval of its {k.replace('_', ' ')} has no width"
+    return None
 
 
 def _held_response_moves(effect):
@@ -216,7 +237,13 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
                 **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
                for e in named]
     names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
-    if d.incomplete:
+    degenerate = _degenerate(d, post, effects)
+    if degenerate:
+        verdict = "unexplained"
+        text = (f"{names or 'an effect'} would explain the misfit, but the improved model's "
+                f"posterior could not be sampled ({degenerate}): its estimates and the sizes are "
+                "not measurements; the misfit stays unexplained")
+    elif d.incomplete:
         verdict = "unexplained"
         text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
                 f"budget of {budget_s:g} s ran out (not tried: "
@@ -253,8 +280,14 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     for e in effects:
         if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
             advice.append(e["advice"])
+    if degenerate:
+        moves = {}
+        biggest = 0.0
     stationxml = "improved model" if verdict in ("usable", "improved") and \
         d.final is not post else "fit"
+    conditional = verdict == "unexplained"
+    for e in effects:
+        e["size_is_measurement"] = not conditional
     summary = {
         "verdict": verdict, "verdict_text": text, "effects": effects,
         "reference_noise_modelled": bool(ref.get("kept")),
@@ -267,12 +300,13 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
         "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
                          "misfit_max": m["misfit_max"]} for m in left],
         "advice": advice, "stationxml": stationxml,
+        **({"size_note": SIZE_NOTE} if conditional and effects else {}),
         "complete": d.incomplete is None, "tried": d.tried,
         "not_tried": (d.incomplete or {}).get("not_tried", []),
         "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),
         "sentences": d.sentences(),
     }
-    improved = d.final if d.final is not post else None
+    improved = d.final if d.final is not post and not degenerate else None
     return Criticism(summary, improved, d)
 
 
@@ -326,6 +360,12 @@ def failed(exc):
             "error": f"{type(exc).__name__}: {exc}"}
 
 
+def _g(x, digits=5):
+    """A number for the console (``digits`` significant digits), or "n/a"
+    where result.json holds none (a value that was not finite)."""
+    return "n/a" if x is None else f"{x:.{digits}g}"
+
+
 def lines(c):
     """The criticism in plain words for the console and the report, one
     string per line (``c``: a :class:`Criticism`'s summary)."""
@@ -334,19 +374,23 @@ def lines(c):
         return out
     for e in c.get("effects", []):
         out.append(f"  found: {e['explanation']}")
+    if c.get("size_note"):
+        out.append(f"  note: {c['size_note']}")
     if "misfit_before" in c and (c.get("effects") or c.get("reference_noise_modelled")):
-        out.append(f"  largest standardised misfit {c['misfit_before']:.3g} -> "
-                   f"{c['misfit_after']:.3g} with it modelled (both under the improved model's "
+        out.append(f"  largest standardised misfit {_g(c['misfit_before'], 3)} -> "
+                   f"{_g(c['misfit_after'], 3)} with it modelled (both under the improved model's "
                    "noise model; about 1 is a fit within the noise)")
     moved = [(cid, k, v) for cid, d in c.get("improved_estimates", {}).items()
              for k, v in d.items() if k != "relative_gain"]
-    big = [m for m in moved if abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)]
+    big = [m for m in moved if m[2].get("moved_sd") is not None
+           and abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)]
     if moved:
         out.append(f"  estimates under the improved model that move by more than "
                    f"{c.get('move_threshold_sd', MOVE_SD):g} sd" + (":" if big else ": none"))
         for cid, k, v in big:
-            out.append(f"    {cid} {k.replace('_deg', '').replace('_s', '')} {v['median']:.5g} "
-                       f"[{v['ci95'][0]:.5g}, {v['ci95'][1]:.5g}] (the fit: {v['fit_median']:.5g}"
+            lo, hi = v.get("ci95") or (None, None)
+            out.append(f"    {cid} {k.replace('_deg', '').replace('_s', '')} {_g(v['median'])} "
+                       f"[{_g(lo)}, {_g(hi)}] (the fit: {_g(v['fit_median'])}"
                        f"{', held at its metadata value' if v.get('held_by_fit') else ''}; moved "
                        f"{v['moved_sd']:+.2g} sd)")
     for a in c.get("advice", []):
