@@ -391,7 +391,7 @@ def test_a_drift_is_judged_by_its_rate():
     assert weak_effects(model, draws) == []
 
 
-def test_a_posterior_that_did_not_move_is_no_measurement():
+def test_a_posterior_that_did_not_move_is_no_measurement(monkeypatch):
     """An improved model whose sampler fell back to its least-squares point
     (or a size whose interval has no width) gives no verdict "improved": the
     misfit stays unexplained, the sizes are not measurements, the corrected
@@ -399,7 +399,30 @@ def test_a_posterior_that_did_not_move_is_no_measurement():
     result.json could not hold (None)."""
     from types import SimpleNamespace
 
-    from bayescal.criticism.verdict import _degenerate, lines
+    import bayescal.criticism.diagnose as diagnosis
+    from bayescal.criticism.verdict import _degenerate, criticise, lines
+
+    # criticise on a diagnosis (stubbed) whose offset posterior did not move
+    flat_offset = {"name": "timing_offset", "channels": ["A"], "explanation": "a 0.1 s offset",
+                   "parameters": {"seconds": {"median": 0.1, "ci95": [0.1, 0.1]}}}
+    summary = {"channels": {"A": {"azimuth_deg": {"median": 1.0, "ci68": [0.9, 1.1],
+                                                  "ci95": [0.8, 1.2]}}}}
+    moved = {"channels": {"A": {"azimuth_deg": {"median": 3.0, "ci68": [3.0, 3.0],
+                                                "ci95": [3.0, 3.0]}}}}
+    final = SimpleNamespace(meta={}, summary=lambda: moved)
+    fake = SimpleNamespace(effects=[flat_offset], final=final, band_edges=[0.1, 1.0],
+                           before_common={"misfit": np.array([9.0])},
+                           before={"misfit": np.array([9.0])},
+                           after={"misfit": np.array([1.0]), "mismatch": []}, signatures={},
+                           incomplete=None, tried=["timing_offset"], dropped=[],
+                           sentences=lambda: [])
+    monkeypatch.setattr(diagnosis, "diagnose", lambda *a, **k: fake)
+    post = SimpleNamespace(meta={"free_response": "gain"}, summary=lambda: summary)
+    c = criticise(post)
+    s = c.summary
+    assert s["verdict"] == "unexplained" and s["stationxml"] == "fit" and c.improved is None
+    assert s["effects"][0]["size_is_measurement"] is False and "no width" in s["verdict_text"]
+    assert s["improved_estimates"] == {} and "could not be characterised" in s["size_note"]
 
     post = object()
     final = SimpleNamespace(meta={"posterior_failed": "no draw inside"})
@@ -420,12 +443,12 @@ def test_a_posterior_that_did_not_move_is_no_measurement():
 def test_a_drift_that_wraps_the_segments_phases_is_named():
     """200 ppm over two hours: the SUT's clock runs 0.72 s off from start to
     end, past a quarter period of the band's 2 Hz top, so each segment's
-    phase slope wraps and its timing trend does not pass the screen (t
-    about 1); the time blocks' lags see the drift, and it is named with its
-    rate inside its interval."""
+    phase slope wraps and its timing trend misses the drift; the time
+    blocks' lags see it, and it is named with its rate inside its
+    interval."""
     import bayescal
     from bayescal.criticism import effects as catalogue
-    from bayescal.criticism.locate import block_timing, segment_timing
+    from bayescal.criticism.locate import block_timing
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=7200.0, fs=10.0, seed=4, coherence=0.98, clock_drift_ppm=200.0)
@@ -435,7 +458,6 @@ def test_a_drift_that_wraps_the_segments_phases_is_named():
                                   ref_xml=sim.ref_inventory, band=(0.02, 2.0), progress=False,
                                   seed=1, min_ess=200, n_tau=20)
     m, th = post.model, post.theta_ls
-    assert abs(catalogue.drift_signature(*segment_timing(m, th))["t_stat"]) < 3
     blocks = catalogue.drift_signature(*block_timing(m, th))
     assert blocks["t_stat"] > 3 and abs(blocks["ppm"] - 200) < 3 * blocks["sd_ppm"]
     c = post.summary()["criticism"]

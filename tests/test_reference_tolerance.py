@@ -94,3 +94,18 @@ def test_the_prior_flag_judges_the_reported_values_once_the_tolerance_is_in():
     judged = pendulum.reweighted_sensitivity(samples, blocks, tol, tol, {"X": reported})["X"]
     assert not judged["damping"]["set_by_prior"]
     assert judged["damping"]["width_ratio"] < 1.05
+    # a tolerance ten times narrower than the prior leaves the prior in charge:
+    # still flagged, and only with the rows judged in their own order
+    narrow = np.column_stack([120 * np.exp(x),
+                              0.707 * np.exp(y + 0.005 * rng.standard_normal(n))])
+    same = pendulum.reweighted_sensitivity(samples, blocks, tol, tol, {"X": narrow})["X"]
+    assert same["damping"]["set_by_prior"] and same["damping"]["width_ratio"] > 1.5
+    shuffled = narrow[rng.permutation(n)]
+    assert not pendulum.reweighted_sensitivity(samples, blocks, tol, tol,
+                                               {"X": shuffled})["X"]["damping"]["set_by_prior"]
+    # reported values that are not numbers (a widened damping below zero) are
+    # left out of the judgement, not taken as a verdict that the data decide
+    holes = narrow.copy()
+    holes[::3, 1] = -1.0
+    holed = pendulum.reweighted_sensitivity(samples, blocks, tol, tol, {"X": holes})["X"]
+    assert holed["damping"]["set_by_prior"]

@@ -148,9 +148,12 @@ class CorrectedDrift(TimingOffset):
     param_names = ("seconds_mid",)
     prunable = False
 
-    def __init__(self, rows, ppm, ppm_sd, limit_s=30.0):
+    def __init__(self, rows, ppm, ppm_sd, limit_s=30.0, dispersion=1.0):
         super().__init__(rows, limit_s)
         self.ppm, self.ppm_sd = float(ppm), float(ppm_sd)
+        #: the misfit the per-block model left (its median standardised
+        #: misfit): further effects must beat it (:func:`.naming.prune_overdispersed`)
+        self.dispersion = float(dispersion)
 
     def physical(self, p):
         rng = np.random.default_rng(0)
@@ -441,8 +444,11 @@ def signatures(freqs_b, q, weight):
 
 
 def _drift_fit(t, tau, w):
+    """Weighted regression of ``tau`` on ``t``: (slope, mean of ``tau``); ``t``
+    is centred here, so that a jackknife's subsets are fitted as whole sets."""
     a = np.average(tau, weights=w)
-    return np.sum(w * t * (tau - a)) / np.sum(w * t * t), a
+    tc = t - np.average(t, weights=w)
+    return np.sum(w * tc * (tau - a)) / np.sum(w * tc * tc), a
 
 
 def drift_signature(times_s, tau_k, weight_k, blocks=10):

@@ -357,7 +357,7 @@ def drift_under_eiv(eiv, model, theta, cov, log=None):
     others = [(e, np.asarray(theta)[s]) for e, s in zip(model.effects, model.effect_slices)
               if e is not drift]
     sp = catalogue.drift_corrected(model.spectra, drift, ppm)
-    eff = [e for e, _ in others] + [catalogue.CorrectedDrift(drift.rows, ppm, sd)]
+    eff = [e for e, _ in others] + [catalogue.CorrectedDrift(drift.rows, ppm, sd, dispersion=phi)]
     m = EIVModel(sp, eiv.ref_vectors, eiv.blocks, eiv.priors, ref_noise=eiv.ref_noise,
                  effects=eff, known_noise=getattr(eiv, "known_noise", None))
     th0 = np.concatenate([theta_base(model, theta)] + [p for _, p in others] + [[tau]])

@@ -38,6 +38,13 @@ SIZE_NOTE = ("the sizes above are conditional on a model that still misfits the 
              "their intervals are not measurements (a misfit the model leaves pulls them by "
              "more than their width says)")
 
+#: The same when the improved model's posterior could not be characterised.
+SIZE_NOTE_DEGENERATE = ("the sizes above come from an improved model whose posterior could not "
+                        "be characterised: their intervals are not measurements")
+#: The same when the search ran out of its budget before it could judge them.
+SIZE_NOTE_INCOMPLETE = ("the sizes above come from a search that ran out of its budget before "
+                        "every candidate was tried: their intervals are not measurements")
+
 #: What the user can do about each named effect (the option to pass, or the
 #: change to make in the metadata).
 ADVICE = {
@@ -238,12 +245,17 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
                for e in named]
     names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
     degenerate = _degenerate(d, post, effects)
+    size_note = SIZE_NOTE
     if degenerate:
         verdict = "unexplained"
         text = (f"{names or 'an effect'} would explain the misfit, but the improved model's "
-                f"posterior could not be sampled ({degenerate}): its estimates and the sizes are "
-                "not measurements; the misfit stays unexplained")
+                f"posterior could not be characterised ({degenerate}): its estimates and the "
+                "sizes are not measurements; the misfit stays unexplained")
+        size_note = SIZE_NOTE_DEGENERATE
+        if d.incomplete:
+            advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
     elif d.incomplete:
+        size_note = SIZE_NOTE_INCOMPLETE
         verdict = "unexplained"
         text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
                 f"budget of {budget_s:g} s ran out (not tried: "
@@ -300,7 +312,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
         "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
                          "misfit_max": m["misfit_max"]} for m in left],
         "advice": advice, "stationxml": stationxml,
-        **({"size_note": SIZE_NOTE} if conditional and effects else {}),
+        **({"size_note": size_note} if conditional and effects else {}),
         "complete": d.incomplete is None, "tried": d.tried,
         "not_tried": (d.incomplete or {}).get("not_tried", []),
         "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),

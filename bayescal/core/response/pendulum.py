@@ -205,23 +205,27 @@ def reweighted_sensitivity(samples, blocks, period_tol, damping_tol, reported=No
     come from the prior on the model's coordinates, and the rule judges the
     reported values, as refits with the prior rescaled would."""
     samples = np.asarray(samples, float)
-    n = samples.shape[0]
     out = {}
     for cid, (i0, i1) in blocks.items():
         x, y = log_deviations(samples[:, i0], samples[:, i1])
         quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
         if reported is not None and cid in reported:
             with np.errstate(invalid="ignore", divide="ignore"):
-                x, y = np.log(np.asarray(reported[cid], float)[:, :2]).T
+                rx, ry = np.log(np.asarray(reported[cid], float)[:, :2]).T
+            ok = np.isfinite(rx) & np.isfinite(ry) & np.isfinite(quad)
+            if ok.mean() >= 0.5:        # judged on the rows reported as numbers
+                x, y, quad = rx[ok], ry[ok], quad[ok]
+            # else: too few reported values to judge; the model's own are
+        n_rows = x.size
         values = {"period_s": x, "damping": y, "damping_over_period": y - x}
         entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0}
                    for name in values}
-        ones = np.ones(n)
+        ones = np.ones(n_rows)
         base = {name: _weighted_quantiles(v, ones, (0.16, 0.5, 0.84)) for name, v in values.items()}
         for s in PRIOR_SCALES:
             logw = -(1.0 / s ** 2 - 1.0) * quad
             w = np.exp(logw - np.max(logw))
-            ess = w.sum() ** 2 / np.sum(w * w) / n
+            ess = w.sum() ** 2 / np.sum(w * w) / n_rows
             for name, v in values.items():
                 e = entries[name]
                 if not ess >= MIN_WEIGHT_ESS:
