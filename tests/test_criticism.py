@@ -464,3 +464,39 @@ def test_a_drift_that_wraps_the_segments_phases_is_named():
     assert [e["name"] for e in c["effects"]] == ["clock_drift"]
     lo, hi = c["effects"][0]["size"]["ppm"]["ci95"]
     assert lo < 200 < hi
+
+
+def test_a_swap_with_a_channel_the_fit_could_not_use_is_named():
+    """BH2 and BHZ exchanged in a field of two plane waves with almost no
+    vertical motion: the channel named BH2 records the vertical, which the
+    reference hardly sees, and is left out for want of coherence; the one
+    named BHZ records BH2's horizontal. The model fits, and the exchange is
+    named from the fitted BHZ axis lying on BH2's metadata axis."""
+    import bayescal
+    from bayescal.criticism.effects import swaps_with_unfitted
+    from bayescal.core.orientation.geometry import unit_vector
+    from bayescal.simulate.pair import simulate_pair
+
+    # the screen on axes alone: only a channel far from its own axis and on the other's
+    bh2, bhz = unit_vector(338.0, 0.0), unit_vector(0.0, -90.0)
+    found = swaps_with_unfitted(np.array([unit_vector(336.0, 1.0)]), np.array([bhz]), ["Z"],
+                                {"2": bh2})
+    assert [f["channels"] for f in found] == [["2", "Z"]]
+    assert swaps_with_unfitted(np.array([unit_vector(10.0, -85.0)]), np.array([bhz]), ["Z"],
+                               {"2": bh2}) == []
+
+    sim = simulate_pair(duration=7200.0, fs=10.0, seed=13045, coherence=0.9065,
+                        ref_coherence=0.9065, noise_in_counts=True,
+                        sut_azimuth=(245.68, 335.68, 0.0), sut_dip=(0.0, 0.0, -90.0),
+                        nominal_azimuth=(246.22, 338.35, 0.0), nominal_dip=(0.0, 0.0, -90.0),
+                        nominal_response=(30.0, 0.707, 750.0), n_waves=2, diffuse=0.05,
+                        channel_swap=(1, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                                  ref_xml=sim.ref_inventory, band=(0.02, 2.0), progress=False,
+                                  seed=1, min_ess=200, n_tau=20)
+    assert "XX.SIM.10.BH2" in post.not_estimable
+    c = post.summary()["criticism"]
+    assert [(e["name"], e["channels"]) for e in c["effects"]] == [
+        ("channel_swap", ["XX.SIM.10.BH2", "XX.SIM.10.BHZ"])]

@@ -196,14 +196,20 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
     nominal = _nominal_vectors(base.meta, ids)
     out = []
-    for f in catalogue.orientation_findings(fitted, nominal, ids):
+    findings = catalogue.orientation_findings(fitted, nominal, ids)
+    unfitted = {c: unit_vector(v["azimuth_deg"], v["dip_deg"])
+                for c, v in base.meta["nominal"].items()
+                if c not in ids and c in (base.not_estimable or {})}
+    findings += catalogue.swaps_with_unfitted(fitted, nominal, ids, unfitted,
+                                              {c for f in findings for c in f["channels"]})
+    for f in findings:
         gain = orientation_score(model0, th0, nominal, f)
         sig[f"{f['name']}:{','.join(f['channels'])}"] = {"delta_bic": gain}
         if gain <= BIC_KEEP:
             continue
-        ang = {c: interval_summary(np.degrees(np.arccos(np.clip(
+        ang = {ids[r]: interval_summary(np.degrees(np.arccos(np.clip(
             base.vectors[:, r] @ nominal[r], -1, 1))))
-            for c, r in zip(f["channels"], f["rows"])}
+            for r in f["rows"]}
         out.append({"name": f["name"], "channels": f["channels"],
                     "parameters": {"angle_to_metadata_axis_deg": ang},
                     "score_gain": gain, "explanation": f["explanation"]

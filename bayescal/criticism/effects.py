@@ -497,6 +497,32 @@ def _angle(a, b):
     return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1, 1))))
 
 
+def swaps_with_unfitted(fitted, nominal, ids, unfitted, taken=()):
+    """Exchanged channels of which one could not be fitted (no coherence
+    with the reference: the motion it records, the other's metadata axis,
+    is one the wavefield hardly has): a fitted channel whose axis lies more
+    than 60 degrees from its metadata axis and within :data:`MATCH_DEG` of
+    an unfitted channel's. ``unfitted`` {channel id: metadata axis (3,)};
+    ``taken``: channels already in a finding. Returns findings whose
+    ``axis`` is the fitted channel's axis under the exchange."""
+    out = []
+    for i, cid in enumerate(ids):
+        if cid in taken or _angle(fitted[i], nominal[i]) <= 60:
+            continue
+        for other, axis in unfitted.items():
+            if other in taken or _angle(fitted[i], axis) >= MATCH_DEG:
+                continue
+            out.append({"name": "channel_swap", "rows": [i], "channels": sorted([cid, other]),
+                        "axis": np.asarray(axis, float),
+                        "explanation": f"{cid} and {other} are exchanged: {cid}'s fitted axis "
+                                       f"is {other}'s metadata axis ({other} itself could not "
+                                       "be fitted: the reference hardly sees the motion along "
+                                       f"{cid}'s metadata axis; wiring or channel naming "
+                                       "swapped)"})
+            break
+    return out
+
+
 def orientation_findings(fitted, nominal, ids):
     """Compare fitted axes (n, 3) with metadata axes (n, 3): a channel whose
     fitted axis is within :data:`MATCH_DEG` of minus its metadata axis is a

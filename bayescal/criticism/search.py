@@ -239,7 +239,9 @@ def orientation_score(model, theta, nominal, finding):
     model's noise model."""
     alt = np.array(nominal, float)
     rows = finding["rows"]
-    if finding["name"] == "channel_swap":
+    if "axis" in finding:           # exchanged with a channel the fit could not use
+        alt[rows[0]] = finding["axis"]
+    elif finding["name"] == "channel_swap":
         alt[rows] = nominal[rows[::-1]]
     else:
         alt[rows] = -nominal[rows]
