@@ -11,11 +11,11 @@ the product's defaults (gains free, reference noise estimated, the criticism
 on when the model check fails); the run's sampler is shortened (``min_ess``
 200, 20 autocorrelation times) for time.
 
-Seeds are fixed before any result is seen: six sets (``SEED_SETS``,
+Seeds are fixed before any result is seen: seven sets (``SEED_SETS``,
 ``--seeds``), clean pairs 7000- and single-effect pairs 8000- in the first,
 7100- and 9000- in the second, 7200- and 10000- in the third, 7300- and
 11000- in the fourth, 7400- and 12000- in the fifth, 7500- and 13000- in
-the sixth; the effect of seed ``s`` is
+the sixth, 7600- and 14000- in the seventh; the effect of seed ``s`` is
 ``KINDS[s % len(KINDS)]`` and every other draw comes from
 ``numpy.random.default_rng(s)``.
 
@@ -97,7 +97,8 @@ SEED_SETS = {"first": (list(range(7000, 7100)), list(range(8000, 8100))),
              "third": (list(range(7200, 7300)), list(range(10000, 10100))),
              "fourth": (list(range(7300, 7400)), list(range(11000, 11100))),
              "fifth": (list(range(7400, 7500)), list(range(12000, 12100))),
-             "sixth": (list(range(7500, 7600)), list(range(13000, 13100)))}
+             "sixth": (list(range(7500, 7600)), list(range(13000, 13100))),
+             "seventh": (list(range(7600, 7700)), list(range(14000, 14100)))}
 CLEAN_SEEDS, EFFECT_SEEDS = SEED_SETS["first"]
 FS = 10.0
 BAND = (0.02, 2.0)
@@ -279,7 +280,8 @@ def main(argv=None):
                     help="which fixed seed set: first (clean 7000-, effects 8000-), second "
                          "(clean 7100-, effects 9000-), third (clean 7200-, effects 10000-), "
                          "fourth (clean 7300-, effects 11000-), fifth (clean 7400-, effects "
-                         "12000-) or sixth (clean 7500-, effects 13000-)")
+                         "12000-), sixth (clean 7500-, effects 13000-) or seventh (clean "
+                         "7600-, effects 14000-)")
     ap.add_argument("--stop-at", default=None,
                     help="UTC time HH:MM after which no new run starts (the summary says so)")
     ap.add_argument("--shard", default=None, metavar="I/N",
