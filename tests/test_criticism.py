@@ -473,7 +473,7 @@ def test_a_swap_with_a_channel_the_fit_could_not_use_is_named():
     named BHZ records BH2's horizontal. The model fits, and the exchange is
     named from the fitted BHZ axis lying on BH2's metadata axis."""
     import bayescal
-    from bayescal.criticism.effects import swaps_with_unfitted
+    from bayescal.criticism.wiring import swaps_with_unfitted
     from bayescal.core.orientation.geometry import unit_vector
     from bayescal.simulate.pair import simulate_pair
 

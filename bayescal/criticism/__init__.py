@@ -9,6 +9,7 @@
                     each effect's absence
 * :mod:`.diagnose`  the whole diagnosis and its summary
 * :mod:`.verdict`   the criticism of a fit that failed its model check
+* :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the
                     mismatch (a noise-model term, tested before any physics is named)

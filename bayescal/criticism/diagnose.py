@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 
-from . import effects as catalogue, tilt
+from . import effects as catalogue, tilt, wiring
 from .reference_noise import reference_noise_test
 from ..core.model.refnoise import treatment_meta as reference_noise_meta
 from ..core.sampling.mcmc import sample
@@ -196,11 +196,11 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
     nominal = _nominal_vectors(base.meta, ids)
     out = []
-    findings = catalogue.orientation_findings(fitted, nominal, ids)
+    findings = wiring.orientation_findings(fitted, nominal, ids)
     unfitted = {c: unit_vector(v["azimuth_deg"], v["dip_deg"])
                 for c, v in base.meta["nominal"].items()
                 if c not in ids and c in (base.not_estimable or {})}
-    findings += catalogue.swaps_with_unfitted(fitted, nominal, ids, unfitted,
+    findings += wiring.swaps_with_unfitted(fitted, nominal, ids, unfitted,
                                               {c for f in findings for c in f["channels"]})
     for f in findings:
         gain = orientation_score(model0, th0, nominal, f)

@@ -22,8 +22,8 @@ where the model fits; see :func:`bayescal.criticism.diagnose.band_ratio`):
 * ``polarity_reversal`` / ``channel_swap``: the base fit estimates
   orientation freely, so these show as a fitted axis opposite to the
   metadata axis, or two channels whose fitted axes match each other's
-  metadata axes (:func:`orientation_findings`, a screen; the score is
-  :func:`bayescal.criticism.diagnose.orientation_score`).
+  metadata axes (:func:`bayescal.criticism.wiring.orientation_findings`, a
+  screen; the score is :func:`bayescal.criticism.search.orientation_score`).
 * ``tilt_noise``: noise, not a response error, modelled in the noise
   spectra by :mod:`bayescal.criticism.tilt`. :func:`tilt_signature` is the earlier
   coherence-ratio rule, kept as the baseline of validation/studies/tilt_power.py.
@@ -37,8 +37,6 @@ import numpy as np
 from ..core.response import pendulum
 from ..core.model.likelihood import Effect
 
-#: Angle (degrees) within which a fitted axis "matches" a metadata axis.
-MATCH_DEG = 30.0
 #: Horizontal/vertical coherence-deficit ratio (two lowest bands) naming tilt noise.
 TILT_RATIO = 4.0
 #: A missing pole is named only with its corner below this many times the band top.
@@ -491,61 +489,3 @@ def tilt_signature(band_centres, coherence, horizontal):
              if r > TILT_RATIO and up and d > 0.02]
     return {"score": float(ratio.max()), "rising": bool(rising.any()), "channels": chans,
             "deficit_low": h_low.tolist(), "reference_deficit": float(ref_level)}
-
-
-def _angle(a, b):
-    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1, 1))))
-
-
-def swaps_with_unfitted(fitted, nominal, ids, unfitted, taken=()):
-    """Exchanged channels of which one could not be fitted (no coherence
-    with the reference: the motion it records, the other's metadata axis,
-    is one the wavefield hardly has): a fitted channel whose axis lies more
-    than 60 degrees from its metadata axis and within :data:`MATCH_DEG` of
-    an unfitted channel's. ``unfitted`` {channel id: metadata axis (3,)};
-    ``taken``: channels already in a finding. Returns findings whose
-    ``axis`` is the fitted channel's axis under the exchange."""
-    out = []
-    for i, cid in enumerate(ids):
-        if cid in taken or _angle(fitted[i], nominal[i]) <= 60:
-            continue
-        for other, axis in unfitted.items():
-            if other in taken or _angle(fitted[i], axis) >= MATCH_DEG:
-                continue
-            out.append({"name": "channel_swap", "rows": [i], "channels": sorted([cid, other]),
-                        "axis": np.asarray(axis, float),
-                        "explanation": f"{cid} and {other} are exchanged: {cid}'s fitted axis "
-                                       f"is {other}'s metadata axis ({other} itself could not "
-                                       "be fitted: the reference hardly sees the motion along "
-                                       f"{cid}'s metadata axis; wiring or channel naming "
-                                       "swapped)"})
-            break
-    return out
-
-
-def orientation_findings(fitted, nominal, ids):
-    """Compare fitted axes (n, 3) with metadata axes (n, 3): a channel whose
-    fitted axis is within :data:`MATCH_DEG` of minus its metadata axis is a
-    polarity reversal; two channels whose fitted axes match each other's
-    metadata axes are swapped. Returns a list of findings (dicts)."""
-    out = []
-    n = len(ids)
-    swapped = set()
-    for i in range(n):
-        for j in range(i + 1, n):
-            if (_angle(fitted[i], nominal[j]) < MATCH_DEG and _angle(fitted[j], nominal[i]) < MATCH_DEG
-                    and _angle(fitted[i], nominal[i]) > 60):
-                swapped |= {i, j}
-                out.append({"name": "channel_swap", "rows": [i, j], "channels": [ids[i], ids[j]],
-                            "explanation": f"{ids[i]} and {ids[j]} are exchanged: each one's "
-                                           "fitted axis is the other's metadata axis (wiring "
-                                           "or channel naming swapped)"})
-    for i in range(n):
-        if i in swapped:
-            continue
-        if _angle(fitted[i], -nominal[i]) < MATCH_DEG:
-            out.append({"name": "polarity_reversal", "rows": [i], "channels": [ids[i]],
-                        "explanation": f"{ids[i]} is wired backwards: its fitted axis points "
-                                       f"{_angle(fitted[i], nominal[i]):.0f} degrees from its "
-                                       "metadata axis (polarity reversed)"})
-    return out
