@@ -101,7 +101,7 @@ class ClockDrift(Effect):
         n_blocks = spectra.block_totals.shape[0]
         count = np.maximum(np.bincount(g, minlength=n_blocks), 1)
         self.t_mid = float(t.mean())
-        self.dt = np.bincount(g, t, n_blocks) / count - self.t_mid             # (G,)
+        self.dt = spectra.block_times() - self.t_mid                          # (G,)
         self.var = np.maximum(np.bincount(g, t * t, n_blocks) / count
                               - (self.dt + self.t_mid) ** 2, 0.0)
         self.limit_ppm = limit_ppm

@@ -123,9 +123,7 @@ def block_timing(model, theta, lag_step=None):
             best[g] = x[k] + (0.5 * (a - d) / den * (x[k + 1] - x[k]) if den < 0 else 0.0)
         else:
             best[g] = x[k]
-    times = np.bincount(sp.block_of, sp.segment_times(), g_count) / np.maximum(
-        np.bincount(sp.block_of, minlength=g_count), 1)
-    return times, best, np.ones_like(best)
+    return sp.block_times(), best, np.ones_like(best)
 
 
 # --- candidates -------------------------------------------------------------

@@ -160,6 +160,13 @@ class CrossSpectra:
         """(K,) centre time of each used segment, seconds from the record's start."""
         return (self.segment_starts + self.nperseg / 2.0) / self.fs
 
+    def block_times(self):
+        """(G,) mean centre time of the segments of each time block of
+        ``block_totals`` (seconds from the record's start)."""
+        g = self.block_totals.shape[0]
+        count = np.maximum(np.bincount(self.block_of, minlength=g), 1)
+        return np.bincount(self.block_of, self.segment_times(), g) / count
+
     @property
     def fraction_used(self):
         return self.n_segments / max(self.n_segments_possible, 1)
