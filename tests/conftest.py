@@ -2,6 +2,7 @@
 of it that the command-line tests share, and the real data folder."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -58,11 +59,40 @@ def cli_fit(sim_files, both_sensors, tmp_path_factory):
     return {"proc": proc, "out": out, "result": read_result(out)}
 
 
+#: Every test that needs ../shared/data skips with a reason starting so.
+REAL_DATA_SKIP = "real data folder"
+#: Set (to 1) by CI: with ../shared/data present, a test skipped for want of
+#: real data fails the run (a folder renamed, a path mistyped).
+REQUIRE_REAL_DATA = "BAYESCAL_REQUIRE_REAL_DATA"
+
+
 def _real(name):
     path = SHARED_DATA / "real" / name
     if not path.is_dir():
-        pytest.skip(f"real data folder {path} is absent")
+        pytest.skip(f"{REAL_DATA_SKIP} {path} is absent")
     return path
+
+
+def real_data_skips(reports):
+    """The skip reports among ``reports`` that say real data are absent."""
+    return [r for r in reports if REAL_DATA_SKIP in str(r.longrepr)]
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Under :data:`REQUIRE_REAL_DATA`, with ../shared/data present, fail the
+    run when a test skipped for want of real data (on the controller only
+    under pytest-xdist, which sees every worker's reports)."""
+    if os.environ.get(REQUIRE_REAL_DATA) != "1" or not SHARED_DATA.is_dir():
+        return
+    if hasattr(session.config, "workerinput"):
+        return
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    missed = real_data_skips(reporter.stats.get("skipped", [])) if reporter else []
+    if missed:
+        names = ", ".join(r.nodeid for r in missed)
+        reporter.write_line(f"\n{SHARED_DATA} is present but {len(missed)} real-data test(s) "
+                            f"skipped: {names}", red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
 @pytest.fixture

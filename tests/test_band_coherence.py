@@ -88,7 +88,7 @@ def test_demo_band_and_fit_find_the_truth(demo):
             assert abs(e[key]["median"] - truth) < 3.5 * (hi - lo) / 2, (cid, key, e[key])
 
 
-@pytest.mark.skipif(not HUDDLE.is_dir(), reason="needs ../shared/data/real/obspy_relcal")
+@pytest.mark.skipif(not HUDDLE.is_dir(), reason=f"real data folder {HUDDLE} is absent")
 def test_huddle_band_follows_the_rule(tmp_path):
     from bayescal import io
     from bayescal.io.pipeline import load_inventory

@@ -12,17 +12,21 @@ script:
    failure under a breakage would prove nothing);
 3. for each breakage: applies its patch (``git apply``; with one line of
    context if the package has moved on around the changed line), runs its
-   tests, records each test's outcome, reverts the patch;
+   tests, records each test's outcome and, when none of them fails, runs
+   the rest of the suite with ``-x`` (``--no-rest`` skips that) and records
+   the first test that fails there; then reverts the patch;
 4. writes ``results.json`` and ``results.md`` beside this script: for each
    breakage, caught (at least one of its tests failed) or not, and by which.
 
 Usage (from anywhere; takes about ten minutes on two cores)::
 
     python validation/breakages/run_breakages.py [--worktree] [--only NAME ...]
-                                                 [--workers N] [--keep]
+                                                 [--workers N] [--keep] [--no-rest]
 
 It exits with code 1 if a breakage is not caught, or if a listed test fails
-on the unbroken copy.
+on the unbroken copy. A breakage caught only by the rest of the suite
+counts as caught, and the table says by which test: its entry in
+``breakages.json`` should then name that test.
 """
 from __future__ import annotations
 
@@ -67,19 +71,27 @@ def copy_repository(dest, worktree):
         _git(*args, cwd=dest)
 
 
-def run_tests(copy, node_ids, workers, report):
+def run_tests(copy, node_ids, workers, report, rest=False):
     """Run ``node_ids`` in ``copy``; returns {node id: outcome} from pytest's
-    JUnit XML report (passed, failed, error, skipped, or not run)."""
+    JUnit XML report (passed, failed, error, skipped, or not run). With
+    ``rest``, run the whole suite but ``node_ids`` instead, stopping at the
+    first failure (``-x``), and return the outcomes of the tests that failed
+    there."""
     files = {n.split("::")[0] for n in node_ids}
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--junitxml",
-           str(report), *node_ids]
+           str(report)]
+    if rest:
+        cmd += ["-x", "tests", *(f"--deselect={n}" for n in node_ids)]
+        files = {"tests"} | {str(p.relative_to(copy)) for p in (copy / "tests").glob("test_*.py")}
+    else:
+        cmd += list(node_ids)
     if workers > 1 and len(files) > 1:
         cmd += ["-n", str(min(workers, len(files))), "--dist", "loadfile"]
     env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=copy, env=env, capture_output=True, text=True)
     seconds = time.perf_counter() - t0
-    outcomes = {n: "not run" for n in node_ids}
+    outcomes = {} if rest else {n: "not run" for n in node_ids}
     if report.exists():
         for case in ET.parse(report).getroot().iter("testcase"):
             module = case.get("classname", "").replace(".", "/") + ".py"
@@ -93,7 +105,9 @@ def run_tests(copy, node_ids, workers, report):
                 elif child.tag == "skipped" and kind == "passed":
                     kind = "skipped"
             key = node if node in outcomes else base
-            if key in outcomes:
+            if rest and kind in ("failed", "error"):
+                outcomes[node] = kind
+            elif key in outcomes:
                 # a parametrised test fails if any of its cases fails
                 prev = outcomes[key]
                 order = ["not run", "skipped", "passed", "error", "failed"]
@@ -123,7 +137,10 @@ def markdown(result):
              "", "| breakage | what it breaks | caught | failing tests | passing tests | s |",
              "|---|---|---|---|---|---|"]
     for b in result["breakages"]:
-        failed = [n.split("::")[-1] for n, o in b["outcomes"].items() if o in ("failed", "error")]
+        failed = ([n.split("::")[-1] for n, o in b["outcomes"].items()
+                   if o in ("failed", "error")]
+                  + [f"{n.split('::')[-1]} (rest of the suite)"
+                     for n in b.get("caught_by_rest", [])])
         passed = [n.split("::")[-1] for n, o in b["outcomes"].items()
                   if o not in ("failed", "error")]
         caught = "yes" if b["caught"] else ("PATCH DID NOT APPLY" if b.get("apply_error")
@@ -144,6 +161,9 @@ def main(argv=None):
     parser.add_argument("--only", nargs="+", metavar="NAME", help="run these breakages only")
     parser.add_argument("--workers", type=int, default=2, help="pytest-xdist workers (2)")
     parser.add_argument("--keep", action="store_true", help="keep the scratch copy")
+    parser.add_argument("--no-rest", action="store_true",
+                        help="do not run the rest of the suite when a breakage's own tests "
+                             "all pass")
     parser.add_argument("--out", default=str(HERE), help="folder for results.json/.md")
     args = parser.parse_args(argv)
 
@@ -192,12 +212,26 @@ def main(argv=None):
                     continue
             try:
                 outcomes, secs, _ = run_tests(copy, b["tests"], args.workers, report)
+                caught = any(o in ("failed", "error") for o in outcomes.values())
+                if not caught and not args.no_rest:
+                    print(f"{b['name']}: not caught by its tests; the rest of the suite ...",
+                          flush=True)
+                    rest, rest_secs, _ = run_tests(copy, b["tests"], args.workers, report,
+                                                   rest=True)
+                    entry["caught_by_rest"] = sorted(rest)
+                    secs += rest_secs
             finally:
                 _git("apply", "-R", *context, str(patch), cwd=copy)
-            caught = any(o in ("failed", "error") for o in outcomes.values())
+            if entry.get("caught_by_rest"):
+                # a test of the rest counts only if it passes on the unbroken copy
+                check, _, _ = run_tests(copy, entry["caught_by_rest"], args.workers, report)
+                entry["caught_by_rest"] = [n for n, o in check.items() if o == "passed"]
+            caught = (any(o in ("failed", "error") for o in outcomes.values())
+                      or bool(entry.get("caught_by_rest")))
             entry.update(caught=caught, outcomes=outcomes, seconds=round(secs, 1))
             results.append(entry)
-            failing = [n for n, o in outcomes.items() if o in ("failed", "error")]
+            failing = ([n for n, o in outcomes.items() if o in ("failed", "error")]
+                       + [f"{n} (rest of the suite)" for n in entry.get("caught_by_rest", [])])
             print(f"{b['name']}: {'caught by ' + ', '.join(failing) if caught else 'NOT CAUGHT'}"
                   f" ({secs:.0f} s)", flush=True)
         result = {"date": datetime.date.today().isoformat(), "source": source,
