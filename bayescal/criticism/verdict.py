@@ -49,8 +49,11 @@ SIZE_NOTE_INCOMPLETE = ("the sizes above come from a search that ran out of its 
 #: change to make in the metadata).
 ADVICE = {
     "response_parameters": "fit the period and damping with --fit-response all",
-    "timing_offset": "correct the SUT's clock or the digitizer delay in its metadata (the "
-                     "corrected StationXML carries the offset in the stage delay)",
+    "timing_offset": "correct the SUT's clock, and the time stamps of the recordings it "
+                     "made: a clock offset is a time correction of the data (subtract the "
+                     "offset from each SUT trace's start time), not a response change; the "
+                     "corrected StationXML records it in a stage delay, which ObsPy's "
+                     "remove_response does not apply",
     "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
     "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
                   "include its high-frequency poles)",

@@ -184,7 +184,8 @@ def _timing_offset(criticism):
 
 def criticism_comment(channel, cid, criticism):
     """A Comment naming the effects the improved model adds (and, for a
-    digitizer timing offset, writing it into the stage delay)."""
+    digitizer timing offset, writing it into the stage delay and saying that
+    the data need the time correction, :func:`clock_note`)."""
     from obspy.core.inventory.util import Comment
 
     named = [e for e in criticism.get("effects", []) if cid in e.get("channels", [])]
@@ -205,7 +206,18 @@ def criticism_comment(channel, cid, criticism):
         else:
             text += (f" The timing offset {tau['median']:.6g} s (+ = the SUT's samples late) has "
                      "no stage with a decimation delay to go in.")
+        text += clock_note(tau["median"])
     return Comment(value=text, subject="bayescal criticism")
+
+
+def clock_note(seconds):
+    """What a clock offset of ``seconds`` (+ = the SUT's samples late) asks of
+    the user: it is a time correction of the data, which no response
+    evaluation applies (ObsPy's evalresp never reads a stage's delay)."""
+    return (f" A clock offset is a time correction of the data, not a response change: "
+            f"ObsPy's remove_response does not apply a stage delay, so the recordings keep "
+            f"the offset until their time stamps are corrected (shift the SUT's start times "
+            f"by {-seconds:+.6g} s).")
 
 
 def _decimating_stage(channel):
