@@ -84,12 +84,15 @@ def lean(vectors):
     return np.degrees(np.arcsin(up[:, 0])), np.degrees(np.arcsin(up[:, 1]))
 
 
-def tilt_region(vectors, label, n=20000):
-    """(lo, hi, holds_vertical) of the tilt over the ``label`` elliptical
-    credible region of the lean samples: lo 0 when the region holds lean
-    (0, 0). The region's boundary is walked along its principal axes at
-    ``n`` points (max error of the range about r (2 pi / n)^2 / 8, r its
-    size)."""
+#: Points at which bayescal walks a tilt region's boundary, and this module.
+CODE_WALK, WALK = 4096, 20000
+
+
+def tilt_region(vectors, label, n=WALK):
+    """(lo, hi, holds_vertical, semi-major axis) of the tilt over the
+    ``label`` elliptical credible region of the lean samples: lo 0 when the
+    region holds lean (0, 0). The region's boundary is walked along its
+    principal axes at ``n`` points."""
     x = np.column_stack(lean(vectors))
     m = x.mean(axis=0)
     d = x - m
@@ -103,7 +106,8 @@ def tilt_region(vectors, label, n=20000):
     tilt = np.degrees(np.arcsin(np.minimum(np.hypot(s[:, 0], s[:, 1]), 1.0)))
     mz = m @ U
     holds = bool(np.sum(mz ** 2 / w) <= q)
-    return (0.0 if holds else float(tilt.min())), float(tilt.max()), holds
+    return (0.0 if holds else float(tilt.min())), float(tilt.max()), holds, \
+        float(np.sqrt(q * w.max()))
 
 
 # --- a fit's result folder --------------------------------------------------------------
@@ -177,20 +181,28 @@ def entry_of(res, key, path):
 
 
 def region_interval(vectors, label, dip=False):
-    """The tilt (or, ``dip``, the SEED dip) interval of the ``label`` region."""
-    lo, hi, _ = tilt_region(vectors, label)
-    if not dip:
-        return [lo, hi]
+    """The tilt (or, ``dip``, the SEED dip) interval of the ``label`` region,
+    and the bound on its difference from bayescal's (:func:`region_tolerance`)."""
+    lo, hi, _, a = tilt_region(vectors, label)
     up = np.median(np.asarray(vectors)[:, 2]) <= 0
-    return [-90.0 + lo, -90.0 + hi] if up else [90.0 - hi, 90.0 - lo]
+    ci = [lo, hi] if not dip else [-90.0 + lo, -90.0 + hi] if up else [90.0 - hi, 90.0 - lo]
+    return ci, region_tolerance(a)
+
+
+def region_tolerance(semi_major):
+    """Bound on the difference of two walks of a tilt region's boundary
+    (degrees): half a step of each walk, pi a / n for semi-major axis ``a``
+    and n points (bayescal's 4096, this module's 20000). A walk's extreme
+    is off by at most half a step along the boundary: where the region
+    passes near the vertical the tilt has a corner there (a maximum, smooth,
+    is off far less)."""
+    return np.pi * semi_major * (1.0 / CODE_WALK + 1.0 / WALK) + FLOAT
 
 
 def assert_fit_folder(folder):
     """Every interval (and median, sd) of a fit's result.json against its
-    samples.npz; returns the number of entries checked. A tilt region's
-    range to 1e-4 of its width: the code walks the boundary at 4096 points
-    and :func:`tilt_region` at 20000, each range then low by at most about
-    6e-7 of the region's size."""
+    samples.npz; returns the number of entries checked (a tilt region's
+    range to :func:`region_tolerance`)."""
     res, samples = fit_samples(folder)
     for (key, path), x in samples.items():
         entry, where = entry_of(res, key, path), f"{key} {'.'.join(path)}"
@@ -198,9 +210,8 @@ def assert_fit_folder(folder):
             vectors = x[1]
             assert_entry(entry, x[2], where, labels=())
             for lab in LABELS:
-                want = region_interval(vectors, lab, dip=path == ("dip_deg",))
-                np.testing.assert_allclose(entry[lab], want, rtol=0,
-                                           atol=1e-4 * (want[1] - want[0]) + FLOAT,
+                want, tol = region_interval(vectors, lab, dip=path == ("dip_deg",))
+                np.testing.assert_allclose(entry[lab], want, rtol=0, atol=tol,
                                            err_msg=f"{where} {lab}")
             if path == ("tilt_deg",):
                 assert entry["holds_zero"] == tilt_region(vectors, "ci95")[2], where
