@@ -127,6 +127,110 @@ def test_results_match_truth_and_rotated_station_flagged(killed_then_resumed, ne
             assert os.path.exists(os.path.join(out, lb, name)), (lb, name)
 
 
+#: results.csv's interval columns and the result.json entries they report.
+_CSV_COLUMNS = {"azimuth": ("azimuth_deg",), "dip": ("dip_deg",), "tilt": ("tilt_deg",),
+                "gain": ("response", "gain")}
+
+
+def _samples_table(out, rows):
+    """``{(station, channel): [(day, quantity, median, lo95, hi95, nominal,
+    bound)]}``
+    recomputed from each item's samples.npz (tests/intervals.py): 2.5/50/
+    97.5 % percentiles, a near-vertical channel's tilt and dip over its 95 %
+    lean region; nominal values from the item's result.json (its StationXML)."""
+    from tests.intervals import FLOAT, fit_samples, region_interval, tails
+    table, seen = {}, {}
+    for r in rows:
+        if r["label"] not in seen:
+            seen[r["label"]] = fit_samples(os.path.join(out, r["label"]))
+        res, samples = seen[r["label"]]
+        cid = r["channel"]
+        nominal = res["channels"][cid].get("nominal", {})
+        for col, path in _CSV_COLUMNS.items():
+            x = samples.get((cid, path))
+            if x is None:
+                continue
+            if isinstance(x, tuple):
+                (lo, hi), tol = region_interval(x[1], "ci95", dip=path == ("dip_deg",))
+                med = np.median(x[2])
+            else:
+                med, (lo, hi), tol = np.median(x), np.percentile(x, tails("ci95")), FLOAT
+            nom = nominal.get({"gain": "gain"}.get(col, f"{col}_deg"))
+            table.setdefault((r["station"], cid), []).append(
+                (r["day"], col, med, lo, hi, nom, tol))
+    return table
+
+
+def _wrap(d):
+    return (d + 180.0) % 360.0 - 180.0
+
+
+def _flags_by_the_stated_rule(table, threshold_deg, threshold_pct=2.0):
+    """flags.csv by the rule report/batch.py states, from ``table``:
+    off_nominal when |deviation| > threshold and the 95 % interval of the
+    deviation excludes 0; changed (on the later day) when the move between
+    consecutive days exceeds the threshold and sqrt(h1^2 + h2^2), h the 95 %
+    half-widths. Deviations in degrees (azimuth wrapped), gains in percent
+    of nominal. Each flag's numbers come with the bound they carry from
+    ``table``."""
+    flags = {}
+    for (sta, cid), entries in table.items():
+        for quantity, thr in (("azimuth", threshold_deg), ("dip", threshold_deg),
+                              ("gain", threshold_pct)):
+            series = []
+            for day, q, med, lo, hi, nom, tol in sorted(entries):
+                if q != quantity or nom is None:
+                    continue
+                if q == "gain":
+                    dev, dlo, dhi = (100.0 * (v / nom - 1.0) for v in (med, lo, hi))
+                else:
+                    dev = _wrap(med - nom) if q == "azimuth" else med - nom
+                    dlo, dhi = dev - (med - lo), dev + (hi - med)
+                series.append((day, dev, dlo, dhi, tol))
+                if abs(dev) > thr and not dlo <= 0.0 <= dhi:
+                    flags[cid, quantity, "off_nominal", day] = (dev, dlo, dhi, nom, tol)
+            for (d0, v0, lo0, hi0, t0), (d1, v1, lo1, hi1, t1) in zip(series, series[1:]):
+                delta = _wrap(v1 - v0) if quantity == "azimuth" else v1 - v0
+                h = np.hypot((hi0 - lo0) / 2, (hi1 - lo1) / 2)
+                if abs(delta) > thr and abs(delta) > h:
+                    flags[cid, quantity, "changed", d1] = (delta, delta - h, delta + h, v0,
+                                                           t0 + t1)
+    return flags
+
+
+def test_results_and_flags_csv_intervals_are_those_of_the_samples(killed_then_resumed):
+    """Every median and 95 % bound of results.csv (azimuth, dip, tilt, gain)
+    is the 2.5/50/97.5 % percentile of that item's samples.npz (tilt and a
+    vertical's dip: the range over the 95 % lean region), and flags.csv
+    holds the flags (and their values and 95 % bounds) that the stated rule
+    gives from those samples. Bound: float rounding (1e-9; the CSVs keep
+    every digit); a tilt region's range: tests/intervals.region_tolerance
+    (its boundary walked at other points), carried into the flags' bounds."""
+    from tests.intervals import FLOAT
+    out = killed_then_resumed["out"]
+    with open(os.path.join(out, "results.csv")) as fh:
+        rows = list(csv.DictReader(fh))
+    table = _samples_table(out, rows)
+    by_row = {(r["station"], r["channel"], r["day"]): r for r in rows}
+    for (sta, cid), entries in table.items():
+        for day, col, med, lo, hi, _, tol in entries:
+            r = by_row[sta, cid, day]
+            got = [float(r[col]), float(r[f"{col}_lo95"]), float(r[f"{col}_hi95"])]
+            np.testing.assert_allclose(got, [med, lo, hi], rtol=FLOAT, atol=tol,
+                                       err_msg=f"{r['label']} {cid} {col}")
+    # 9 items x (2 horizontals x azimuth, dip, gain + vertical tilt, dip, gain)
+    assert sum(len(v) for v in table.values()) == 9 * 9
+    with open(os.path.join(out, "flags.csv")) as fh:
+        written = {(f["channel"], f["quantity"], f["flag"], f["day"]):
+                   [float(f[k]) for k in ("value", "lo95", "hi95", "reference")]
+                   for f in csv.DictReader(fh)}
+    want = _flags_by_the_stated_rule(table, THRESHOLD)
+    assert set(written) == set(want) and want, (sorted(written), sorted(want))
+    for key, numbers in written.items():
+        np.testing.assert_allclose(numbers, want[key][:4], rtol=FLOAT, atol=want[key][4],
+                                   err_msg=str(key))
+
+
 def test_corrected_stationxml_of_every_item_holds_its_fit_and_the_truth(killed_then_resumed,
                                                                        net):
     """Each item's sut_corrected.xml carries that item's posterior medians

@@ -316,6 +316,28 @@ def test_cli_writes_schema_and_corrected_xml(cli_lp):
     assert pole.upper_uncertainty is not None
 
 
+def test_cal_json_intervals_are_those_of_the_written_samples(cli_lp):
+    """Each median, sd and 68/90/95 % interval of cal.json (period, damping,
+    damping/period, gain) is the equal-tailed percentile pair its label
+    names (tests/intervals.py) of the samples in cal_samples.npz, taken to
+    physical units by the parametrisation's closed form: c0_rel =
+    (T_nom / T)^2, c1_rel = (h / h_nom)(T_nom / T), log_gain = ln G, with
+    cal.json's nominal T_nom, h_nom. Bound: float rounding of those
+    operations (relative 1e-9)."""
+    from tests.intervals import assert_entry
+    s = cli_lp["summary"]
+    with np.load(cli_lp["out"] / "cal_samples.npz") as z:
+        theta = dict(zip([str(n) for n in z["names"]], z["theta"].T))
+    assert set(theta) == {"c0_rel", "c1_rel", "log_gain"}
+    root = np.sqrt(theta["c0_rel"])
+    period = s["nominal"]["period_s"] / root
+    damping = s["nominal"]["damping"] * theta["c1_rel"] / root
+    physical = {"period_s": period, "damping": damping, "gain": np.exp(theta["log_gain"]),
+                "damping_over_period": damping / period}
+    for name, x in physical.items():
+        assert_entry(s["parameters"][name], x, name)
+
+
 @pytest.mark.parametrize("extra, words", [
     (["--output-channel", "BHN"], "no output channel BHN"),
     (["--kind", "step", "--fit", "all"], "--fit lp"),

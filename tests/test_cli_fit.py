@@ -249,3 +249,85 @@ def test_existing_output_folder_keeps_other_files(sim_files, tmp_path):
     proc = run_fit(*base_args(sim_files, **{"--sut": tmp_path / "missing.mseed"}), out=out)
     assert proc.returncode == 2
     assert sorted(os.listdir(out)) == ["notes.txt"]
+
+
+# --- every interval against its label -------------------------------------------------------
+def test_result_json_intervals_are_those_of_the_written_samples(cli_fit):
+    """Each median, sd and 68/90/95 % interval of result.json (angles, tilt
+    components, gains, relative gains, the angle between the horizontals)
+    is the equal-tailed percentile pair its label names, of the samples in
+    samples.npz; the vertical's tilt and dip are the range over its
+    elliptical lean region at that level (tests/intervals.py). Bound: float
+    rounding (1e-9), the same samples read back."""
+    from tests.intervals import assert_fit_folder
+    # BH1, BH2: azimuth, dip; BHZ: tilt, dip, lean north, lean east; 3 gains, 3
+    # relative gains; the angle between BH1 and BH2
+    assert assert_fit_folder(cli_fit["out"]) == 15
+
+
+_CI = r"(-?\d+\.\d{3}) \[(-?\d+\.\d{3}), (-?\d+\.\d{3})\]"
+
+
+def console_rows(stdout):
+    """``{(channel or pair, quantity): (median, lo, hi)}`` of the console
+    table of ``bayescal fit`` (three decimals; a tilt given as an upper
+    bound has lo None)."""
+    import re
+    rows, cid = {}, None
+    for line in stdout.splitlines():
+        head = re.match(r"(\S+)\s+(.*)$", line)
+        if line.startswith("angle "):
+            pair = line.split()[1]
+            rows[pair, "orthogonality"] = tuple(map(float, re.search(_CI, line).groups()))
+        elif head and head.group(1).startswith("XX."):
+            cid = head.group(1)
+            cells = re.findall(_CI, head.group(2))
+            names = ["azimuth", "dip"] if len(cells) == 2 else ["dip"]
+            for name, c in zip(names, cells):
+                rows[cid, name] = tuple(map(float, c))
+        elif cid and line.startswith(" " * 22):
+            text = line.strip()
+            bound = re.match(r"tilt < (-?\d+\.\d{3}) deg, 95 %", text)
+            if bound:
+                rows[cid, "tilt"] = (None, None, float(bound.group(1)))
+            elif text.startswith("tilt "):
+                rows[cid, "tilt"] = tuple(map(float, re.search(_CI, text).groups()))
+            else:
+                m = re.match(r"(\w+) " + _CI, text)
+                if m:
+                    rows[cid, m.group(1)] = tuple(map(float, m.groups()[1:]))
+        elif not line.strip():
+            cid = None
+    return rows
+
+
+def test_console_95_percent_columns_are_those_of_the_written_samples(cli_fit):
+    """The console's ``[95%]`` columns (azimuth, dip, the vertical's tilt,
+    gains, relative gains, the angle between the horizontals) are the 2.5
+    and 97.5 % percentiles of samples.npz (the tilt and the vertical's dip:
+    the range over the 95 % lean region), and the medians the 50 %. Bound:
+    half the last printed decimal (0.0005) plus float rounding (a tilt
+    region's: tests/intervals.region_tolerance)."""
+    from tests.intervals import FLOAT, equal_tailed, fit_samples, region_interval
+    _, samples = fit_samples(cli_fit["out"])
+    rows = console_rows(cli_fit["proc"].stdout)
+    names = {("azimuth_deg",): "azimuth", ("dip_deg",): "dip", ("tilt_deg",): "tilt",
+             ("orthogonality",): "orthogonality", ("response", "gain"): "gain",
+             ("response", "relative_gain"): "relative_gain"}
+    checked = 0
+    for (key, path), x in samples.items():
+        if path not in names:
+            continue
+        med, lo, hi = rows[key, names[path]]
+        if isinstance(x, tuple):
+            (want_lo, want_hi), tol = region_interval(x[1], "ci95", dip=path == ("dip_deg",))
+            want_med = float(np.median(x[2]))
+        else:
+            e = equal_tailed(x, ("ci95",))
+            (want_lo, want_hi), want_med, tol = e["ci95"], e["median"], FLOAT
+        got = [v for v in (med, lo, hi) if v is not None]
+        want = [w for v, w in zip((med, lo, hi), (want_med, want_lo, want_hi)) if v is not None]
+        np.testing.assert_allclose(got, want, rtol=0, atol=0.0005 + tol,
+                                   err_msg=f"{key} {names[path]}: {cli_fit['proc'].stdout}")
+        checked += 1
+    assert checked == 13, (checked, rows)

@@ -131,6 +131,88 @@ def test_summary_table_matches_result_and_truth(flagged):
     assert "Band: 0.03 - 1 Hz" in pages[0]
 
 
+#: Table labels of the report's quantities: (key in result.json, name and unit
+#: as printed, printed precision).
+_TABLE = {("azimuth_deg",): ("azimuth (deg)", "angle"), ("dip_deg",): ("dip (deg)", "angle"),
+          ("tilt_deg",): ("tilt (deg)", "angle"),
+          ("orthogonality",): ("orthogonality (deg)", "angle"),
+          ("response", "gain"): ("gain (stage-1 units per m/s)", "4g"),
+          ("response", "relative_gain"): ("relative gain (fitted / metadata)", "4g")}
+
+
+def _printed_half_unit(value, precision):
+    """Half the last printed digit of ``value``: 0.005 for angles (two
+    decimals), half the fourth significant figure for responses (``.4g``)."""
+    if precision == "angle":
+        return 0.005
+    return 0.5 * 10.0 ** (np.floor(np.log10(abs(value))) - 3)
+
+
+def _table_numbers(text, key, label):
+    """median, 68 % and 95 % bounds of one row of the summary table."""
+    for line in text.splitlines():
+        if line.startswith(f"{key} {label} "):
+            tok = line[len(f"{key} {label} "):].replace("[", " ").replace("]", " ")
+            return [float(t) for t in tok.replace(",", " ").split()[:5]]
+    raise AssertionError(f"no table row {key} {label}:\n{text}")
+
+
+@pytest.mark.parametrize("which", ["flagged", "gain_fit"])
+def test_summary_table_intervals_are_those_of_the_samples(which, request):
+    """Each row of the report's summary table (angles, the vertical's tilt,
+    the angle between the horizontals, gains, relative gains): median, 68 %
+    and 95 % interval against the percentiles of the result's samples.npz
+    (16/84 and 2.5/97.5; the tilt's: the range over its 68 and 95 % lean
+    regions; tests/intervals.py). Bound: half the last printed digit plus
+    float rounding (a tilt region's: tests/intervals.region_tolerance)."""
+    from tests.intervals import fit_samples, region_interval, tails
+    folder, _ = request.getfixturevalue(which)
+    _, pages = _pages(folder)
+    _, samples = fit_samples(folder)
+    checked = 0
+    for (key, path), x in samples.items():
+        if path not in _TABLE or (path == ("dip_deg",) and isinstance(x, tuple)):
+            continue                          # (a vertical's dip: the table gives its tilt)
+        label, precision = _TABLE[path]
+        got = _table_numbers(pages[0], key, label)
+        if isinstance(x, tuple):
+            (ci68, tol), (ci95, tol95) = (region_interval(x[1], lab) for lab in ("ci68", "ci95"))
+            want, tol = [np.median(x[2]), *ci68, *ci95], max(tol, tol95)
+        else:
+            want = [np.median(x), *np.percentile(x, tails("ci68")),
+                    *np.percentile(x, tails("ci95"))]
+            tol = 1e-9 * np.max(np.abs(want))
+        for g, w in zip(got, want):
+            assert abs(g - w) <= _printed_half_unit(w, precision) + tol, (key, label, got, want)
+        checked += 1
+    # flagged: azimuth and dip of BH1, BH2, tilt of BHZ, their angle; gain_fit:
+    # azimuth of BH1, BH2 (dips held), gain and relative gain of each, their angle
+    assert checked == {"flagged": 6, "gain_fit": 7}[which], checked
+
+
+def test_intervals_page_numbers_are_those_of_the_samples(flagged):
+    """The intervals page's text (median and 68 % interval of each panel:
+    azimuth, dip, the vertical's tilt from vertical) against the 50 % and
+    16/84 % percentiles of samples.npz. Bound: half the last printed decimal
+    (0.005) plus float rounding."""
+    import re
+
+    from tests.intervals import fit_samples, tails
+    folder, _ = flagged
+    _, pages = _pages(folder)
+    _, samples = fit_samples(folder)
+    found = [tuple(map(float, m)) for m in re.findall(
+        r"median (-?\d+\.\d\d), 68 % \[(-?\d+\.\d\d), (-?\d+\.\d\d)\]", pages[1])]
+    want = []
+    for (key, path), x in samples.items():
+        if path in (("azimuth_deg",), ("dip_deg",), ("tilt_deg",)):
+            x = x[2] if isinstance(x, tuple) else x
+            want.append((np.median(x), *np.percentile(x, tails("ci68"))))
+    assert len(found) == len(want) == 6, (found, want)
+    for w in want:
+        assert any(np.all(np.abs(np.subtract(f, w)) <= 0.005 + 1e-9) for f in found), (w, found)
+
+
 def test_flags_follow_truth(flagged, tmp_path):
     folder, _ = flagged
     _, pages = _pages(folder)

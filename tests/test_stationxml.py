@@ -86,8 +86,13 @@ def test_real_stationxml_round_trip(orientation_post, tmp_path):
 def test_fitted_response_written_and_sensitivity_recalculated(tmp_path):
     """Joint fit of one simulated channel: the corrected StationXML holds the
     posterior median period, damping and gain, and a consistent sensitivity;
-    the truth lies inside the written 95 % intervals."""
+    the truth lies inside the written 95 % intervals. The result written as
+    ``bayescal fit`` writes it: every interval of its result.json (period,
+    damping, damping/period, gain, relative gain, tilt) is the one its label
+    names, of the samples in its samples.npz (tests/intervals.py)."""
+    from bayescal.io.result import save_posterior
     from bayescal.simulate.pair import simulate_pair
+    from tests.intervals import assert_fit_folder
 
     truth = (27.0, 0.68, 780.0)
     sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99,
@@ -95,6 +100,10 @@ def test_fitted_response_written_and_sensitivity_recalculated(tmp_path):
     post = bayescal.calibrate(sut=sim.sut.select(channel="BHZ"), sut_xml=sim.sut_inventory, ref=sim.ref,
                               ref_xml=sim.ref_inventory, band=SIM_BAND, fit_response="all",
                               progress=False)
+    save_posterior(post, tmp_path / "result")
+    # BHZ: tilt, dip, lean north and east; period, damping, damping/period, gain,
+    # relative gain
+    assert assert_fit_folder(tmp_path / "result") == 9
     out = tmp_path / "c.xml"
     write_corrected(sim.sut_inventory, post, out)
     back = obspy.read_inventory(str(out))

@@ -234,6 +234,48 @@ def test_cli_writes_schema(cli_run):
             for p in pages} == {(842, 595)}
 
 
+def test_uvw_json_intervals_are_those_of_the_written_samples(cli_run):
+    """Each median, sd and 68/90/95 % interval of uvw.json is the
+    equal-tailed percentile pair its label names (tests/intervals.py) of
+    the samples in uvw_samples.npz: the elements' period, damping and
+    damping/period from ``element_<E>``, their gains from the paired draws
+    ``joint``, the XYZ axes' equivalent period, damping, gain and gain at
+    the normalisation frequency from ``xyz_equivalent`` and
+    ``xyz_gain_at_norm``, the largest cross-talk from ``cross_talk``, the
+    Z-only fits from ``z_only_<E>``; gains over the elements' geometric mean
+    per draw when uvw.json says they are relative. Bound: float rounding
+    (relative 1e-9)."""
+    from tests.intervals import assert_entry
+    s = cli_run["summary"]
+    with np.load(cli_run["out"] / "uvw_samples.npz") as z:
+        a = {k: z[k] for k in z.files}
+    joint = a["joint"]
+    scale = (np.exp(np.log(joint[:, :, 2]).mean(axis=1))
+             if s["gain_units"].startswith("relative") else np.ones(len(joint)))
+
+    def pendulum(x):
+        return {"period_s": x[:, 0], "damping": x[:, 1], "damping_over_period": x[:, 1] / x[:, 0]}
+
+    expect = {}
+    for j, e in enumerate(coil.ELEMENTS):
+        expect.update({("elements", e, k): v for k, v in pendulum(a[f"element_{e}"]).items()})
+        expect["elements", e, "gain"] = joint[:, j, 2] / scale
+        if "z_only" in s:
+            expect.update({("z_only", e, k): v for k, v in pendulum(a[f"z_only_{e}"]).items()})
+            if not s["gain_units"].startswith("relative"):   # (relative: re-paired draws)
+                expect["z_only", e, "gain"] = a[f"z_only_{e}"][:, 2]
+    for ax, name in enumerate(coil.XYZ):
+        eq = a["xyz_equivalent"][:, ax]
+        expect.update({("xyz", name, k): v for k, v in pendulum(eq).items()})
+        expect["xyz", name, "gain"] = eq[:, 2] / scale
+        expect["xyz", name, "gain_at_norm_freq"] = a["xyz_gain_at_norm"][:, ax] / scale
+    expect["cross_talk_max", None, None] = a["cross_talk"]
+    for (group, name, par), x in expect.items():
+        entry = s[group] if name is None else s[group][name][par]
+        assert_entry(entry, x, f"{group} {name} {par}")
+    assert len(expect) == 12 + 12 + 15 + 1
+
+
 def test_elements_recovered(cli_run):
     s = cli_run["summary"]["elements"]
     inside95 = 0

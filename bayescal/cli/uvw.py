@@ -14,8 +14,9 @@ Example:
   bayescal uvw --cal U=cal_U.mseed --cal V=cal_V.mseed --cal W=cal_W.mseed \\
                --input-channel BC0 --coil-constant 1e-9 --sensor sts2 \\
                --sut-xml sut.xml --out out/
-Writes out/uvw.json (schema bayescal.uvw/1), out/uvw_samples.npz and the
-report (out/uvw_report.pdf and PNG pages).
+Writes out/uvw.json (schema bayescal.uvw/1), out/uvw_samples.npz (the
+samples every interval of uvw.json is taken from) and the report
+(out/uvw_report.pdf and PNG pages).
 
 Everyday use, no calibration: rotate recorded X, Y, Z to the element axes
 U, V, W (or U, V, W back to X, Y, Z) to find a noisy or failed element:
@@ -143,7 +144,11 @@ def write_outputs(result, out, quiet=True, paper="a4"):
         summary = result.summary()
         write_json(os.path.join(tmp, "uvw.json"), summary)
         arrays = {"joint": result.joint, "freqs": result.freqs,
-                  **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()}}
+                  **{f"element_{e}": f.samples for e, f in result.fits.items()},
+                  **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()},
+                  "xyz_equivalent": result.xyz["equivalent"],
+                  "xyz_gain_at_norm": result.xyz["gain_at_norm"],
+                  "cross_talk": result.xyz["cross_talk"]}
         np.savez(os.path.join(tmp, "uvw_samples.npz"), **arrays)
         write_report(result, tmp, paper=paper)
         publish(tmp, out)
