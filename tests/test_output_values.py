@@ -106,6 +106,12 @@ def test_pair_self_noise_in_result_json_is_the_true_noise(tmp_path):
         lo, hi = _power(e["ci90_db"][0]), _power(e["ci90_db"][1])
         sd = _interval_sd(est, lo, hi)
         assert np.all(np.isfinite(est)) and np.all(sd > 0), (cid, e)
+        # the interval is what its label and units text state: est +- z90 sd_psd on the
+        # power scale, a bound not above zero written as null (float rounding only)
+        sd_file = np.asarray(e["sd_psd"], float)
+        for bound, written in ((est - Z90 * sd_file, lo), (est + Z90 * sd_file, hi)):
+            assert np.array_equal(bound > 0, np.isfinite(written)), (cid, bound, written)
+            np.testing.assert_allclose(written[bound > 0], bound[bound > 0], rtol=1e-6)
         z.append((est - truth[j]) / sd)
         checked += est.size
     z = np.array(z)

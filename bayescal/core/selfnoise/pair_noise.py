@@ -317,7 +317,7 @@ def summarise(result, along, basis):
             continue
         out[cid] = {"freq_hz": result["freq_hz"], "psd_db": db(result["psd"][j]),
                     f"ci{round(100 * result['level'])}_db": [lo_db[j], hi_db[j]],
-                    "recorded_db": db(result["recorded"][j])}
+                    "sd_psd": result["sd"][j], "recorded_db": db(result["recorded"][j])}
     margin = reference_margin(result, along)
     msg = swap_message(margin)
     order = {"reference_minus_sut_db": margin, "reference_noisier": msg is not None,
@@ -325,7 +325,9 @@ def summarise(result, along, basis):
     if msg:
         order["message"] = msg
     return {"units": "dB re 1 (m/s^2)^2/Hz, per band; a null bound: the estimate is not "
-                     "positive there (upper bound only)",
+                     "positive there (upper bound only); sd_psd: the estimate's standard "
+                     "deviation in (m/s^2)^2/Hz, the interval being the estimate +- its normal "
+                     "quantile times sd_psd on the power scale",
             "basis": basis, "channels": out}, order
 
 
