@@ -60,10 +60,17 @@ def configure(parser):
                         help="when the model check fails, do not look for the cause (by "
                              "default the fit then names what the model leaves out, models it "
                              "and says whether the estimates can be used; docs/diagnose.md)")
-    parser.add_argument("--diagnose-budget", type=float, default=60.0, metavar="SECONDS",
-                        help="most seconds spent looking for the cause of a misfit (default "
-                             "60; checked between candidate effects: when it runs out the "
-                             "output says which were tried and the misfit stays unexplained)")
+    from ..criticism.verdict import DEFAULT_BUDGET_S, WORK_PER_SECOND
+    parser.add_argument("--diagnose-budget", type=float, default=DEFAULT_BUDGET_S,
+                        metavar="SECONDS",
+                        help="work spent looking for the cause of a misfit, in seconds of "
+                             f"{WORK_PER_SECOND} model evaluations each, about a second on a "
+                             f"2-core machine (default {DEFAULT_BUDGET_S:g}; counted in work, so "
+                             "the same seed names the same effects on any machine; checked "
+                             "between candidate effects: when "
+                             "it runs out the output says which were tried and the misfit "
+                             "stays unexplained; ten times as many seconds of wall clock stop "
+                             "it as a safety net, and the output then says so)")
 
 
 def _fmt(entry):

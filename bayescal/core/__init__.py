@@ -16,6 +16,8 @@ Grouped by idea, one subpackage each; in the order data flows through them:
                       parameters, sampling, the posterior
 * :mod:`.selfnoise`   self-noise of co-located sensors
 * :mod:`.threads`     the BLAS thread limit every group's small products run under
+* :mod:`.budget`      work budgets: a stage's work counted in model evaluations,
+                      with a wall-clock limit only as a safety net
 
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,

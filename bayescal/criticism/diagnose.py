@@ -30,8 +30,6 @@ Steps (see docs/diagnose.md):
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from . import effects as catalogue, tilt, wiring
@@ -168,20 +166,24 @@ def _effect_entry(model, effect, sl, samples, step_score):
     return entry
 
 
-#: The improved model's chain: at least this many seconds whatever is left
-#: of the budget, and no chain shorter than this many steps (the Gaussian
+#: The improved model's chain: at least this much work (model evaluations,
+#: :mod:`bayescal.core.budget`; 5 s of the criticism's
+#: :data:`.verdict.WORK_PER_SECOND`) whatever is left of the criticism's
+#: budget, and no chain shorter than this many steps (the Gaussian
 #: approximation instead).
-MIN_CHAIN_S, MIN_CHAIN_STEPS = 5.0, 300
+MIN_CHAIN_WORK, MIN_CHAIN_STEPS = 10_000, 300
+#: Model evaluations a step of the improved model's sampler costs per walker,
+#: its burn-in and adaptation spread over the kept steps (measured: 0.58 to
+#: 0.60 on three pairs' improved models, 377 to 397 steps in all).
+WORK_PER_WALKER_STEP = 0.6
 
 
-def _affordable_steps(model, theta, seconds, walkers=40):
-    """How many ensemble steps fit in ``seconds`` (two evaluations of the
-    ensemble per step, timed on one)."""
-    w = np.repeat(np.atleast_2d(theta), walkers, axis=0)
-    t0 = time.monotonic()
-    model.log_prob(w)
-    dt = max(time.monotonic() - t0, 1e-5)
-    return int(seconds / (2.5 * dt))
+def affordable_steps(model, work):
+    """How many ensemble steps of ``model``'s sampler (its default walkers,
+    :func:`bayescal.core.sampling.mcmc.sample`) ``work`` model evaluations pay for."""
+    walkers = max(32, 4 * model.ndim)
+    walkers += walkers % 2
+    return int(work / (WORK_PER_WALKER_STEP * walkers))
 
 
 def orientation_effects(base, model0, th0, ids, sig=None):
@@ -217,13 +219,16 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     return out
 
 
-def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, **sample_kw):
+def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **sample_kw):
     """Diagnose a base fit.
 
     ``base`` is a :class:`~bayescal.core.posterior.samples.Posterior` from :func:`bayescal.io.pipeline.calibrate`
-    (with ``.model`` and ``.theta_ls`` attached). ``deadline``: a
-    :func:`time.monotonic` value past which no further candidate effect is
-    tried (the diagnosis is then incomplete: ``Diagnosis.incomplete``).
+    (with ``.model`` and ``.theta_ls`` attached). ``budget``: a
+    :class:`bayescal.core.budget.Budget` (active while this runs, so that
+    the models' evaluations count into it): once spent no further candidate
+    effect is tried (the diagnosis is then incomplete:
+    ``Diagnosis.incomplete``), and the improved model's chain gets what is
+    left of it (at least :data:`MIN_CHAIN_WORK`). None: no limit.
     Returns a :class:`Diagnosis`.
     """
     model0 = base.model
@@ -254,7 +259,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
     if start.per_block:
         start.estimate_noise(th0)
     model, th, cov, steps = search(start, th0, free, log=log, drift=sig["clock_drift"],
-                                   deadline=deadline,
+                                   budget=budget,
                                    eiv=model0 if start.per_block and isinstance(model0, EIVModel) else None)
     stop = steps[-1][-1] if steps and steps[-1] else {}
     incomplete = stop if stop.get("stopped") else None
@@ -287,12 +292,12 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, deadline=None, *
         common = with_effects(model0, [], per_block=model.per_block)
         common.adopt_noise(model.noise)
         before_common = locate(common, best_refit(common, (th0,))[1])
-        if mcmc and deadline is not None and (model.effects or eiv is not None):
-            # the chain gets what is left of the budget (at least MIN_CHAIN_S): its
-            # steps from the cost of one ensemble's evaluation; too few, or none
-            # left, and the Gaussian approximation stands in for it
-            n_steps = _affordable_steps(model, th, max(deadline - time.monotonic(), MIN_CHAIN_S))
-            if n_steps < MIN_CHAIN_STEPS:
+        if mcmc and budget is not None and (model.effects or eiv is not None):
+            # the chain gets what is left of the budget (at least MIN_CHAIN_WORK):
+            # too few steps, or the time limit (the safety net) passed, and the
+            # Gaussian approximation stands in for it
+            n_steps = affordable_steps(model, max(budget.remaining, MIN_CHAIN_WORK))
+            if n_steps < MIN_CHAIN_STEPS or budget.out_of_time():
                 mcmc = False
             else:
                 sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)

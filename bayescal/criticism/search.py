@@ -271,33 +271,33 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
             "n_data": n, "n_extra_params": k}
 
 
-def search(model, theta, free, log=None, drift=None, deadline=None, eiv=None):
+def search(model, theta, free, log=None, drift=None, budget=None, eiv=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
-    ``deadline`` (a :func:`time.monotonic` value): checked before each
-    candidate; past it the search stops and its last step holds
-    ``{"stopped": "budget"}`` (the candidates not tried are listed there).
+    ``budget`` (a :class:`bayescal.core.budget.Budget`): checked before each
+    candidate; once spent the search stops and its last step holds
+    ``{"stopped": "budget"}`` (or ``"time limit"`` when the budget's safety
+    net ended it; the candidates not tried are listed there).
     ``eiv``: the errors-in-variables base model, when ``model`` is the
     per-block base model a clock drift needs; once a drift is named the
     search goes on under ``eiv`` on the spectra with the drift taken out
     (:func:`drift_under_eiv`).
     BLAS runs single-threaded (small products: threads only add latency)."""
     with single_threaded_blas():
-        return _search(model, theta, free, log, drift, deadline, eiv)
+        return _search(model, theta, free, log, drift, budget, eiv)
 
 
-def _search(model, theta, free, log, drift, deadline=None, eiv=None):
-    import time
-
+def _search(model, theta, free, log, drift, budget=None, eiv=None):
     cur, th, cov = model, theta, None
     steps = []
     while len(cur.effects) < MAX_EFFECTS:
         tried = []
         cands = _candidates(cur, free, cur.effects, drift)
         for n, (key, effect, grid) in enumerate(cands):
-            if deadline is not None and time.monotonic() > deadline:
+            if budget is not None and budget.spent():
+                why = "time limit" if budget.ended_by == "time" else "budget"
                 steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried]
-                             + [{"stopped": "budget", "not_tried": [c[0] for c in cands[n:]]}])
+                             + [{"stopped": why, "not_tried": [c[0] for c in cands[n:]]}])
                 return cur, th, cov, steps
             effects = list(cur.effects)
             if key == "clock_drift":      # nests timing_offset: replaces it

@@ -1,8 +1,10 @@
 """The criticism of a fit that failed its model check, in the main path of
 ``bayescal fit`` and :func:`bayescal.calibrate`: the diagnosis
 (:func:`.diagnose.diagnose`, started from the fit's own model, spectra and
-least-squares point, not refitted from scratch) within a time budget, and a
-verdict in plain words, in three levels:
+least-squares point, not refitted from scratch) within a work budget
+(:func:`criticism_budget`: model evaluations, so that the same seed names
+the same effects on any machine), and a verdict in plain words, in three
+levels:
 
 * ``fits``: the model describes the recordings within their noise;
 * ``usable``: it misfits, but modelling the cause moves no estimate by more
@@ -25,9 +27,21 @@ import numpy as np
 #: An estimate "moves" when the improved model shifts it by more than this
 #: many of its standard deviations (the fit's 68 % half-width).
 MOVE_SD = 0.3
-#: Seconds the criticism may spend trying candidate effects (checked between
-#: candidates; ``bayescal fit --diagnose-budget``).
+#: The criticism's budget as ``bayescal fit --diagnose-budget`` states it, in
+#: seconds of this rate's work (:func:`criticism_budget`; checked between
+#: candidates).
 DEFAULT_BUDGET_S = 60.0
+#: Model evaluations a second of ``--diagnose-budget`` stands for: about the
+#: criticism's own rate on a 2-core machine (measured under a load of 6 on
+#: its 2 cores: 990 to 2100 a second, about half the wall time on the CPU,
+#: on three simulated 3-channel pairs with a timing offset, off-nominal
+#: pendulums and a clock drift), so that the default costs about what 60 s
+#: of searching did: 30 s to 2 minutes.
+WORK_PER_SECOND = 2000
+#: The wall-clock safety net, in multiples of ``--diagnose-budget``: never
+#: reached at the budget's normal cost; when it ends the criticism, the
+#: output says so.
+TIME_LIMIT_FACTOR = 10.0
 #: Most steps of the improved model's sampler (beyond it: the Gaussian
 #: approximation at the least-squares point, said in its meta).
 MAX_STEPS = 5000
@@ -198,17 +212,32 @@ def _names(effects):
     return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
 
 
-def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sample_kw):
+def criticism_budget(budget_s=DEFAULT_BUDGET_S):
+    """The criticism's :class:`bayescal.core.budget.Budget` for a budget
+    stated in seconds (``--diagnose-budget``): ``budget_s *``
+    :data:`WORK_PER_SECOND` model evaluations, with a time limit of
+    :data:`TIME_LIMIT_FACTOR` ``* budget_s`` seconds as a safety net only."""
+    from ..core.budget import Budget
+    return Budget("criticism", round(float(budget_s) * WORK_PER_SECOND),
+                  time_limit_s=TIME_LIMIT_FACTOR * float(budget_s))
+
+
+def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budget=None,
+              **sample_kw):
     """Criticise the fit ``post`` (a :class:`Posterior` from the pipeline,
     with its ``model`` and ``theta_ls``). Returns a :class:`Criticism`.
 
-    ``budget_s``: seconds the search for effects may take (checked between
-    candidate effects; past it the criticism is incomplete and the verdict
-    is ``unexplained``). ``mcmc``: sample the improved model (else its
-    Laplace approximation). ``sample_kw`` go to the sampler."""
+    ``budget_s``: the work the search for effects and the improved model's
+    chain may do, stated in seconds of :data:`WORK_PER_SECOND` model
+    evaluations (:func:`criticism_budget`; checked between candidate
+    effects; once spent the criticism is incomplete and the verdict is
+    ``unexplained``); ``budget`` (a :class:`bayescal.core.budget.Budget`)
+    replaces it. ``mcmc``: sample the improved model (else its Laplace
+    approximation). ``sample_kw`` go to the sampler."""
     from .diagnose import diagnose
 
     t0 = time.monotonic()
+    budget = budget if budget is not None else criticism_budget(budget_s)
     free = post.meta.get("free_response", "none")
     base_sum = post.summary()
     pinned = {cid: [k for k, v in e.get("response", {}).items()
@@ -224,8 +253,9 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     # the improved model's sampler is bounded too: a chain that does not
     # converge in MAX_STEPS falls back to the Gaussian approximation
     sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)
-    d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log,
-                 deadline=t0 + float(budget_s), **sample_kw)
+    with budget.active():
+        d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
+                     **sample_kw)
     seconds = time.monotonic() - t0
     named = [e for e in d.effects]
     moves = {}
@@ -260,8 +290,10 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
     elif d.incomplete:
         size_note = SIZE_NOTE_INCOMPLETE
         verdict = "unexplained"
+        spent = (f"time limit ({budget.time_limit_s:g} s, a safety net: its work budget was "
+                 "not spent)" if budget.ended_by == "time" else f"budget of {budget_s:g} s")
         text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
-                f"budget of {budget_s:g} s ran out (not tried: "
+                f"{spent} ran out (not tried: "
                 f"{', '.join(d.incomplete['not_tried'])}; --diagnose-budget raises it): the "
                 f"misfit stays unexplained")
         advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
@@ -319,6 +351,8 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, **sa
         "complete": d.incomplete is None, "tried": d.tried,
         "not_tried": (d.incomplete or {}).get("not_tried", []),
         "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),
+        "budget": budget.summary(),
+        **({"budget_note": budget.note()} if budget.ended_by == "time" else {}),
         "sentences": d.sentences(),
     }
     improved = d.final if d.final is not post and not degenerate else None
@@ -408,6 +442,8 @@ def lines(c):
                        f"[{_g(lo)}, {_g(hi)}] (the fit: {_g(v['fit_median'])}"
                        f"{', held at its metadata value' if v.get('held_by_fit') else ''}; moved "
                        f"{v['moved_sd']:+.2g} sd)")
+    if c.get("budget_note"):
+        out.append(f"  note: {c['budget_note']}")
     for a in c.get("advice", []):
         out.append(f"  to do: {a}")
     if c.get("stationxml"):

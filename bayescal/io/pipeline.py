@@ -110,9 +110,13 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         :mod:`bayescal.criticism.verdict`. False skips it (as ``bayescal
         fit --no-diagnose``).
     diagnose_budget_s : float
-        Seconds the criticism may spend trying candidate effects (checked
-        between candidates; when it runs out the verdict is "unexplained"
-        and says which candidates were tried).
+        The criticism's work budget, stated in seconds: each stands for
+        :data:`bayescal.criticism.verdict.WORK_PER_SECOND` model
+        evaluations (about a second's work on a 2-core machine), so the
+        same seed names the same effects on any machine (checked between
+        candidates; when it runs out the verdict is "unexplained" and says
+        which candidates were tried). Ten times as many seconds of wall
+        clock stop it as a safety net, and the criticism then says so.
     transients : {"drop", "keep"}
         "drop" (the default): Welch segments in which one sensor records
         noise the other does not, well beyond the minutes around them (a

@@ -228,7 +228,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
-    sensitivity = _prior_sensitivity(model, full)
+    sensitivity = _prior_sensitivity(model, full, n_eff=np.min(chain.convergence()["ess"]))
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     meta = dict(meta or {})
     meta.update({"free_response": free, "band_hz": [float(spectra.band_edges[0]),
@@ -267,16 +267,23 @@ def _modes(model, theta_ls, cov, nominal, fitted):
     return best.model, theta_ls, cov, report
 
 
-def _prior_sensitivity(model, samples, reported=None):
+def _prior_sensitivity(model, samples, reported=None, n_eff=None):
     """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of every channel
-    whose period and damping are free, from the posterior's samples."""
+    whose period and damping are free, from the posterior's samples (``n_eff``
+    of them independent); where they do not decide, the likelihood's
+    information at their median (:func:`.unconstrained.information`) does."""
+    from .unconstrained import information
+
     blocks = {b.channel_id: (sr.start, sr.start + 1)
               for b, (_, sr) in zip(model.blocks, model.slices) if b.free == "all"}
     if not blocks:
         return {}
     pr = model.priors
-    return pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
-                                           pr.damping_tolerance, reported)
+    with single_threaded_blas():
+        return pendulum.reweighted_sensitivity(samples, blocks, pr.period_tolerance,
+                                               pr.damping_tolerance, reported,
+                                               information=lambda th: information(model, th),
+                                               n_eff=n_eff)
 
 
 def judge_reported_response(post):
@@ -289,8 +296,10 @@ def judge_reported_response(post):
     model = post.model
     if model is None or post.full_samples is None or not post.meta.get("prior_sensitivity"):
         return post
+    ess = (post.convergence or {}).get("ess")
     sens = _prior_sensitivity(model, post.full_samples,
-                              {cid: post.response[cid] for cid in post.response})
+                              {cid: post.response[cid] for cid in post.response},
+                              n_eff=None if ess is None else np.min(ess))
     entries = post.meta.setdefault("set_by_prior", {})
     for cid in sens:
         for name in ("period_s", "damping", "damping_over_period"):

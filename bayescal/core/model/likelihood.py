@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import misfit_scale, noisescale, plugin
+from ..budget import charge
 from ..response import pendulum
 from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
@@ -321,7 +322,8 @@ class Model:
                                        self._band_nodes, self._free_rows)
 
     def plain_residual_blocks(self, vecs, ratio, theta):
-        """The same from unpacked parameters, unscaled."""
+        """The same from unpacked parameters, unscaled; counted as work (core.budget)."""
+        charge(vecs.shape[0])
         if self.per_block:
             return self._exact_block_residuals(theta, (vecs, ratio))
         w = vecs.shape[0]

@@ -36,19 +36,26 @@ median of every parameter whose true value lies a couple of tolerances from
 nominal, however well the data fix it. Where the posterior is sampled, the
 test reweights its samples to the rescaled prior (importance weights, the
 ratio of the two priors; :func:`reweighted_sensitivity`): no second fit, and
-no Gaussian assumption; where the reweighted posterior would reach beyond
-the samples (their effective number under the weights below
-:data:`MIN_WEIGHT_ESS` of them) the prior's width decides by that fact
-alone. A model criticism's improved model (whose samples may be a Laplace
-approximation's, which a doubled prior's weights read poorly) uses the
-posterior's Gaussian approximation about its median: the likelihood's
-Fisher information plus the prior's, with the prior rescaled
-(:func:`prior_sensitivity`). A parameter
+no Gaussian assumption. A decision taken from the samples keeps a margin
+against their Monte Carlo error: a reweighted value within
+:data:`MC_MARGIN` of its Monte Carlo standard errors of its threshold does
+not decide, and neither do reweighted samples that run out (their
+effective number under a rescaled prior's weights below
+:data:`MIN_WEIGHT_ESS` of them: the doubled prior's weights have no finite
+variance once the prior carries more than two thirds of the information).
+Then the rule that does not depend on the samples decides: the posterior's
+Gaussian approximation about its median, the likelihood's Fisher
+information plus the prior's, with the prior rescaled
+(:func:`prior_sensitivity`). A model criticism's improved model (whose
+samples may be a Laplace approximation's, which a doubled prior's weights
+read poorly) uses that rule throughout. A parameter
 the prior sets is not a measurement: it is reported as such, together with
 the combination the data fix (``damping / period``) when that one is not
 set by the prior.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -68,6 +75,18 @@ PRIOR_SCALES = (0.5, 2.0)
 #: Smallest effective share of the samples under a rescaled prior's weights
 #: for the reweighted posterior to be trusted (:func:`reweighted_sensitivity`).
 MIN_WEIGHT_ESS = 0.1
+#: Monte Carlo standard errors by which a reweighted shift or width ratio
+#: must clear its threshold for the samples to decide
+#: (:func:`reweighted_sensitivity`); nearer, :func:`prior_sensitivity` does.
+MC_MARGIN = 3.0
+#: Monte Carlo variance factors of a Gaussian's estimates from ``n``
+#: independent draws, in units of ``sd^2 / n``: the median, pi / 2; the half
+#: distance between the 16 % and 84 % quantiles, ``(q (1 - q) - q^2) /
+#: (2 phi(1)^2)`` with ``q = Phi(-1)`` (the quantiles' asymptotic
+#: covariance), 0.925.
+MEDIAN_VAR = np.pi / 2
+_Q, _PHI = 0.5 * math.erfc(1 / math.sqrt(2)), math.exp(-0.5) / math.sqrt(2 * math.pi)
+HALF_WIDTH_VAR = (_Q * (1 - _Q) - _Q ** 2) / (2 * _PHI ** 2)
 #: Names of the pendulum's sampling coordinates.
 NAMES = ("c0_rel", "c1_rel")
 
@@ -121,7 +140,7 @@ def prior_residual(c0_rel, c1_rel, period_tol, damping_tol):
         scale[:, None]
 
 
-def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol):
+def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol, extra_var=None):
     """Does the prior set period, damping or damping/period?
 
     Parameters
@@ -130,6 +149,10 @@ def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol):
         parameter of the model).
     theta : (n,) the posterior's median in model coordinates.
     blocks : ``{channel id: (i0, i1)}`` indices of ``c0_rel`` and ``c1_rel``.
+    extra_var : optional ``{channel id: (3,)}`` variances (log units) added
+        to those of ``ln T0``, ``ln h`` and ``ln(h / T0)`` whatever the prior:
+        a spread the reported values carry beyond the model's (the
+        reference's metadata tolerance drawn into them).
 
     Returns ``{channel id: {name: {"set_by_prior": bool, "shift_sd": float,
     "width_ratio": float}}}`` for ``period_s``, ``damping`` and
@@ -165,8 +188,10 @@ def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol):
         cov_s = np.linalg.pinv(fisher + q / s ** 2, hermitian=True)
         step = cov_s @ grad
         for cid, g in grads.items():
-            sd1 = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", g, cov1, g), 1e-300))
-            sds = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", g, cov_s, g), 1e-300))
+            more = np.zeros(3) if extra_var is None or cid not in extra_var \
+                else np.asarray(extra_var[cid], float)
+            sd1 = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", g, cov1, g) + more, 1e-300))
+            sds = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", g, cov_s, g) + more, 1e-300))
             shift = np.abs(g @ step) / sd1
             ratio = np.maximum(sds / sd1, sd1 / sds)
             for k, name in enumerate(("period_s", "damping", "damping_over_period")):
@@ -186,61 +211,140 @@ def _weighted_quantiles(x, w, q):
     return np.interp(np.asarray(q) * cw[-1], cw, x[order])
 
 
-def reweighted_sensitivity(samples, blocks, period_tol, damping_tol, reported=None):
+def reweighted_sensitivity(samples, blocks, period_tol, damping_tol, reported=None,
+                           information=None, n_eff=None):
     """:func:`prior_sensitivity`'s answer from posterior samples: each
     channel's samples reweighted to its prior with the width halved and
     doubled (weights ``p_s / p_1 = exp(-(1/s^2 - 1) (x^2 / 2 sT^2 + y^2 /
     2 sh^2))``, ``x``, ``y`` the log deviations from nominal; the Jacobian
     does not depend on the width), and the same rule on the weighted
     medians and standard deviations (the sd as the half width of the
-    central 68 %). A rescaled prior whose weights leave fewer than
-    :data:`MIN_WEIGHT_ESS` of the samples effective sets the values.
+    central 68 %).
+
+    The samples decide only with a margin: a shift or width ratio within
+    :data:`MC_MARGIN` Monte Carlo standard errors of its threshold (the
+    errors of a Gaussian's median and 68 % half width from ``n_eff`` draws,
+    times the weights' effective share of them under the rescaled prior),
+    or a rescaled prior whose weights leave fewer than
+    :data:`MIN_WEIGHT_ESS` of the samples effective (``beyond_samples``),
+    is decided by :func:`prior_sensitivity` at the samples' median instead
+    (``rule`` says which decided; the samples' own values are then under
+    ``sampled``).
 
     ``samples`` (N, n) in model coordinates; ``blocks`` ``{channel id: (i0,
-    i1)}`` the columns of ``c0_rel`` and ``c1_rel``. ``reported`` (optional)
+    i1)}`` the columns of ``c0_rel`` and ``c1_rel``. ``information``: the
+    likelihood's Fisher information (n, n), or a callable giving it at a
+    point (called at most once, at the samples' median); None: each
+    channel's from the samples' covariance (the posterior's precision less
+    the prior's). ``n_eff``: the samples' effective number of independent
+    draws (a chain's smallest effective sample size); None: ``N``.
+    ``reported`` (optional)
     ``{channel id: (N, 2)}`` the period and damping the result reports for
     the same samples, row for row, when they are not the model's own (the
     reference's metadata tolerance drawn into them,
     :mod:`bayescal.core.response.reference_tolerance`): the weights still
     come from the prior on the model's coordinates, and the rule judges the
-    reported values, as refits with the prior rescaled would."""
+    reported values, as refits with the prior rescaled would (the Fisher
+    rule with their extra spread added)."""
     samples = np.asarray(samples, float)
-    out = {}
+    n_draws = float(n_eff) if n_eff is not None else float(len(samples))
+    out, undecided, extra = {}, {}, {}
     for cid, (i0, i1) in blocks.items():
         x, y = log_deviations(samples[:, i0], samples[:, i1])
         quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
+        own = {"period_s": x, "damping": y, "damping_over_period": y - x}
         if reported is not None and cid in reported:
             with np.errstate(invalid="ignore", divide="ignore"):
                 rx, ry = np.log(np.asarray(reported[cid], float)[:, :2]).T
             ok = np.isfinite(rx) & np.isfinite(ry) & np.isfinite(quad)
             if ok.mean() >= 0.5:        # judged on the rows reported as numbers
                 x, y, quad = rx[ok], ry[ok], quad[ok]
+                extra[cid] = [max(_half_width(r) ** 2 - _half_width(v[ok]) ** 2, 0.0)
+                              for r, v in zip((x, y, y - x), own.values())]
             # else: too few reported values to judge; the model's own are
-        n_rows = x.size
+        n1 = n_draws * x.size / len(samples)
         values = {"period_s": x, "damping": y, "damping_over_period": y - x}
-        entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0}
-                   for name in values}
-        ones = np.ones(n_rows)
+        entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0,
+                          "mc_se": {"shift_sd": 0.0, "width_ratio": 0.0}} for name in values}
+        ones = np.ones(x.size)
         base = {name: _weighted_quantiles(v, ones, (0.16, 0.5, 0.84)) for name, v in values.items()}
+        beyond = False
         for s in PRIOR_SCALES:
             logw = -(1.0 / s ** 2 - 1.0) * quad
             w = np.exp(logw - np.max(logw))
-            ess = w.sum() ** 2 / np.sum(w * w) / n_rows
+            share = w.sum() ** 2 / np.sum(w * w) / x.size
+            if not share >= MIN_WEIGHT_ESS:
+                beyond = True
+                continue
+            ns = max(n1 * share, 1.0)
             for name, v in values.items():
                 e = entries[name]
-                if not ess >= MIN_WEIGHT_ESS:
-                    e["beyond_samples"] = True
-                    continue
                 lo1, med1, hi1 = base[name]
                 lo, med, hi = _weighted_quantiles(v, w, (0.16, 0.5, 0.84))
                 sd1, sds = 0.5 * (hi1 - lo1), 0.5 * (hi - lo)
-                e["width_ratio"] = max(e["width_ratio"], float(max(sds / sd1, sd1 / sds)))
+                ratio = float(max(sds / sd1, sd1 / sds))
+                if ratio > e["width_ratio"]:
+                    e["width_ratio"] = ratio
+                    e["mc_se"]["width_ratio"] = ratio * math.sqrt(HALF_WIDTH_VAR * (1 / ns + 1 / n1))
                 if s > 1:
-                    e["shift_sd"] = max(e["shift_sd"], float(abs(med - med1) / sd1))
-        for e in entries.values():
-            e["set_by_prior"] = bool(e["shift_sd"] > SHIFT_SD or e["width_ratio"] > WIDTH_RATIO
-                                     or e.get("beyond_samples", False))
+                    shift = float(abs(med - med1) / sd1)
+                    if shift >= e["shift_sd"]:
+                        e["shift_sd"] = shift
+                        e["mc_se"]["shift_sd"] = math.sqrt(
+                            MEDIAN_VAR * ((sds / sd1) ** 2 / ns + 1 / n1))
+        for name, e in entries.items():
+            if beyond:
+                e["beyond_samples"] = True
+                undecided.setdefault(cid, []).append(name)
+                continue
+            se = e["mc_se"]
+            above = (e["shift_sd"] - MC_MARGIN * se["shift_sd"] > SHIFT_SD
+                     or e["width_ratio"] - MC_MARGIN * se["width_ratio"] > WIDTH_RATIO)
+            below = (e["shift_sd"] + MC_MARGIN * se["shift_sd"] <= SHIFT_SD
+                     and e["width_ratio"] + MC_MARGIN * se["width_ratio"] <= WIDTH_RATIO)
+            e["set_by_prior"], e["rule"] = bool(above), "reweighted samples"
+            if not (above or below):
+                undecided.setdefault(cid, []).append(name)
         out[cid] = entries
+    if undecided:
+        curv = _curvature_rule(samples, {c: blocks[c] for c in undecided}, period_tol,
+                               damping_tol, information, extra)
+        for cid, names in undecided.items():
+            for name in names:
+                e = out[cid][name]
+                sampled = {k: e.pop(k) for k in ("shift_sd", "width_ratio", "mc_se")}
+                c = curv[cid][name]
+                e.update(c, rule="likelihood curvature (Fisher)")
+                if not e.get("beyond_samples"):
+                    e["sampled"] = sampled
+    return out
+
+
+def _half_width(v):
+    lo, hi = np.quantile(v, (0.16, 0.84))
+    return 0.5 * (hi - lo)
+
+
+def _curvature_rule(samples, blocks, period_tol, damping_tol, information, extra):
+    """:func:`prior_sensitivity` at the samples' median: with the
+    likelihood's ``information`` (an array or a callable of the point), or
+    without it each channel's from the samples' covariance in its two
+    coordinates (the posterior precision less the prior's, negative
+    directions clipped to zero)."""
+    med = np.median(samples, axis=0)
+    if information is not None:
+        fisher = information(med) if callable(information) else np.asarray(information, float)
+        return prior_sensitivity(fisher, med, blocks, period_tol, damping_tol, extra)
+    out = {}
+    for cid, (i0, i1) in blocks.items():
+        idx = [i0, i1]
+        cov = np.atleast_2d(np.cov(samples[:, idx], rowvar=False))
+        prec = np.linalg.pinv(cov, hermitian=True) - prior_precision(
+            med[i0], med[i1], period_tol, damping_tol)[0]
+        vals, vecs = np.linalg.eigh(0.5 * (prec + prec.T))
+        fisher = (vecs * np.maximum(vals, 0.0)) @ vecs.T
+        out[cid] = prior_sensitivity(fisher, med[idx], {cid: (0, 1)}, period_tol, damping_tol,
+                                     {cid: extra[cid]} if cid in extra else None)[cid]
     return out
 
 
@@ -264,15 +368,17 @@ def set_by_prior_entries(sensitivity):
                           "damping/period")
             else:
                 action = "not measured; the corrected StationXML keeps its nominal value"
-            if e.get("beyond_samples"):
-                why = ("the prior's width sets its interval: with the prior halved or doubled "
-                       "the posterior would reach beyond what its samples cover")
-            elif e["width_ratio"] > WIDTH_RATIO:
+            if e["width_ratio"] > WIDTH_RATIO:
                 why = (f"the prior's width sets its interval: halving or doubling the prior "
                        f"changes its sd by a factor {e['width_ratio']:.2f} (limit {WIDTH_RATIO:g})")
             else:
                 why = (f"the prior pulls it toward nominal: doubling the prior's width moves its "
                        f"median by {e['shift_sd']:.2f} of its sd (limit {SHIFT_SD:g}); the data "
                        "put it in the prior's tail, and a wider tolerance lets them decide")
+            if e.get("rule", "").startswith("likelihood curvature"):
+                why += (" (from the likelihood's curvature at the median: the posterior's "
+                        "samples reweighted to the rescaled prior "
+                        + ("run out)" if e.get("beyond_samples") else
+                           "are within their Monte Carlo error of the limit)"))
             out[f"{cid}:{name}"] = {"action": action, "reason": why}
     return out
