@@ -393,7 +393,19 @@ def test_clock_offset_is_written_as_fitted_and_told_as_a_time_correction(tmp_pat
     console = "\n".join(lines(c))
     assert "a clock offset is a time correction of the data" in console, console
     assert "remove_response does not apply" in console, console
+    assert f"start time by {-tau['median']:+.3g} s" in console, console
     from pathlib import Path
     docs = " ".join((Path(__file__).parents[1] / "docs" / "fit.md").read_text().split())
     assert "is a time correction of the data, not a response change" in docs
     assert "`remove_response` never reads a stage's delay" in docs
+
+
+@pytest.mark.parametrize("offset", [0.2, -0.2])
+def test_clock_advice_shifts_the_start_times_against_the_offset(offset):
+    """The console's advice for a timing offset gives the signed shift of
+    the SUT's start times: minus the offset (samples 0.2 s late: -0.2 s;
+    0.2 s early: +0.2 s), whichever way the clock is off."""
+    from bayescal.criticism.verdict import _advice
+
+    text = _advice({"name": "timing_offset", "parameters": {"seconds": {"median": offset}}})
+    assert f"shift each SUT trace's start time by {-offset:+.3g} s" in text, text

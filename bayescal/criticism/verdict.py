@@ -64,8 +64,8 @@ SIZE_NOTE_INCOMPLETE = ("the sizes above come from a search that ran out of its 
 ADVICE = {
     "response_parameters": "fit the period and damping with --fit-response all",
     "timing_offset": "correct the SUT's clock, and the time stamps of the recordings it "
-                     "made: a clock offset is a time correction of the data (subtract the "
-                     "offset from each SUT trace's start time), not a response change; the "
+                     "made: a clock offset is a time correction of the data (shift each SUT "
+                     "trace's start time by {shift:+.3g} s), not a response change; the "
                      "corrected StationXML records it in a stage delay, which ObsPy's "
                      "remove_response does not apply",
     "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
@@ -125,6 +125,17 @@ def improved_estimates(base_summary, final_summary):
                           "fit_median": be["median"], "moved_sd": float(moved)}
         out[cid] = entry
     return out
+
+
+def _advice(effect):
+    """:data:`ADVICE` for a named effect; a timing offset's with its signed
+    time correction (minus the offset: + = the SUT's samples late)."""
+    text = ADVICE.get(effect["name"], "")
+    if effect["name"] == "timing_offset":
+        seconds = effect.get("parameters", {}).get("seconds", {}).get("median")
+        text = text.format(shift=-float(seconds)) if seconds is not None else \
+            text.replace(" (shift each SUT trace's start time by {shift:+.3g} s)", "")
+    return text
 
 
 def _effect_sizes(effect):
@@ -273,7 +284,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     advice = []
     ref = d.signatures.get("reference_noise", {})
     effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], ""),
+                "explanation": e["explanation"], "advice": _advice(e),
                 **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
                for e in named]
     names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
@@ -390,7 +401,7 @@ def check_orientation(post):
     if not named:
         return None
     effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-                "explanation": e["explanation"], "advice": ADVICE.get(e["name"], "")}
+                "explanation": e["explanation"], "advice": _advice(e)}
                for e in named]
     return {"verdict": "fits", "verdict_text": "the model fits the recordings, with "
             f"{_names(named)} that the fitted orientation already holds: the estimates are "
