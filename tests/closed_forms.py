@@ -88,3 +88,50 @@ def check_horizontal_azimuths(summary, sim, band, cids=("XX.SIM.10.BH1", "XX.SIM
         crb = azimuth_crb_deg(sim, band, truth)
         upper = azimuth_sd_upper_deg(crb, fraction)
         assert crb * (1 - mc) <= e["sd"] <= upper * (1 + mc), (cid, e["sd"], crb, upper)
+
+
+def drift_rate_crb_ppm(spectra, coherence, ref_coherence, n_channels):
+    """Cramer-Rao bound (ppm) of a clock's drift rate r from the segments a
+    fit used: a clock drifting at r delays the segment centred at t by
+    ``r (t - t_mid)`` beside the offset at mid-record (a parameter of its
+    own), so the bin at f of that segment turns by ``2 pi f r (t - t_mid)``.
+    Each channel's bin carries information ``2 SNR`` per unit of phase
+    squared (SNR = c / (1 - c) of the sensor under test, the reference's
+    noise added as in :func:`azimuth_crb_deg`); segments overlapping by
+    half count each stretch of record once (``step / nperseg``)."""
+    t = np.asarray(spectra.segment_times(), float)
+    f = np.asarray(spectra.freqs, float)
+    snr = 1.0 / ((1 - coherence) / coherence + (1 - ref_coherence) / ref_coherence)
+    info = (2 * snr * np.sum((2 * np.pi * f) ** 2) * np.sum((t - t.mean()) ** 2)
+            * spectra.step / spectra.nperseg * n_channels)
+    return float(1e6 / np.sqrt(info))
+
+
+def _band_derivatives(model, theta, step):
+    """(gradient (n, B), Hessian (n, n, B)) of the per-band energies q_b of
+    ``model.band_energy`` at ``theta``, central differences of steps ``step``."""
+    n = theta.size
+    eye = np.eye(n)
+    pts = [theta + si * step[i] * eye[i] + sj * step[j] * eye[j]
+           for i in range(n) for j in range(n) for si in (1, -1) for sj in (1, -1)]
+    pts += [theta + s * step[i] * eye[i] for i in range(n) for s in (1, -1)]
+    q = model.band_energy(np.array(pts))[0]
+    h4 = q[:4 * n * n].reshape(n, n, 4, -1)
+    hess = (h4[:, :, 0] - h4[:, :, 1] - h4[:, :, 2] + h4[:, :, 3]) / (4 * np.outer(step, step)[..., None])
+    g2 = q[4 * n * n:].reshape(n, 2, -1)
+    return (g2[:, 0] - g2[:, 1]) / (2 * step[:, None]), hess
+
+
+def misfit_scale_factor(model, theta, cov, a):
+    """Per parameter, the Laplace sd under the per-band noise scale of shape
+    ``a`` over the Gaussian likelihood's, at ``theta`` (the optimum; ``cov``
+    sets the difference steps, 5 % of its sds). Band b's marginalised term
+    ``-(a + k_b) log(1 + q_b / a)`` has Hessian
+    ``(a + k_b) / (a + q_b) H_b - (a + k_b) / (a + q_b)^2 g_b g_b^T`` with
+    ``H_b``, ``g_b`` those of q_b (the Gaussian term ``-q_b`` has ``H_b``):
+    the chain rule, apart from the sampler. Flat priors assumed."""
+    grad, hess = _band_derivatives(model, theta, 0.05 * np.sqrt(np.diag(cov)))
+    q, k = model.band_energy(theta[None])
+    w = (a + k) / (a + q[0])
+    h_a = np.einsum("ijb,b->ij", hess, w) - np.einsum("ib,jb,b->ij", grad, grad, w * w / (a + k))
+    return np.sqrt(np.diag(np.linalg.inv(h_a)) / np.diag(np.linalg.inv(hess.sum(axis=-1))))

@@ -94,20 +94,6 @@ def test_concealed_clock_offset_named_once_with_its_size(late):
         assert moved["ci95"][0] <= truth <= moved["ci95"][1]
 
 
-def _band_derivatives(model, theta, step):
-    """(gradient (n, B), Hessian (n, n, B)) of the per-band energies q_b at
-    ``theta`` by central differences with steps ``step`` (n,)."""
-    n = theta.size
-    pts = [theta + si * step[i] * np.eye(n)[i] + sj * step[j] * np.eye(n)[j]
-           for i in range(n) for j in range(n) for si in (1, -1) for sj in (1, -1)]
-    pts += [theta + s * step[i] * np.eye(n)[i] for i in range(n) for s in (1, -1)]
-    q = model.band_energy(np.array(pts))[0]
-    h4 = q[:4 * n * n].reshape(n, n, 4, -1)
-    hess = (h4[:, :, 0] - h4[:, :, 1] - h4[:, :, 2] + h4[:, :, 3]) / (4 * np.outer(step, step)[..., None])
-    g2 = q[4 * n * n:].reshape(n, 2, -1)
-    return (g2[:, 0] - g2[:, 1]) / (2 * step[:, None]), hess
-
-
 def test_improved_posterior_has_the_fits_likelihood(late):
     """The improved model is sampled with the fit's per-band noise scale
     (core.model.misfit_scale, shape 2 by default), not the search's Gaussian
@@ -128,17 +114,14 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     from bayescal.core.fit.run import least_squares_fit
     from bayescal.core.model import misfit_scale
     from bayescal.core.sampling.mcmc import sample
+    from tests.closed_forms import misfit_scale_factor
     _, post = late
     assert post.model.misfit_shape == misfit_scale.MISFIT_SHAPE == 2.0
     model = post.improved.model
     a = model.misfit_shape
     assert a == 2.0
     theta, cov = least_squares_fit(model, post.improved.samples.mean(axis=0))
-    grad, hess = _band_derivatives(model, theta, 0.05 * np.sqrt(np.diag(cov)))
-    q, k = model.band_energy(theta[None])
-    w = (a + k) / (a + q[0])
-    h_a = np.einsum("ijb,b->ij", hess, w) - np.einsum("ib,jb,b->ij", grad, grad, w * w / (a + k))
-    factor = np.sqrt(np.diag(np.linalg.inv(h_a)) / np.diag(np.linalg.inv(hess.sum(axis=-1))))
+    factor = misfit_scale_factor(model, theta, cov, a)
     sds, ess = {}, []
     try:
         for shape in (np.inf, a):
