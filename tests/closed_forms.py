@@ -107,7 +107,7 @@ def drift_rate_crb_ppm(spectra, coherence, ref_coherence, n_channels):
     return float(1e6 / np.sqrt(info))
 
 
-def _band_derivatives(model, theta, step):
+def band_derivatives(model, theta, step):
     """(gradient (n, B), Hessian (n, n, B)) of the per-band energies q_b of
     ``model.band_energy`` at ``theta``, central differences of steps ``step``."""
     n = theta.size
@@ -121,17 +121,3 @@ def _band_derivatives(model, theta, step):
     g2 = q[4 * n * n:].reshape(n, 2, -1)
     return (g2[:, 0] - g2[:, 1]) / (2 * step[:, None]), hess
 
-
-def misfit_scale_factor(model, theta, cov, a):
-    """Per parameter, the Laplace sd under the per-band noise scale of shape
-    ``a`` over the Gaussian likelihood's, at ``theta`` (the optimum; ``cov``
-    sets the difference steps, 5 % of its sds). Band b's marginalised term
-    ``-(a + k_b) log(1 + q_b / a)`` has Hessian
-    ``(a + k_b) / (a + q_b) H_b - (a + k_b) / (a + q_b)^2 g_b g_b^T`` with
-    ``H_b``, ``g_b`` those of q_b (the Gaussian term ``-q_b`` has ``H_b``):
-    the chain rule, apart from the sampler. Flat priors assumed."""
-    grad, hess = _band_derivatives(model, theta, 0.05 * np.sqrt(np.diag(cov)))
-    q, k = model.band_energy(theta[None])
-    w = (a + k) / (a + q[0])
-    h_a = np.einsum("ijb,b->ij", hess, w) - np.einsum("ib,jb,b->ij", grad, grad, w * w / (a + k))
-    return np.sqrt(np.diag(np.linalg.inv(h_a)) / np.diag(np.linalg.inv(hess.sum(axis=-1))))

@@ -63,12 +63,12 @@ def test_intervals_widen_only_where_the_model_misses():
     from scipy.stats import gamma, norm
 
     from bayescal.core.fit.run import least_squares_fit
-    from tests.closed_forms import _band_derivatives
+    from tests.closed_forms import band_derivatives
     from tests.tolerance import LEVEL
 
     def band_info(post):
         th, cov = least_squares_fit(post.model, np.median(post.samples, axis=0))
-        hess = _band_derivatives(post.model, th, 0.05 * np.sqrt(np.diag(cov)))[1]
+        hess = band_derivatives(post.model, th, 0.05 * np.sqrt(np.diag(cov)))[1]
         q, k = post.model.band_energy(th[None])
         return np.einsum("iib->ib", hess), q[0], k
 
