@@ -86,7 +86,7 @@ def test_band_model_is_the_ratio_summed_over_each_band(fit):
 def test_lp_recovers_period_damping_gain_within_half_a_percent():
     sim = simulate_random_cal(truth=TRUE_LP, duration=3 * 3600.0, fs=20.0, seed=11)
     s = fit_random(_run(sim), COIL, fit="lp", n_walkers=16, min_ess=400).summary()
-    # three checks at the suite's level 0.001 (Bonferroni, |z| < 3.14 each,
+    # three checks at the suite's level 0.001 (Bonferroni, |z| < 3.59 each,
     # the median's Monte Carlo error added)
     z3, ess = float(norm.isf(LEVEL / 6)), s["convergence"]["ess_min"]
     for p, t in zip(("period_s", "damping", "gain"), TRUE_LP):

@@ -73,7 +73,7 @@ def test_ar_fit_recovers_an_ar2_process():
     assert a.size >= 2
     # asymptotic least-squares errors of an AR(2) from N samples: sd of each
     # coefficient sqrt((1 - a2^2) / N) = 0.0043, of the innovation variance
-    # sqrt(2 / N) relative = 0.0071; three checks at level 0.001 (3.14 each)
+    # sqrt(2 / N) relative = 0.0071; three checks at level 0.001 (3.59 each)
     z3 = float(norm.isf(LEVEL / 6))
     n = r.size
     np.testing.assert_allclose(a[:2], [1.2, -0.5], rtol=0, atol=z3 * np.sqrt((1 - 0.5 ** 2) / n))

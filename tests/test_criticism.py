@@ -185,7 +185,7 @@ def test_off_nominal_pendulum_named_with_fit_response_advice(pendulum):
     for tr, (period, damping, _) in zip(sim.sut, PENDULUM):
         p, h = size[f"period_s:{tr.id}"], size[f"damping:{tr.id}"]
         assert p["ci95"][0] <= period <= p["ci95"][1], (tr.id, p)
-        # three dampings at level 0.001 together (Bonferroni, 3.14 sds each;
+        # three dampings at level 0.001 together (Bonferroni, 3.59 sds each;
         # the sd from the 95 % interval, 3.92 sd wide)
         sd = (h["ci95"][1] - h["ci95"][0]) / 3.92
         assert abs(h["median"] - damping) < norm.isf(LEVEL / 6) * sd, (tr.id, h)

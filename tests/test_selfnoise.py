@@ -192,7 +192,7 @@ def test_cli_recovers_known_noise(sim_files, tmp_path):
         hi = np.array([np.inf if v is None else v for v in e["ci90_db"][1]])
         # the median error over the n near bands (independent bins): sd
         # 1.2533 sd_band / sqrt(n), sd_band from the 90 % intervals (3.29 sd
-        # wide); three sensors share the level 0.001 (Bonferroni, 3.14)
+        # wide); three sensors share the level 0.001 (Bonferroni, 3.59)
         sd_band = np.sqrt(np.mean(((hi[near] - lo[near]) / (2 * norm.isf(0.05))) ** 2))
         tol = norm.isf(LEVEL / 6) * 1.2533 * sd_band / np.sqrt(near.sum())
         assert abs(np.median(psd[near] - t[near])) < tol, (np.median(psd[near] - t[near]), tol)
