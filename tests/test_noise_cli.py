@@ -13,7 +13,8 @@ estimate resolve (its error is set by their noise). Ground acceleration is
   evaluation of the RESP response and the GSE2 formula, not with bayescal's.
 
 The console's period-band table must give the two resolved sensors within
-2 dB of the truth with 90 % intervals holding it (at least 9 of 12 rows),
+2 dB of the truth with 90 % intervals holding it (a binomial band at the
+suite's level 0.001: at least 6 of 12 rows),
 and the quiet sensor as "below resolution" with an upper bound above its
 true -200 dB and below the others' noise. The figure must draw those bounds
 as markers at the upper bound, not as points at the estimate.
@@ -28,6 +29,7 @@ import numpy as np
 import pytest
 
 from bayescal.cli import main
+from tests.tolerance import coverage_band
 
 FS = 20.0
 DURATION = 1800.0
@@ -133,7 +135,10 @@ def _check(table, ids):
     assert all(row[0] is not None for _, row, _ in resolved), table
     assert all(abs(row[0] - truth) < 2.0 for _, row, truth in resolved), table
     inside = sum(row[1] <= truth <= row[2] for _, row, truth in resolved)
-    assert inside >= len(resolved) - 3, (inside, table)
+    # binomial band of 90 % intervals at the suite's level 0.001 (the period
+    # bands do not overlap, so the rows are close to independent): 6 of 12.
+    # "all but 3" (9 of 12) would fail right intervals 2.6 % of the time.
+    assert inside >= coverage_band(len(resolved), 0.9)[0], (inside, table)
     quiet = table[ids[2]]
     bounds = [row[2] for row in quiet if row[0] is None]
     assert len(bounds) >= len(quiet) - 1, quiet          # said to be below resolution

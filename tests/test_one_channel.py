@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from tests.conftest import SIM_BAND
 from tests.test_cli_fit import assert_user_error, base_args, run_fit
 from tests.test_real_data import COWI_TOL, PUBLISHED_COWI_DEG
+from tests.tolerance import Z_001, median_mc_error
 
 COWI_WINDOW = ["--band", "0.125", "0.3333333", "--start", "2010-08-24T02:00:00",
                "--end", "2010-08-24T13:00:00"]
@@ -27,8 +29,10 @@ def test_two_horizontals_against_one_reference_channel(sim_files, sim_pair, tmp_
     truth = sim_pair.truth["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]     # 3.0
     az1 = res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
     az2 = res["channels"]["XX.SIM.10.BH2"]["azimuth_deg"]
-    assert az1["ci95"][0] - 0.05 < truth < az1["ci95"][1] + 0.05
-    assert abs(az1["median"] - truth) < 0.2
+    # the median within Z_001 = 3.29 posterior sds of the truth (its Monte
+    # Carlo error added): a single check at the suite's level 0.001
+    ess = res["convergence"]["ess_min"]
+    assert abs(az1["median"] - truth) < Z_001 * np.hypot(az1["sd"], median_mc_error(az1, ess)), az1
     assert az2["median"] - az1["median"] == pytest.approx(90.0, abs=1e-9)
     assert list(res["not_estimable"]) == ["XX.SIM.10.BHZ"]
 

@@ -67,7 +67,7 @@ def test_cowi_horizontal_azimuths_match_asl(cowi_data, tmp_path, gains):
 
 
 def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):
-    from real_huddle import BAND, fitted_amplitude, obspy_rel_calib, write_inputs
+    from real_huddle import BAND, COMPARE_BAND, fitted_amplitude, obspy_rel_calib, write_inputs
 
     from bayescal.cli import main
 
@@ -90,8 +90,16 @@ def test_huddle_response_reproduces_rel_calib(huddle_data, tmp_path):
     # the same estimator without smoothing: agreement within 1 %
     assert abs(med / unsmoothed - 1) < 0.01
     # 95 % interval 1.15 % wide (0.8 % under the Gaussian likelihood): the
-    # misfit above 1.4 Hz (poles missing from STS2_simp.cal) widens it
-    assert hi - lo < 0.015 * med
+    # misfit above 1.4 Hz (poles missing from STS2_simp.cal) widens it. It
+    # may not be wider than ObsPy's own per-frequency amplitudes spread over
+    # the band (3.92 times their sd about their median, 2.0 %): wider would
+    # say the whole band knows the gain less well than one frequency does
+    from obspy import read
+    from obspy.signal.calibration import rel_calib_stack
+    f, amp, _ = rel_calib_stack(read(str(huddle_data / "ref_STS2")), read(str(huddle_data / "ref_unknown")),
+                                str(huddle_data / "STS2_simp.cal"), 20, smooth=0, save_data=False)
+    a = amp[(f >= COMPARE_BAND[0]) & (f <= COMPARE_BAND[1])]
+    assert hi - lo < 3.92 * np.std(a), (lo, hi, np.std(a))
     # the fitted gain is the amplitude in this band (flat there)
     assert r["gain"]["median"] == pytest.approx(med, rel=0.01)
     assert np.isfinite(r["period_s"]["median"]) and 0.02 <= r["damping"]["median"] <= 2.0

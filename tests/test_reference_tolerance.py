@@ -9,11 +9,13 @@ import warnings
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
+from scipy.stats import norm
 
 from bayescal.core.response import reference_tolerance
 from bayescal.core.model.likelihood import Priors
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair, velocity_response
+from tests.tolerance import Z_001
 
 
 def _h(f, period, damping):
@@ -63,12 +65,23 @@ def test_a_reference_gain_off_is_covered_only_with_its_tolerance():
             post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
                              sut_xml=sim.sut_inventory, band=(0.02, 1.0), progress=False,
                              diagnose=False, priors=Priors(reference_tolerance=tol))
-        out[tol] = post.summary()["channels"]["XX.SIM.10.LHZ"]["response"]["gain"]["ci95"]
+        gain = post.summary()["channels"]["XX.SIM.10.LHZ"]["response"]["gain"]
+        out[tol] = gain["ci95"]
     lo, hi = out[0.0]
     assert not lo <= 750.0 <= hi and lo > 750.0
+    sd0 = np.log(hi / lo) / 3.92                 # the measurement's own log-gain sd
     lo, hi = out[0.04]
     assert lo <= 750.0 <= hi
-    assert 0.05 < (hi - lo) / 750.0 < 0.25
+    # closed form: the log gain is the measurement's plus an independent
+    # N(0, 0.04^2) draw of the reference's error, so the 95 % interval is
+    # median * exp(+-1.96 s), s = hypot(0.04, sd0) (0.163 of 750 here). The
+    # interval's ends are 2.5 % and 97.5 % quantiles of the draws: each has
+    # Monte Carlo sd sqrt(0.025 * 0.975 / ESS) / phi(1.96) = 2.67 / sqrt(ESS)
+    # sds, so the width's relative error is 0.963 / sqrt(ESS); Z_001 of it
+    s_log = np.hypot(0.04, sd0)
+    want = gain["median"] * 2 * np.sinh(norm.isf(0.025) * s_log)
+    ess = post.summary()["convergence"]["ess_min"]
+    assert abs((hi - lo) / want - 1) < Z_001 * 0.963 / np.sqrt(ess), (lo, hi, want, ess)
     assert post.meta["reference_tolerance"]["relative_sd"] == 0.04
 
 

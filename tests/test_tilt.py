@@ -7,11 +7,14 @@ import json
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from bayescal.criticism import effects
 from bayescal.criticism.locate import band_coherence
 from bayescal.criticism.tilt import nsr_data, tilt_test
 from bayescal.simulate.harness import tilt_pair_spectra  # the tilt study's simulated spectra
+
+from tests.tolerance import LEVEL, Z_001
 
 HORIZONTAL = np.array([True, True, False])
 
@@ -27,11 +30,17 @@ def _old_rule(sp):
 @pytest.mark.parametrize("seed,coherence", [(101, 0.9), (102, 0.9), (103, 0.995), (104, 0.995),
                                             (105, 0.95)])
 def test_clean_pairs_are_not_flagged(seed, coherence):
-    out = tilt_test(_spectra(seed, coherence, 0.0, azimuth=seed * 7.0), HORIZONTAL)
+    sp = _spectra(seed, coherence, 0.0, azimuth=seed * 7.0)
+    out = tilt_test(sp, HORIZONTAL)
     assert out["applicable"]
     assert not out["kept"] and out["channels"] == []
-    # the BIC penalty of 3 parameters on 57 data is 12.1: a clean run sits near it
-    assert -12.5 < out["delta_bic"] < 5.0
+    # delta_bic = (chi2_base - chi2_tilt) / phi - k log n with k = 3 added
+    # parameters on n = 57 data (penalty 12.13), phi >= 1 and the chi2 drop
+    # >= 0: never below -12.13; without tilt the drop is at most chi2 with 3
+    # dof (less at the level's null bound), so above -12.13 + 16.27 (its
+    # 0.999 quantile) with probability at most 0.001
+    penalty = 3 * np.log(nsr_data(sp)["y"].size)
+    assert -penalty - 1e-9 <= out["delta_bic"] < -penalty + chi2.isf(LEVEL, 3), out["delta_bic"]
     assert "no tilt noise" in out["explanation"]
 
 
@@ -49,12 +58,15 @@ def test_noise_to_signal_errors_are_calibrated_on_clean_pairs():
     pairs, is near 1 with both the noise and the signal fluctuation in the
     error (without the signal's share it would be about 2.8)."""
     from bayescal.criticism.tilt import base_fit
-    chi2, dof = 0.0, 0
+    total, dof = 0.0, 0
     for seed in (201, 202, 203, 204):
         d = nsr_data(_spectra(seed, 0.95, 0.0, azimuth=seed * 11.0))
         _, c, p = base_fit(d["y"], d["sd"])
-        chi2, dof = chi2 + c, dof + d["y"].size - p
-    assert 0.6 < chi2 / dof < 1.8
+        total, dof = total + c, dof + d["y"].size - p
+    # chi2 with dof = 144 degrees of freedom where the errors are right: its
+    # two-sided band at level 0.001 is [0.66, 1.43] times dof (2.8 without
+    # the signal's share of the error)
+    assert chi2.ppf(LEVEL / 2, dof) < total < chi2.isf(LEVEL / 2, dof), (total / dof, dof)
 
 
 WEAK = [(301, 0.90, 10.0), (302, 0.93, 7.0), (303, 0.96, 12.0), (304, 0.92, 20.0),
@@ -95,11 +107,20 @@ def test_strong_tilt_level_scales_with_the_simulated_level():
     weak = tilt_test(_spectra(401, 0.95, 10.0), HORIZONTAL)
     strong = tilt_test(_spectra(401, 0.95, 50.0), HORIZONTAL)
     assert weak["kept"] and strong["kept"] and strong["channels"] == [0, 1]
-    assert abs(strong["alpha"]["median"] - 2.0) < 0.3
+    # the exponent within Z_001 sds of the simulated 2 (sd from the 95 %
+    # interval, 3.92 sd wide)
+    a = strong["alpha"]
+    assert abs(a["median"] - 2.0) < Z_001 * (a["ci95"][1] - a["ci95"][0]) / 3.92, a
+    # the level ratio, truth 50 / 10 = 5, pooled over the two horizontals
+    # (their noise is independent): the mean log ratio within Z_001 of its
+    # sd, each log level's sd from its 95 % interval and the same-seed
+    # correlation of the two fits ignored (it only shrinks the error)
+    logs, var = [], 0.0
     for i in ("0", "1"):
-        ratio = (strong["per_channel"][i]["nsr_lowest_band"]["median"]
-                 / weak["per_channel"][i]["nsr_lowest_band"]["median"])
-        assert 3.5 < ratio < 7.0
+        s_, w_ = (x["per_channel"][i]["nsr_lowest_band"] for x in (strong, weak))
+        logs.append(np.log(s_["median"] / w_["median"]))
+        var += sum((np.log(e["ci95"][1] / e["ci95"][0]) / 3.92) ** 2 for e in (s_, w_))
+    assert abs(np.mean(logs) - np.log(5.0)) < Z_001 * np.sqrt(var) / 2, (np.exp(logs), var)
     tilt, base = np.abs(np.array(strong["misfit_tilt"])), np.abs(np.array(strong["misfit_base"]))
     bound = norm.isf(0.001 / 2 / tilt.size)
     assert tilt.max() < bound < base.max(), (tilt.max(), bound, base.max())
