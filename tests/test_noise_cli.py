@@ -206,11 +206,17 @@ def test_flat_metadata_for_every_sensor(tmp_path, capsys):
     # from 300 draws has relative sd sqrt(2 x 0.05 x 0.95 / 300) / phi(1.645)
     # / 3.29 = 0.053 (0.006 for the mean of 68; 0.021 at 3.29 sd) and is
     # about 1.2 % narrow (linear interpolation between order statistics);
-    # 0.05 leaves 0.017 for what the recomputation omits (the 1 mrad axis
-    # leakage, 60 dB below the ambient; bounds rounded to 0.01 dB). Measured:
-    # 0.968. A 95 % interval in its place gives about 1.19 times, a 68 % 0.61.
+    # the recomputation also omits the 1 mrad axis leakage (60 dB below the
+    # ambient) and the 0.01 dB rounding of the bounds. The levels a label
+    # could be confused with give ratios z_level / z_0.90: 80 % 0.78, 95 %
+    # 1.19, 68 % 0.61; the tolerance, 0.1, is half the distance to the
+    # nearest of them and five times the replicates' error above. A band
+    # whose lower bound is null (no width) is left out; at least 60 of 68
+    # have one here (the quiet sensor's estimate is positive in most bands).
     ratios = _interval_width_ratio(doc, ids)
-    assert ratios.size == 68 and abs(ratios.mean() - 1.0) < 0.05, ratios
+    finite = np.isfinite(ratios)
+    assert ratios.size == 68 and finite.sum() >= 60, ratios
+    assert abs(ratios[finite].mean() - 1.0) < 0.1, ratios
     _check(_table(captured.out, ids), ids)
     assert "flat metadata" in captured.out and "not in ground units" in captured.out
 
