@@ -65,7 +65,7 @@ def configure(parser):
                         metavar="SECONDS",
                         help="work spent looking for the cause of a misfit, in seconds of "
                              f"{WORK_PER_SECOND} model evaluations each, about a second on a "
-                             f"2-core machine (default {DEFAULT_BUDGET_S:g}; counted in work, so "
+                             f"two-core computer (default {DEFAULT_BUDGET_S:g}; counted in work, so "
                              "the same seed names the same effects on any machine; checked "
                              "between candidate effects: when "
                              "it runs out the output says which were tried and the misfit "

@@ -32,11 +32,10 @@ MOVE_SD = 0.3
 #: candidates).
 DEFAULT_BUDGET_S = 60.0
 #: Model evaluations a second of ``--diagnose-budget`` stands for: about the
-#: criticism's own rate on a 2-core machine (measured under a load of 6 on
-#: its 2 cores: 990 to 2100 a second, about half the wall time on the CPU,
-#: on three simulated 3-channel pairs with a timing offset, off-nominal
-#: pendulums and a clock drift), so that the default costs about what 60 s
-#: of searching did: 30 s to 2 minutes.
+#: criticism's own rate on a busy two-core computer (990 to 2100 a second on
+#: three simulated 3-channel pairs with a timing offset, off-nominal
+#: pendulums and a clock drift, about half the wall time on the CPU), so
+#: that the default of 60 costs 30 s to 2 minutes there.
 WORK_PER_SECOND = 2000
 #: The wall-clock safety net, in multiples of ``--diagnose-budget``: never
 #: reached at the budget's normal cost; when it ends the criticism, the

@@ -112,7 +112,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     diagnose_budget_s : float
         The criticism's work budget, stated in seconds: each stands for
         :data:`bayescal.criticism.verdict.WORK_PER_SECOND` model
-        evaluations (about a second's work on a 2-core machine), so the
+        evaluations (about a second's work on a two-core computer), so the
         same seed names the same effects on any machine (checked between
         candidates; when it runs out the verdict is "unexplained" and says
         which candidates were tried). Ten times as many seconds of wall
