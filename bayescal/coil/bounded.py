@@ -63,16 +63,29 @@ class BoundedPosterior:
         return pendulum.prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
                                        pr.damping_tolerance)[0] / np.sqrt(self.LIKELIHOOD_SCALE)
 
-    def prior_sensitivity(self, samples, channel):
+    def information(self, theta):
+        """The likelihood's Fisher information at ``theta`` (Gauss-Newton:
+        ``2 LIKELIHOOD_SCALE J^T J``, ``J`` the forward-difference Jacobian of
+        ``likelihood_residual``), the noise model as set."""
+        from ..core.fit.leastsq import jacobian
+
+        jac = jacobian(self.likelihood_residual, np.asarray(theta, float))
+        return 2.0 * self.LIKELIHOOD_SCALE * jac.T @ jac
+
+    def prior_sensitivity(self, samples, channel, n_eff=None):
         """:func:`bayescal.core.response.pendulum.reweighted_sensitivity` of the
-        pendulum pair from the posterior's ``samples`` as ``{channel: ...}``;
-        empty without a pendulum pair."""
+        pendulum pair from the posterior's ``samples`` as ``{channel: ...}``
+        (``n_eff`` the chain's smallest effective sample size; where the
+        samples cannot decide, the likelihood's curvature,
+        :meth:`information`, does); empty without a pendulum pair."""
         i = self.pendulum_index
         if i is None:
             return {}
         return pendulum.reweighted_sensitivity(samples, {channel: (i, i + 1)},
                                                self.priors.period_tolerance,
-                                               self.priors.damping_tolerance)
+                                               self.priors.damping_tolerance,
+                                               information=self.information,
+                                               n_eff=n_eff)
 
 
 def prior_meta(priors):

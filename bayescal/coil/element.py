@@ -359,7 +359,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     phys = np.column_stack([*pendulum.to_physical(s[:, 0], s[:, 1], nominal.period_s,
                                                   nominal.damping), np.exp(s[:, 2])])
     med = np.median(s, axis=0)
-    sensitivity = model.prior_sensitivity(s, run.element)
+    sensitivity = model.prior_sensitivity(s, run.element, n_eff=float(np.min(chain.ess)))
     app = model.apparent_coefficients(med)
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,

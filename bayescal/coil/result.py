@@ -50,7 +50,8 @@ class CalFit:
                     else adequacy_summary(model, med))
         meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
                 "duration_s": run.data.shape[1] / run.fs, "sampler": chain.sampler}
-        sensitivity = model.prior_sensitivity(chain.samples, run.ids[0])
+        sensitivity = model.prior_sensitivity(chain.samples, run.ids[0],
+                                              n_eff=float(np.min(chain.ess)))
         if sensitivity:
             meta.update({"prior_sensitivity": sensitivity[run.ids[0]],
                          "set_by_prior": pendulum.set_by_prior_entries(sensitivity),

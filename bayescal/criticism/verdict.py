@@ -247,7 +247,10 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     from .diagnose import diagnose
 
     t0 = time.monotonic()
-    budget = budget if budget is not None else criticism_budget(budget_s)
+    if budget is None:
+        budget = criticism_budget(budget_s)
+    else:       # a budget given in work: the seconds it stands for, for the words
+        budget_s = budget.limit / WORK_PER_SECOND
     free = post.meta.get("free_response", "none")
     base_sum = post.summary()
     pinned = {cid: [k for k, v in e.get("response", {}).items()
