@@ -174,7 +174,10 @@ def _effect_entry(model, effect, sl, samples, step_score):
 MIN_CHAIN_WORK, MIN_CHAIN_STEPS = 10_000, 300
 #: Model evaluations a step of the improved model's sampler costs per walker,
 #: its burn-in and adaptation spread over the kept steps (measured: 0.58 to
-#: 0.60 on three pairs' improved models, 377 to 397 steps in all).
+#: 0.60 on three pairs' improved models, 377 to 397 steps in all; below one
+#: since proposals outside the prior cost no evaluation). The chain's
+#: length is set from it before sampling, so a chain may spend more than
+#: the work left (up to about 1 / 0.6 times), the same on every machine.
 WORK_PER_WALKER_STEP = 0.6
 
 
