@@ -103,6 +103,10 @@ def test_gain_error_scales_with_the_noise_without_a_drift():
         lo, sd_lo, _ = _gain_errors("quiet", seed, 0.9, 0.99999)
         hi, sd_hi, _ = _gain_errors("quiet", seed, 0.999, 0.99999)
         drift.extend(lo / sd_lo - hi / sd_hi)
+    # a regression bound, not a derived tolerance: 0.2 is under half the
+    # +0.48 the plug-in noise in ground units gave; the correct estimator's
+    # own second-order drift has no closed form here (it is not the
+    # (1 + err) factor of the reported sd, |z err| < 0.05 on these seeds)
     assert abs(np.mean(drift)) < 0.2
 
 
