@@ -35,7 +35,7 @@ import numpy as np
 from . import effects as catalogue, tilt, wiring
 from .reference_noise import reference_noise_test
 from ..core.model.refnoise import treatment_meta as reference_noise_meta
-from ..core.sampling.mcmc import sample
+from ..core.sampling.mcmc import default_walkers, sample
 from ..core.fit.assemble import assemble_posterior, plugin_meta
 from ..core.fit.run import least_squares_fit
 from ..core.orientation.geometry import unit_vector
@@ -184,9 +184,7 @@ WORK_PER_WALKER_STEP = 0.6
 def affordable_steps(model, work):
     """How many ensemble steps of ``model``'s sampler (its default walkers,
     :func:`bayescal.core.sampling.mcmc.sample`) ``work`` model evaluations pay for."""
-    walkers = max(32, 4 * model.ndim)
-    walkers += walkers % 2
-    return int(work / (WORK_PER_WALKER_STEP * walkers))
+    return int(work / (WORK_PER_WALKER_STEP * default_walkers(model.ndim)))
 
 
 def orientation_effects(base, model0, th0, ids, sig=None):

@@ -276,6 +276,12 @@ def _de_moves():
                                                        DE_WEIGHTS[1][1])]
 
 
+def default_walkers(ndim):
+    """The walkers :func:`sample` uses by default: ``max(32, 4 ndim)``, made even."""
+    n = max(32, 4 * int(ndim))
+    return n + n % 2
+
+
 def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
            rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
@@ -306,7 +312,7 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
     if move not in ("de", "independence"):
         raise ValueError(f"unknown move {move!r}")
     ndim = model.ndim
-    n_walkers = n_walkers or max(32, 4 * ndim)
+    n_walkers = n_walkers or default_walkers(ndim)
     n_walkers += n_walkers % 2
     rng = np.random.default_rng(seed)
     p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
