@@ -4,14 +4,16 @@ from co-located recordings (see README.md).
 The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
-    version, core        plain numpy: geometry, responses, spectra, likelihood,
+    version, result      a fit's saved result: its frozen record, meta and
+                         schema (numpy and the standard library only)
+    core                 plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
     criticism            model criticism of a fitted model (imports core only)
-    simulate             synthetic recordings with known truth (imports core;
-                         its coverage study also runs io.pipeline)
-    io                   recordings and metadata in, band choice, the
-                         files-to-posterior pipeline (which criticises a fit
-                         that fails its model check), StationXML out
+    io                   recordings and metadata in, band choice, results
+                         and StationXML out
+    pair                 a pair fit: prepare, fit, criticise, choose
+    simulate             synthetic recordings with known truth (its coverage
+                         study runs pair fits)
     coil                 calibration from coil signals
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
@@ -22,13 +24,14 @@ from .version import __version__
 
 #: Public name -> module defining it. Imported on first use (PEP 562), so that
 #: ``bayescal --help`` or a sub-command pays only for what it uses.
-_LAZY = {"Posterior": "bayescal.core.posterior.samples", "calibrate": "bayescal.io.pipeline",
-         "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
-         "load_posterior": "bayescal.io.result",
+_LAZY = {"Result": "bayescal.result.record", "Posterior": "bayescal.result.record",
+         "calibrate": "bayescal.pair.calibrate", "calibrate_files": "bayescal.pair.calibrate",
+         "write_results": "bayescal.io.result", "load_posterior": "bayescal.result.schema",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
          "write_network": "bayescal.simulate"}
 
-__all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Posterior",
+__all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Result",
+           "Posterior",
            "simulate_pair",
            "simulate_calibration", "write_network", "__version__"]
 

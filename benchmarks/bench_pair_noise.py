@@ -24,7 +24,8 @@ def main(argv=None):
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
     from bayescal.core.selfnoise import pair_noise
-    from bayescal.io.pipeline import calibrate, write_results
+    from bayescal.pair.calibrate import calibrate
+    from bayescal.io.result import write_results
     from bayescal.simulate.pair import simulate_pair
 
     p = simulate_pair(seed=0, sut_azimuth=(3.0, 93.0, 0.0))

@@ -77,7 +77,7 @@ def test_demo_band_and_fit_find_the_truth(demo):
     # coherence 0.995 at every frequency: the whole range the record allows
     assert choice.band == (freqs[0], freqs[-1])
     post = fit_sim(demo, progress=False)
-    assert tuple(post.meta["band_hz"]) == choice.band
+    assert tuple(post.meta.band_hz) == choice.band
     # every angle within 3.5 posterior sd (half the 68 % interval) of the
     # simulation's truth: a per-angle level of 5e-4, 0.003 over the five
     summary = post.summary()["channels"]
@@ -91,7 +91,7 @@ def test_demo_band_and_fit_find_the_truth(demo):
 @pytest.mark.skipif(not HUDDLE.is_dir(), reason=f"real data folder {HUDDLE} is absent")
 def test_huddle_band_follows_the_rule(tmp_path):
     from bayescal import io
-    from bayescal.io.pipeline import load_inventory
+    from bayescal.io.inventory import load_inventory
 
     sys.path.insert(0, str(ROOT / "examples"))
     from real_huddle import write_inputs

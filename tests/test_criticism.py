@@ -29,6 +29,7 @@ import pytest
 
 from scipy.stats import norm
 
+from bayescal.result.meta import Meta
 from tests.tolerance import LEVEL, Z_001
 
 LATE_S = 0.2
@@ -112,8 +113,8 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     from bayescal.core.model import misfit_scale
     from bayescal.core.sampling.mcmc import sample
     _, post = late
-    assert post.model.misfit_shape == misfit_scale.MISFIT_SHAPE == 2.0
-    model = post.improved.model
+    assert post.state.model.misfit_shape == misfit_scale.MISFIT_SHAPE == 2.0
+    model = post.improved.state.model
     a = model.misfit_shape
     assert a == 2.0
     theta, cov = least_squares_fit(model, post.improved.samples.mean(axis=0))
@@ -139,7 +140,7 @@ def test_improved_posterior_has_the_fits_likelihood(late):
     # what users read: the improved posterior the criticism sampled is that
     # posterior too (its own ESS in the Monte Carlo error) ...
     improved = post.improved.samples
-    ess_u = float(np.min(post.improved.convergence.get("ess", [len(improved)])))
+    ess_u = float(np.min(post.improved.convergence.ess))
     tol_u = z * np.sqrt(1 / (2 * ess_u) + 1 / (2 * ess_is))
     ratio_u = improved.std(axis=0) / sd_is
     assert np.all(np.abs(ratio_u - 1) < tol_u), (ratio_u, tol_u)
@@ -151,7 +152,7 @@ def test_improved_posterior_has_the_fits_likelihood(late):
 def test_corrected_stationxml_holds_the_offset(late, tmp_path):
     from obspy import read_inventory
 
-    from bayescal.io.pipeline import write_results
+    from bayescal.io.result import write_results
     sim, post = late
     write_results(post, str(tmp_path))
     inv = read_inventory(os.path.join(tmp_path, "sut_corrected.xml"))
@@ -176,7 +177,7 @@ def test_corrected_stationxml_holds_the_offset(late, tmp_path):
 def test_budget_spent_says_incomplete_and_unexplained(late):
     from bayescal.criticism.verdict import criticise, lines
     _, post = late
-    c = criticise(post, budget_s=0.0, mcmc=False).summary
+    c = criticise(post.state, budget_s=0.0, mcmc=False).summary
     assert not c["complete"] and c["verdict"] == "unexplained"
     assert c["verdict_text"].startswith("criticism incomplete: tried")
     assert "timing_offset" in c["not_tried"] and c["effects"] == []
@@ -242,10 +243,10 @@ def test_clock_drift_alone_named_under_the_reference_noise_model(drifting):
     size = c["effects"][0]["size"]
     lo, hi = size["ppm"]["ci95"]
     assert lo <= DRIFT_PPM <= hi and hi - lo < 0.5 * DRIFT_PPM, size
-    t_mid = post.spectra.segment_times().mean()
+    t_mid = post.state.spectra.segment_times().mean()
     assert abs(size["seconds_mid"]["median"] - DRIFT_PPM * 1e-6 * t_mid) < 0.005, (size, t_mid)
     assert c["misfit_after"] < 3 and c["unexplained"] == []
-    assert post.improved.meta["reference_noise"]["mode"] == "estimate"
+    assert post.improved.meta.reference_noise["mode"] == "estimate"
 
 
 def test_pendulum_above_its_corner_named_by_damping_over_period():
@@ -284,11 +285,11 @@ def test_improved_posterior_states_what_its_own_prior_sets():
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=5, coherence=0.99,
                         sut_azimuth=(3.0, 93.0, 0.0))
     post = _calibrate(sim, band=(0.5, 3.0), fit_response="all", diagnose=False)
-    meta = dict(post.meta, set_by_prior={"stale:entry": {"action": "from another model"}})
-    cov = np.cov(post.full_samples.T)
-    imp = posterior_of(post.model, post.theta_ls, cov, meta, post.not_estimable,
+    meta = dict(post.meta.to_dict(), set_by_prior={"stale:entry": {"action": "from another model"}})
+    cov = np.cov(post.state.full_samples.T)
+    imp = posterior_of(post.state.model, post.state.theta_ls, cov, meta, post.not_estimable,
                        "all", mcmc=False)
-    sbp = imp.meta["set_by_prior"]
+    sbp = imp.meta.set_by_prior
     assert "stale:entry" not in sbp
     for tr in sim.sut:
         assert {f"{tr.id}:period_s", f"{tr.id}:damping"} <= set(sbp), sorted(sbp)
@@ -360,7 +361,7 @@ def _cowi_phase_delay(d, azimuth=3.2, band=(0.125, 1 / 3.0), nperseg=256):
 def test_cowi_clock_offset_named_and_estimates_stated(cowi_data):
     from obspy import UTCDateTime
 
-    from bayescal.io.pipeline import calibrate_files
+    from bayescal.pair.calibrate import calibrate_files
     d = cowi_data
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -394,7 +395,7 @@ def test_huddle_misfit_left_unexplained_with_a_band_advice(huddle_data, tmp_path
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
     from real_huddle import write_inputs
 
-    from bayescal.io.pipeline import calibrate_files
+    from bayescal.pair.calibrate import calibrate_files
     ref_xml, sut_xml = write_inputs(huddle_data, str(tmp_path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -519,7 +520,7 @@ def test_a_posterior_that_did_not_move_is_no_measurement(monkeypatch):
                                                   "ci95": [0.8, 1.2]}}}}
     moved = {"channels": {"A": {"azimuth_deg": {"median": 3.0, "ci68": [3.0, 3.0],
                                                 "ci95": [3.0, 3.0]}}}}
-    final = SimpleNamespace(meta={}, summary=lambda: moved)
+    final = SimpleNamespace(meta=Meta(), summary=lambda: moved)
     fake = SimpleNamespace(effects=[flat_offset], final=final, band_edges=[0.1, 1.0],
                            before_common={"misfit": np.array([9.0])},
                            before={"misfit": np.array([9.0])},
@@ -527,7 +528,7 @@ def test_a_posterior_that_did_not_move_is_no_measurement(monkeypatch):
                            incomplete=None, tried=["timing_offset"], dropped=[],
                            sentences=lambda: [])
     monkeypatch.setattr(diagnosis, "diagnose", lambda *a, **k: fake)
-    post = SimpleNamespace(meta={"free_response": "gain"}, summary=lambda: summary)
+    post = SimpleNamespace(meta=Meta(free_response="gain"), summary=lambda: summary)
     c = criticise(post)
     s = c.summary
     assert s["verdict"] == "unexplained" and s["stationxml"] == "fit" and c.improved is None
@@ -567,7 +568,7 @@ def test_a_drift_that_wraps_the_segments_phases_is_named():
         post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
                                   ref_xml=sim.ref_inventory, band=(0.02, 2.0), progress=False,
                                   seed=1, min_ess=200, n_tau=20)
-    m, th = post.model, post.theta_ls
+    m, th = post.state.model, post.state.theta_ls
     blocks = catalogue.drift_signature(*block_timing(m, th))
     assert blocks["t_stat"] > 3 and abs(blocks["ppm"] - 200) < 3 * blocks["sd_ppm"]
     c = post.summary()["criticism"]

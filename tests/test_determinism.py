@@ -66,7 +66,7 @@ def run_once():
     improved = getattr(post, "improved", None)
     out = {
         "blas_threads": blas, "blas_threads_pinned": pinned,
-        "least_squares": {k: float(v) for k, v in post.meta["least_squares"].items()},
+        "least_squares": {k: float(v) for k, v in post.meta.least_squares.items()},
         "samples": _digest(post.samples), "n_samples": int(len(post.samples)),
         "medians": np.median(post.samples, axis=0).tolist(),
         "effects": [e["name"] for e in c.get("effects", [])],
@@ -150,7 +150,7 @@ def test_work_counts_one_per_model_evaluation(late_fit):
 
     from bayescal.core.budget import Budget
 
-    model, theta = late_fit.model, late_fit.theta_ls
+    model, theta = late_fit.state.model, late_fit.state.theta_ls
     outer, inner = Budget("outer", 100), Budget("inner", 100)
     model.log_prob(np.repeat(theta[None], 3, axis=0))
     with outer.active():
@@ -171,13 +171,13 @@ def test_the_search_stops_on_its_work_budget_not_a_clock(late_fit):
     from bayescal.core.budget import Budget
     from bayescal.criticism.verdict import criticise, lines
 
-    c = criticise(late_fit, mcmc=False, budget=Budget("criticism", 1)).summary
+    c = criticise(late_fit.state, mcmc=False, budget=Budget("criticism", 1)).summary
     assert c["tried"] == [] and not c["complete"]
     assert c["verdict"] == "unexplained" and "criticism incomplete" in c["verdict_text"]
     assert c["budget"]["ended_by"] == "work" and c["budget"]["used"] > 1
     assert "budget_note" not in c and not any("time limit" in x for x in lines(c))
     w0 = c["budget"]["used"]
-    c = criticise(late_fit, mcmc=False, budget=Budget("criticism", w0 + 1)).summary
+    c = criticise(late_fit.state, mcmc=False, budget=Budget("criticism", w0 + 1)).summary
     assert c["tried"] == ["timing_offset"] and not c["complete"]
     assert c["budget"]["ended_by"] == "work" and c["budget"]["used"] > w0 + 1
 
@@ -190,7 +190,7 @@ def test_the_time_limit_is_only_a_safety_net_and_says_so(late_fit):
     from bayescal.criticism.verdict import criticise, lines
 
     b = Budget("criticism", 10 ** 9, time_limit_s=0.0)
-    c = criticise(late_fit, mcmc=False, budget=b).summary
+    c = criticise(late_fit.state, mcmc=False, budget=b).summary
     assert c["tried"] == [] and not c["complete"] and c["budget"]["ended_by"] == "time"
     note = "criticism: ended by its time limit (0 s, a safety net), not by its work budget"
     assert c["budget_note"].startswith(note)

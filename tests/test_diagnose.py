@@ -25,7 +25,7 @@ def _diagnose(band=(0.05, 3.0), seed=1, coherence=0.99, fit_response="gain", **e
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=band,
                               progress=False, min_ess=200, n_tau=20, fit_response=fit_response,
                               ref_noise="quiet", diagnose=False)
-    return diagnose(post, mcmc=False)
+    return diagnose(post.state, mcmc=False)
 
 
 def _only(d, name):

@@ -26,7 +26,7 @@ def _harness_run(seed, regime, gain_off, ref_noise="quiet"):
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 3.0), progress=False, seed=seed, min_ess=200, n_tau=20,
                               ref_noise=ref_noise)
-    return diagnose(post, seed=seed, mcmc=False)
+    return diagnose(post.state, seed=seed, mcmc=False)
 
 
 def _diagnose(**effect):
@@ -37,7 +37,7 @@ def _diagnose(**effect):
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.02, 3.0), progress=False, seed=1000, min_ess=200, n_tau=20,
                               ref_noise="quiet", diagnose=False)
-    return diagnose(post, mcmc=False)
+    return diagnose(post.state, mcmc=False)
 
 
 def test_equal_noise_clean_pair_raises_no_alarm():
@@ -47,7 +47,7 @@ def test_equal_noise_clean_pair_raises_no_alarm():
     assert ref["kept"] and ref["delta_bic"] > 100, ref
     assert d.names == [], d.sentences()
     assert not d.signatures["tilt_noise"]["kept"], d.signatures["tilt_noise"]["delta_bic"]
-    assert d.final.meta["reference_noise"]["mode"] == "estimate"
+    assert d.final.meta.reference_noise["mode"] == "estimate"
     assert "reference's own self-noise" in d.sentences()[0]
 
 

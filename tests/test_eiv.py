@@ -178,7 +178,7 @@ def test_default_mode_and_gain_separation_note(capsys):
                         sut_response=((30.0, 0.707, 750.0 * 1.02),) * 3)
     post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory, band=(0.3, 2.0),
                      progress=False, min_ess=200, n_tau=20)
-    rn = post.meta["reference_noise"]
+    rn = post.meta.reference_noise
     assert rn["mode"] == "estimate" and rn["chosen_by"] == "default"
     ratios = rn["separation"]["gain_sd_ratio"]
     # within the noise the spectra admit (non-negative, at most the incoherent
@@ -197,8 +197,8 @@ def test_default_mode_and_gain_separation_note(capsys):
     one = calibrate(sut=sim.sut.select(channel="BHZ"), sut_xml=sim.sut_inventory,
                     ref=sim.ref.select(channel="BHZ"), ref_xml=sim.ref_inventory, band=(0.05, 1.0),
                     progress=False, min_ess=200, n_tau=20)
-    assert one.meta["reference_noise"]["mode"] == "quiet"
-    assert one.meta["reference_noise"]["chosen_by"] == "default"
+    assert one.meta.reference_noise["mode"] == "quiet"
+    assert one.meta.reference_noise["chosen_by"] == "default"
 
 
 def test_profiled_noise_columns_match_the_dense_design():

@@ -50,7 +50,7 @@ def test_convergence_rule_met(high_coherence_fit):
     _, post = high_coherence_fit
     c = post.summary()["convergence"]
     assert c["converged"] and c["ess_min"] >= 1000 and c["rhat_max"] < 1.01
-    assert c["n_steps"] - post.convergence["burn"] >= 50 * c["tau_max"]
+    assert c["n_steps"] - post.convergence.burn >= 50 * c["tau_max"]
 
 
 def test_turned_swapped_and_reversed_sensor_found_without_nominal_help():

@@ -17,10 +17,10 @@ def test_batched_jacobian_matches_scipy(sim_pair):
     post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
                               ref_xml=sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
                               min_ess=200, n_tau=20)
-    m0 = post.model
+    m0 = post.state.model
     drift = ClockDrift(range(m0.spectra.n_u), m0.spectra)
     m = Model(m0.spectra, m0.ref_vectors, m0.blocks, m0.priors, effects=[drift], per_block=True)
-    theta = np.r_[post.theta_ls, 0.01, 5.0]                 # 10 ms, 5 ppm
+    theta = np.r_[post.state.theta_ls, 0.01, 5.0]                 # 10 ms, 5 ppm
     m.estimate_noise(theta)
     fac = m.noise.cholesky()
     ref = approx_derivative(m.whitened_residual, theta, method="2-point", args=(fac,))
@@ -54,10 +54,10 @@ def test_batched_jacobian_errors_in_variables(sim_pair):
     post = bayescal.calibrate(sut=sim_pair.sut, sut_xml=sim_pair.sut_inventory, ref=sim_pair.ref,
                               ref_xml=sim_pair.ref_inventory, band=(0.05, 1.0), progress=False,
                               min_ess=200, n_tau=20, ref_noise="estimate")
-    m = post.model
+    m = post.state.model
     assert isinstance(m, EIVModel)
     fac = m.noise.cholesky()
-    ref = approx_derivative(m.whitened_residual, post.theta_ls, method="2-point", args=(fac,))
-    jac = forward_jacobian(m)(post.theta_ls, fac)
+    ref = approx_derivative(m.whitened_residual, post.state.theta_ls, method="2-point", args=(fac,))
+    jac = forward_jacobian(m)(post.state.theta_ls, fac)
     assert jac.shape == ref.shape
     np.testing.assert_allclose(jac, ref, rtol=0, atol=1e-6 * np.abs(ref).max())

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from bayescal.io.pipeline import calibrate
+from bayescal.pair.calibrate import calibrate
 from bayescal.io.read import InputError
 from bayescal.io.refnoise_file import for_channels, read_reference_noise
 from bayescal.simulate.pair import self_noise_psd, simulate_pair
@@ -38,7 +38,7 @@ def test_known_reference_noise_removes_the_one_channel_bias():
         post = calibrate(sut=p.sut.select(channel="BHZ"), sut_xml=p.sut_inventory,
                          ref=p.ref.select(channel="BHZ"), ref_xml=p.ref_inventory, band=(0.02, 1.0),
                          progress=False, seed=4, min_ess=400, n_tau=20, **extra)
-        assert post.meta["reference_noise"]["mode"] == name
+        assert post.meta.reference_noise["mode"] == name
         fits[name] = post.summary()["channels"]["XX.SIM.10.BHZ"]["response"]["relative_gain"]
         ess = min(ess, post.summary()["convergence"]["ess_min"])
     # the quiet model's interval misses the truth: biased low
@@ -52,7 +52,7 @@ def test_known_reference_noise_removes_the_one_channel_bias():
         e = fits[name]
         assert lo < 1.0 < hi and abs(e["median"] - 1.0) < z2 * np.hypot(e["sd"], median_mc_error(e, ess)), \
             (name, e)
-    assert post.meta["reference_noise"]["assumption"].startswith("both sensors have the same")
+    assert post.meta.reference_noise["assumption"].startswith("both sensors have the same")
 
 
 def test_third_sensor_noise_json_through_the_command_line(tmp_path):

@@ -9,14 +9,17 @@ PKG = pathlib.Path(__file__).resolve().parents[1] / "bayescal"
 
 #: What each subpackage may import (besides itself and bayescal.version).
 ALLOWED = {
-    "core": set(),
-    "io": {"core", "criticism"},
-    "simulate": {"core", "io"},
-    "criticism": {"core"},
+    "result": set(),
+    "core": {"result"},
+    "io": {"core", "result"},
+    "criticism": {"core", "result"},
+    "pair": {"core", "io", "criticism", "result"},
+    "simulate": {"core", "io", "pair"},
     "coil": {"core", "io"},
-    "report": {"core", "io", "criticism", "coil"},
-    "network": {"core", "io", "criticism", "report"},
-    "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate"},
+    "report": {"core", "io", "criticism", "coil", "result"},
+    "network": {"core", "io", "criticism", "report", "pair", "result"},
+    "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate", "pair",
+            "result"},
 }
 MAX_LINES = 520
 
@@ -190,13 +193,51 @@ def test_fit_path_does_not_import_heavy_modules():
     import subprocess
     import sys
 
-    code = ("import sys; import bayescal.cli.fit, bayescal.io.pipeline, bayescal.core.fit.run, "
+    code = ("import sys; import bayescal.cli.fit, bayescal.pair.calibrate, bayescal.core.fit.run, "
             "bayescal.core.fit.modes, bayescal.core.model.eiv, bayescal.core.checks.separation, "
             "bayescal.core.selfnoise.pair_noise, bayescal.core.posterior.convergence, bayescal.core.posterior.samples; print(sorted(m for m in ('scipy.stats', 'matplotlib', "
             "'dask', 'emcee') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=str(PKG.parent), check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_reading_a_result_is_light(tmp_path):
+    """``import bayescal; bayescal.load_posterior(folder)`` loads at most 8
+    bayescal modules (package ``__init__`` modules included) and none of
+    scipy.stats, scipy.special, emcee, matplotlib or ObsPy: a result is read
+    by :mod:`bayescal.result` alone, its summaries as result.json holds
+    them."""
+    import json
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    folder = tmp_path / "fit"
+    folder.mkdir()
+    vectors = rng.normal(size=(50, 1, 3))
+    conv = {"tau": [1.0], "ess": [50.0], "rhat": [1.0], "acceptance": 0.5, "n_steps": 10,
+            "n_walkers": 4, "burn": 2, "converged": True}
+    np.savez(folder / "samples.npz", samples=rng.normal(size=(50, 2)), log_prob=np.zeros(50),
+             vectors=vectors, extra=json.dumps({"channel_ids": ["XX.S.00.BHZ"],
+                                                "kinds": ["sphere"], "names": ["a", "b"],
+                                                "convergence": conv}))
+    (folder / "result.json").write_text(json.dumps(
+        {"schema": "bayescal.fit/1", "channels": {"XX.S.00.BHZ": {"kind": "sphere"}},
+         "convergence": {}, "meta": {"band_hz": [0.1, 1.0]}}))
+    code = ("import sys, bayescal; from bayescal import load_posterior; "
+            f"r = load_posterior({str(folder)!r}); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'bayescal')); "
+            "print(sorted(m for m in ('scipy.stats', 'scipy.special', 'emcee', 'matplotlib', "
+            "'obspy') if m in sys.modules)); print(r.meta.band_hz[1], r.convergence.n_steps)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=str(PKG.parent), check=True).stdout.strip().splitlines()
+    loaded = eval(out[0])                              # noqa: S307 - our own printout
+    assert len(loaded) <= 8, loaded
+    assert out[1] == "[]"
+    assert out[2] == "1.0 10"
 
 
 def test_no_private_name_imported_from_another_module():

@@ -8,7 +8,7 @@ from scipy.integrate import quad
 from scipy.stats import invgamma
 
 from bayescal.core.model.misfit_scale import band_loglik, band_scale
-from bayescal.io.pipeline import calibrate
+from bayescal.pair.calibrate import calibrate
 from bayescal.simulate.pair import simulate_pair
 from tests.tolerance import Z_001
 
@@ -67,9 +67,9 @@ def test_intervals_widen_only_where_the_model_misses():
     from tests.tolerance import LEVEL
 
     def band_info(post):
-        th, cov = least_squares_fit(post.model, np.median(post.samples, axis=0))
-        hess = band_derivatives(post.model, th, 0.05 * np.sqrt(np.diag(cov)))[1]
-        q, k = post.model.band_energy(th[None])
+        th, cov = least_squares_fit(post.state.model, np.median(post.samples, axis=0))
+        hess = band_derivatives(post.state.model, th, 0.05 * np.sqrt(np.diag(cov)))[1]
+        q, k = post.state.model.band_energy(th[None])
         return np.einsum("iib->ib", hess), q[0], k
 
     a = 2.0
@@ -86,8 +86,8 @@ def test_intervals_widen_only_where_the_model_misses():
     late = simulate_pair(duration=1800.0, fs=10.0, seed=11, coherence=0.99, timing_offset_s=0.1)
     (gauss, scaled), post = _gain_sds(late, (np.inf, a))
     assert not post.summary()["adequacy"]["ok"]
-    factors = np.array(post.meta["misfit_scale"]["band_variance_factor"])
-    k = post.model.band_energy(np.median(post.samples, axis=0)[None])[1]
+    factors = np.array(post.meta.misfit_scale["band_variance_factor"])
+    k = post.state.model.band_energy(np.median(post.samples, axis=0)[None])[1]
     fitting = (a + gamma.isf(LEVEL / factors.size, k)) / (a + k)         # 2.33 for k = 9, 5 bands
     assert np.all(factors > fitting), (factors, fitting)
     mc = np.sqrt(1 / post.summary()["convergence"]["ess_min"])

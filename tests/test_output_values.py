@@ -85,7 +85,7 @@ def test_pair_self_noise_in_result_json_is_the_true_noise(tmp_path):
     high (twice the power) is up to 25 sd off and fails; so does a
     velocity-to-acceleration conversion off by 2 pi in power (8 dB low) or
     by (2 pi)^2. Band frequencies: the geometric mean of each band's bins."""
-    from bayescal.io.pipeline import write_results
+    from bayescal.io.result import write_results
     from bayescal.simulate.harness import band_noise_truth
     from bayescal.simulate.pair import simulate_pair
     from tests.fitting import fit_sim
@@ -355,7 +355,7 @@ def test_clock_offset_is_written_as_fitted_and_told_as_a_time_correction(tmp_pat
     gives the shift of the start times (minus the offset)."""
     import bayescal
     from bayescal.criticism.verdict import lines
-    from bayescal.io.pipeline import write_results
+    from bayescal.io.result import write_results
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=31, coherence=0.99,

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from bayescal.core.selfnoise import pair_noise
-from bayescal.io.pipeline import calibrate, write_results
+from bayescal.pair.calibrate import calibrate
+from bayescal.io.result import write_results
 from bayescal.simulate.harness import band_noise_truth
 from bayescal.simulate.pair import simulate_pair
 from tests.fitting import fit_pair, fit_sim
@@ -96,10 +97,10 @@ def test_interval_covers_known_self_noise(arm):
         p = simulate_pair(**kw)
         post = fit_sim(p, band=(0.02, 1.0), progress=False,
                        **({"fit_response": "none"} if held else {}))
-        sp = post.model.spectra
+        sp = post.state.model.spectra
         truth = band_noise_truth(sp, kw)
-        r = pair_noise.pair_self_noise(post.model, np.median(post.full_samples, axis=0),
-                                       post.full_samples)
+        r = pair_noise.pair_self_noise(post.state.model, np.median(post.state.full_samples, axis=0),
+                                       post.state.full_samples)
         per_pair.append((r["psd"], r["sd"], truth))
         # result.json carries the same numbers in dB for every channel of both sensors
         entry = post.self_noise["channels"]
@@ -132,11 +133,11 @@ def _margin_range(post, kw, n=20000, seed=0):
     the simulation's true noise plus a normal error of the fit's stated
     standard error, and the true margin: what the statistic is expected to
     read given the truth."""
-    sp = post.model.spectra
+    sp = post.state.model.spectra
     truth = band_noise_truth(sp, kw)[list(range(sp.n_u)) + [3 + k for k in range(sp.n_r)]]
-    theta = np.median(post.full_samples, axis=0)
-    res = pair_noise.pair_self_noise(post.model, theta, post.full_samples)
-    along = list(np.argmax(np.abs(pair_noise.transfer(post.model, theta)[0][0, 0]), axis=0))
+    theta = np.median(post.state.full_samples, axis=0)
+    res = pair_noise.pair_self_noise(post.state.model, theta, post.state.full_samples)
+    along = list(np.argmax(np.abs(pair_noise.transfer(post.state.model, theta)[0][0, 0]), axis=0))
     est = truth[None] + res["sd"][None] * np.random.default_rng(seed).standard_normal(
         (n,) + truth.shape)
     ref, sut = est[:, sp.n_u:], est[:, along]
@@ -267,8 +268,8 @@ def test_sensor_order_default_estimate(case):
     p = simulate_pair(**SIM, seed=3, **kw)
     post = calibrate(sut=p.sut, sut_xml=p.sut_inventory, ref=p.ref, ref_xml=p.ref_inventory, band=(0.02, 1.0),
                      progress=False)
-    assert post.meta["reference_noise"]["mode"] == "estimate"
-    assert post.meta["reference_noise"]["chosen_by"] == "default"
+    assert post.meta.reference_noise["mode"] == "estimate"
+    assert post.meta.reference_noise["chosen_by"] == "default"
     order = post.sensor_order
     if case == "normal_counts":
         assert order["reference_noisier"] is False and "message" not in order
@@ -276,7 +277,7 @@ def test_sensor_order_default_estimate(case):
         return
     assert order["reference_noisier"] is True
     assert "were --ref and --sut swapped?" in order["message"]
-    separation = post.meta["reference_noise"]["separation"]
+    separation = post.meta.reference_noise["separation"]
     if case == "swapped_signal_shaped":
         assert "poorly separated" in separation["note"]
         assert "at_fitted_gains_db" not in order and order["reference_minus_sut_db"] > 3.0

@@ -122,18 +122,18 @@ def pair():
 
 @pytest.mark.parametrize("mode", ["quiet", "estimate", "equal"])
 def test_models_carry_the_weights(pair, mode):
-    from bayescal.io.pipeline import calibrate
+    from bayescal.pair.calibrate import calibrate
     post = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise=mode)
-    model = post.model
+    model = post.state.model
     sp = model.spectra
     p = sp.n_u + (0 if mode == "quiet" else sp.n_r)
     expected = plugin.band_weights(band_dof(sp), p)
     np.testing.assert_allclose(model.noise.weight, expected)
-    assert post.meta["plugin_weights"] == [round(float(v), 4) for v in expected]
+    assert post.meta.plugin_weights == [round(float(v), 4) for v in expected]
     assert 0.5 < expected.min() < expected.max() < 1.0
     # the weighted whitened residual is the weighted Gaussian likelihood
-    theta = post.theta_ls + 1e-3
+    theta = post.state.theta_ls + 1e-3
     saved, model.misfit_shape = model.misfit_shape, float("inf")
     try:
         ll = model.log_likelihood(theta[None])[0]
@@ -152,12 +152,12 @@ def test_diagnosis_reports_its_final_models_weights(pair):
     model after a quiet base fit) reports that model's weights (``p = n_u +
     n_r``), not the base fit's."""
     from bayescal.criticism.diagnose import posterior_of
-    from bayescal.io.pipeline import calibrate
+    from bayescal.pair.calibrate import calibrate
     base = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="quiet")
     eiv = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                     band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="estimate")
-    final = posterior_of(eiv.model, eiv.theta_ls, np.diag(np.full(eiv.model.ndim, 1e-8)),
-                         base.meta, base.not_estimable, "gain", mcmc=False, n_laplace=50)
-    expected = [round(float(v), 4) for v in eiv.model.noise.weight]
-    assert final.meta["plugin_weights"] == expected != base.meta["plugin_weights"]
+    final = posterior_of(eiv.state.model, eiv.state.theta_ls, np.diag(np.full(eiv.state.model.ndim, 1e-8)),
+                         base.meta.to_dict(), base.not_estimable, "gain", mcmc=False, n_laplace=50)
+    expected = [round(float(v), 4) for v in eiv.state.model.noise.weight]
+    assert final.meta.plugin_weights == expected != base.meta.plugin_weights

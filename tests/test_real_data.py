@@ -109,15 +109,15 @@ def test_cowi_band_chosen_from_coherence(cowi_data):
     """Without --band: the chosen band covers the secondary microseism,
     leaves out the vertical (no vertical reference), and the azimuths still
     agree with ASL."""
-    from bayescal.io.pipeline import calibrate_files
+    from bayescal.pair.calibrate import calibrate_files
 
     post = calibrate_files(sut=cowi_data / "C100823215422_COWI.LHx", sut_xml="flat",
                            ref=[cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], ref_xml="flat",
                            start="2010-08-24T02:00:00", end="2010-08-24T13:00:00",
                            progress=False)
-    lo, hi = post.meta["band_hz"]
+    lo, hi = post.meta.band_hz
     assert lo <= 1 / 8 and hi >= 1 / 3
-    assert "LHZ" not in post.meta["band_choice"]
+    assert "LHZ" not in post.meta.band_choice
     az = post.summary()["channels"]
     assert abs(az["US.COWI..LHN"]["azimuth_deg"]["median"] - PUBLISHED_COWI_DEG) < COWI_TOL
     assert abs(az["US.COWI..LHE"]["azimuth_deg"]["median"] - 90 - PUBLISHED_COWI_DEG) < COWI_TOL

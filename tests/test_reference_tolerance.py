@@ -13,7 +13,7 @@ from scipy.stats import norm
 
 from bayescal.core.response import reference_tolerance
 from bayescal.core.model.likelihood import Priors
-from bayescal.io.pipeline import calibrate
+from bayescal.pair.calibrate import calibrate
 from bayescal.simulate.pair import simulate_pair, velocity_response
 from tests.tolerance import Z_001
 
@@ -82,7 +82,7 @@ def test_a_reference_gain_off_is_covered_only_with_its_tolerance():
     want = gain["median"] * 2 * np.sinh(norm.isf(0.025) * s_log)
     ess = post.summary()["convergence"]["ess_min"]
     assert abs((hi - lo) / want - 1) < Z_001 * 0.963 / np.sqrt(ess), (lo, hi, want, ess)
-    assert post.meta["reference_tolerance"]["relative_sd"] == 0.04
+    assert post.meta.reference_tolerance["relative_sd"] == 0.04
 
 
 def test_the_prior_flag_judges_the_reported_values_once_the_tolerance_is_in():

@@ -6,6 +6,7 @@ import os
 import re
 import subprocess
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -370,8 +371,7 @@ def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     from bayescal.io.result import load_posterior
 
     post = load_posterior(flagged[0])
-    post.convergence["converged"] = False
-    post.diagnostics = {}
+    post = replace(post, convergence=replace(post.convergence, converged=False), diagnostics={})
     folder = str(tmp_path / "unconverged")
     save_posterior(post, folder)
     assert not os.path.exists(os.path.join(folder, "diagnostics.npz"))

@@ -49,7 +49,7 @@ def test_psd_axis_says_counts_with_flat_metadata():
 def test_flat_inventory_channels_are_marked_as_placeholders():
     import obspy
 
-    from bayescal.io.pipeline import placeholder_channels
+    from bayescal.io.inventory import placeholder_channels
     from bayescal.io.read import flat_inventory
 
     st = obspy.read()

@@ -24,7 +24,8 @@ from bayescal.cli.fit import response_lines
 from bayescal.core.fit.unconstrained import BOUND_FRACTION
 from bayescal.core.model.likelihood import Priors
 from bayescal.core.response import pendulum
-from bayescal.io.pipeline import calibrate, write_results
+from bayescal.pair.calibrate import calibrate
+from bayescal.io.result import write_results
 from bayescal.io.read import read_metadata
 from bayescal.io.stationxml import write_corrected
 from bayescal.simulate.pair import DIGITIZER_GAIN, simulate_pair
@@ -133,7 +134,7 @@ def test_below_the_corner_the_gain_is_sampled_not_held():
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=3, coherence=0.99,
                         sut_response=(truth,) * 3, nominal_response=nominal)
     post = fit_sim(sim, band=(0.02, 0.12), fit_response="all", progress=False)
-    held = [k for k, v in post.meta["set_by_prior"].items() if v.get("action") == "held at nominal"]
+    held = [k for k, v in post.meta.set_by_prior.items() if v.get("action") == "held at nominal"]
     assert not held
     for cid, e in post.summary()["channels"].items():
         g = e["response"]["gain"]

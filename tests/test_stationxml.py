@@ -2,8 +2,6 @@
 everything else untouched; ObsPy reads them back."""
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import obspy
 import pytest
@@ -41,11 +39,11 @@ def test_real_stationxml_round_trip(orientation_post, tmp_path):
     real = obspy.read_inventory().select(station="FUR", channel="BH?")
     original = tmp_path / "fur.xml"
     real.write(str(original), format="STATIONXML")
-    post = copy.copy(orientation_post)
     rename = {"XX.SIM.10.BH1": "GR.FUR..BHN", "XX.SIM.10.BH2": "GR.FUR..BHE",
               "XX.SIM.10.BHZ": "GR.FUR..BHZ"}
-    post.channel_ids = [rename[c] for c in orientation_post.channel_ids]
-    post.meta = dict(orientation_post.meta, nominal={})
+    post = orientation_post.state.replace(
+        channel_ids=[rename[c] for c in orientation_post.channel_ids],
+        meta=orientation_post.meta.replace(nominal={}))
     out = tmp_path / "sut_corrected.xml"
     write_corrected(obspy.read_inventory(str(original)), post, out)
     back = obspy.read_inventory(str(out))

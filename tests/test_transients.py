@@ -9,7 +9,7 @@ import pytest
 
 from bayescal.core.spectra import transients
 from bayescal.io.align import align
-from bayescal.io.pipeline import calibrate
+from bayescal.pair.calibrate import calibrate
 from bayescal.simulate.pair import simulate_pair
 
 BURSTS_S = (200.0, 520.0, 900.0)
@@ -90,7 +90,7 @@ def test_the_fit_without_the_transients_holds_the_truth_and_is_narrower():
                          band=(0.05, 0.5), progress=False, diagnose=False, transients=mode)
         az = post.summary()["channels"]["XX.SIM.10.LH1"]["azimuth_deg"]
         out[mode] = (az["ci95"][0], az["ci95"][1])
-        dropped = post.meta["data_used"].get("transients", {}).get("dropped", 0)
+        dropped = post.meta.data_used.get("transients", {}).get("dropped", 0)
         if mode == "keep":
             assert dropped == 0
         else:

@@ -47,8 +47,7 @@ def configure(parser):
 def run(args):
     """Run the diagnosis; returns the exit code."""
     from ..io.read import InputError
-    from ..io.pipeline import write_results
-    from ..io.result import write_json
+    from ..io.result import write_json, write_results
 
     out = os.path.abspath(args.out)
     if os.path.exists(out) and not os.path.isdir(out):
@@ -57,8 +56,7 @@ def run(args):
     say("bayescal diagnose: base fit ...")
     with quiet_convergence_warnings():
         base, d = _run_diagnosis(args, say)
-    final = d.final
-    final.sut_inventory = base.sut_inventory
+    final = d.final.replace(sut_inventory=base.sut_inventory).to_result()
     parent = os.path.dirname(out) or "."
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
@@ -78,7 +76,7 @@ def run(args):
         raise
     for s in d.sentences():
         print(s)
-    short = final.meta.get("record_length", {}).get("note")
+    short = (final.meta.record_length or {}).get("note")
     if short:
         print(f"record: {short}")
     code = convergence_exit([("the final model's sampler", final.summary()["convergence"])])
@@ -89,7 +87,7 @@ def run(args):
 def _run_diagnosis(args, say):
     """The base fit and its diagnosis: ``(base, Diagnosis)``."""
     from ..criticism.diagnose import diagnose
-    from ..io.pipeline import calibrate_files
+    from ..pair.calibrate import calibrate_files
 
     base = calibrate_files(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
                            sut_xml=args.sut_xml,
@@ -103,6 +101,6 @@ def _run_diagnosis(args, say):
                            priors=priors_from(args))
     say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
         "gain above 10, strong evidence; docs/diagnose.md) ...")
-    return base, diagnose(base, seed=args.seed, progress=not args.quiet, log=say,
+    return base, diagnose(base.state, seed=args.seed, progress=not args.quiet, log=say,
                           max_steps=args.max_steps)
 

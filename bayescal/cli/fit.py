@@ -219,7 +219,8 @@ def transient_words(transients):
 def run(args):
     """Run the fit; returns the exit code."""
     from ..io.read import InputError, InputWarning
-    from ..io.pipeline import calibrate_files, write_results
+    from ..io.result import write_results
+    from ..pair.calibrate import calibrate_files
 
     out = os.path.abspath(args.out)
     if os.path.exists(out) and not os.path.isdir(out):
@@ -243,15 +244,15 @@ def run(args):
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)
     meta = post.meta
-    lo, hi = meta["band_hz"]
-    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta['band_choice']})", file=sys.stderr)
-    used = meta["data_used"]
+    lo, hi = meta.band_hz
+    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.band_choice})", file=sys.stderr)
+    used = meta.data_used
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
                f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)"
                + transient_words(used.get("transients")))
-    if "reference_tolerance" in meta:
+    if meta.reference_tolerance is not None:
         say(args, f"reference metadata: gain, period and damping known to "
-                  f"{100 * meta['reference_tolerance']['relative_sd']:g} % (1 sd); the SUT's "
+                  f"{100 * meta.reference_tolerance['relative_sd']:g} % (1 sd); the SUT's "
                   f"response intervals carry it")
     with staging(out) as tmp:
         write_results(post, tmp)

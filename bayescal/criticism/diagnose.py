@@ -76,7 +76,7 @@ def reference_shape_caveat(mode):
 
 def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
-    """A :class:`~bayescal.core.posterior.samples.Posterior` of ``model`` (with effects) from MCMC
+    """A :class:`~bayescal.core.posterior.state.FitState` of ``model`` (with effects) from MCMC
     (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence
     sampler unless ``move="de"`` is passed) or, with ``mcmc=False``, from its Laplace
     approximation (Gaussian at the least-squares point; stated in meta)."""
@@ -140,7 +140,7 @@ def prior_set(model, samples):
 # --- the whole diagnosis -------------------------------------------------------
 
 def _nominal_vectors(meta, ids):
-    nom = meta.get("nominal", {})
+    nom = meta.nominal or {}
     return np.array([unit_vector(nom[c]["azimuth_deg"], nom[c]["dip_deg"]) for c in ids])
 
 
@@ -193,7 +193,7 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     against the axes with it (:func:`.search.orientation_score`). Returns
     the named ones as effect entries; scores go into ``sig``."""
     sig = {} if sig is None else sig
-    if not base.meta.get("nominal"):
+    if not base.meta.nominal:
         return []
     fitted = np.median(base.vectors, axis=0)
     fitted /= np.linalg.norm(fitted, axis=1, keepdims=True)
@@ -201,7 +201,7 @@ def orientation_effects(base, model0, th0, ids, sig=None):
     out = []
     findings = wiring.orientation_findings(fitted, nominal, ids)
     unfitted = {c: unit_vector(v["azimuth_deg"], v["dip_deg"])
-                for c, v in base.meta["nominal"].items()
+                for c, v in base.meta.nominal.items()
                 if c not in ids and c in (base.not_estimable or {})}
     findings += wiring.swaps_with_unfitted(fitted, nominal, ids, unfitted,
                                               {c for f in findings for c in f["channels"]})
@@ -223,8 +223,9 @@ def orientation_effects(base, model0, th0, ids, sig=None):
 def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **sample_kw):
     """Diagnose a base fit.
 
-    ``base`` is a :class:`~bayescal.core.posterior.samples.Posterior` from :func:`bayescal.io.pipeline.calibrate`
-    (with ``.model`` and ``.theta_ls`` attached). ``budget``: a
+    ``base`` is a :class:`~bayescal.core.posterior.state.FitState` (with
+    ``.model`` and ``.theta_ls``): a pair fit's, :func:`bayescal.pair.fit.fit`,
+    or ``result.state`` of :func:`bayescal.calibrate`. ``budget``: a
     :class:`bayescal.core.budget.Budget` (active while this runs, so that
     the models' evaluations count into it): once spent no further candidate
     effect is tried (the diagnosis is then incomplete:
@@ -233,7 +234,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     Returns a :class:`Diagnosis`.
     """
     model0 = base.model
-    free = base.meta.get("free_response", "none")
+    free = base.meta.free_response or "none"
     th0 = base.theta_ls
     model0.estimate_noise(th0)
     before = locate(model0, th0)
@@ -310,13 +311,13 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
         # widen where the improved model still misfits (the search compares
         # the Gaussian likelihoods)
         model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
-        meta = base.meta if eiv is None else dict(
-            base.meta, reference_noise=dict(reference_noise_meta(eiv, th0),
+        meta = base.meta.to_dict() if eiv is None else dict(
+            base.meta.to_dict(), reference_noise=dict(reference_noise_meta(eiv, th0),
                                             chosen_by="diagnose",
                                             reason=sig["reference_noise"]["explanation"]))
         final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
                              mcmc=mcmc, progress=progress, **sample_kw)
-        if mcmc and not final.convergence["converged"]:
+        if mcmc and not final.convergence.converged:
             # a chain stopped before converging (a start at a bound, a ridge):
             # the Gaussian approximation at the least-squares point instead
             final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
@@ -344,7 +345,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
         entry["signature"] = sig.get(effect_key(e), {})
         effects.append(entry)
     effects += orientation_effects(base, model0, th0, ids, sig)
-    nominal = _nominal_vectors(base.meta, ids) if base.meta.get("nominal") else None
+    nominal = _nominal_vectors(base.meta, ids) if base.meta.nominal else None
     if nominal is not None:
         horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
         t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
@@ -432,7 +433,7 @@ class Diagnosis:
             out.append("no mismatch: the model describes the recordings within their noise"
                        + (" once the reference's noise is modelled" if ref.get("kept") else ""))
         out += self.unexplained()
-        caveat = reference_shape_caveat(self.final.meta.get("reference_noise", {}).get("mode"))
+        caveat = reference_shape_caveat((self.final.meta.reference_noise or {}).get("mode"))
         if caveat and self.after["mismatch"]:
             out.append(caveat)
         return out

@@ -1,5 +1,5 @@
 """The criticism of a fit that failed its model check, in the main path of
-``bayescal fit`` and :func:`bayescal.calibrate`: the diagnosis
+``bayescal fit`` and :func:`bayescal.calibrate` (:mod:`bayescal.pair.criticise`): the diagnosis
 (:func:`.diagnose.diagnose`, started from the fit's own model, spectra and
 least-squares point, not refitted from scratch) within a work budget
 (:func:`criticism_budget`: model evaluations, so that the same seed names
@@ -81,8 +81,9 @@ ADVICE = {
 
 class Criticism:
     """What :func:`criticise` found: ``summary`` (JSON-safe, result.json's
-    ``criticism``), ``improved`` (the improved model's :class:`Posterior`,
-    or None when nothing was added), ``diagnosis`` (the
+    ``criticism``), ``improved`` (the improved model's
+    :class:`~bayescal.core.posterior.state.FitState`, or None when nothing
+    was added), ``diagnosis`` (the
     :class:`.diagnose.Diagnosis`, or None when it did not run)."""
 
     def __init__(self, summary, improved=None, diagnosis=None):
@@ -153,8 +154,8 @@ def _degenerate(d, post, effects):
     or None: its sampler fell back to the least-squares point itself, or an
     effect's size has an interval of zero width (a posterior that did not
     move; an interval that claims exact knowledge)."""
-    if d.final is not post and d.final.meta.get("posterior_failed"):
-        return d.final.meta["posterior_failed"]
+    if d.final is not post and d.final.meta.posterior_failed:
+        return d.final.meta.posterior_failed
     for e in effects:
         for k, v in e["size"].items():
             ci = v.get("ci95") if isinstance(v, dict) else None
@@ -234,8 +235,9 @@ def criticism_budget(budget_s=DEFAULT_BUDGET_S):
 
 def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budget=None,
               **sample_kw):
-    """Criticise the fit ``post`` (a :class:`Posterior` from the pipeline,
-    with its ``model`` and ``theta_ls``). Returns a :class:`Criticism`.
+    """Criticise the fit ``post`` (a
+    :class:`~bayescal.core.posterior.state.FitState`, with its ``model`` and
+    ``theta_ls``). Returns a :class:`Criticism`.
 
     ``budget_s``: the work the search for effects and the improved model's
     chain may do, stated in seconds of :data:`WORK_PER_SECOND` model
@@ -251,7 +253,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         budget = criticism_budget(budget_s)
     else:       # a budget given in work: the seconds it stands for, for the words
         budget_s = budget.limit / WORK_PER_SECOND
-    free = post.meta.get("free_response", "none")
+    free = post.meta.free_response or "none"
     base_sum = post.summary()
     pinned = {cid: [k for k, v in e.get("response", {}).items()
                     if k != "relative_gain" and "pinned" in str(v.get("reason", ""))]

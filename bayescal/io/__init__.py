@@ -6,15 +6,16 @@
 * :mod:`.channels`    each sensor's channels chosen by SEED-id patterns
 * :mod:`.align`       two or more sensors' recordings on one time grid
 * :mod:`.band`        choice of the band where the sensors are coherent
-* :mod:`.pipeline`    files or ObsPy objects -> spectra -> posterior
+* :mod:`.inventory`   a sensor's metadata as a fit takes them, placeholders
 * :mod:`.noise`       files -> aligned sensors -> spectra -> self-noise estimates
                       of three or more co-located sensors, noise.json
 * :mod:`.refnoise_file` the reference's self-noise given in a file
-* :mod:`.result`      a fit's result.json / samples.npz written and read back
+* :mod:`.result`      a fit's result.json / samples.npz written and read back,
+                      with the corrected StationXML beside them
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
 
-May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline criticises a
-fit that fails its model check); never coil, report, network or cli.
+May import :mod:`bayescal.core` and :mod:`bayescal.result`; never criticism,
+pair, coil, report, network or cli.
 """
 from .align import align, align_sensors
 from .read import (CODE_ORIENTATION, InputError, InputWarning, flat_inventory, metadata_format,

@@ -4,7 +4,7 @@ The shell around :mod:`bayescal.core.selfnoise.sleeman`, reusing the calibration
 pipeline's pieces:
 
 * :func:`.read.read_waveforms` reads one recording per sensor and
-  :func:`.pipeline.load_inventory` its metadata, as ``bayescal fit`` does
+  :func:`.inventory.load_inventory` its metadata, as ``bayescal fit`` does
   (StationXML, RESP, GSE2 poles and zeros, or ``flat``);
 * :func:`.align.align_sensors` puts every channel of every sensor on one time
   grid at the lowest sampling rate (anti-alias resampling, fractional-delay
@@ -212,12 +212,12 @@ def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=No
 def self_noise_files(data_paths, xml_paths, **kw):
     """:func:`self_noise_streams` from one waveform file and one metadata entry
     per sensor (same order). Each entry is what ``bayescal fit`` takes (see
-    :func:`.pipeline.load_inventory`): a StationXML, RESP or GSE2
+    :func:`.inventory.load_inventory`): a StationXML, RESP or GSE2
     poles-and-zeros file, an ObsPy Inventory, or ``"flat"`` (a flat velocity
     response of 1 count per m/s: that sensor's self-noise is then in counts
     referred through that assumed response, not in ground units; its ids are
     listed in ``meta["flat_metadata"]``)."""
-    from .pipeline import load_inventory
+    from .inventory import load_inventory
 
     data_paths, xml_paths = list(data_paths), list(xml_paths)
     if len(data_paths) != len(xml_paths):

@@ -155,8 +155,8 @@ def corrected_inventory(inventory, posterior, criticism=None):
 
     inv = copy.deepcopy(inventory)
     summary = posterior.summary()
-    time = UTCDateTime(posterior.meta["starttime"]) if posterior.meta.get("starttime") else None
-    free = posterior.meta.get("free_response", "none")
+    time = UTCDateTime(posterior.meta.starttime) if posterior.meta.starttime else None
+    free = posterior.meta.free_response or "none"
     for cid, entry in summary["channels"].items():
         ch = find_channel(inv, cid, time)
         az, dip = entry["azimuth_deg"], entry["dip_deg"]
@@ -271,17 +271,17 @@ def provenance_comment(posterior, entry):
     from ..version import __version__
 
     meta = posterior.meta
-    ref = ", ".join(meta.get("reference", {})) or "unknown reference"
-    lo, hi = meta.get("band_hz", [np.nan, np.nan])
-    start = meta.get("starttime", "?")
-    dur = meta.get("duration_s")
+    ref = ", ".join(meta.reference or {}) or "unknown reference"
+    lo, hi = meta.band_hz if meta.band_hz is not None else [np.nan, np.nan]
+    start = meta.starttime if meta.starttime is not None else "?"
+    dur = meta.duration_s
     end = str(UTCDateTime(start) + dur) if dur and start != "?" else "?"
     text = (f"Azimuth/dip{' and response' if 'response' in entry else ''} fitted by bayescal "
             f"{__version__} on {UTCDateTime.now().strftime('%Y-%m-%d')} against {ref}, band "
             f"{lo:.4g}-{hi:.4g} Hz, data {start} - {end}; plusError/minusError are 68 % "
             "credible intervals (16-84 % quantiles).")
-    if meta.get("assumption"):
-        text += f" Assumed: {meta['assumption']}."
+    if meta.assumption:
+        text += f" Assumed: {meta.assumption}."
     prior = {n: e for n, e in entry.get("response", {}).items() if e.get("set_by_prior")}
     text += prior_text(entry.get("response", {}), entry.get("nominal"))
     gain = entry.get("response", {}).get("gain")

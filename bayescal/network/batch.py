@@ -5,8 +5,8 @@
     >>> items = sds_plan("archive/", "stationxml/")        # one item per station-day
     >>> summary = run_batch(items, "out/", seed=1)         # LocalCluster, all cores
 
-Each item runs the ordinary pipeline (:func:`bayescal.io.pipeline.calibrate_files`
-for CSV items, :func:`bayescal.io.pipeline.calibrate` on ObsPy's SDS reader for
+Each item runs the ordinary pipeline (:func:`bayescal.pair.calibrate.calibrate_files`
+for CSV items, :func:`bayescal.pair.calibrate.calibrate` on ObsPy's SDS reader for
 archive items) on a Dask worker and writes its result
 folder ``out/<label>/`` (``result.json``, ``samples.npz``, ``diagnostics.npz``,
 ``sut_corrected.xml`` as ``bayescal fit`` writes them, and ``item.json``)
@@ -35,6 +35,7 @@ import socket
 import time
 import uuid
 import warnings
+from dataclasses import replace
 
 from ..io.result import save_posterior, write_json
 
@@ -80,7 +81,7 @@ def run_item(item, out):
             warnings.filterwarnings("ignore", category=ModelMisfitWarning)
             warnings.filterwarnings("ignore", category=NotConvergedWarning)
             post, sut_inv = _fit_item(item, opts)
-        post.meta["batch_label"] = item["label"]
+        post = replace(post, meta=post.meta.replace(batch_label=item["label"]))
         save_posterior(post, tmp)
         if sut_inv is not None and not isinstance(sut_inv, str):
             write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
@@ -222,7 +223,7 @@ def read_log(out):
 def _fit_item(item, opts):
     """The posterior of one plan item and the SUT's inventory (for the
     corrected StationXML)."""
-    from ..io.pipeline import calibrate, calibrate_files
+    from ..pair.calibrate import calibrate, calibrate_files
     from .plan import read_sds_item
 
     if item["kind"] == "files":

@@ -14,7 +14,7 @@ Two ways to make a plan:
   per day".
 
 :func:`read_sds_item` reads an SDS item's recordings (ObsPy) on the worker;
-file items go to :func:`bayescal.io.pipeline.calibrate_files`.
+file items go to :func:`bayescal.pair.calibrate.calibrate_files`.
 """
 from __future__ import annotations
 

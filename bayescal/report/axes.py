@@ -41,8 +41,9 @@ def frequency_ticks(ax, lo=None, hi=None, axis="x"):
 
 def placeholder_ids(meta):
     """Channel ids (both sensors) whose response was a ``flat`` placeholder
-    (their spectra are in counts, not in ground units)."""
-    p = meta.get("placeholder_response") or {}
+    (their spectra are in counts, not in ground units), from a fit's
+    :class:`~bayescal.result.meta.Meta`."""
+    p = meta.placeholder_response or {}
     return set(p.get("sut", [])) | set(p.get("reference", []))
 
 

@@ -8,6 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..core.orientation.geometry import unit_vector
+from ..core.posterior.samples import sampled_azimuth_dip
 from ..core.response.pendulum import damping_over_period
 from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_header
@@ -20,7 +21,7 @@ def _truth_or_nan(value):
 def angle_columns(ctx):
     """Corner-plot columns of the angles: (samples (N, D), labels, truths)."""
     post = ctx.post
-    az, dip = post.azimuth_dip
+    az, dip = sampled_azimuth_dip(post.vectors)
     cols, labels, truths = [], [], []
     for k, cid in enumerate(post.channel_ids):
         ch = ctx.summary["channels"][cid]
@@ -58,7 +59,7 @@ def response_columns(ctx):
     """Corner-plot columns of the fitted response parameters, one entry per
     channel: ``[(channel id, samples (N, D), labels, truths), ...]``."""
     post = ctx.post
-    free = post.meta.get("free_response", "none")
+    free = post.meta.free_response or "none"
     if free == "none" or not post.response:
         return []
     names = ("period_s", "damping", "gain") if free == "all" else ("gain",)

@@ -44,9 +44,9 @@ def _check_folder(folder):
 
 
 def load_result(folder):
-    """Load a saved :class:`~bayescal.core.posterior.samples.Posterior`, turning any
+    """Load a saved :class:`~bayescal.result.record.Result`, turning any
     reading problem into an :class:`InputError` naming the folder."""
-    from ..io.result import load_posterior
+    from ..result.schema import load as load_posterior
     _check_folder(folder)
     try:
         return load_posterior(folder)
@@ -70,7 +70,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
         which a channel is flagged.
     truth : simulation truth (dict or JSON path) for truth markers; default
-        ``meta["truth"]`` or ``folder/truth.json`` when present.
+        the meta's ``truth`` entry or ``folder/truth.json`` when present.
     paper : "a4" (default) or "letter": every page of the PDF has this size.
 
     Returns the list of written paths (PDF first).

@@ -21,6 +21,7 @@ from ..core.checks.adequacy import describe
 from ..criticism.verdict import lines as criticism_lines
 from ..core.posterior.modes import multimodal_line
 from ..core.orientation.geometry import tilt_from_vertical
+from ..core.posterior.samples import sampled_azimuth_dip
 from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
@@ -124,7 +125,7 @@ def _channel_panels(ctx, k):
     ch = ctx.summary["channels"][cid]
     nom = ch.get("nominal") or {}
     tru = truth_values(ctx.truth, cid)
-    az, dip = post.azimuth_dip
+    az, dip = sampled_azimuth_dip(post.vectors)
     panels = []
     if "tilt_deg" in ch:
         tilt, _ = tilt_from_vertical(post.vectors[:, k])
@@ -315,8 +316,8 @@ def page_convergence(ctx):
         step = max(1, tr.shape[0] // 200)
         x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
         walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
-        burn = post.convergence.get("burn")
-        nominal = post.meta.get("nominal", {})
+        burn = post.convergence.burn
+        nominal = post.meta.nominal or {}
         for p, name in enumerate(names):
             ax = fig.add_subplot(gs[p // 2, p % 2])
             values, unit = trace_in_user_units(name, tr[::step, walkers, p].T,
@@ -357,7 +358,7 @@ def page_convergence(ctx):
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
     from ..core.posterior.convergence import describe_sampler
-    sampler = describe_sampler(post.meta.get("sampler"))
+    sampler = describe_sampler(post.meta.sampler)
     fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
              + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
              " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",

@@ -105,11 +105,11 @@ def save_png(fig, path, dpi=PNG_DPI):
 def subject_line(ctx):
     """One line for the PDF Subject: channels, band, window."""
     m = ctx.post.meta
-    band = m.get("band_hz") or [None, None]
-    return (f"Orientation{' and response' if m.get('free_response', 'none') != 'none' else ''}"
+    band = m.band_hz or [None, None]
+    return (f"Orientation{' and response' if (m.free_response or 'none') != 'none' else ''}"
             f" of {', '.join(ctx.post.channel_ids)}; band {_g(band[0], '{:.4g}')}-"
             f"{_g(band[1], '{:.4g}')} Hz;"
-            f" start {m.get('starttime', '?')}, {_g(m.get('duration_s'))} s")
+            f" start {m.starttime or '?'}, {_g(m.duration_s)} s")
 
 
 def _g(x, fmt="{:g}"):
@@ -176,26 +176,26 @@ def header_lines(ctx):
     post, m = ctx.post, ctx.post.meta
     conv = ctx.summary["convergence"]
     stations = sorted({".".join(c.split(".")[:2]) for c in post.channel_ids})
-    n_used, n_poss = m.get("n_segments"), m.get("n_segments_possible")
-    seg = m.get("segment_s")
-    used = m.get("data_used") or {}
+    n_used, n_poss = m.n_segments, m.n_segments_possible
+    seg = m.segment_s
+    used = m.data_used or {}
     dropped = (None if n_used is None or n_poss is None
                else n_poss - n_used - (used.get("transients") or {}).get("dropped", 0))
-    band = m.get("band_hz") or [None, None]
+    band = m.band_hz or [None, None]
     lines = [
         f"Result: {ctx.summary.get('schema', '?')}, rendered"
         f" {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by bayescal {__version__}",
         f"Station(s): {', '.join(stations)}",
         f"Sensor under test: {', '.join(post.channel_ids)}",
-        f"Reference: {', '.join(sorted(m.get('reference', {})))}"]
+        f"Reference: {', '.join(sorted(m.reference or {}))}"]
     for label, key in (("SUT files", "sut"), ("Reference files", "reference")):
-        files = [f for f in (m.get("files") or {}).get(key, [])
+        files = [f for f in (m.files or {}).get(key, [])
                  if f not in ("SUT", "reference", "stream")]      # in-memory stream names
         if files:
             lines.append(_files_line(label, files))
     lines += [
-        f"Data window: start {m.get('starttime', '?')}, duration {_g(m.get('duration_s'), '{:.0f}')} s,"
-        f" sampling {_g(m.get('sampling_rate'))} Hz",
+        f"Data window: start {m.starttime or '?'}, duration {_g(m.duration_s, '{:.0f}')} s,"
+        f" sampling {_g(m.sampling_rate)} Hz",
         *textwrap.wrap(
             f"Segments used: {_g(n_used)} of {_g(n_poss)} ({_g(seg, '{:.1f}')} s each)"
             + (f", about {used['approx_seconds']:.0f} s of data" if used.get("approx_seconds")
@@ -203,29 +203,29 @@ def header_lines(ctx):
             + f"; dropped: {_g(dropped)}"
             + ("" if not dropped else f" ({used.get('note', 'gaps or bad data')})"), 120),
         f"Band: {_g(band[0], '{:.4g}')} - {_g(band[1], '{:.4g}')} Hz in"
-        f" {max(len(m.get('band_edges_hz', [])) - 1, 0)}"
-        f" sub-bands; response fitted: {m.get('free_response', 'none')}"]
+        f" {max(len(m.band_edges_hz if m.band_edges_hz is not None else []) - 1, 0)}"
+        f" sub-bands; response fitted: {m.free_response or 'none'}"]
     if used.get("transients"):
         tr = used["transients"]
         lines += textwrap.wrap(
             f"Transients: {tr['dropped']} segments left out, in which one sensor recorded "
             f"{min(tr['ratio']):.3g}-{max(tr['ratio']):.3g} times the incoherent power of the "
             f"minutes around", 120)
-    if m.get("reference_tolerance"):
+    if m.reference_tolerance:
         lines += textwrap.wrap(
             f"Reference metadata: gain, period and damping known to "
-            f"{100 * m['reference_tolerance']['relative_sd']:g} % (1 sd), carried into the "
+            f"{100 * m.reference_tolerance['relative_sd']:g} % (1 sd), carried into the "
             f"SUT's response intervals", 120)
-    if m.get("band_choice"):
-        lines += textwrap.wrap(f"Band choice: {m['band_choice']}", 120)
-    if m.get("assumption"):
-        lines += textwrap.wrap(f"Assumed: {m['assumption']}", 120)
-    if m.get("reference_noise"):
+    if m.band_choice:
+        lines += textwrap.wrap(f"Band choice: {m.band_choice}", 120)
+    if m.assumption:
+        lines += textwrap.wrap(f"Assumed: {m.assumption}", 120)
+    if m.reference_noise:
         from ..core.posterior.samples import describe_treatment
-        lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m['reference_noise'])}",
+        lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m.reference_noise)}",
                                120)
-    if m.get("method"):
-        lines.append(f"Posterior: {m['method']}, {conv['ess_min']:.0f} independent draws")
+    if m.method:
+        lines.append(f"Posterior: {m.method}, {conv['ess_min']:.0f} independent draws")
     else:
         lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
                      f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"

@@ -43,11 +43,11 @@ def load_truth(folder, meta, truth=None):
     """Simulation truth for truth markers, or None.
 
     ``truth`` may be a dict (simulate's format ``{"channels": {id: {...}}}``)
-    or a path to a JSON file; otherwise ``meta["truth"]``, otherwise
+    or a path to a JSON file; otherwise the meta's ``truth`` entry, otherwise
     ``folder/truth.json`` when present.
     """
-    if truth is None and meta.get("truth"):
-        truth = meta["truth"]
+    if truth is None and meta.extra.get("truth"):
+        truth = meta.extra["truth"]
     if truth is None:
         path = os.path.join(folder, "truth.json")
         truth = path if os.path.exists(path) else None

@@ -10,7 +10,7 @@
 
 The generators import only :mod:`bayescal.core` (:mod:`.selfnoise` builds
 its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` also runs
-:mod:`bayescal.io.pipeline` on what it simulates, and :mod:`.harness` computes
+:mod:`bayescal.pair` on what it simulates, and :mod:`.harness` computes
 a pair's cross-spectra with :mod:`bayescal.io.align` (neither is imported here).
 """
 from .coil import simulate_calibration

@@ -11,7 +11,8 @@ import numpy as np
 from scipy.stats import binom
 
 from ..core.orientation.geometry import tilt_components, unit_vector, unwrap_azimuths
-from ..io.pipeline import calibrate
+from ..core.posterior.samples import sampled_azimuth_dip
+from ..pair.calibrate import calibrate
 from .pair import simulate_pair
 
 NOMINAL = (30.0, 0.707, 750.0)
@@ -31,8 +32,8 @@ def draw_case(seed):
 
 def run_case(seed, duration, fs, band, fit_response, **calibrate_kw):
     """One seeded case fitted as ``bayescal fit`` does (``calibrate_kw`` to
-    :func:`bayescal.io.pipeline.calibrate`, e.g. ``ref_noise``); returns the
-    posterior and the truth."""
+    :func:`bayescal.pair.calibrate.calibrate`, e.g. ``ref_noise``); returns the
+    result and the truth."""
     azs, dips, resp, coh = draw_case(seed)
     if fit_response == "none":            # response held at nominal: truth must be nominal
         resp = (NOMINAL,) * 3
@@ -50,7 +51,7 @@ def coverage_checks(post, azs, dips, resp, level=90.0):
     """Dict name -> (inside interval?, standardised error) for every truth."""
     lo_q, hi_q = (100 - level) / 2, 100 - (100 - level) / 2
     out = {}
-    az, dip = post.azimuth_dip
+    az, dip = sampled_azimuth_dip(post.vectors)
     for k, cid in enumerate(post.channel_ids):
         short = cid.split(".")[-1]
         if abs(dips[k]) > 80:
@@ -64,8 +65,8 @@ def coverage_checks(post, azs, dips, resp, level=90.0):
             pairs = {f"{short}:azimuth": (a[:-1], a[-1]), f"{short}:dip": (dip[:, k], dips[k])}
         if cid in post.response:
             r = post.response[cid]
-            names = ("period", "damping", "gain") if post.meta["free_response"] == "all" else ()
-            if post.meta["free_response"] == "gain":
+            names = ("period", "damping", "gain") if post.meta.free_response == "all" else ()
+            if post.meta.free_response == "gain":
                 names = ("gain",)
             for name in names:
                 j = ("period", "damping", "gain").index(name)

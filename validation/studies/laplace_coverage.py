@@ -34,7 +34,7 @@ def apply_variant(variant):
     """Monkeypatches for one probe; returns extra ``calibrate`` keywords."""
     import bayescal.core.model.likelihood as lk
     import bayescal.core.model.noisescale as ns
-    import bayescal.io.pipeline as pl
+    import bayescal.pair.prepare as pl
     kw = {}
     for v in filter(None, variant.split("+")):
         if v == "norescale":                       # no SUT-counts row rescaling (quiet model)
@@ -63,7 +63,7 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coher
     the coverage study's case ``seed``, or with ``case`` that case's truth
     (and ``coherence`` if given) simulated with noise and waves of ``seed``."""
     import bayescal.core.fit.run as sm
-    from bayescal.io.pipeline import calibrate
+    from bayescal.pair.calibrate import calibrate
     from bayescal.simulate.coverage import NOMINAL, draw_case
     from bayescal.simulate.pair import simulate_pair
     orig = sm.least_squares_fit

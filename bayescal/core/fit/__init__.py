@@ -4,7 +4,7 @@
 * :mod:`.leastsq`       least squares: the one caller of scipy's, for every fit
 * :mod:`.modes`         several optima of one posterior: searched and weighed
 * :mod:`.unconstrained` a gain the data do not constrain: found and held
-* :mod:`.assemble`      a fit's Posterior put together from its model and samples
+* :mod:`.assemble`      a fit's state put together from its model and samples
 * :mod:`.errors`        :class:`~bayescal.core.fit.errors.FitError`, raised
                         when a fit cannot proceed
 * :mod:`.rotation`      one reference channel, two SUT horizontals: their

@@ -1,38 +1,39 @@
-"""A fit's :class:`~bayescal.core.posterior.samples.Posterior` put together
+"""A fit's :class:`~bayescal.core.posterior.state.FitState` put together
 from its model and samples: every kind of fit (the pair fit, a diagnosis's
-final model) builds its result here."""
+final model) builds its state here."""
 from __future__ import annotations
 
 import numpy as np
 
-from ..posterior.samples import Posterior
+from ..posterior.state import FitState
 
 #: Sampled parameters of an axis -> what the result calls its kind.
 KINDS = {2: "sphere", 1: "circle", 0: "fixed"}
 
 
-def assemble_posterior(model, samples, log_prob, convergence, meta, free, names=None,
+def assemble_posterior(model, samples, log_prob, convergence, meta, free, *, names=None,
                        full=None, theta_ls=None, not_estimable=None, trace=None):
-    """The :class:`~bayescal.core.posterior.samples.Posterior` of ``model``.
+    """The :class:`~bayescal.core.posterior.state.FitState` of ``model``.
 
     ``samples`` (N, k) and ``log_prob`` (N,) as sampled, in the coordinates
     named ``names`` (None: the model's own); ``full`` (N, ndim) the same in
     the model's coordinates (None: ``samples``; it differs when parameters
     were held). Axes and responses (when ``free`` is not "none") are read
     from ``full``, the diagnostics at its median. ``convergence``:
-    :meth:`bayescal.core.sampling.mcmc.Chain.convergence`'s dict.
+    :meth:`bayescal.core.sampling.mcmc.Chain.convergence`'s dict; ``meta``
+    a dict or a :class:`~bayescal.result.meta.Meta`.
     """
     full = samples if full is None else full
     vecs, _ = model.unpack(full)
     theta = np.median(full, axis=0)
-    return Posterior(channel_ids=[b.channel_id for b in model.blocks],
-                     kinds=[KINDS[b.manifold.n_params] for b in model.blocks], vectors=vecs,
-                     response=model.response_values(full) if free != "none" else {},
-                     samples=samples, names=list(model.names if names is None else names),
-                     log_prob=log_prob, convergence=convergence, meta=meta,
-                     not_estimable=not_estimable or {}, trace=trace,
-                     diagnostics=diagnostics(model, theta), model=model, theta_ls=theta_ls,
-                     full_samples=full)
+    return FitState(channel_ids=[b.channel_id for b in model.blocks],
+                    kinds=[KINDS[b.manifold.n_params] for b in model.blocks], vectors=vecs,
+                    response=model.response_values(full) if free != "none" else {},
+                    samples=samples, names=list(model.names if names is None else names),
+                    log_prob=log_prob, convergence=convergence, meta=meta,
+                    not_estimable=not_estimable or {}, trace=trace,
+                    diagnostics=diagnostics(model, theta), model=model, theta_ls=theta_ls,
+                    full_samples=full)
 
 
 def plugin_meta(model):

@@ -98,9 +98,9 @@ def _inflation(per_segment, segment_starts, nperseg, bins, w):
 def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
     """Posterior of the SUT horizontals' common azimuth from one reference
     channel (see the module docstring). ``pair`` is :func:`orthogonal_pair`'s
-    answer. Returns a :class:`bayescal.core.posterior.samples.Posterior` with both
+    answer. Returns a :class:`bayescal.core.posterior.state.FitState` with both
     channels of kind "circle", their azimuths differing by exactly 90."""
-    from ..posterior.samples import Posterior
+    from ..posterior.state import FitState
 
     i, j, s = pair
     phi, _ = azimuth_dip(np.asarray(ref_vector, float).reshape(3))
@@ -147,9 +147,9 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
                    "multiple_coherence": sub.multiple_coherence(),
                    "residual_power_per_bin": misfit, "noise_inflation": [infl],
                    "sut_ids": np.array(ids), "ref_ids": np.array(sub.ref_ids)}
-    return Posterior(channel_ids=ids, kinds=["circle", "circle"], vectors=vectors, response={},
-                     samples=alpha[:, None], names=["rotation_deg"], log_prob=np.zeros(N_SAMPLES),
-                     convergence={"tau": np.ones(1), "ess": np.array([float(N_SAMPLES)]),
-                                  "rhat": np.ones(1), "acceptance": 1.0, "n_steps": 0,
-                                  "n_walkers": 0, "burn": 0, "converged": True},
-                     meta=meta, not_estimable=others, diagnostics=diagnostics)
+    return FitState(channel_ids=ids, kinds=["circle", "circle"], vectors=vectors, response={},
+                    samples=alpha[:, None], names=["rotation_deg"], log_prob=np.zeros(N_SAMPLES),
+                    convergence={"tau": np.ones(1), "ess": np.array([float(N_SAMPLES)]),
+                                 "rhat": np.ones(1), "acceptance": 1.0, "n_steps": 0,
+                                 "n_walkers": 0, "burn": 0, "converged": True},
+                    meta=meta, not_estimable=others, diagnostics=diagnostics)

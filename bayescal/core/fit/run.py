@@ -65,7 +65,7 @@ class Setup:
     not_estimable: dict     # SUT channel id -> reason
 
 
-def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
+def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none", *,
                 priors=Priors(), ref_noise=None, known_noise=None):
     """Decide each SUT channel's parametrisation and the starting point.
 
@@ -88,30 +88,10 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     """
     ref_vectors = np.asarray(ref_vectors, float)
     basis, _ = span_basis(ref_vectors)
+    v_hat = closed_form_transfer(spectra) @ ref_vectors                # (nu, 3)
+    fitted, skipped = _estimable(spectra, basis, v_hat, sut_nominal_vectors)
+    _check_families(families, fitted, free)
     rank = basis.shape[0]
-    t_hat = closed_form_transfer(spectra)
-    v_hat = t_hat @ ref_vectors                                   # (nu, 3)
-    fitted, skipped = [], {}
-    for i, cid in enumerate(spectra.sut_ids or range(spectra.n_u)):
-        if rank < 3:
-            vn = np.asarray(sut_nominal_vectors[i], float)
-            inside = np.linalg.norm(basis @ vn)
-            if inside < np.cos(np.radians(SPAN_TOLERANCE_DEG)):
-                skipped[str(cid)] = (f"its axis lies outside the span of the {rank} reference "
-                                     "channel(s); the reference cannot see it")
-                continue
-        if np.linalg.norm(v_hat[i]) == 0 or not np.all(np.isfinite(v_hat[i])):
-            skipped[str(cid)] = "no signal coherent with the reference"
-            continue
-        fitted.append(i)
-    if not fitted:
-        raise FitError("no SUT channel can be estimated from this reference")
-    if free != "none" and any(families[i] is None for i in fitted):
-        raise FitError("gain fitting needs a response with a gain on every fitted channel")
-    if free == "all" and any(not np.isfinite(families[i].period_s) for i in fitted):
-        raise FitError("fitting period and damping (--fit-response all) needs a poles-and-zeros "
-                       "first stage with a pendulum pair on every fitted channel ('flat' has "
-                       "none: use the default, which fits each channel's gain)")
     sub = spectra.select(fitted)
     blocks, theta0 = [], []
     for i in fitted:
@@ -140,6 +120,39 @@ def build_model(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
                  not_estimable=skipped)
 
 
+def _estimable(spectra, basis, v_hat, sut_nominal_vectors):
+    """(indices of the SUT channels that can be estimated, {channel id:
+    why not} of the others): outside a partial reference's span, or no
+    signal coherent with the reference (``v_hat``: the closed-form axes)."""
+    rank = basis.shape[0]
+    fitted, skipped = [], {}
+    for i, cid in enumerate(spectra.sut_ids or range(spectra.n_u)):
+        if rank < 3:
+            vn = np.asarray(sut_nominal_vectors[i], float)
+            inside = np.linalg.norm(basis @ vn)
+            if inside < np.cos(np.radians(SPAN_TOLERANCE_DEG)):
+                skipped[str(cid)] = (f"its axis lies outside the span of the {rank} reference "
+                                     "channel(s); the reference cannot see it")
+                continue
+        if np.linalg.norm(v_hat[i]) == 0 or not np.all(np.isfinite(v_hat[i])):
+            skipped[str(cid)] = "no signal coherent with the reference"
+            continue
+        fitted.append(i)
+    if not fitted:
+        raise FitError("no SUT channel can be estimated from this reference")
+    return fitted, skipped
+
+
+def _check_families(families, fitted, free):
+    """Refuse a response fit the fitted channels' metadata cannot carry."""
+    if free != "none" and any(families[i] is None for i in fitted):
+        raise FitError("gain fitting needs a response with a gain on every fitted channel")
+    if free == "all" and any(not np.isfinite(families[i].period_s) for i in fitted):
+        raise FitError("fitting period and damping (--fit-response all) needs a poles-and-zeros "
+                       "first stage with a pendulum pair on every fitted channel ('flat' has "
+                       "none: use the default, which fits each channel's gain)")
+
+
 def least_squares_fit(model, theta0, iterations=2, jac=None):
     """Refine ``theta0`` by least squares on the whitened residual (Levenberg-
     Marquardt, :func:`bayescal.core.fit.leastsq.refine`), re-estimating the
@@ -166,7 +179,7 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
                   noise_args=lambda: (model.noise.cholesky(),), method="lm", jac=jac)
 
 
-def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none",
+def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, *, free="none",
                 priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
                 misfit_shape=None, known_noise=None, **sample_kw):
     """Whole inference from spectra: start, least squares, sampling.
@@ -179,14 +192,14 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     :func:`bayescal.core.model.refnoise.recommended_mode` of the pair: "estimate"
     (the reference's self-noise estimated, unbiased whatever the split of
     noise) with two or more channels a side, "quiet" otherwise; the mode
-    used and whether it was the default are in
-    ``posterior.meta["reference_noise"]``. ``known_noise`` (B, n_r): the
+    used and whether it was the default are in the meta's
+    ``reference_noise``. ``known_noise`` (B, n_r): the
     reference's self-noise given as band sums
     (:func:`bayescal.core.model.refnoise.band_sums_of_psd`), with ``ref_noise="fixed"``.
 
-    Returns a :class:`bayescal.core.posterior.samples.Posterior`
+    Returns a :class:`bayescal.core.posterior.state.FitState`
     (:func:`bayescal.core.fit.assemble.assemble_posterior`); the least-squares
-    point is also in ``posterior.meta["least_squares"]``.
+    point is also in its meta's ``least_squares``.
     """
     from .rotation import fit_rotation, orthogonal_pair
 
@@ -203,20 +216,47 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     if ref_noise is None:       # the default: unbiased whatever the split of noise
         from ..model.refnoise import recommended_mode
         ref_noise, chosen_by = recommended_mode(spectra.n_r, spectra.n_u), "default"
-    setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free, priors,
-                        ref_noise=ref_noise, known_noise=known_noise)
-    model = setup.model
-    model.misfit_shape = misfit_scale.MISFIT_SHAPE if misfit_shape is None else misfit_shape
-    if model.ndim == 0:
+    setup = build_model(spectra, ref_vectors, sut_nominal_vectors, families, free,
+                        priors=priors, ref_noise=ref_noise, known_noise=known_noise)
+    setup.model.misfit_shape = (misfit_scale.MISFIT_SHAPE if misfit_shape is None
+                                else misfit_shape)
+    if setup.model.ndim == 0:
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
                        "fixed to the reference's (one channel each), so only its response can "
                        "be estimated: do not hold it with --fit-response none")
+    run = _sample(setup, sut_nominal_vectors, seed=seed, progress=progress, **sample_kw)
+    meta = dict(meta or {})
+    meta.update(_fit_meta(run, spectra, free, priors, chosen_by))
+    return assemble_posterior(run.model, run.chain.samples, run.chain.log_prob,
+                              run.chain.convergence(), meta, free, names=run.target.names,
+                              full=run.full, theta_ls=run.theta_ls,
+                              not_estimable=setup.not_estimable, trace=run.chain.trace)
+
+
+@dataclass
+class _Run:
+    """What the least squares, the mode search and the sampler made."""
+
+    model: Model
+    theta_ls: np.ndarray
+    target: object
+    chain: object
+    full: np.ndarray
+    multimodal: dict
+    separation: dict
+    set_by_prior: dict
+    sensitivity: dict
+
+
+def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
+    """Least squares, the search for other modes, the parameters held for
+    want of information, the chain, and the flags on what the prior set."""
     from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
     with single_threaded_blas():
-        theta_ls, cov = least_squares_fit(model, setup.theta0)
+        theta_ls, cov = least_squares_fit(setup.model, setup.theta0)
         # other optima: the most probable mode is sampled
-        model, theta_ls, cov, multimodal = _modes(model, theta_ls, cov, sut_nominal_vectors,
-                                                  setup.fitted)
+        model, theta_ls, cov, multimodal = _modes(setup.model, theta_ls, cov,
+                                                  sut_nominal_vectors, setup.fitted)
         separation = {}
         if getattr(model, "ref_noise", None) == "estimate":
             from ..checks.separation import gain_separation
@@ -230,29 +270,34 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, free="none"
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
     sensitivity = _prior_sensitivity(model, full, n_eff=np.min(chain.convergence()["ess"]))
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
-    meta = dict(meta or {})
-    meta.update({"free_response": free, "band_hz": [float(spectra.band_edges[0]),
-                                                     float(spectra.band_edges[-1])],
-                 "band_edges_hz": spectra.band_edges, "n_segments": spectra.n_segments,
-                 "n_segments_possible": spectra.n_segments_possible,
-                 "segment_s": spectra.nperseg / spectra.fs,
-                 "noise_inflation": model.noise.inflation,
-                 "plugin_weights": plugin_meta(model),
-                 "reference_noise": dict(refnoise.treatment_meta(model, theta_ls),
-                                         chosen_by=chosen_by,
-                                         **({"separation": separation} if separation else {})),
-                 "misfit_scale": _misfit_meta(model, np.median(full, axis=0)),
-                 "least_squares": dict(zip(model.names, theta_ls)),
-                 "set_by_prior": set_by_prior, "multimodal": multimodal,
-                 **({"prior_sensitivity": sensitivity,
-                     "response_prior": {"period_tolerance": priors.period_tolerance,
-                                        "damping_tolerance": priors.damping_tolerance,
-                                        "shape": "log-normal around the metadata values"}}
-                    if sensitivity else {}),
-                 "sampler": chain.sampler})
-    return assemble_posterior(model, chain.samples, chain.log_prob, chain.convergence(), meta,
-                              free, names=target.names, full=full, theta_ls=theta_ls,
-                              not_estimable=setup.not_estimable, trace=chain.trace)
+    return _Run(model=model, theta_ls=theta_ls, target=target, chain=chain, full=full,
+                multimodal=multimodal, separation=separation, set_by_prior=set_by_prior,
+                sensitivity=sensitivity)
+
+
+def _fit_meta(run, spectra, free, priors, chosen_by):
+    """The meta entries of a pair fit: band, segments, noise model, the
+    reference's noise, least squares, what the prior set, modes, sampler."""
+    model = run.model
+    return {"free_response": free, "band_hz": [float(spectra.band_edges[0]),
+                                               float(spectra.band_edges[-1])],
+            "band_edges_hz": spectra.band_edges, "n_segments": spectra.n_segments,
+            "n_segments_possible": spectra.n_segments_possible,
+            "segment_s": spectra.nperseg / spectra.fs,
+            "noise_inflation": model.noise.inflation,
+            "plugin_weights": plugin_meta(model),
+            "reference_noise": dict(refnoise.treatment_meta(model, run.theta_ls),
+                                    chosen_by=chosen_by,
+                                    **({"separation": run.separation} if run.separation else {})),
+            "misfit_scale": _misfit_meta(model, np.median(run.full, axis=0)),
+            "least_squares": dict(zip(model.names, run.theta_ls)),
+            "set_by_prior": run.set_by_prior, "multimodal": run.multimodal,
+            **({"prior_sensitivity": run.sensitivity,
+                "response_prior": {"period_tolerance": priors.period_tolerance,
+                                   "damping_tolerance": priors.damping_tolerance,
+                                   "shape": "log-normal around the metadata values"}}
+               if run.sensitivity else {}),
+            "sampler": run.chain.sampler}
 
 
 def _modes(model, theta_ls, cov, nominal, fitted):
@@ -286,27 +331,27 @@ def _prior_sensitivity(model, samples, reported=None, n_eff=None):
                                                n_eff=n_eff)
 
 
-def judge_reported_response(post):
-    """Redo the prior-sensitivity flags of ``post`` (a fit's Posterior) on the
-    period and damping it reports, once the reference's metadata tolerance
-    has been drawn into them (``post.response``, row for row with
-    ``post.full_samples``): the flag then asks what refits with the prior
-    halved or doubled would report. ``meta["prior_sensitivity"]`` and the
-    period and damping entries of ``meta["set_by_prior"]`` are replaced."""
-    model = post.model
-    if model is None or post.full_samples is None or not post.meta.get("prior_sensitivity"):
-        return post
-    ess = (post.convergence or {}).get("ess")
-    sens = _prior_sensitivity(model, post.full_samples,
-                              {cid: post.response[cid] for cid in post.response},
-                              n_eff=None if ess is None else np.min(ess))
-    entries = post.meta.setdefault("set_by_prior", {})
+def judged_response_flags(state, response):
+    """The prior-sensitivity flags of ``state`` (a pair fit's
+    :class:`~bayescal.core.posterior.state.FitState`) redone on the period
+    and damping it reports, once the reference's metadata tolerance has
+    been drawn into them (``response``, channel id -> (N, 3), row for row
+    with ``state.full_samples``): the flag then asks what refits with the
+    prior halved or doubled would report. Returns the meta entries that
+    change, ``{"set_by_prior": ..., "prior_sensitivity": ...}`` (the
+    period and damping entries of ``set_by_prior`` replaced), or ``{}``
+    when nothing is judged."""
+    model = state.model
+    if model is None or state.full_samples is None or not state.meta.prior_sensitivity:
+        return {}
+    sens = _prior_sensitivity(model, state.full_samples, dict(response),
+                              n_eff=state.convergence.ess_min)
+    entries = dict(state.meta.set_by_prior or {})
     for cid in sens:
         for name in ("period_s", "damping", "damping_over_period"):
             entries.pop(f"{cid}:{name}", None)
     entries.update(pendulum.set_by_prior_entries(sens))
-    post.meta["prior_sensitivity"] = sens
-    return post
+    return {"set_by_prior": entries, "prior_sensitivity": sens}
 
 
 def _misfit_meta(model, theta):

@@ -71,26 +71,29 @@ def aligned_reference(sut_vectors, ref_vectors):
     return np.argmax(np.abs(np.asarray(sut_vectors) @ np.asarray(ref_vectors).T), axis=1)
 
 
-def apply(post, sut_vectors, ref_vectors, ref_families, tolerance, seed=0):
-    """Widen every fitted response of ``post`` (a Posterior; ``post.response``
-    channel id -> (N, 3)) by the reference's metadata ``tolerance`` and say
-    so in ``post.meta["reference_tolerance"]``. ``sut_vectors`` in the order
-    of ``post.channel_ids``; ``ref_families`` per reference channel (a
+def widen_responses(response, channel_ids, *, sut_vectors, ref_vectors, ref_families,
+                    tolerance, seed=0):
+    """A fit's responses (channel id -> (N, 3)) with the reference's metadata
+    ``tolerance`` drawn into every one (:func:`widen`); the input is left
+    as it is. ``sut_vectors`` in the order of ``channel_ids``;
+    ``ref_families`` per reference channel (a
     :class:`bayescal.core.response.TwoPoleFamily` or anything else)."""
-    if not tolerance:
-        return post
     rng = np.random.default_rng([seed, 0x7EF])
     along = aligned_reference(sut_vectors, ref_vectors)
-    for k, cid in enumerate(post.channel_ids):
-        if cid not in post.response:
+    out = dict(response)
+    for k, cid in enumerate(channel_ids):
+        if cid not in response:
             continue
         fam = ref_families[along[k]]
         ref = ((fam.period_s, fam.damping) if np.isfinite(getattr(fam, "period_s", np.nan))
                else None)
-        post.response[cid] = widen(post.response[cid], ref, tolerance, rng)
-    post.meta["reference_tolerance"] = {
-        "relative_sd": float(tolerance),
-        "note": "the reference's gain, natural period and damping known to this relative "
-                "standard deviation (log-normal): each SUT channel's response intervals carry "
-                "the error of the reference channel most aligned with it"}
-    return post
+        out[cid] = widen(response[cid], ref, tolerance, rng)
+    return out
+
+
+def meta_entry(tolerance):
+    """The ``reference_tolerance`` meta entry of a fit widened by ``tolerance``."""
+    return {"relative_sd": float(tolerance),
+            "note": "the reference's gain, natural period and damping known to this relative "
+                    "standard deviation (log-normal): each SUT channel's response intervals "
+                    "carry the error of the reference channel most aligned with it"}

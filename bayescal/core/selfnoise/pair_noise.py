@@ -344,7 +344,7 @@ FLAT_NOTE = ("'flat' metadata: levels are in the assumed units (1 count per m/s 
              "(no sensor-order check)")
 
 
-def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False,
+def for_fit(model, samples, *, ref_noise=None, free="none", seed=0, ids=((), ()), flat=False,
             sut_placeholder=False, poorly_separated=False):
     """``(self_noise, sensor_order)`` result.json entries of a pair fit:
     ``model`` the fitted model (None for a fit without one, e.g. the
@@ -387,23 +387,31 @@ def for_fit(model, samples, ref_noise=None, free="none", seed=0, ids=((), ()), f
         basis += ("; caution: with free gains and --ref-noise quiet, T absorbs the reference's "
                   "noise (reference's estimate low, SUT's high); use --ref-noise estimate")
     entry, order = summarise(res, along, basis)
-    split_at_fit = mode in ("estimate", "fixed") and not poorly_separated
-    if margins is not None:
-        order = order_entry(margins, fitted_db=order.get("reference_minus_sut_db")
-                            if split_at_fit else None)
-    elif mode == "estimate" and poorly_separated and free != "none":
-        order = {"reference_minus_sut_db": order.get("reference_minus_sut_db"),
-                 "reference_noisier": False, "threshold_db": SWAP_MARGIN_DB,
-                 "undetermined": "which sensor is the noisier cannot be told from this pair: "
-                                 "its noise is poorly separated from the SUT's gains in this "
-                                 "band (see reference noise); bayescal noise with a third "
-                                 "sensor tells them apart"}
-    elif quiet_free:
-        order["caution"] = ("free gains with --ref-noise quiet and placeholder metadata: the "
-                            "gains absorb the reference's noise, so a noisier reference can go "
-                            "unnoticed here")
+    order = _order(order, margins, mode=mode, free=free, poorly_separated=poorly_separated)
     if flat:
         entry["units"] = FLAT_NOTE
         if free == "none":
             order = {}
     return entry, order
+
+
+def _order(order, margins, *, mode, free, poorly_separated):
+    """The ``sensor_order`` entry of :func:`for_fit`: :func:`summarise`'s
+    ``order`` judged at the metadata gains (``margins``, None when not
+    judged there), or said undetermined or cautioned as the mode needs."""
+    split_at_fit = mode in ("estimate", "fixed") and not poorly_separated
+    if margins is not None:
+        return order_entry(margins, fitted_db=order.get("reference_minus_sut_db")
+                           if split_at_fit else None)
+    if mode == "estimate" and poorly_separated and free != "none":
+        return {"reference_minus_sut_db": order.get("reference_minus_sut_db"),
+                "reference_noisier": False, "threshold_db": SWAP_MARGIN_DB,
+                "undetermined": "which sensor is the noisier cannot be told from this pair: "
+                                "its noise is poorly separated from the SUT's gains in this "
+                                "band (see reference noise); bayescal noise with a third "
+                                "sensor tells them apart"}
+    if mode == "quiet" and free != "none":
+        order["caution"] = ("free gains with --ref-noise quiet and placeholder metadata: the "
+                            "gains absorb the reference's noise, so a noisier reference can go "
+                            "unnoticed here")
+    return order

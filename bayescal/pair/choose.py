@@ -1,0 +1,74 @@
+"""The last step of a pair fit: the frozen
+:class:`~bayescal.result.record.Result`. The sensors' self-noise, the
+reference's metadata tolerance and the flags on what the prior set are
+applied to the fit's values here, before the Result is built.
+
+Which estimates are reported: the fit's (its model, not the criticism's
+improved model, heads the result); the improved model's are kept beside
+them (``result.improved``; the corrected StationXML takes them when the
+criticism says so).
+"""
+from __future__ import annotations
+
+from ..core.fit.run import judged_response_flags
+from ..core.response.reference_tolerance import meta_entry, widen_responses
+from ..core.selfnoise.pair_noise import for_fit
+
+
+def self_noise(state, data, *, fit_response, seed=0):
+    """The ``(self_noise, sensor_order)`` entries of the fit ``state`` of
+    ``data`` (:func:`bayescal.core.selfnoise.pair_noise.for_fit`)."""
+    rn = state.meta.reference_noise or {}
+    return for_fit(state.model, state.full_samples, ref_noise=rn.get("mode"),
+                   free=fit_response, seed=seed,
+                   ids=(data.spectra.sut_ids, data.spectra.ref_ids),
+                   flat=data.ref_flat or (data.sut_flat and fit_response == "none"),
+                   sut_placeholder=data.sut_flat,
+                   poorly_separated="note" in rn.get("separation", {}))
+
+
+def _tolerated(state, data, tolerance, seed):
+    """(responses, meta) of ``state`` with the reference's metadata
+    ``tolerance`` drawn into its responses
+    (:mod:`bayescal.core.response.reference_tolerance`); as they are when
+    the tolerance is 0."""
+    if not tolerance:
+        return state.response, state.meta
+    response = widen_responses(state.response, state.channel_ids, sut_vectors=data.sut_vectors,
+                               ref_vectors=data.ref_vectors, ref_families=data.ref_families,
+                               tolerance=tolerance, seed=seed)
+    return response, state.meta.replace(reference_tolerance=meta_entry(tolerance))
+
+
+def choose(state, criticism, *, data, fit_response="gain", tolerance=0.0, seed=0):
+    """The :class:`~bayescal.result.record.Result` of a pair fit.
+
+    Parameters
+    ----------
+    state : FitState
+        From :func:`bayescal.pair.fit.fit`.
+    criticism : Criticism
+        From :func:`bayescal.pair.criticise.criticise`.
+    data : PairData
+        What the fit was made from (:func:`bayescal.pair.prepare.prepare`).
+    fit_response : str
+        What of the response was asked to be fitted.
+    tolerance : float
+        The reference's metadata tolerance (``Priors.reference_tolerance``):
+        both the fit's and the improved model's responses carry it (the
+        criticism judged the move between them on the data's own intervals,
+        which the reference's error moves alike); the fit's flags on what
+        the prior set are then judged on the responses it reports.
+    seed : int
+        Seed of the self-noise draws and of the tolerance's.
+    """
+    noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
+    improved = None
+    if criticism.improved is not None:
+        response, meta = _tolerated(criticism.improved, data, tolerance, seed)
+        improved = criticism.improved.to_result(response=response, meta=meta)
+    response, meta = _tolerated(state, data, tolerance, seed)
+    if tolerance:
+        meta = meta.replace(**judged_response_flags(state, response))
+    return state.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
+                           criticism=criticism.summary, improved=improved)

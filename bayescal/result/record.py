@@ -1,0 +1,111 @@
+"""A fit's result: what is saved and read back, frozen once built."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .convergence import Convergence
+from .meta import Meta, by_channel
+
+SCHEMA = "bayescal.fit/1"
+#: ``multimodal`` of a fit that did not search for modes.
+NOT_SEARCHED = {"detected": None, "note": "not searched for this kind of fit"}
+
+
+@dataclass(frozen=True)
+class Result:
+    """Samples of one fit, their summaries and what was run.
+
+    Attributes
+    ----------
+    channel_ids : fitted SUT channels (SEED ids), in order.
+    kinds : per channel "sphere" (azimuth and dip estimated), "circle"
+        (azimuth in the reference's plane) or "fixed" (response only).
+    vectors : (N, n_ch, 3) sampled channel axes (NED).
+    response : channel id -> (N, 3) period_s, damping, gain samples; only
+        for channels whose response was fitted.
+    samples, names, log_prob : raw sampler output in model coordinates.
+    convergence : :class:`~bayescal.result.convergence.Convergence`.
+    meta : :class:`~bayescal.result.meta.Meta`: band, data used, reference
+        noise, sampler, nominal values, ...
+    channels : channel id -> its summary (``result.json``'s ``channels``:
+        azimuth, dip or tilt, response, with credible intervals).
+    orthogonality_deg, adequacy : ``result.json``'s entries of the same names.
+    not_estimable, self_noise, sensor_order, criticism : the same.
+    diagnostics : arrays a report or a model check needs (``diagnostics.npz``).
+    trace : the chain's per-step trace, when kept.
+
+    A result just fitted also holds, in memory only (None when read back
+    from disk): ``improved``, the :class:`Result` of the criticism's
+    improved model, and ``state``, the live fit
+    (:class:`bayescal.core.posterior.state.FitState`: its model,
+    least-squares point, full samples, spectra and the SUT's metadata).
+    """
+
+    channel_ids: list
+    kinds: list
+    vectors: np.ndarray
+    response: dict
+    samples: np.ndarray
+    names: list
+    log_prob: np.ndarray
+    convergence: Convergence
+    meta: Meta
+    channels: dict
+    orthogonality_deg: dict = field(default_factory=dict)
+    adequacy: dict = field(default_factory=dict)
+    not_estimable: dict = field(default_factory=dict)
+    trace: np.ndarray | None = None
+    diagnostics: dict = field(default_factory=dict)
+    self_noise: dict = field(default_factory=dict)
+    sensor_order: dict = field(default_factory=dict)
+    criticism: dict = field(default_factory=dict)
+    improved: object = field(default=None, repr=False, compare=False)
+    state: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def sut_inventory(self):
+        """The SUT's metadata the fit read (None when read from disk)."""
+        return None if self.state is None else self.state.sut_inventory
+
+    def summary(self):
+        """The ``result.json`` content (schema ``bayescal.fit/1``): plain
+        JSON values (dicts, lists, str, float, int, bool, None)."""
+        return jsonable({
+            "schema": SCHEMA,
+            "adequacy": self.adequacy,
+            "multimodal": self.meta.multimodal or NOT_SEARCHED,
+            "channels": self.channels,
+            "not_estimable": self.not_estimable,
+            "set_by_prior": {cid: {k: v["reason"] for k, v in e.items()} for cid, e in
+                             by_channel(self.meta.set_by_prior).items()},
+            "orthogonality_deg": self.orthogonality_deg,
+            **({"self_noise": self.self_noise} if self.self_noise else {}),
+            **({"sensor_order": self.sensor_order} if self.sensor_order else {}),
+            **({"criticism": self.criticism} if self.criticism else {}),
+            "convergence": self.convergence.summary(self.names),
+            "meta": self.meta.to_dict(multimodal=False),
+        })
+
+
+def jsonable(obj):
+    """``obj`` as plain JSON values: numpy arrays as lists, numpy scalars as
+    Python numbers, non-finite floats as None."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if np.isfinite(obj) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    return obj
+
+
+#: The public name of a fit's result (``bayescal.Posterior``).
+Posterior = Result

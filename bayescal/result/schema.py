@@ -1,0 +1,77 @@
+"""A fit's :class:`~bayescal.result.record.Result` on disk, schema
+``bayescal.fit/1``: ``result.json`` (the summary: per-channel estimates,
+checks, convergence and ``meta``), ``samples.npz`` (samples,
+log-probabilities, axes, responses, convergence arrays) and
+``diagnostics.npz`` (spectra and misfits for reports), each written
+atomically; :func:`load` reads the three back into the same Result.
+"""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+from .convergence import Convergence
+from .meta import Meta
+from .record import Result, jsonable
+
+def save(result, folder):
+    """Write ``result.json`` and ``samples.npz`` (and ``diagnostics.npz``
+    when ``result`` holds diagnostics) into ``folder`` (created when
+    missing); each file is written to a temporary name, then renamed."""
+    os.makedirs(folder, exist_ok=True)
+    arrays = {"samples": result.samples, "log_prob": result.log_prob,
+              "vectors": result.vectors}
+    for cid, r in result.response.items():
+        arrays[f"response::{cid}"] = r
+    if result.trace is not None:
+        arrays["trace"] = result.trace
+    extra = {"channel_ids": result.channel_ids, "kinds": result.kinds, "names": result.names,
+             "convergence": jsonable(result.convergence.to_dict())}
+    tmp = os.path.join(folder, ".samples.tmp.npz")
+    np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
+    os.replace(tmp, os.path.join(folder, "samples.npz"))
+    if result.diagnostics:
+        tmp = os.path.join(folder, ".diagnostics.tmp.npz")
+        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.diagnostics.items()})
+        os.replace(tmp, os.path.join(folder, "diagnostics.npz"))
+    write_json(os.path.join(folder, "result.json"), result.summary())
+
+
+def load(folder):
+    """The :class:`~bayescal.result.record.Result` that :func:`save` wrote
+    into ``folder`` (its summaries as ``result.json`` holds them)."""
+    with open(os.path.join(folder, "result.json")) as fh:
+        s = json.load(fh)
+    with np.load(os.path.join(folder, "samples.npz")) as z:
+        extra = json.loads(str(z["extra"]))
+        response = {k.split("::", 1)[1]: z[k] for k in z.files if k.startswith("response::")}
+        arrays = {k: z[k] for k in ("vectors", "samples", "log_prob")}
+        trace = z["trace"] if "trace" in z.files else None
+    diagnostics = {}
+    path = os.path.join(folder, "diagnostics.npz")
+    if os.path.exists(path):
+        with np.load(path) as z:
+            diagnostics = {k: z[k] for k in z.files}
+    meta = Meta.from_dict({**s.get("meta", {}), "multimodal": s.get("multimodal")})
+    return Result(channel_ids=extra["channel_ids"], kinds=extra["kinds"], names=extra["names"],
+                  response=response, convergence=Convergence.from_dict(extra["convergence"]),
+                  meta=meta, channels=s.get("channels", {}),
+                  orthogonality_deg=s.get("orthogonality_deg", {}),
+                  adequacy=s.get("adequacy", {}), not_estimable=s.get("not_estimable", {}),
+                  trace=trace, diagnostics=diagnostics, self_noise=s.get("self_noise", {}),
+                  sensor_order=s.get("sensor_order", {}), criticism=s.get("criticism", {}),
+                  **arrays)
+
+
+def write_json(path, obj):
+    """Write ``obj`` as JSON atomically (temporary file, then rename)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as fh:
+        json.dump(jsonable(obj), fh, indent=2)
+    os.replace(tmp, path)
+
+
+#: The name :func:`bayescal.load_posterior` gives :func:`load`.
+load_posterior = load
