@@ -62,7 +62,8 @@ def run(args):
     tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
     try:
         write_results(final, tmp)
-        write_json(os.path.join(tmp, "diagnosis.json"), d.summary())
+        # the base fit as bayescal fit reports it (its self-noise included)
+        write_json(os.path.join(tmp, "diagnosis.json"), {**d.summary(), "base": base.summary()})
         if not args.no_report:
             from ..report.diagnosis import write_page
             try:

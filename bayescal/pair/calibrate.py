@@ -48,76 +48,18 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 
     Parameters
     ----------
-    ref, sut : obspy.Stream
-        Recordings of the reference and of the sensor under test (keywords
-        only, as ``--ref`` and ``--sut``).
-    ref_xml, sut_xml : obspy.Inventory, str or "flat"
-        Their metadata (azimuth, dip, response): an ObsPy ``Inventory``, a
-        StationXML, RESP or GSE2 poles-and-zeros path, or ``"flat"`` (as
-        ``--ref-xml`` and ``--sut-xml``).
-    band : (float, float) or None
-        (fmin, fmax) in Hz; None chooses it from the data where the two
-        sensors are coherent (:func:`bayescal.io.band.choose_band`); the band
-        used is in ``result.meta.band_hz`` and how it was chosen in
-        ``result.meta.band_choice``.
-    fit_response : {"gain", "none", "all"}
-        "gain" (the default: angles and each SUT channel's gain, reported
-        also as a relative gain, fitted / metadata, which is what a
-        relative-gain experiment measures; works with ``flat`` metadata too),
-        "all" (period, damping and gain per channel; needs a poles-and-zeros
-        first stage) or "none" (angles only, gains held at their metadata
-        values). With a one-channel horizontal reference the gains are held
-        whatever is asked short of "all" (see :mod:`bayescal.core.fit.rotation`).
-    seed : int
-        Random seed (results are reproducible).
-    ref_noise : {None, "estimate", "quiet", "equal"}
-        How the reference's own self-noise is treated: "quiet" (negligible
-        next to the SUT's), "estimate" (estimated from the data: white in
-        ground units plus white in its counts) or "equal" (the same as the
-        SUT's in ground units); None (the default): "estimate" with two or
-        more channels on each side (unbiased whatever the split of noise),
-        "quiet" otherwise (a one-channel pair cannot separate the
-        reference's noise); see :mod:`bayescal.core.model.refnoise`. The mode used
-        is in ``result.meta.reference_noise``.
-    ref_noise_psd : str, dict or None
-        The reference's self-noise as known (mode "fixed"): a file path or
-        :func:`bayescal.io.refnoise_file.read_reference_noise`'s table
-        (``bayescal noise``'s noise.json from a third co-located sensor, or a
-        period / dB text file): the remedy for a one-channel pair.
-    start, end : obspy.UTCDateTime or None
-        Limits of the analysis window.
-    priors : bayescal.core.model.likelihood.Priors
-        The priors; with ``fit_response="all"`` its ``period_tolerance`` and
-        ``damping_tolerance`` (relative standard deviations of the log-normal
-        priors on period and damping, default 0.05) are the manufacturer's
-        tolerance (:mod:`bayescal.core.response.pendulum`); its
-        ``reference_tolerance`` (default 0: the reference's metadata taken as
-        exact) the relative standard deviation of the reference's gain,
-        period and damping, carried into the SUT's response intervals
-        (:mod:`bayescal.core.response.reference_tolerance`).
-    diagnose : bool
-        When the model check fails, criticise the fit (True, the default):
-        find what the model leaves out, model it from the fit's own
-        spectra and least-squares point, and give a verdict
-        (``result.criticism``, result.json's ``criticism``; the improved
-        model's result is ``result.improved``); see
-        :mod:`bayescal.criticism.verdict`. False skips it (as ``bayescal
-        fit --no-diagnose``).
-    diagnose_budget_s : float
-        The criticism's work budget, stated in seconds: each stands for
-        :data:`bayescal.criticism.verdict.WORK_PER_SECOND` model
-        evaluations (about a second's work on a two-core computer), so the
-        same seed names the same effects on any machine (checked between
-        candidates; when it runs out the verdict is "unexplained" and says
-        which candidates were tried). Ten times as many seconds of wall
-        clock stop it as a safety net, and the criticism then says so.
-    transients : {"drop", "keep"}
-        "drop" (the default): Welch segments in which one sensor records
-        noise the other does not, well beyond the minutes around them (a
-        transient near one sensor), are left out of the fit
-        (:mod:`bayescal.core.spectra.transients`; how many and when in
-        ``result.meta.data_used["transients"]``); "keep" fits every
-        segment (as ``bayescal fit --keep-transients``).
+    ref, ref_xml, sut, sut_xml : obspy.Stream; obspy.Inventory, str or "flat"
+        The two sensors' recordings and metadata (keywords only, as
+        ``--ref``, ``--ref-xml``, ``--sut`` and ``--sut-xml``).
+    band, start, end, nperseg, transients, ref_noise_psd, sut_source, ref_source
+        What of the recordings is fitted: :func:`~bayescal.pair.prepare.prepare`.
+    fit_response, seed, priors, ref_noise, progress, **sample_kw
+        How it is fitted: :func:`~bayescal.pair.fit.fit` (``priors``'s
+        ``reference_tolerance``: :func:`~bayescal.pair.choose.choose`).
+    diagnose, diagnose_budget_s
+        Whether a fit that fails its model check is criticised, and the
+        criticism's work budget in seconds:
+        :func:`~bayescal.pair.criticise.criticise` (``enabled``, ``budget_s``).
 
     Returns
     -------

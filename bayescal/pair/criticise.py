@@ -14,7 +14,33 @@ def criticise(state, *, budget_s=DEFAULT_BUDGET_S, seed=0, enabled=True, **sampl
     empty when nothing was criticised (``enabled`` False, a fit without a
     model, or no model check), and ``improved`` the improved model's
     state, or None. An error in the search is said in the summary: the
-    fit's results stand without it."""
+    fit's results stand without it.
+
+    Parameters
+    ----------
+    state : FitState
+        From :func:`bayescal.pair.fit.fit`.
+    budget_s : float
+        The criticism's work budget, stated in seconds: each stands for
+        :data:`bayescal.criticism.verdict.WORK_PER_SECOND` model
+        evaluations (about a second's work on a two-core computer), so the
+        same seed names the same effects on any machine (checked between
+        candidates; when it runs out the verdict is "unexplained" and says
+        which candidates were tried). Ten times as many seconds of wall
+        clock stop it as a safety net, and the criticism then says so.
+    seed : int
+        Random seed of the improved model's sampler.
+    enabled : bool
+        When the model check fails, criticise the fit (True, the default):
+        find what the model leaves out, model it from the fit's own
+        spectra and least-squares point, and give a verdict
+        (``result.criticism``, result.json's ``criticism``; the improved
+        model's result is ``result.improved``); see
+        :mod:`bayescal.criticism.verdict`. False skips it (as ``bayescal
+        fit --no-diagnose``).
+    **sample_kw
+        To the improved model's sampler.
+    """
     from ..criticism.verdict import check_orientation, criticise as run, failed
 
     if not enabled or state.model is None or state.theta_ls is None:

@@ -1,6 +1,24 @@
 """The second step of a pair fit: the model, its least-squares point, the
 posterior samples and their convergence, from a :class:`~.prepare.PairData`
-(:func:`bayescal.core.fit.run.fit_spectra`)."""
+(:func:`bayescal.core.fit.run.fit_spectra`).
+
+What of the response is fitted (``fit_response``): "gain" (the default:
+angles and each SUT channel's gain, reported also as a relative gain,
+fitted / metadata, which is what a relative-gain experiment measures; works
+with ``flat`` metadata too), "all" (period, damping and gain per channel;
+needs a poles-and-zeros first stage) or "none" (angles only, gains held at
+their metadata values). With a one-channel horizontal reference the gains
+are held whatever is asked short of "all" (see :mod:`bayescal.core.fit.rotation`).
+
+How the reference's own self-noise is treated (``ref_noise``): "quiet"
+(negligible next to the SUT's), "estimate" (estimated from the data: white
+in ground units plus white in its counts) or "equal" (the same as the SUT's
+in ground units); None (the default): "estimate" with two or more channels
+on each side (unbiased whatever the split of noise), "quiet" otherwise (a
+one-channel pair cannot separate the reference's noise); see
+:mod:`bayescal.core.model.refnoise`. With the reference's self-noise given
+(``ref_noise_psd``) it is "fixed".
+"""
 from __future__ import annotations
 
 from ..core.fit.run import fit_spectra
@@ -13,11 +31,39 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
         **sample_kw):
     """The :class:`~bayescal.core.posterior.state.FitState` of ``data``.
 
-    The options are :func:`bayescal.calibrate`'s of the same names;
-    ``sample_kw`` go to :func:`bayescal.core.fit.run.fit_spectra` (e.g.
-    ``max_steps``, ``misfit_shape``). A channel set aside for want of
-    coherence is listed in the state's ``not_estimable``; the reference's
-    self-noise as given is the meta's ``reference_noise["input"]``.
+    Parameters
+    ----------
+    data : PairData
+        From :func:`bayescal.pair.prepare.prepare`.
+    fit_response : {"gain", "none", "all"}
+        What of the response is fitted (module docstring).
+    priors : bayescal.core.model.likelihood.Priors
+        The priors; with ``fit_response="all"`` its ``period_tolerance`` and
+        ``damping_tolerance`` (relative standard deviations of the log-normal
+        priors on period and damping, default 0.05) are the manufacturer's
+        tolerance (:mod:`bayescal.core.response.pendulum`); its
+        ``reference_tolerance`` (default 0: the reference's metadata taken as
+        exact) the relative standard deviation of the reference's gain,
+        period and damping, carried into the SUT's response intervals by
+        :func:`bayescal.pair.choose.choose`
+        (:mod:`bayescal.core.response.reference_tolerance`).
+    seed : int
+        Random seed (results are reproducible).
+    ref_noise : {None, "estimate", "quiet", "equal"}
+        How the reference's own self-noise is treated (module docstring);
+        the mode used is in ``result.meta.reference_noise``.
+    progress : bool
+        Show the sampler's progress.
+    **sample_kw
+        To :func:`bayescal.core.fit.run.fit_spectra` (e.g. ``max_steps``,
+        ``misfit_shape``).
+
+    Returns
+    -------
+    FitState
+        A channel set aside for want of coherence is in its
+        ``not_estimable``; the reference's self-noise as given in its
+        meta's ``reference_noise["input"]``.
     """
     if data.known_noise is not None:
         if ref_noise not in (None, "fixed"):

@@ -2,6 +2,18 @@
 fit takes out (:class:`PairData`): channels aligned on one time grid, the
 band chosen, cross-spectra, channels without coherence set aside, Welch
 segments a transient spoils left out, and what a result records of them.
+
+The band (``band``): (fmin, fmax) in Hz, or None to choose it from the data
+where the two sensors are coherent (:func:`bayescal.io.band.choose_band`);
+the band used is in ``result.meta.band_hz`` and how it was chosen in
+``result.meta.band_choice``.
+
+Transients (``transients``): "drop" (the default): Welch segments in which
+one sensor records noise the other does not, well beyond the minutes around
+them (a transient near one sensor), are left out of the fit
+(:mod:`bayescal.core.spectra.transients`; how many and when in
+``result.meta.data_used["transients"]``); "keep" fits every segment (as
+``bayescal fit --keep-transients``).
 """
 from __future__ import annotations
 
@@ -62,8 +74,31 @@ def _describe_files(side):
 
 def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nperseg=None,
             transients="drop", sut_source="SUT", ref_source="reference", ref_noise_psd=None):
-    """The :class:`PairData` of two co-located recordings (the options as
-    :func:`bayescal.calibrate` takes them).
+    """The :class:`PairData` of two co-located recordings.
+
+    Parameters
+    ----------
+    ref, sut : obspy.Stream
+        Recordings of the reference and of the sensor under test (keywords
+        only, as ``--ref`` and ``--sut``).
+    ref_xml, sut_xml : obspy.Inventory, str or "flat"
+        Their metadata (azimuth, dip, response): an ObsPy ``Inventory``, a
+        StationXML, RESP or GSE2 poles-and-zeros path, or ``"flat"`` (as
+        ``--ref-xml`` and ``--sut-xml``).
+    band : (float, float) or None
+        (fmin, fmax) in Hz, or None: chosen from the data (module docstring).
+    start, end : obspy.UTCDateTime or None
+        Limits of the analysis window.
+    nperseg : int or None
+        Samples per Welch segment (None: the spectra's default).
+    transients : {"drop", "keep"}
+        Leave out segments a transient spoils, or keep them (module docstring).
+    sut_source, ref_source : str
+        How messages name each side's metadata.
+    ref_noise_psd : str, dict or None
+        The reference's self-noise as known: a file path or
+        :func:`bayescal.io.refnoise_file.read_reference_noise`'s table
+        (``bayescal noise``'s noise.json, or a period / dB text file).
 
     Raises
     ------
@@ -84,11 +119,10 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
     keep = [i for i, cid in enumerate(s.ids) if cid not in low]
     dropped = None
     if transients == "drop":
-        found = find_transients(spectra.select(keep) if low else spectra)
-        if found.count:
-            dropped = transient_summary(found, spectra, t0)
-            spectra = _welch(s, r, fs, band, spectra.nperseg, files,
-                             exclude=spectra.segment_starts[found.dropped])
+        nperseg = spectra.nperseg
+        spectra, dropped = _drop_transients(
+            spectra, keep if low else None, t0,
+            redo=lambda exclude: _welch(s, r, fs, band, nperseg, files, exclude=exclude))
     meta = _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory)
     if dropped:
         meta["data_used"]["transients"] = dropped
@@ -102,6 +136,17 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
                     ref_vectors=r.vectors, ref_families=r.families(), meta=meta,
                     sut_inventory=sut_inventory, ref_inventory=ref_inventory, known_noise=known,
                     ref_flat=assumed_flat(ref_inventory), sut_flat=assumed_flat(sut_inventory))
+
+
+def _drop_transients(spectra, keep, t0, redo):
+    """(spectra, what was left out or None): the Welch segments in which one
+    sensor records a transient the other does not
+    (:mod:`bayescal.core.spectra.transients`, judged on the channels
+    ``keep``, None: all) left out by ``redo(segment starts to exclude)``."""
+    found = find_transients(spectra.select(keep) if keep is not None else spectra)
+    if not found.count:
+        return spectra, None
+    return redo(spectra.segment_starts[found.dropped]), transient_summary(found, spectra, t0)
 
 
 def _welch(s, r, fs, band, nperseg, files, exclude=None):
