@@ -365,6 +365,31 @@ def test_reading_a_result_imports_no_model(flagged, tmp_path):
     assert run.stdout.strip().splitlines()[-1] == "[]"
 
 
+def test_report_rebuilt_from_the_three_files(flagged, tmp_path):
+    """``bayescal report`` in a fresh interpreter (no live fit) on a folder
+    holding only result.json, samples.npz and diagnostics.npz prints the
+    numbers result.json holds: the azimuth table row on page 1 and the
+    convergence figures on page 5."""
+    import shutil
+
+    folder = tmp_path / "files_only"
+    folder.mkdir()
+    for name in ("result.json", "samples.npz", "diagnostics.npz"):
+        shutil.copy(os.path.join(flagged[0], name), folder / name)
+    run = subprocess.run([sys.executable, "-m", "bayescal", "report", str(folder)],
+                         capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"})
+    assert run.returncode == 0, run.stderr
+    res = _result(str(folder))
+    _, pages = _pages(str(folder))
+    entry = res["channels"]["XX.SIM.10.BH1"]["azimuth_deg"]
+    tok = _row(pages[0], "XX.SIM.10.BH1", "azimuth")
+    assert tok[3] == f"{entry['median']:.2f}" and abs(entry["median"] - TRUE_AZ[0]) < 1.0
+    assert " ".join(tok[6:8]) == f"[{entry['ci95'][0]:.2f}, {entry['ci95'][1]:.2f}]"
+    conv = res["convergence"]
+    assert f"ESS min {conv['ess_min']:.0f}" in pages[4]
+    assert f"R-hat max {conv['rhat_max']:.4f}" in pages[4]
+
+
 def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     """A result whose sampler did not converge says so on pages 1 and 5; a
     result without diagnostics.npz still renders, saying what is missing."""

@@ -253,7 +253,6 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         budget = criticism_budget(budget_s)
     else:       # a budget given in work: the seconds it stands for, for the words
         budget_s = budget.limit / WORK_PER_SECOND
-    free = post.meta.free_response or "none"
     base_sum = post.summary()
     pinned = {cid: [k for k, v in e.get("response", {}).items()
                     if k != "relative_gain" and "pinned" in str(v.get("reason", ""))]
@@ -272,39 +271,57 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
                      **sample_kw)
     seconds = time.monotonic() - t0
-    named = [e for e in d.effects]
-    moves = {}
-    if d.final is not post:
-        moves = improved_estimates(base_sum, d.final.summary())
-    for e in named:
-        if e["name"] == "response_parameters":
-            for cid, v in _held_response_moves(e).items():
-                moves.setdefault(cid, {}).update(v)
-    biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
-    left = d.after["mismatch"]
-    edges = np.asarray(d.band_edges)
-    before = float(np.max(d.before_common["misfit"]))
-    after = float(np.max(d.after["misfit"]))
-    advice = []
-    ref = d.signatures.get("reference_noise", {})
     effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
                 "explanation": e["explanation"], "advice": _advice(e),
                 **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
-               for e in named]
-    names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
+               for e in d.effects]
     degenerate = _degenerate(d, post, effects)
-    size_note = SIZE_NOTE
+    moves = {} if degenerate else _moves(d, post, base_sum)
+    biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
+    verdict, text, size_note, advice = _judge(d, effects, degenerate, biggest, budget_s=budget_s,
+                                              budget=budget, free=post.meta.free_response)
+    for e in effects:
+        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
+            advice.append(e["advice"])
+    summary = _summary(d, post, effects, verdict=verdict, text=text, size_note=size_note,
+                       advice=advice, moves=moves, biggest=biggest)
+    summary.update({"budget_s": float(budget_s), "seconds": float(seconds),
+                    "budget": budget.summary(),
+                    **({"budget_note": budget.note()} if budget.ended_by == "time" else {}),
+                    "sentences": d.sentences()})
+    improved = d.final if d.final is not post and not degenerate else None
+    return Criticism(summary, improved, d)
+
+
+def _moves(d, post, base_sum):
+    """Per channel, the estimates the improved model moves
+    (:func:`improved_estimates`), and the period and damping the fit held
+    at their metadata values."""
+    moves = {}
+    if d.final is not post:
+        moves = improved_estimates(base_sum, d.final.summary())
+    for e in d.effects:
+        if e["name"] == "response_parameters":
+            for cid, v in _held_response_moves(e).items():
+                moves.setdefault(cid, {}).update(v)
+    return moves
+
+
+def _judge(d, effects, degenerate, biggest, *, budget_s, budget, free):
+    """``(verdict, its words, the size note, advice)`` of a diagnosis ``d``."""
+    named = d.effects
+    left = d.after["mismatch"]
+    ref = d.signatures.get("reference_noise", {})
+    names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
+    advice = []
     if degenerate:
-        verdict = "unexplained"
         text = (f"{names or 'an effect'} would explain the misfit, but the improved model's "
                 f"posterior could not be characterised ({degenerate}): its estimates and the "
                 "sizes are not measurements; the misfit stays unexplained")
-        size_note = SIZE_NOTE_DEGENERATE
         if d.incomplete:
             advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
-    elif d.incomplete:
-        size_note = SIZE_NOTE_INCOMPLETE
-        verdict = "unexplained"
+        return "unexplained", text, SIZE_NOTE_DEGENERATE, advice
+    if d.incomplete:
         spent = (f"time limit ({budget.time_limit_s:g} s, a safety net: its work budget was "
                  "not spent)" if budget.ended_by == "time" else f"budget of {budget_s:g} s")
         text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
@@ -312,66 +329,70 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
                 f"{', '.join(d.incomplete['not_tried'])}; --diagnose-budget raises it): the "
                 f"misfit stays unexplained")
         advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
-    elif left:
-        verdict = "unexplained"
+        return "unexplained", text, SIZE_NOTE_INCOMPLETE, advice
+    if left:
         text = (f"the model does not fit the recordings in {_where(left)}"
                 + (f", even with {names} modelled" if names else "")
                 + ": no effect the criticism knows explains it; treat the estimates with "
                   "caution")
-        good = _good_band(edges, d.after["flag"]) or _good_band(edges, d.before["flag"])
-        if good:
-            advice.append(f"--band {good[0]:.3g} {good[1]:.3g} (the widest band where the "
-                          "model holds) if the misfit is not physics to model")
-        if free != "all" and "response_parameters" not in d.tried:
-            advice.append("--fit-response all (period and damping fitted)")
-        caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
-            d.sentences()[-1] else None
-        if caveat:
-            advice.append(caveat)
-    elif biggest <= MOVE_SD:
-        verdict = "usable"
+        return "unexplained", text, SIZE_NOTE, advice + _unexplained_advice(d, free)
+    if biggest <= MOVE_SD:
         text = (f"the model misfits the recordings because of {names or 'an effect it leaves out'}"
                 f"; modelling it moves no estimate by more than {MOVE_SD:g} of its standard "
                 "deviation: the estimates are usable as they are")
-    else:
-        verdict = "improved"
-        text = (f"the model misfits the recordings because of {names}; modelling it moves the "
-                f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
-                "model's estimates (the criticism lists those that move; the corrected "
-                "StationXML holds them all)")
-    for e in effects:
-        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
-            advice.append(e["advice"])
-    if degenerate:
-        moves = {}
-        biggest = 0.0
+        return "usable", text, SIZE_NOTE, advice
+    text = (f"the model misfits the recordings because of {names}; modelling it moves the "
+            f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
+            "model's estimates (the criticism lists those that move; the corrected "
+            "StationXML holds them all)")
+    return "improved", text, SIZE_NOTE, advice
+
+
+def _unexplained_advice(d, free):
+    """What to try when a misfit stays: the widest band where the model
+    holds, period and damping fitted, and the diagnosis's own caveat."""
+    advice = []
+    edges = np.asarray(d.band_edges)
+    good = _good_band(edges, d.after["flag"]) or _good_band(edges, d.before["flag"])
+    if good:
+        advice.append(f"--band {good[0]:.3g} {good[1]:.3g} (the widest band where the "
+                      "model holds) if the misfit is not physics to model")
+    if (free or "none") != "all" and "response_parameters" not in d.tried:
+        advice.append("--fit-response all (period and damping fitted)")
+    caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
+        d.sentences()[-1] else None
+    if caveat:
+        advice.append(caveat)
+    return advice
+
+
+def _summary(d, post, effects, *, verdict, text, size_note, advice, moves, biggest):
+    """result.json's ``criticism`` of a diagnosis ``d`` judged ``verdict``
+    (without its budget and timing)."""
+    ref = d.signatures.get("reference_noise", {})
     stationxml = "improved model" if verdict in ("usable", "improved") and \
         d.final is not post else "fit"
     conditional = verdict == "unexplained"
     for e in effects:
         e["size_is_measurement"] = not conditional
-    summary = {
+    return {
         "verdict": verdict, "verdict_text": text, "effects": effects,
         "reference_noise_modelled": bool(ref.get("kept")),
-        "misfit_before": before, "misfit_after": after,
+        "misfit_before": float(np.max(d.before_common["misfit"])),
+        "misfit_after": float(np.max(d.after["misfit"])),
         "misfit_note": "largest standardised misfit over bands and channels, before and after "
                        "under the improved model's noise model (about 1 is a fit within the "
                        "noise)",
         "misfit_check": float(np.max(d.before["misfit"])),
         "improved_estimates": moves, "max_moved_sd": float(biggest), "move_threshold_sd": MOVE_SD,
         "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
-                         "misfit_max": m["misfit_max"]} for m in left],
+                         "misfit_max": m["misfit_max"]} for m in d.after["mismatch"]],
         "advice": advice, "stationxml": stationxml,
         **({"size_note": size_note} if conditional and effects else {}),
         "complete": d.incomplete is None, "tried": d.tried,
         "not_tried": (d.incomplete or {}).get("not_tried", []),
-        "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),
-        "budget": budget.summary(),
-        **({"budget_note": budget.note()} if budget.ended_by == "time" else {}),
-        "sentences": d.sentences(),
+        "not_named": d.dropped,
     }
-    improved = d.final if d.final is not post and not degenerate else None
-    return Criticism(summary, improved, d)
 
 
 def _pinned(pinned, budget_s):

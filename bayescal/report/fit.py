@@ -65,7 +65,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
 
     Parameters
     ----------
-    folder : result folder written by :meth:`Posterior.save`.
+    folder : result folder written by :func:`bayescal.write_results`.
     out_pdf : path of the PDF (default ``folder/report.pdf``).
     nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
         which a channel is flagged.
@@ -86,12 +86,10 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     summary = post.summary()
     out_pdf = os.fspath(out_pdf) if out_pdf else os.path.join(folder, "report.pdf")
     out_dir = os.path.dirname(os.path.abspath(out_pdf))
-    stem = os.path.splitext(os.path.basename(out_pdf))[0]
     ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
                            tolerance_deg=float(nominal_tolerance_deg),
                            page=layout.page_size(paper))
     tmp = tempfile.mkdtemp(prefix=".report-", dir=out_dir)
-    written = []
     try:
         with layout.style():
             figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise)(ctx)) for name in PAGES]
@@ -103,16 +101,25 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
                 for name, fig in figures:
                     layout.save_pdf_page(pdf, fig, ctx.page)
                     layout.save_png(fig, os.path.join(tmp, f"{name}.png"))
-        os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
-        written.append(out_pdf)
-        for name, _ in figures:
-            dest = os.path.join(out_dir, f"{stem}_{name}.png")
-            os.replace(os.path.join(tmp, f"{name}.png"), dest)
-            written.append(dest)
-        for name in PAGES:
-            stale = os.path.join(out_dir, f"{stem}_{name}.png")
-            if stale not in written and os.path.exists(stale):
-                os.remove(stale)
+        return _publish(tmp, out_pdf, [name for name, _ in figures])
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _publish(tmp, out_pdf, names):
+    """Move the PDF and the PNGs ``names`` drawn in ``tmp`` into place
+    beside ``out_pdf`` and remove PNGs of an earlier report that no longer
+    apply; returns the paths written (PDF first)."""
+    out_dir = os.path.dirname(os.path.abspath(out_pdf))
+    stem = os.path.splitext(os.path.basename(out_pdf))[0]
+    os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
+    written = [out_pdf]
+    for name in names:
+        dest = os.path.join(out_dir, f"{stem}_{name}.png")
+        os.replace(os.path.join(tmp, f"{name}.png"), dest)
+        written.append(dest)
+    for name in PAGES:
+        stale = os.path.join(out_dir, f"{stem}_{name}.png")
+        if stale not in written and os.path.exists(stale):
+            os.remove(stale)
     return written

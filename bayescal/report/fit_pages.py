@@ -27,11 +27,9 @@ from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
 
 
-def page_summary(ctx):
-    """Page 1: what was measured, the table of angles (and responses), flags."""
-    post = ctx.post
-    conv = ctx.summary["convergence"]
-    fig = Figure(figsize=ctx.page)
+def _page_top(fig, ctx):
+    """Page 1's title, model check, modes line and header; returns where
+    the tables start and the modes line (None without modes)."""
     fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
     verdict = ctx.summary.get("adequacy") or {"ok": None}
     crit = ctx.summary.get("criticism") or {}
@@ -42,13 +40,20 @@ def page_summary(ctx):
     top = 0.945 - 0.0155 * len(check) - 0.008
     modes = multimodal_line(ctx.summary)
     if modes:
-        modes = textwrap.wrap(modes, 92)
-        fig.text(0.06, top, "\n".join(modes), va="top", fontsize=9, fontweight="bold",
+        wrapped = textwrap.wrap(modes, 92)
+        fig.text(0.06, top, "\n".join(wrapped), va="top", fontsize=9, fontweight="bold",
                  linespacing=1.5)
-        top -= 0.0155 * len(modes) + 0.008
+        top -= 0.0155 * len(wrapped) + 0.008
     lines = header_lines(ctx)
     fig.text(0.06, top, "\n".join(lines), va="top", fontsize=8, linespacing=1.5)
-    top = top - 0.0143 * len(lines) - 0.02
+    return top - 0.0143 * len(lines) - 0.02, modes
+
+
+def page_summary(ctx):
+    """Page 1: what was measured, the table of angles (and responses), flags."""
+    post = ctx.post
+    fig = Figure(figsize=ctx.page)
+    top, modes = _page_top(fig, ctx)
     rows, flags = angle_rows(post, ctx.summary, ctx.tolerance_deg, ctx.truth)
     resp = response_rows(ctx.summary, ctx.truth)
     y = summary_table(fig, top, rows, "Orientation (SEED: azimuth clockwise from north, dip down "
@@ -60,6 +65,28 @@ def page_summary(ctx):
                           "in % of nominal)" if not gain_only else
                           "Response (gain-only metadata, e.g. 'flat': no nominal response to "
                           "deviate from; the fitted gain is the measurement)", bool(ctx.truth))
+    text = _flag_lines(ctx, flags, modes)
+    text.append("")
+    text.append("Not estimable:" + ("" if post.not_estimable else " none"))
+    for cid, reason in post.not_estimable.items():
+        text.append(f"  {cid}: {reason}")
+    text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
+             "\nazimuth intervals crossing north stay contiguous.",
+             "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
+             " instead, with the azimuth it leans toward."]
+    if resp:
+        text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
+                    " StationXML's stage-1 output units (e.g. V) per m/s.")
+    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
+    return fig
+
+
+def _flag_lines(ctx, flags, modes):
+    """Page 1's flags: the model check and criticism, modes, angles off
+    nominal, what the prior set, the reference's noise, the record, the
+    sensor order and the sampler."""
+    verdict = ctx.summary.get("adequacy") or {"ok": None}
+    crit = ctx.summary.get("criticism") or {}
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
     if verdict["ok"] is False and crit:
         text.append("  MODEL CHECK FAILED; what the criticism found (the verdict is in the first "
@@ -75,7 +102,7 @@ def page_summary(ctx):
     if modes:
         text.append("  MULTIMODAL POSTERIOR: intervals marked \"multimodal\" hold one mode only"
                     " (result.json: \"multimodal\")")
-    for cid in post.channel_ids:
+    for cid in ctx.post.channel_ids:
         for msg in flags.get(cid, []):
             text.append(f"  {cid}: {msg}")
     for cid, params in ctx.summary.get("set_by_prior", {}).items():
@@ -101,21 +128,9 @@ def page_summary(ctx):
     elif order.get("caution"):
         text += textwrap.wrap(f"  Sensor order: {order['caution']}", 130,
                               subsequent_indent="    ")
-    if not conv["converged"]:
+    if not ctx.summary["convergence"]["converged"]:
         text.append("  SAMPLER NOT CONVERGED: treat every interval as provisional (see the convergence page)")
-    text.append("")
-    text.append("Not estimable:" + ("" if post.not_estimable else " none"))
-    for cid, reason in post.not_estimable.items():
-        text.append(f"  {cid}: {reason}")
-    text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
-             "\nazimuth intervals crossing north stay contiguous.",
-             "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
-             " instead, with the azimuth it leans toward."]
-    if resp:
-        text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
-                    " StationXML's stage-1 output units (e.g. V) per m/s.")
-    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
-    return fig
+    return text
 
 
 def _channel_panels(ctx, k):
@@ -300,9 +315,7 @@ def _misfit_panel(ax, d, sut, n_r):
 def page_convergence(ctx):
     """Page 5: trace plots and the convergence table."""
     post = ctx.post
-    conv = ctx.summary["convergence"]
-    names = post.names
-    nd = len(names)
+    nd = len(post.names)
     fig = Figure(figsize=ctx.page)
     fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
     n_rows = int(np.ceil(nd / 2))
@@ -310,37 +323,59 @@ def page_convergence(ctx):
     table_h = 0.0135 * (nd + 1)
     table_top = 0.93 - trace_h - 0.085
     if post.trace is not None:
-        gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
-                              bottom=0.93 - trace_h, hspace=0.15, wspace=0.3)
-        tr = post.trace
-        step = max(1, tr.shape[0] // 200)
-        x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
-        walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
-        burn = post.convergence.burn
-        nominal = post.meta.nominal or {}
-        for p, name in enumerate(names):
-            ax = fig.add_subplot(gs[p // 2, p % 2])
-            values, unit = trace_in_user_units(name, tr[::step, walkers, p].T,
-                                               nominal.get(name.rsplit(":", 1)[0]))
-            segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)), values], axis=-1)
-            ax.add_collection(LineCollection(segs, colors="k", linewidths=0.4, alpha=0.6))
-            ax.autoscale_view()
-            ax.margins(y=0.35)
-            if burn is not None:
-                ax.axvline(float(burn), color="k", ls="--", lw=0.8)
-            ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
-                    bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
-            ax.set_ylabel(unit or PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
-            ax.tick_params(labelsize=6)
-            if p >= nd - 2:
-                ax.set_xlabel("step")
-            else:
-                ax.tick_params(labelbottom=False)
-        fig.text(0.1, 0.93 - trace_h - 0.045,
-                 f"Traces of {len(walkers)} of {tr.shape[1]} walkers: orientation in deg "
-                 "(tangent-plane angle from the start axis, or azimuth),\nperiod in s, gain in % "
-                 "off metadata; dashed line: end of burn-in (samples after it are kept).",
-                 fontsize=7, va="top")
+        _trace_panels(fig, ctx, n_rows, trace_h)
+    _convergence_table(fig, ctx, table_top, table_h)
+    from ..core.posterior.convergence import describe_sampler
+    sampler = describe_sampler(post.meta.sampler)
+    fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
+             + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
+             " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
+             fontsize=6.5, wrap=True)
+    return fig
+
+
+def _trace_panels(fig, ctx, n_rows, trace_h):
+    """Page 5's trace plots of up to 8 walkers, one panel a parameter."""
+    post, names = ctx.post, ctx.post.names
+    nd = len(names)
+    conv = ctx.summary["convergence"]
+    gs = fig.add_gridspec(n_rows, 2, left=0.1, right=0.97, top=0.93,
+                          bottom=0.93 - trace_h, hspace=0.15, wspace=0.3)
+    tr = post.trace
+    step = max(1, tr.shape[0] // 200)
+    x = np.arange(tr.shape[0])[::step] * conv["n_steps"] / tr.shape[0]
+    walkers = np.linspace(0, tr.shape[1] - 1, min(8, tr.shape[1])).astype(int)
+    burn = post.convergence.burn
+    nominal = post.meta.nominal or {}
+    for p, name in enumerate(names):
+        ax = fig.add_subplot(gs[p // 2, p % 2])
+        values, unit = trace_in_user_units(name, tr[::step, walkers, p].T,
+                                           nominal.get(name.rsplit(":", 1)[0]))
+        segs = np.stack([np.broadcast_to(x, (walkers.size, x.size)), values], axis=-1)
+        ax.add_collection(LineCollection(segs, colors="k", linewidths=0.4, alpha=0.6))
+        ax.autoscale_view()
+        ax.margins(y=0.35)
+        if burn is not None:
+            ax.axvline(float(burn), color="k", ls="--", lw=0.8)
+        ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
+                bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
+        ax.set_ylabel(unit or PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
+        ax.tick_params(labelsize=6)
+        if p >= nd - 2:
+            ax.set_xlabel("step")
+        else:
+            ax.tick_params(labelbottom=False)
+    fig.text(0.1, 0.93 - trace_h - 0.045,
+             f"Traces of {len(walkers)} of {tr.shape[1]} walkers: orientation in deg "
+             "(tangent-plane angle from the start axis, or azimuth),\nperiod in s, gain in % "
+             "off metadata; dashed line: end of burn-in (samples after it are kept).",
+             fontsize=7, va="top")
+
+
+def _convergence_table(fig, ctx, table_top, table_h):
+    """Page 5's table of every parameter's tau, ESS and split R-hat."""
+    names = ctx.post.names
+    conv = ctx.summary["convergence"]
     ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
     ax.axis("off")
     per = conv["per_parameter"]
@@ -357,13 +392,6 @@ def page_convergence(ctx):
     tab.auto_set_font_size(False)
     tab.set_fontsize(7)
     tab.auto_set_column_width([0, 1, 2, 3])
-    from ..core.posterior.convergence import describe_sampler
-    sampler = describe_sampler(post.meta.sampler)
-    fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
-             + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
-             " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
-             fontsize=6.5, wrap=True)
-    return fig
 
 
 __all__ = ["page_summary", "page_intervals", "page_data_fit", "page_convergence"]

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import emcee
 import numpy as np
 
+from ...result.convergence import Convergence
 from ..posterior.convergence import NotConvergedWarning, not_converged_line
 
 #: ``move="independence"``: DE steps before the first proposal is fitted (from
@@ -219,10 +220,7 @@ class Chain:
     def summary(self):
         """The ``convergence`` entry of a result file: the slowest parameter's
         figures, the run's size, whether the rule held, and the sampler."""
-        return {"tau_max": float(np.max(self.tau)), "ess_min": float(np.min(self.ess)),
-                "rhat_max": float(np.max(self.rhat)), "n_steps": int(self.n_steps),
-                "n_walkers": int(self.n_walkers), "acceptance": float(self.acceptance),
-                "converged": bool(self.converged)}
+        return Convergence.from_dict(self.convergence()).summary()
 
 
 class _Phases:
