@@ -536,9 +536,9 @@ def test_a_posterior_that_did_not_move_is_no_measurement(monkeypatch):
     assert s["improved_estimates"] == {} and "could not be characterised" in s["size_note"]
 
     post = object()
-    final = SimpleNamespace(meta={"posterior_failed": "no draw inside"})
+    final = SimpleNamespace(meta=Meta(posterior_failed="no draw inside"))
     assert _degenerate(SimpleNamespace(final=final), post, []) == "no draw inside"
-    ok = SimpleNamespace(final=SimpleNamespace(meta={}))
+    ok = SimpleNamespace(final=SimpleNamespace(meta=Meta()))
     flat = [{"size": {"ppm": {"median": 77.9, "ci95": [77.9, 77.9]}}}]
     assert "no width" in _degenerate(ok, post, flat)
     assert _degenerate(ok, post, [{"size": {"ppm": {"median": 78, "ci95": [77, 79]}}}]) is None

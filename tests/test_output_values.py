@@ -95,7 +95,7 @@ def test_pair_self_noise_in_result_json_is_the_true_noise(tmp_path):
     write_results(post, str(tmp_path))
     doc = json.loads((tmp_path / "result.json").read_text())["self_noise"]
     assert doc["units"].startswith("dB re 1 (m/s^2)^2/Hz")
-    sp = post.model.spectra
+    sp = post.state.model.spectra
     truth = band_noise_truth(sp, PAIR_KW)                     # (6, B), SUT then reference
     fc = np.exp(np.bincount(sp.band_of, np.log(sp.freqs)) / sp.bins_per_band)
     z, checked = [], 0

@@ -11,6 +11,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from bayescal.report.layout import A4
+from bayescal.result.meta import Meta
 
 SUT = ["XX.SIM.10.BH1", "XX.SIM.10.BH2"]
 REF = ["XX.SIM.00.BHN", "XX.SIM.00.BHE"]
@@ -22,8 +23,8 @@ def _data_ctx(fmin=0.125, fmax=0.3333, flat=()):
     d = {"freqs": f, "sut_ids": np.array(SUT), "ref_ids": np.array(REF),
          "psd": np.ones((4, f.size)) * 1e-12, "multiple_coherence": np.full((2, f.size), 0.99),
          "band_edges": edges, "band_misfit": np.ones((4, 2))}
-    meta = {"placeholder_response": {"sut": [c for c in SUT if c in flat],
-                                     "reference": [c for c in REF if c in flat]}}
+    meta = Meta(placeholder_response={"sut": [c for c in SUT if c in flat],
+                                      "reference": [c for c in REF if c in flat]})
     return SimpleNamespace(post=SimpleNamespace(diagnostics=d, meta=meta), page=A4)
 
 
@@ -76,13 +77,13 @@ def test_convergence_traces_in_degrees_and_percent():
     trace = np.stack([rng.normal(0.01, 1e-3, (50, 8)), rng.normal(0.0, 1e-3, (50, 8)),
                       rng.normal(1.6, 1e-3, (50, 8)), rng.normal(np.log(761.0), 1e-3, (50, 8))],
                      axis=-1)
-    conv = {"n_steps": 500, "burn": 100}
+    conv = SimpleNamespace(n_steps=500, burn=100)
     per = {n: {"tau": 10.0, "ess": 2000.0, "rhat": 1.001} for n in names}
     summary = {"convergence": {"n_steps": 500, "per_parameter": per, "acceptance": 0.3,
                                "n_walkers": 8, "tau_max": 10.0, "ess_min": 2000.0,
                                "rhat_max": 1.001, "converged": True}}
     post = SimpleNamespace(names=names, trace=trace, convergence=conv,
-                           meta={"nominal": {"A": {"gain": 750.0}}})
+                           meta=Meta(nominal={"A": {"gain": 750.0}}))
     fig = page_convergence(SimpleNamespace(post=post, summary=summary, page=A4))
     axes = fig.axes[:4]
     assert [a.get_ylabel() for a in axes] == ["deg (tangent plane)", "deg (tangent plane)",

@@ -26,10 +26,9 @@ def build_figure(diagnosis, paper="a4"):
     fig = Figure(figsize=page_size(paper))
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
     from ..core.posterior.convergence import not_converged_line
-    conv = getattr(d.final, "convergence", None) or {}
-    warn = None if conv.get("converged", True) else not_converged_line(
-        {"converged": False, "n_steps": conv["n_steps"], "ess_min": float(np.min(conv["ess"])),
-         "rhat_max": float(np.max(conv["rhat"]))}, "the final model's sampler")
+    conv = getattr(d.final, "convergence", None)
+    warn = None if conv is None or conv.converged else not_converged_line(
+        conv.summary(), "the final model's sampler")
     if warn:
         text.insert(1, warn)
     if d.before["mismatch"]:
