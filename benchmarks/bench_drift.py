@@ -48,10 +48,10 @@ def main(argv=None):
                         clock_drift_ppm=20.0)
     post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                               band=(0.05, 3.0), progress=False, diagnose=False)
-    base, th = post.model, post.theta_ls
+    base, th = post.state.model, post.state.theta_ls
     base.estimate_noise(th)
     offset = with_effects(base, [effects.TimingOffset([0, 1, 2])])
-    drift = with_effects(base, [effects.ClockDrift([0, 1, 2], post.spectra)])
+    drift = with_effects(base, [effects.ClockDrift([0, 1, 2], post.state.spectra)])
     times = {"base": [], "timing_offset": [], "clock_drift": []}
     with threadpool_limits(1):
         for _ in range(args.repeats):
@@ -60,12 +60,12 @@ def main(argv=None):
             times["clock_drift"].append(_per_call(drift, np.r_[th, 0.036, 20.0]))
     med = {k: statistics.median(v) * 1e3 for k, v in times.items()}
     t0 = time.perf_counter()
-    d = diagnose(post, mcmc=True)
+    d = diagnose(post.state, mcmc=True)
     whole = time.perf_counter() - t0
     out = {"log_prob_ms_median": med,
            "ratio_to_base": {k: v / med["base"] for k, v in med.items()},
            "diagnosis_with_mcmc_s": whole, "effects": d.names,
-           "final_converged": bool(d.final.convergence["converged"]),
+           "final_converged": bool(d.final.convergence.converged),
            "repeats": args.repeats, "walkers": 32}
     for k, v in med.items():
         print(f"{k:14s} {v:7.2f} ms per call  ({out['ratio_to_base'][k]:5.1f} x base)")

@@ -35,12 +35,12 @@ def main(argv=None):
     times = []
     for _ in range(args.repeats):
         t0 = time.perf_counter()
-        pair_noise.for_fit(post.model, post.full_samples)
+        pair_noise.for_fit(post.state.model, post.state.full_samples)
         times.append(time.perf_counter() - t0)
     med = statistics.median(times)
-    sp = post.model.spectra
+    sp = post.state.model.spectra
     print(f"pair: {sp.n_u}+{sp.n_r} channels, {sp.n_bands} bands, {sp.freqs.size} bins, "
-          f"{sp.n_segments} segments, {len(post.full_samples)} posterior samples")
+          f"{sp.n_segments} segments, {len(post.state.full_samples)} posterior samples")
     print(f"whole fit (calibrate, incl. self-noise): {fit_s:.2f} s")
     print(f"self-noise product: median {1000 * med:.0f} ms over {args.repeats} "
           f"(min {1000 * min(times):.0f}, max {1000 * max(times):.0f}); "

@@ -90,7 +90,7 @@ def run_case(name, spec, data, out, seed=0, mcmc=False, page=True, **sample_kw):
     base = bayescal.calibrate(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, band=spec["band"], fit_response=spec["free"], seed=seed,
                               progress=False, ref_noise="quiet", diagnose=False, **window,
                               **sample_kw)
-    d = diagnose(base, seed=seed, mcmc=mcmc, log=lambda s: print(s, flush=True))
+    d = diagnose(base.state, seed=seed, mcmc=mcmc, log=lambda s: print(s, flush=True))
     summary = d.summary()
     summary["case"] = {"name": name, **{k: v for k, v in spec.items()}, "seconds":
                        time.perf_counter() - t0}

@@ -59,7 +59,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
                 "coherence": coherence, "regime": regime, "gain_off": gain_off,
                 "outcome": "refused", "refusal": str(exc),
                 "seconds": time.perf_counter() - t0, "unexplained": []}
-    d = diagnose(post, seed=seed, mcmc=False)
+    d = diagnose(post.state, seed=seed, mcmc=False)
     # the SUT's channel ids in the simulator's row order (the fit's own list,
     # d.ids, drops a channel the coherence gate left out, which shifts rows)
     ids = [tr.id for tr in sim.sut]

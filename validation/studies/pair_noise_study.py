@@ -45,10 +45,10 @@ def main():
             for seed in SEEDS:
                 sim = dict(SIM, seed=seed, coherence=0.99, ref_coherence=0.99)
                 p, post = fit(seed, 0.99, 0.99, noise_in_counts=counts, **kw)
-                truth = band_noise_truth(post.model.spectra,
+                truth = band_noise_truth(post.state.model.spectra,
                                     dict(sim, noise_in_counts=True) if counts else sim)
-                r = pair_noise.pair_self_noise(post.model, np.median(post.full_samples, 0),
-                                               post.full_samples)
+                r = pair_noise.pair_self_noise(post.state.model, np.median(post.state.full_samples, 0),
+                                               post.state.full_samples)
                 zs.append((r["psd"] - truth) / r["sd"])
             zs = np.array(zs)
             print(f"standardised error, noise {'white in counts' if counts else 'ground-shaped'}, "

@@ -38,7 +38,7 @@ def run_cell(mode, ratio, duration, n, weighted):
     weights = []
 
     def keep(post):
-        w = post.meta.get("plugin_weights")
+        w = post.meta.plugin_weights
         if w:
             weights.extend(w)
     calibrate = ec.calibrate

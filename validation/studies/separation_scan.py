@@ -47,7 +47,7 @@ def main(argv=None):
                                  progress=False, min_ess=300, n_tau=20)
                 zg = [v[1] for k, v in coverage_checks(post, azs, dips, resp).items()
                       if k.endswith(":gain")]
-                sep = post.meta["reference_noise"]["separation"]
+                sep = post.meta.reference_noise["separation"]
                 rows.append({"noise": "counts" if counts else "signal", "ratio": ratio,
                              "seed": seed, "sd_ratio": max(sep["gain_sd_ratio"].values()),
                              "flagged": "note" in sep, "gain_z_mean": float(np.mean(zg))})

@@ -42,7 +42,7 @@ MODES = ("drop", "keep")
 
 def _coherence_width(post, channel):
     """The 95 % width (degrees) the band's coherence allows one channel."""
-    sp = post.spectra
+    sp = post.state.spectra
     i = sp.sut_ids.index(channel)
     g2 = float(np.mean(sp.multiple_coherence()[i]))
     n = float(sp.bins_per_band.sum() * sp.n_segments)
@@ -123,7 +123,7 @@ def main(argv=None):
                 continue
             ch = post.summary()["channels"]
             out = {"seconds": round(time.perf_counter() - t, 2),
-                   "dropped": post.meta["data_used"].get("transients", {}).get("dropped", 0)}
+                   "dropped": post.meta.data_used.get("transients", {}).get("dropped", 0)}
             for cid in ("US.COWI..LHN", "US.COWI..LHE"):
                 az = ch[cid]["azimuth_deg"]
                 width, g2 = _coherence_width(post, cid)
