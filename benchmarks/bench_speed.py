@@ -164,7 +164,7 @@ def ref_noise_cost(repeats):
             post = fit_spectra(sp, r.vectors, s.vectors, s.families(), free=free, seed=k,
                                progress=False, ref_noise=mode)
             runs[(free, mode)].append(time.process_time() - t0)
-            assert post.convergence["converged"]
+            assert post.convergence.converged
     med = {f"{free}/{mode}": statistics.median(v) for (free, mode), v in runs.items()}
     ratios = {free: med[f"{free}/estimate"] / med[f"{free}/quiet"] for free in ("none", "gain")}
     for key, v in med.items():
