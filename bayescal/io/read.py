@@ -211,11 +211,10 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
     from obspy.core.inventory import Channel, Inventory, Network, Response, Station
     from obspy.core.inventory.util import Comment
 
+    from ..core.response.paz import normalization_factor
+
     zeros, poles = list(zeros), list(poles)
-    s = 2j * np.pi * norm_freq
-    paz = np.prod([s - z for z in zeros]) / np.prod([s - p for p in poles]) if (zeros or poles) \
-        else 1.0
-    a0 = float(1.0 / abs(paz)) if normalize else 1.0
+    a0 = normalization_factor(zeros, poles, norm_freq) if normalize else 1.0
     nets = {}
     for tr in stream:
         st = tr.stats

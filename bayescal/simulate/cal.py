@@ -23,6 +23,7 @@ from obspy.core.inventory.response import (CoefficientsTypeResponseStage, Instru
                                            PolesZerosResponseStage, Response)
 
 from ..core.response.family import paz_velocity_response, pendulum_poles
+from ..core.response.paz import normalization_factor
 from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 
@@ -46,13 +47,11 @@ def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_fr
     """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
     conjugates added), gain at ``norm_freq``, a flat digitizer."""
     poles = list(pendulum_poles(period_s, damping)) + _expand(hf_poles)
-    s = 2j * np.pi * norm_freq
-    pz = s * s / np.prod([s - p for p in poles])
     st1 = PolesZerosResponseStage(
         stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
         input_units="M/S", output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
         normalization_frequency=norm_freq, zeros=[0j, 0j], poles=poles,
-        normalization_factor=1.0 / abs(pz))
+        normalization_factor=normalization_factor([0j, 0j], poles, norm_freq))
     st2 = CoefficientsTypeResponseStage(
         stage_sequence_number=2, stage_gain=DIGITIZER_GAIN, stage_gain_frequency=norm_freq,
         input_units="V", output_units="COUNTS", cf_transfer_function_type="DIGITAL",

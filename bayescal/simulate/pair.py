@@ -37,6 +37,7 @@ from obspy.core.inventory.response import (CoefficientsTypeResponseStage, Instru
 
 from ..core.orientation.geometry import unit_vector
 from ..core.response.family import paz_velocity_response, pendulum_poles
+from ..core.response.paz import normalization_factor
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz
@@ -66,8 +67,7 @@ def velocity_response(period_s, damping, gain, norm_freq=NORM_FREQ, digitizer_ga
     """ObsPy ``Response`` of a broadband: two pendulum poles, two zeros at 0,
     gain ``gain`` (V per m/s) at ``norm_freq``, a flat digitizer."""
     poles = list(pendulum_poles(period_s, damping))
-    s = 2j * np.pi * norm_freq
-    a0 = 1.0 / abs(s * s / ((s - poles[0]) * (s - poles[1])))
+    a0 = normalization_factor([0j, 0j], poles, norm_freq)
     st1 = PolesZerosResponseStage(
         stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
         input_units=input_units, output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.response.paz import transfer
+
 #: Nominal responses (rad/s; generator constant V/(m/s)), ../shared/data/README.md.
 STS1 = dict(zeros=[0j, 0j], poles=[-0.01234 + 0.01234j, -0.01234 - 0.01234j,
                                      -39.18 + 49.12j, -39.18 - 49.12j], generator=2200.0)
@@ -43,8 +45,7 @@ def paz_response(s, norm_freq=1.0):
     z, p = np.array(s["zeros"]), np.array(s["poles"])
 
     def raw(f):
-        w = 2j * np.pi * np.asarray(f, float)
-        return np.prod(w[..., None] - z, -1) / np.prod(w[..., None] - p, -1)
+        return transfer(2j * np.pi * np.asarray(f, float), z, p)
     scale = s["generator"] * DIGITIZER / abs(raw(norm_freq))
     return lambda f: scale * raw(f)
 

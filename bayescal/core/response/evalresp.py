@@ -41,6 +41,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .paz import transfer
+
 FIR_NORM_TOL = 0.02
 
 _DIS, _VEL, _ACC = "DIS", "VEL", "ACC"
@@ -162,15 +164,9 @@ class _Stage:
         w = 2 * np.pi * freq
         t = self.type
         if t in ("LAPLACE", "ANALOG"):
-            s = 1j * (w if t == "LAPLACE" else freq)
-            num = np.prod(s[..., None] - self.zeros, axis=-1) if self.zeros.size else 1.0
-            den = np.prod(s[..., None] - self.poles, axis=-1) if self.poles.size else 1.0
-            return self.a0 * num / den * np.ones_like(s)
+            return transfer(1j * (w if t == "LAPLACE" else freq), self.zeros, self.poles, self.a0)
         if t == "IIR_PZ":
-            z = np.exp(1j * w * self.dt)
-            num = np.prod(z[..., None] - self.zeros, axis=-1) if self.zeros.size else 1.0
-            den = np.prod(z[..., None] - self.poles, axis=-1) if self.poles.size else 1.0
-            return self.a0 * num / den * np.ones_like(z)
+            return transfer(np.exp(1j * w * self.dt), self.zeros, self.poles, self.a0)
         if t == "IIR_COEFFS":
             e = np.exp(-1j * np.outer(w * self.dt, np.arange(max(self.num.size, self.den.size))))
             return self.h0 * (e[:, :self.num.size] @ self.num) / (e[:, :self.den.size] @ self.den)

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .paz import transfer
+
 #: Names of the response parameters, in the order used everywhere.
 RESPONSE_PARAMS = ("period_s", "damping", "gain")
 
@@ -245,12 +247,9 @@ def paz_velocity_response(freqs, period_s, damping, gain, extra_poles=(), digiti
     ObsPy's evaluation, and by tests as a second construction."""
     s = 2j * np.pi * np.asarray(freqs, dtype=float)
     sn = 2j * np.pi * norm_freq
-    w0 = 2 * np.pi / period_s
+    c1, c0 = pendulum_coefficients(period_s, damping)
 
     def paz(x):
-        out = x * x / (x * x + 2 * damping * w0 * x + w0 * w0)
-        for p in extra_poles:
-            out = out / (x - p)
-        return out
+        return x * x / pendulum_denominator(x, c1, c0) * transfer(x, (), extra_poles)
 
     return gain * digitizer_gain * paz(s) / np.abs(paz(sn))
