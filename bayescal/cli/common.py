@@ -1,12 +1,12 @@
 """What several sub-commands share: the arguments of a sensor pair, the page size, messages
-on stderr, and publishing a finished output folder in one move."""
+on stderr, and the output folder written in a staging folder and published when complete
+(:func:`bayescal.io.atomic.staging`)."""
 from __future__ import annotations
 
 import contextlib
-import os
-import shutil
 import sys
-import tempfile
+
+from ..io.atomic import publish, staging  # noqa: F401  (the sub-commands' one output rule)
 
 
 def parse_time(text):
@@ -187,68 +187,3 @@ def add_paper_argument(parser):
 def say(args, text):
     if not args.quiet:
         print(text, file=sys.stderr)
-
-
-#: The list of what bayescal wrote into an output folder (one name a line).
-MANIFEST = ".bayescal-written"
-
-
-def publish(tmp, out):
-    """Move the finished files from ``tmp`` into ``out``. A rerun into the
-    same folder first removes what the previous run wrote there (the names
-    in its :data:`MANIFEST`) and this run does not write again, so no file
-    of an earlier run can be read as this one's; files bayescal did not
-    write are left alone. The new manifest lists this run's files."""
-    names = sorted(n for n in os.listdir(tmp) if n != MANIFEST)
-    with open(os.path.join(tmp, MANIFEST), "w") as fh:
-        fh.write("".join(f"{n}\n" for n in names))
-    if not os.path.exists(out):
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)
-        os.replace(tmp, out)
-        return
-    for old in _previous_run(out):
-        if old not in names:
-            path = os.path.join(out, old)
-            if os.path.isdir(path) and not os.path.islink(path):
-                shutil.rmtree(path, ignore_errors=True)
-            elif os.path.lexists(path):
-                os.remove(path)
-    for name in names + [MANIFEST]:
-        dest = os.path.join(out, name)
-        if os.path.isdir(dest) and not os.path.islink(dest):
-            shutil.rmtree(dest)
-        os.replace(os.path.join(tmp, name), dest)
-    shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _previous_run(out):
-    """Names the previous run listed in ``out``'s manifest (plain names
-    only: nothing outside ``out``)."""
-    try:
-        with open(os.path.join(out, MANIFEST)) as fh:
-            names = [ln.strip() for ln in fh]
-    except OSError:
-        return []
-    return [n for n in names if n and n not in (".", "..", MANIFEST) and os.sep not in n
-            and (os.altsep is None or os.altsep not in n)]
-
-
-@contextlib.contextmanager
-def staging(out):
-    """A hidden temporary folder beside ``out`` (with the usual permissions)
-    to write into; on success its files are published into ``out`` in one
-    move (:func:`publish`), on any error it is removed and ``out`` untouched."""
-    parent = os.path.dirname(out) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    try:
-        yield tmp
-        publish(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

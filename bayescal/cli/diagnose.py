@@ -25,12 +25,10 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
 import sys
-import tempfile
 
-from .common import (add_pair_arguments, convergence_exit, priors_from, publish,
-                     quiet_convergence_warnings)
+from .common import (add_pair_arguments, convergence_exit, priors_from,
+                     quiet_convergence_warnings, staging)
 
 HELP = "locate model/recording mismatch, name and model the missing physics"
 
@@ -59,10 +57,7 @@ def run(args):
         base, d = _run_diagnosis(args, say)
     final = d.final
     final.sut_inventory = base.sut_inventory
-    parent = os.path.dirname(out) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
-    try:
+    with staging(out) as tmp:
         write_results(final, tmp)
         write_json(os.path.join(tmp, "diagnosis.json"), d.summary())
         if not args.no_report:
@@ -72,10 +67,6 @@ def run(args):
             except Exception as exc:   # the findings matter more than the figure
                 print(f"bayescal: warning: the diagnosis page could not be written "
                       f"({type(exc).__name__}: {exc})", file=sys.stderr)
-        publish(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     for s in d.sentences():
         print(s)
     short = final.meta.get("record_length", {}).get("note")

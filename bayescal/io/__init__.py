@@ -12,6 +12,7 @@
 * :mod:`.refnoise_file` the reference's self-noise given in a file
 * :mod:`.result`      a fit's result.json / samples.npz written and read back
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
+* :mod:`.atomic`      files and output folders written so that none is seen half written
 
 May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline criticises a
 fit that fails its model check); never coil, report, network or cli.

@@ -30,12 +30,12 @@ Everything else in the file is left untouched.
 from __future__ import annotations
 
 import copy
-import os
 
 import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
 from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
+from .atomic import atomic_path
 from .read import InputError
 
 
@@ -301,7 +301,6 @@ def write_corrected(inventory, posterior, path, criticism=None):
     """Write :func:`corrected_inventory` as StationXML to ``path``
     (atomically: temporary name, then rename). Returns ``path``."""
     inv = corrected_inventory(inventory, posterior, criticism)
-    tmp = os.fspath(path) + ".tmp"
-    inv.write(tmp, format="STATIONXML", validate=False)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        inv.write(tmp, format="STATIONXML", validate=False)
     return path

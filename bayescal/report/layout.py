@@ -102,6 +102,54 @@ def save_png(fig, path, dpi=PNG_DPI):
         fig.dpi = old_dpi
 
 
+def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=None):
+    """Write a report's pages: each figure on one page of the PDF
+    ``pdf_path`` and, when it has a PNG path, as that PNG. Each figure is
+    closed once written; each file is written under a temporary name and
+    renamed when complete (:func:`bayescal.io.atomic.atomic_path`).
+
+    Parameters
+    ----------
+    pages : iterable of ``(png_path or None, figure)``; a generator builds
+        one figure at a time.
+    pdf_path : the PDF's path.
+    page : (width, height) in inches of every PDF page (:func:`save_pdf_page`);
+        None: each page the size of its figure.
+    dpi : resolution of the PNGs.
+    grey : PNGs in 8-bit greyscale (:func:`save_png`), else in colour as
+        matplotlib writes them.
+    metadata : the PDF's metadata (as ``PdfPages`` takes them).
+
+    Returns
+    -------
+    list of the PNG paths written, in page order.
+    """
+    import sys
+
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ..io.atomic import atomic_path
+
+    pngs = []
+    with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:
+        for png, fig in pages:
+            if page is None:
+                pdf.savefig(fig)
+            else:
+                save_pdf_page(pdf, fig, page)
+            if png is not None:
+                with atomic_path(png) as tmp_png:
+                    if grey:
+                        save_png(fig, tmp_png, dpi)
+                    else:
+                        fig.savefig(tmp_png, dpi=dpi)
+                pngs.append(png)
+            plt = sys.modules.get("matplotlib.pyplot")   # a figure pyplot made is pyplot's
+            if plt is not None:
+                plt.close(fig)
+    return pngs
+
+
 def subject_line(ctx):
     """One line for the PDF Subject: channels, band, window."""
     m = ctx.post.meta
