@@ -64,6 +64,42 @@ def add_tolerance_arguments(parser, when):
 def add_pair_arguments(parser):
     """Arguments shared by ``bayescal fit`` and ``bayescal diagnose``: the two
     sensors' files, the output folder, the band, the window and the options."""
+    _add_inputs(parser)
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--fit-response", nargs="?", const="all", default="gain",
+                        choices=["all", "gain", "none"],
+                        help="which of the SUT's response parameters are fitted: 'gain' (the "
+                             "default without the option: each channel's gain, reported also "
+                             "as a relative gain = fitted / metadata; works with 'flat' "
+                             "metadata), 'all' (the default when the option is given without "
+                             "a value: natural period, damping and gain per channel; needs "
+                             "poles and zeros) or 'none' (gains held at their metadata values, "
+                             "angles only). With one horizontal reference channel the gains "
+                             "are held (it cannot separate them from the rotation)")
+    add_tolerance_arguments(parser, "with --fit-response all")
+    _add_reference_arguments(parser)
+    parser.add_argument("--keep-transients", action="store_true",
+                        help="fit every Welch segment; by default segments in which one sensor "
+                             "records noise the other does not, beyond the record's stationary "
+                             "noise (a transient near one sensor: a gust, a door, a vehicle), "
+                             "are left out, and the console says how many and when")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: chosen from the data where the "
+                             "sensors are coherent)")
+    parser.add_argument("--start", type=parse_time, metavar="T",
+                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
+    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress display (the band used and the results table are "
+                             "still printed)")
+    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    add_sampling_argument(parser)
+    add_paper_argument(parser)
+
+
+def _add_inputs(parser):
+    """The two sensors' recordings, metadata and channel patterns."""
     g = parser.add_argument_group("inputs")
     g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
                    help="reference recording(s): miniSEED or any format ObsPy reads")
@@ -79,18 +115,10 @@ def add_pair_arguments(parser):
                         "'XX.SIM.10.BH?'): needed when a file holds both sensors")
     g.add_argument("--ref-id", nargs="+", metavar="PATTERN",
                    help="SEED ids of the reference's channels (e.g. 'XX.SIM.00.BH?')")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--fit-response", nargs="?", const="all", default="gain",
-                        choices=["all", "gain", "none"],
-                        help="which of the SUT's response parameters are fitted: 'gain' (the "
-                             "default without the option: each channel's gain, reported also "
-                             "as a relative gain = fitted / metadata; works with 'flat' "
-                             "metadata), 'all' (the default when the option is given without "
-                             "a value: natural period, damping and gain per channel; needs "
-                             "poles and zeros) or 'none' (gains held at their metadata values, "
-                             "angles only). With one horizontal reference channel the gains "
-                             "are held (it cannot separate them from the rotation)")
-    add_tolerance_arguments(parser, "with --fit-response all")
+
+
+def _add_reference_arguments(parser):
+    """What is known of the reference: its metadata's tolerance and its self-noise."""
     parser.add_argument("--ref-tolerance", type=_percent_or_zero, default=0.0,
                         metavar="PERCENT",
                         help="how well the reference's own metadata are known: the relative "
@@ -112,24 +140,6 @@ def add_pair_arguments(parser):
                              "bayescal noise's noise.json (from a third co-located sensor: the "
                              "remedy for a one-channel pair such as a vertical huddle) or a text "
                              "file of period (s) and PSD (dB re 1 (m/s^2)^2/Hz) columns")
-    parser.add_argument("--keep-transients", action="store_true",
-                        help="fit every Welch segment; by default segments in which one sensor "
-                             "records noise the other does not, beyond the record's stationary "
-                             "noise (a transient near one sensor: a gust, a door, a vehicle), "
-                             "are left out, and the console says how many and when")
-    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
-                        help="analysis band in Hz (default: chosen from the data where the "
-                             "sensors are coherent)")
-    parser.add_argument("--start", type=parse_time, metavar="T",
-                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
-    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true",
-                        help="no progress display (the band used and the results table are "
-                             "still printed)")
-    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
-    add_sampling_argument(parser)
-    add_paper_argument(parser)
 
 
 #: Exit code of a run whose results are written but one of whose samplers
