@@ -1,6 +1,7 @@
 """PDF/PNG reports, one module per kind, figures beside them.
 
-* :mod:`.layout`     what every page shares: context, style, tables, headers
+* :mod:`.layout`     what every page shares: context, style, tables, headers, and
+                     the loop writing a report's pages into its PDF and PNGs
 * :mod:`.axes`       axis helpers: log-frequency ticks, the PSD's unit
 * :mod:`.tables`     rows of the fit report (intervals, nominal, deviations)
 * :mod:`.fit`        the fit report from a result folder

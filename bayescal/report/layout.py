@@ -1,5 +1,6 @@
 """Shared layout of report pages: the page context, style, PNG output,
-number formatting, tables and page headers.
+number formatting, tables and page headers, and :func:`write_pages`, which
+writes every report's pages into its PDF and PNGs.
 """
 from __future__ import annotations
 
