@@ -5,11 +5,12 @@ in one step); an output folder's files are written into a temporary folder
 beside it and moved in when all are complete. On an error the temporary file
 or folder is removed and what was there before is left as it was.
 
-* :func:`atomic_path`, :func:`write_text`, :func:`write_json` one file;
+* :func:`atomic_path`, :func:`write_json` one file;
 * :func:`staging` one output folder, published by :func:`publish` (files
   moved into a folder that may hold the user's own files: the previous run's
-  files, listed in its :data:`MANIFEST`, are replaced) or by
-  :func:`replace_folder` (a folder bayescal owns, replaced as a whole).
+  files, listed in its :data:`MANIFEST`, are replaced), by
+  :func:`replace_folder` (a folder bayescal owns, replaced as a whole) or by
+  :func:`move_files` (files moved in, named stale ones removed).
 """
 from __future__ import annotations
 
@@ -50,12 +51,6 @@ def atomic_path(path):
         with contextlib.suppress(FileNotFoundError):
             os.remove(tmp)
         raise
-
-
-def write_text(path, text):
-    """Write ``text`` to ``path`` atomically (:func:`atomic_path`)."""
-    with atomic_path(path) as tmp, open(tmp, "w") as fh:
-        fh.write(text)
 
 
 def write_json(path, obj, default=None):
