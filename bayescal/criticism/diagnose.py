@@ -74,7 +74,7 @@ def reference_shape_caveat(mode):
     return {"estimate": REFERENCE_SHAPE_CAVEAT, "equal": EQUAL_SHAPE_CAVEAT}.get(mode)
 
 
-def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
+def posterior_of(model, theta, cov, meta, not_estimable, free, *, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
     """A :class:`~bayescal.core.posterior.samples.Posterior` of ``model`` (with effects) from MCMC
     (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence

@@ -268,7 +268,7 @@ def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=N
     return sides, fs, t0
 
 
-def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
+def align(sut, sut_inventory, ref, ref_inventory, *, sut_source="SUT", ref_source="reference",
           start=None, end=None, fs=None):
     """Bring both streams onto one time grid and read their metadata
     (:func:`align_sensors` for a SUT and a reference).

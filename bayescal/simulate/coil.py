@@ -87,7 +87,7 @@ def white_rfft(rng, nf, std_time, n):
     return out
 
 
-def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, matrix=STS2_UVW,
+def simulate_calibration(*, elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, matrix=STS2_UVW,
                          duration=8 * 3600.0, fs=1.0, coil_constant=1e-9, amplitude=1e5,
                          clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, outputs="xyz",
                          input_channel="BC0", seed=0, network="XX", station="UVW",
@@ -143,7 +143,8 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
                 sampling_rate=fs, starttime=t_run)))
         runs[name] = Stream(traces)
         t_run = t_run + duration + 600.0
-    inventory = _inventory(codes, outputs, m, nominal, fs, network, station, location, start)
+    inventory = _inventory(codes, outputs, m, nominal, fs, network=network,
+                           station=station, location=location, start=start)
     truth = {"elements": {nm: {"period_s": float(el[0]), "damping": float(el[1]),
                                "gain": float(el[2])} for nm, el in zip(ELEMENTS, elements)},
              "nominal": {"period_s": nominal[0], "damping": nominal[1], "gain": nominal[2]},
@@ -154,7 +155,7 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
     return CalibrationSimulation(runs=runs, inventory=inventory, truth=truth)
 
 
-def _inventory(codes, outputs, matrix, nominal, fs, network, station, location, start):
+def _inventory(codes, outputs, matrix, nominal, fs, *, network, station, location, start):
     if outputs == "xyz":
         angles = [(0.0, 0.0), (90.0, 0.0), (0.0, -90.0)]
     else:

@@ -171,7 +171,7 @@ def _drifting(spectrum, n, fs, ppm, chunk_s=10.0):
     return out
 
 
-def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherence=0.9999,
+def simulate_pair(*, duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherence=0.9999,
                   sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                   nominal_azimuth=(0.0, 90.0, 0.0), nominal_dip=(0.0, 0.0, -90.0),
                   sut_response=((30.0, 0.707, 750.0),) * 3, nominal_response=(30.0, 0.707, 750.0),
@@ -282,7 +282,7 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
         truth=truth)
 
 
-def self_noise_psd(freqs, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
+def self_noise_psd(freqs, *, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
                    ref_coherence=0.9999, sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                    sut_response=((30.0, 0.707, 750.0),) * 3, ref_response=(120.0, 0.707, 1500.0),
                    n_waves=6, diffuse=0.3, noise_in_counts=False, wave_seed=None, **_ignored):

@@ -282,7 +282,7 @@ def default_walkers(ndim):
     return n + n % 2
 
 
-def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
+def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
            rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.

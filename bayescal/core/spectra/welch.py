@@ -296,7 +296,7 @@ def deconvolve_runs(data, fs, response, band, margin):
     return out
 
 
-def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
+def cross_spectra(sut, ref, fs, sut_response, ref_response, band, *, nperseg=None, overlap=0.5,
                   bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
                   edge_periods=2.0, time_blocks=TIME_BLOCKS, exclude=None):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
