@@ -251,13 +251,9 @@ LONG_FUNCTIONS_ALLOWED = {
     "core.response.pendulum:prior_sensitivity": "to split",
     "core.response.pendulum:reweighted_sensitivity": "to split",
     "core.sampling.mcmc:sample": "to split",
-    "core.spectra.welch:cross_spectra": "to split",
     "criticism.diagnose:diagnose": "to split",
     "criticism.tilt:tilt_test": "to split",
     "criticism.verdict:criticise": "to split",
-    "io.align:align_sensors": "to split",
-    "simulate.coil:simulate_calibration": "to split",
-    "simulate.pair:simulate_pair": "to split",
 }
 
 
