@@ -248,12 +248,6 @@ LONG_FUNCTIONS_ALLOWED = {
     "report.fit:write_report": "the fit report (worker flow)",
     "report.fit_pages:page_summary": "the fit report (worker flow)",
     "report.fit_pages:page_convergence": "the fit report (worker flow)",
-    "core.response.pendulum:prior_sensitivity": "to split",
-    "core.response.pendulum:reweighted_sensitivity": "to split",
-    "core.sampling.mcmc:sample": "to split",
-    "criticism.diagnose:diagnose": "to split",
-    "criticism.tilt:tilt_test": "to split",
-    "criticism.verdict:criticise": "to split",
 }
 
 
