@@ -11,6 +11,7 @@
 * :mod:`.diagnosis` what the diagnosis found: its summary (diagnosis.json) and
                     its finding in plain words
 * :mod:`.verdict`   the criticism of a fit that failed its model check
+* :mod:`.words`     the named effects in plain words: their labels and advice
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the

@@ -24,6 +24,8 @@ import time
 
 import numpy as np
 
+from . import words
+
 #: An estimate "moves" when the improved model shifts it by more than this
 #: many of its standard deviations (the fit's 68 % half-width).
 MOVE_SD = 0.3
@@ -57,27 +59,6 @@ SIZE_NOTE_DEGENERATE = ("the sizes above come from an improved model whose poste
 #: The same when the search ran out of its budget before it could judge them.
 SIZE_NOTE_INCOMPLETE = ("the sizes above come from a search that ran out of its budget before "
                         "every candidate was tried: their intervals are not measurements")
-
-#: What the user can do about each named effect (the option to pass, or the
-#: change to make in the metadata).
-ADVICE = {
-    "response_parameters": "fit the period and damping with --fit-response all",
-    "timing_offset": "correct the SUT's clock, and the time stamps of the recordings it "
-                     "made: a clock offset is a time correction of the data (shift each SUT "
-                     "trace's start time by {shift:+.3g} s), not a response change; the "
-                     "corrected StationXML records it in a stage delay, which ObsPy's "
-                     "remove_response does not apply",
-    "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
-    "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
-                  "include its high-frequency poles)",
-    "gain_error": "correct the channel's sensitivity in its metadata (or leave the gains free, "
-                  "the default, which measures it as the relative gain)",
-    "polarity_reversal": "correct the channel's polarity (dip or azimuth sign) in its metadata",
-    "channel_swap": "correct the channel names or wiring",
-    "tilt_noise": "nothing to correct: it is noise; a quieter site or a longer record "
-                  "narrows the long-period intervals",
-}
-
 
 class Criticism:
     """What :func:`criticise` found: ``summary`` (JSON-safe, result.json's
@@ -124,17 +105,6 @@ def improved_estimates(base_summary, final_summary):
                           "fit_median": be["median"], "moved_sd": float(moved)}
         out[cid] = entry
     return out
-
-
-def _advice(effect):
-    """:data:`ADVICE` for a named effect; a timing offset's with its signed
-    time correction (minus the offset: + = the SUT's samples late)."""
-    text = ADVICE.get(effect["name"], "")
-    if effect["name"] == "timing_offset":
-        seconds = effect.get("parameters", {}).get("seconds", {}).get("median")
-        text = text.format(shift=-float(seconds)) if seconds is not None else \
-            text.replace(" (shift each SUT trace's start time by {shift:+.3g} s)", "")
-    return text
 
 
 def _effect_sizes(effect):
@@ -200,28 +170,6 @@ def _where(mismatch):
                      f"{', '.join(m['channels'])}" for m in mismatch)
 
 
-def _label(effect):
-    """An effect's name in plain words."""
-    name = effect["name"]
-    if name == "extra_pole":
-        who = "reference" if effect.get("parameters", {}).get("which") == "ref" else "SUT"
-        return f"a pole missing from the {who}'s metadata"
-    return {"response_parameters": "the SUT's period and damping off their metadata values",
-            "timing_offset": "a timing offset between the digitizers",
-            "clock_drift": "a drifting SUT clock", "gain_error": "a sensitivity off its metadata",
-            "polarity_reversal": "a reversed channel", "channel_swap": "exchanged channels",
-            "tilt_noise": "long-period tilt noise"}.get(name, name.replace("_", " "))
-
-
-def _names(effects):
-    out = []
-    for e in effects:
-        lab = _label(e)
-        if lab not in out:
-            out.append(lab)
-    return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
-
-
 def criticism_budget(budget_s=DEFAULT_BUDGET_S):
     """The criticism's :class:`bayescal.core.budget.Budget` for a budget
     stated in seconds (``--diagnose-budget``): ``budget_s *``
@@ -263,7 +211,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     left = d.after["mismatch"]
     ref = d.signatures.get("reference_noise", {})
     effects = [_effect_entry(e) for e in named]
-    names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
+    names = words.names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
     degenerate = _degenerate(d, post, effects)
     verdict, text, size_note, advice = _verdict(d, names=names, degenerate=degenerate,
                                                 biggest=biggest, budget=budget,
@@ -305,7 +253,7 @@ def _budget(budget, budget_s):
 def _effect_entry(e):
     """A named effect as the summary lists it."""
     return {"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-            "explanation": e["explanation"], "advice": _advice(e),
+            "explanation": e["explanation"], "advice": words.advice(e),
             **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
 
 
@@ -459,7 +407,7 @@ def check_orientation(post):
         return None
     effects = [_effect_entry(e) for e in named]       # (no prior sets an orientation)
     return {"verdict": "fits", "verdict_text": "the model fits the recordings, with "
-            f"{_names(named)} that the fitted orientation already holds: the estimates are "
+            f"{words.names(named)} that the fitted orientation already holds: the estimates are "
             "usable as they are, and the metadata need correcting (the corrected StationXML "
             "holds the fitted orientation)", "effects": effects, "complete": True,
             "tried": ["polarity_reversal", "channel_swap"], "not_tried": [],
