@@ -7,8 +7,11 @@
 * :mod:`.naming`    which kept effects are named: pruning, a timing offset's
                     consistency across the band, the posterior's exclusion of
                     each effect's absence
-* :mod:`.diagnose`  the whole diagnosis and its summary
+* :mod:`.diagnose`  the whole diagnosis: locate, name and model, show
+* :mod:`.diagnosis` what the diagnosis found: its summary (diagnosis.json) and
+                    its finding in plain words
 * :mod:`.verdict`   the criticism of a fit that failed its model check
+* :mod:`.words`     the named effects in plain words: their labels and advice
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the

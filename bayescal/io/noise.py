@@ -157,7 +157,7 @@ def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart"
     return est, C, bands, ranges
 
 
-def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=None, start=None,
+def self_noise_streams(streams, inventories, *, sources=None, band=None, nperseg=None, start=None,
                        end=None, level=0.9, n_boot=1000, seed=0, method="wishart",
                        axis_mismatch=AXIS_MISMATCH, bands_per_decade=BANDS_PER_DECADE,
                        progress=None):

@@ -147,8 +147,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     ref_inventory = load_inventory(ref_xml, ref, "reference StationXML")
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
     check_distinct(sut, ref)
-    s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
-                         start, end)
+    s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source=sut_source,
+                         ref_source=ref_source, start=start, end=end)
     files = f"{_describe_files(s)} vs {_describe_files(r)}: "
     try:
         if band is None:

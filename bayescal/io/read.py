@@ -196,7 +196,7 @@ PLACEHOLDER_NOTE = ("placeholder metadata written by bayescal, not measured: lat
                     "unknown; orientation is nominal from the channel code")
 
 
-def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientations=None,
+def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, *, orientations=None,
                   normalize=True, input_units="M/S", note=None):
     """An Inventory for every channel of ``stream`` with one poles-and-zeros
     stage (rad/s; ``gain`` counts per ``input_units`` at ``norm_freq``).

@@ -169,7 +169,7 @@ def simulate_colocated(duration=7200.0, fs=20.0, seed=0, axis_mismatch=0.0):
     return Colocated(np.array(out), float(fs), seed, axis_mismatch)
 
 
-def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
+def estimate_and_truth(sim, band=None, *, n_boot=400, level=0.9, method="wishart",
                        axis_mismatch=0.0, bands_per_decade=16, min_bins=4, seed=None):
     """Run a simulation through the same spectra and estimator as real data.
 
