@@ -230,7 +230,6 @@ MAX_POSITIONAL = 8
 #: shrinks: :func:`test_allowed_long_functions_still_exceed` fails on an entry
 #: that no longer exceeds, so a function brought within the limits leaves it.
 LONG_FUNCTIONS_ALLOWED = {
-    "cli.common:add_pair_arguments": "the pair options, one call each (staging, worker dedup)",
     "coil.element:fit_two_pass": "coil model (worker model)",
     "coil.runs:read_run": "coil model (worker model)",
     "coil.uvw:calibrate_uvw": "coil model (worker model)",
@@ -239,12 +238,8 @@ LONG_FUNCTIONS_ALLOWED = {
     "core.fit.run:fit_spectra": "the fit (worker flow: the pair workflow)",
     "core.model.likelihood:Model.__init__": "pair model (worker model: the model interface)",
     "core.model.likelihood:Model.estimate_noise": "pair model (worker model)",
-    "core.response.evalresp:_Stage.__init__": "poles-and-zeros evaluation (worker dedup)",
-    "core.response.evalresp:velocity_response": "poles-and-zeros evaluation (worker dedup)",
     "core.selfnoise.pair_noise:for_fit": "self-noise in the fit (worker flow)",
     "io.pipeline:calibrate": "the pair workflow (worker flow)",
-    "network.batch:run_batch": "the batch (worker dedup)",
-    "report.diagnosis:build_figure": "the diagnosis page (worker dedup)",
     "report.fit:write_report": "the fit report (worker flow)",
     "report.fit_pages:page_summary": "the fit report (worker flow)",
     "report.fit_pages:page_convergence": "the fit report (worker flow)",
