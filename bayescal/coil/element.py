@@ -13,7 +13,8 @@ from ..core.sampling.mcmc import sample
 from ..core.fit.errors import FitError
 from ..core.fit.leastsq import refine
 from ..io.read import InputError
-from ..core.model.likelihood import INFLATION_SHRINK, Priors
+from ..core.model.inflation import shrunk_inflation
+from ..core.model.likelihood import Priors
 from ..core.posterior.samples import interval_summary
 from ..core.spectra.welch import SpectraError, cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
@@ -192,11 +193,8 @@ class RunModel(BoundedPosterior):
         q0 = np.einsum("kbi,bij,kbj->b", r_k.conj(), s_inv, r_k).real
         adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q1 = np.einsum("kbi,bij,kbj->b", r_k[adj + 1].conj(), s_inv, r_k[adj]).real
-        raw = (q0 + 2.0 * q1) / (no * self._saa_b)
-        pooled = raw.mean()
-        wgt = sp.n_segments * no
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * max(pooled, 1e-12))
+        c = shrunk_inflation((q0 + 2.0 * q1) / (no * self._saa_b), sp.n_segments * no,
+                             pooled_floor=1e-12)
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self._saa_b)[:, None, None]
         return self.noise

@@ -6,6 +6,7 @@
                        variables)
 * :mod:`.refnoise`     the reference's self-noise statistic and its covariance
 * :mod:`.noisescale`   the SUT's self-noise held fixed in its counts
+* :mod:`.inflation`    the noise-inflation factor, shrunk toward its pooled value
 * :mod:`.plugin`       band weights for the plug-in noise model's sampling error
 * :mod:`.misfit_scale` the per-band noise scale, marginalised
 * :mod:`.effect`       the hook by which a physical effect extends the likelihood

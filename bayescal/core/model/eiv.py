@@ -29,7 +29,8 @@ import numpy as np
 
 from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
-from .likelihood import INFLATION_SHRINK, Model, Priors
+from .inflation import shrunk_inflation
+from .likelihood import Model, Priors
 
 
 @dataclass
@@ -272,11 +273,7 @@ class EIVModel(Model):
         q0 = np.einsum("kbi,bij,kbj->b", x_k, w, x_k)
         adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q1 = np.einsum("kbi,bij,kbj->b", x_k[adj + 1], w, x_k[adj])
-        raw = (q0 + 2.0 * q1) / rank
-        pooled = raw.mean()
-        wgt = x_k.shape[0] * rank
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * pooled)
+        c = shrunk_inflation((q0 + 2.0 * q1) / rank, x_k.shape[0] * rank)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
                               weight=plugin.band_weights(band_dof(sp), nu + nr))

@@ -62,6 +62,7 @@ from ..response import pendulum
 from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
+from .inflation import shrunk_inflation
 from ..response.family import TwoPoleFamily, gain_prior_factor
 
 #: Density of the nodes at which response ratios are evaluated.
@@ -69,10 +70,6 @@ NODES_PER_DECADE = 60
 
 #: Fewest time blocks with which the per-block likelihood is used.
 MIN_TIME_BLOCKS = 4
-
-#: Shrinkage weight (in segment x entry counts) of a band's inflation factor
-#: toward the value pooled over bands.
-INFLATION_SHRINK = 50.0
 
 
 @dataclass(frozen=True)
@@ -455,11 +452,7 @@ class Model:
         q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
                        r_k[adjacent].conj()).real
         p = nu * sp.n_r
-        raw = dof * (q0 + 2.0 * q1) / p
-        pooled = raw.mean()
-        wgt = r_k.shape[0] * p
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * pooled)
+        c = shrunk_inflation(dof * (q0 + 2.0 * q1) / p, r_k.shape[0] * p)
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
                                 inflation=c, scale0=scale0,
