@@ -20,8 +20,7 @@ def adequacy_summary(model, theta):
     ``|R_b|^2 / E|R_b|^2`` (about 1 when the model fits) and the chi-square
     p-value of their sum (2 degrees of freedom per band and output)."""
     r = model.residual(theta)[0]
-    var = np.einsum("bii->bi", model.sigma).real * (model.inflation * model._saa_b)[:, None]
-    q = np.abs(r) ** 2 / var
+    q = np.abs(r) ** 2 / model.residual_variance()
     dof = 2 * q.size
     return {"misfit": float(q.mean()), "n_bands": int(q.shape[0]),
             "p_value": float(chi2.sf(2 * q.sum(), dof))}

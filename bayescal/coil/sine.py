@@ -149,7 +149,7 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     model = SineModel(x, run.fs, pred, skip)
     # start: least squares of x on (p, q) with offset and drift
     design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
-                              model.predict(np.array([0.0, np.pi / 2]))[0], model._nuisance])
+                              model.predict(np.array([0.0, np.pi / 2]))[0], model.nuisance])
     c, *_ = np.linalg.lstsq(design[skip:], x[skip:], rcond=None)
     rho = complex(c[0], c[1])
     if not 0.1 < abs(rho) < 10:

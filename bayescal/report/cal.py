@@ -29,13 +29,7 @@ from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, save_pdf_page  #
 
 def _measured(fit):
     """Band centres, measured complex response and its sd, from the model."""
-    m = fit.model
-    t, sd = m.measured()
-    sp = m.spectra
-    w = m._saa[:, None] * m._onehot                                  # (F, B) weights
-    fc = (sp.freqs @ w) / w.sum(axis=0)
-    rel = (m.base[0] * m._saa) @ m._onehot / m._saa_b                 # base at band centre
-    return fc, t * rel, sd * np.abs(rel)
+    return fit.model.measured_response()
 
 
 def response_page(fit, summary, paper="a4"):
@@ -118,7 +112,7 @@ def residuals_page(fit, summary, paper="a4"):
     m = fit.model
     med = np.median(fit.theta, axis=0)
     r = m.residual(med)[0][:, 0]
-    var = m.sigma[:, 0, 0].real * m.inflation * m._saa_b
+    var = m.residual_variance()[:, 0]
     z = r / np.sqrt(var / 2)
     fc = m.spectra.band_centres
     fig, (a1, a2) = plt.subplots(2, 1, figsize=page_size(paper, landscape=True),

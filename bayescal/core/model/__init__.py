@@ -6,6 +6,8 @@
                        variables)
 * :mod:`.refnoise`     the reference's self-noise statistic and its covariance
 * :mod:`.noisescale`   the SUT's self-noise held fixed in its counts
+* :mod:`.nodes`        the frequency nodes of the response ratios and their
+                       interpolation to the bins
 * :mod:`.inflation`    the noise-inflation factor, shrunk toward its pooled value
 * :mod:`.plugin`       band weights for the plug-in noise model's sampling error
 * :mod:`.misfit_scale` the per-band noise scale, marginalised
