@@ -2,6 +2,8 @@
 
 * :mod:`.likelihood`   the Frobenius residual, its noise model, vectorised
                        log-probability
+* :mod:`.channel`      how one SUT channel enters the model (parameters, bounds)
+* :mod:`.protocol`     the interface every model (pair, coil, UVW) implements
 * :mod:`.eiv`          the likelihood when both sensors are noisy (errors in
                        variables)
 * :mod:`.refnoise`     the reference's self-noise statistic and its covariance

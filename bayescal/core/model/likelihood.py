@@ -61,10 +61,11 @@ from ..budget import charge
 from ..response import pendulum
 from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
+from .channel import ChannelBlock  # noqa: F401  (re-exported: a Model is built of them)
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from .inflation import shrunk_inflation
 from .nodes import NODES_PER_DECADE, interpolation_nodes
-from ..response.family import TwoPoleFamily, gain_prior_factor
+from ..response.family import gain_prior_factor
 
 #: Fewest time blocks with which the per-block likelihood is used.
 MIN_TIME_BLOCKS = 4
@@ -89,36 +90,6 @@ class Priors:
     period_tolerance: float = pendulum.PERIOD_TOLERANCE
     damping_tolerance: float = pendulum.DAMPING_TOLERANCE
     reference_tolerance: float = 0.0
-
-
-@dataclass(frozen=True)
-class ChannelBlock:
-    """How one SUT channel enters the model.
-
-    ``manifold`` (from :mod:`bayescal.core.orientation.geometry`) holds its orientation
-    parameters; ``free`` is ``"none"``, ``"gain"`` or ``"all"`` (period,
-    damping, gain: sampled as ``c0_rel``, ``c1_rel``, ``log_gain``, see
-    :mod:`bayescal.core.response.pendulum`); ``family`` is the channel's parametric
-    response.
-    """
-
-    channel_id: str
-    manifold: object
-    family: TwoPoleFamily | None
-    free: str = "none"
-
-    @property
-    def n_response(self):
-        return {"none": 0, "gain": 1, "all": 3}[self.free]
-
-    @property
-    def n_params(self):
-        return self.manifold.n_params + self.n_response
-
-    def param_names(self):
-        orient = {2: ["orient_a", "orient_b"], 1: ["azimuth_rad"], 0: []}[self.manifold.n_params]
-        resp = {"none": [], "gain": ["log_gain"], "all": [*pendulum.NAMES, "log_gain"]}[self.free]
-        return [f"{self.channel_id}:{p}" for p in orient + resp]
 
 
 @dataclass
@@ -297,6 +268,14 @@ class Model:
             out[b.channel_id] = vals
         return out
 
+    def bounds(self):
+        """(lo, hi) of every parameter under the priors (infinite for the
+        angles and the effects' parameters)."""
+        lo, hi = np.full(self.ndim, -np.inf), np.full(self.ndim, np.inf)
+        for b, (_, sr) in zip(self.blocks, self.slices):
+            lo[sr], hi[sr] = b.response_bounds(self.priors)
+        return lo, hi
+
     @staticmethod
     def _period_damping(block, r):
         """(period, damping) from a block's ``(c0_rel, c1_rel, ...)`` columns."""
@@ -409,6 +388,11 @@ class Model:
         """Real vector whose squared norm is ``-log L`` (for least squares)."""
         z = self._whiten(theta, factors)
         return np.concatenate([z.real.ravel(), z.imag.ravel()])
+
+    def likelihood_residual(self, theta):
+        """The whitened residual at one ``theta`` with the noise model as
+        set: its squared norm is the weighted Gaussian ``-log L``."""
+        return self.whitened_residual(theta, self.noise.cholesky())
 
     # --- noise model -------------------------------------------------------
     def estimate_noise(self, theta0):
