@@ -247,7 +247,7 @@ def least_squares_run(model, theta0):
                   x_scale="jac")
 
 
-def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, seed=0,
+def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, *, seed=0,
                  progress=False, **sample_kw):
     """The fit of one run shared by ``bayescal uvw`` (:func:`fit_run`) and
     ``bayescal cal --kind random`` (:func:`bayescal.coil.random.fit_random`).

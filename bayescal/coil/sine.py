@@ -112,6 +112,18 @@ class SineFit:
                 "response_amplitude": a * abs(self.nominal),
                 "response_phase_deg": np.degrees(np.angle(self.nominal) + phi)}
 
+    def report_arrays(self):
+        """What the report draws (as :meth:`bayescal.coil.result.CalFit.report_arrays`):
+        the samples, the time series at the posterior median and the corner
+        plot's columns (amplitude ratio, phase difference)."""
+        phys = self.physical()
+        out = {"theta": self.theta, "names": np.array(self.model.names),
+               "corner_samples": np.column_stack([phys["amplitude_ratio"],
+                                                  phys["phase_difference_deg"]]),
+               "corner_labels": np.array(["amplitude / nominal", "phase - nominal (deg)"])}
+        out.update(self.model.report_series(np.median(self.theta, axis=0)))
+        return out
+
     def summary(self):
         """The ``cal.json`` content (kind ``sine``)."""
         params = {k: interval_summary(v) for k, v in self.physical().items()}

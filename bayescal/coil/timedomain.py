@@ -215,6 +215,15 @@ class TimeModel(BoundedPosterior):
         e = self.innovations(theta)
         return -0.5 * np.sum(e * e, axis=1)
 
+    def report_series(self, theta):
+        """The time series a report draws at ``theta``: the model output
+        ``series_model``, the residual ``series_residual`` (offset and drift
+        removed), the standardised ``innovations``, the sampling rate
+        ``series_fs`` and the samples left out at the start ``series_skip``."""
+        return {"series_model": self.predict(theta)[0], "series_residual": self.raw_residual(theta),
+                "innovations": self.innovations(theta)[0], "series_fs": self.fs,
+                "series_skip": self.skip}
+
     def adequacy(self, theta):
         """Mean square of the standardised innovations (about 1 when the
         model fits), the Ljung-Box p-value of their whiteness, the AR order."""
