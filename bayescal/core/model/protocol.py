@@ -11,6 +11,7 @@ set by ``estimate_noise`` at a point and held fixed while sampling.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
 
@@ -24,7 +25,7 @@ class PosteriorModel(Protocol):
     ndim : int, the number of parameters.
     """
 
-    names: tuple
+    names: Sequence[str]
     ndim: int
 
     def bounds(self):
