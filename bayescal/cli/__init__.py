@@ -41,18 +41,18 @@ def build_parser():
         p = sub.add_parser(name, help=mod.HELP, description=mod.__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         mod.configure(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(command_run=mod.run)
     return parser
 
 
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not getattr(args, "_run", None):
+    if not getattr(args, "command_run", None):
         parser.print_help()
         return 2
     try:
-        return int(args._run(args) or 0)
+        return int(args.command_run(args) or 0)
     except _user_errors() as exc:
         print(f"bayescal: error: {exc}", file=sys.stderr)
         return 2

@@ -7,7 +7,8 @@ band reaches (--fit hf), or both (--fit all).
 Example:
   bayescal cal --cal RUN.mseed --input-channel BC0 --output-channel BHZ \\
                --sut-xml SUT.xml --coil-constant 1e-9 --out DIR --fit lp
-Writes DIR/cal.json (schema bayescal.cal/1), DIR/cal_samples.npz,
+Writes DIR/cal.json (schema bayescal.cal/1), DIR/cal_samples.npz (the
+samples and every array the report draws: `bayescal report DIR` redraws it),
 DIR/sut_corrected.xml (the StationXML with the fitted values and their 68 %
 errors) and the report (DIR/cal_report.pdf and PNG pages). With several
 --output-channel, one sub-folder DIR/<SEED id>/ per channel and one
@@ -106,7 +107,7 @@ def write_outputs(fits, inventory, out, paper="a4"):
     """Write everything into a temporary folder, then move it into ``out``."""
     from ..coil.calxml import write_corrected_cal
     from ..io.result import write_json
-    from ..report.cal import write_report
+    from ..report.cal import write_report_from_folder
 
     parent = os.path.dirname(os.path.abspath(out)) or "."
     os.makedirs(parent, exist_ok=True)
@@ -118,9 +119,8 @@ def write_outputs(fits, inventory, out, paper="a4"):
             os.makedirs(folder, exist_ok=True)
             summary = fit.summary()
             write_json(os.path.join(folder, "cal.json"), summary)
-            np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
-                     names=np.array(fit.model.names))
-            write_report(fit, folder, paper=paper)
+            np.savez(os.path.join(folder, "cal_samples.npz"), **fit.report_arrays())
+            write_report_from_folder(folder, paper=paper)
             summaries.append(summary)
         corrected = [f for f in fits if f.spec is not None]
         if corrected:

@@ -24,7 +24,7 @@ def _replace_hf(stage, spec, roots):
     scale = 1.0 / (2 * np.pi) if "HERTZ" in str(stage.pz_transfer_function_type).upper() else 1.0
     med = np.median(roots.real, axis=0) + 1j * np.median(roots.imag, axis=0)
     sn = np.array([2j * np.pi * spec.family.norm_freq])
-    phi = spec._phi(sn, med[None])[0, 0]
+    phi = spec.free_factors(sn, med[None])[0, 0]
     for k, it in enumerate(spec.items):
         target = stage.poles if it.kind == "pole" else stage.zeros
         err = pole_with_errors(roots[:, k])

@@ -110,7 +110,7 @@ def _start(model, spec):
     """Nominal theta with the gain scaled by least squares (offset, drift free)."""
     theta = spec.nominal_theta()
     m = model.predict(theta)[0]
-    design = np.column_stack([m, model._nuisance])
+    design = np.column_stack([m, model.nuisance])
     coef, *_ = np.linalg.lstsq(design, model.x, rcond=None)
     return theta, coef[0]
 

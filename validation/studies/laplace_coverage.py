@@ -46,8 +46,8 @@ def apply_variant(variant):
             pl.cross_spectra = functools.partial(pl.cross_spectra, bands_per_decade=int(bpd),
                                                  min_bins=int(mb or 8))
         elif v.startswith("shrink"):               # inflation-factor shrinkage weight
-            import bayescal.core.model.eiv as ev         # both models' (eiv imports the value)
-            lk.INFLATION_SHRINK = ev.INFLATION_SHRINK = float(v[6:])
+            import bayescal.core.model.inflation as inflation     # every model's
+            inflation.INFLATION_SHRINK = float(v[6:])
         elif v == "quiet":                         # the reference taken as noise-free
             kw["ref_noise"] = "quiet"
         elif v.startswith("nperseg"):
