@@ -28,14 +28,12 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 
 import numpy as np
 
 from ..io.read import InputError, read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
-                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
+                     convergence_exit, priors_from, quiet_convergence_warnings, staging)
 
 HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
 KINDS = ("random", "step", "sine")
@@ -109,10 +107,7 @@ def write_outputs(fits, inventory, out, paper="a4"):
     from ..io.result import write_json
     from ..report.cal import write_report_from_folder
 
-    parent = os.path.dirname(os.path.abspath(out)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".cal-", dir=parent)
-    try:
+    with staging(out) as tmp:
         summaries = []
         for fit in fits:
             folder = tmp if len(fits) == 1 else os.path.join(tmp, fit.channel)
@@ -125,9 +120,6 @@ def write_outputs(fits, inventory, out, paper="a4"):
         corrected = [f for f in fits if f.spec is not None]
         if corrected:
             write_corrected_cal(inventory, corrected, os.path.join(tmp, "sut_corrected.xml"))
-        publish(tmp, out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
     return summaries
 
 

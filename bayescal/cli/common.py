@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import sys
 
-from ..io.atomic import publish, staging  # noqa: F401  (the sub-commands' one output rule)
+from ..io.atomic import staging  # noqa: F401  (the sub-commands' one output rule)
 
 
 def parse_time(text):

@@ -32,14 +32,13 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 
 import numpy as np
 
+from ..io.atomic import atomic_path
 from ..io.read import InputError, read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
-                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
+                     convergence_exit, priors_from, quiet_convergence_warnings, staging)
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -139,17 +138,11 @@ def write_outputs(result, out, quiet=True, paper="a4"):
     from ..io.result import write_json
     from ..report.uvw import write_report_from_folder
 
-    parent = os.path.dirname(os.path.abspath(out)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".uvw-", dir=parent)
-    try:
+    with staging(out) as tmp:
         summary = result.summary()
         write_json(os.path.join(tmp, "uvw.json"), summary)
         np.savez(os.path.join(tmp, "uvw_samples.npz"), **report_arrays(result))
         write_report_from_folder(tmp, paper=paper)
-        publish(tmp, out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
     return summary
 
 
@@ -201,9 +194,8 @@ def rotate_file(args):
     os.makedirs(args.out, exist_ok=True)
     stem = os.path.splitext(os.path.basename(args.rotate))[0]
     path = os.path.join(args.out, f"{stem}_{'uvw' if to_uvw else 'xyz'}.mseed")
-    tmp = path + ".tmp"
-    out.write(tmp, format="MSEED", encoding="FLOAT64")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        out.write(tmp, format="MSEED", encoding="FLOAT64")
     if not args.quiet:
         print(f"rotated {'XYZ to UVW' if to_uvw else 'UVW to XYZ'}: {path}")
     return 0

@@ -11,11 +11,11 @@ Everything else is left untouched."""
 from __future__ import annotations
 
 import copy
-import os
 
 import numpy as np
 from obspy.core.util.obspy_types import ComplexWithUncertainties
 
+from ..io.atomic import atomic_path
 from ..io.stationxml import find_channel, pole_with_errors, prior_text, update_response
 
 
@@ -76,7 +76,6 @@ def _comment(fit, params):
 def write_corrected_cal(inventory, fits, path):
     """Write :func:`corrected_cal_inventory` to ``path`` atomically."""
     inv = corrected_cal_inventory(inventory, fits)
-    tmp = os.fspath(path) + ".tmp"
-    inv.write(tmp, format="STATIONXML", validate=False)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        inv.write(tmp, format="STATIONXML", validate=False)
     return path
