@@ -24,10 +24,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
 from .cal_time import sine_corner_page, timeseries_page  # noqa: E402
-from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, save_pdf_page  # noqa: E402
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, write_pages  # noqa: E402
 
 
 def response_page(summary, arrays, paper="a4"):
@@ -176,16 +175,10 @@ def write_report(summary, arrays, folder, paper="a4"):
     above; for a step run the response page (fitted and nominal only), the
     time series (:mod:`.cal_time`) and the corner plot; for a sine run the
     time series and the corner plot of amplitude and phase."""
-    paths = []
     pdf_path = os.path.join(folder, "cal_report.pdf")
-    with PdfPages(pdf_path) as pdf:
-        for name, make in PAGES[summary["kind"]]:
-            fig = make(summary, arrays, paper)
-            path = os.path.join(folder, name)
-            fig.savefig(path, dpi=100)
-            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
-            plt.close(fig)
-            paths.append(path)
+    paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
+                         for name, make in PAGES[summary["kind"]]), pdf_path,
+                        page=page_size(paper, landscape=True), dpi=100, grey=False)
     return paths + [pdf_path]
 
 

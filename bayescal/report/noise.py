@@ -21,7 +21,7 @@ import textwrap
 import numpy as np
 
 from ..core.selfnoise.sleeman import below_resolution, db
-from .layout import A4, LINESTYLES, MARKERS, style
+from .layout import A4, LINESTYLES, MARKERS, style, write_pages
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
 #: Periods (s) of the table under the figure (nearest band; outside the band left out).
@@ -136,18 +136,12 @@ def figure_component(comp, result=None):
 def write_figures(result, folder, dpi=PNG_DPI):
     """``noise.pdf`` (one page per component) and ``noise_<component>.png``
     into ``folder``; returns the paths written."""
-    from matplotlib.backends.backend_pdf import PdfPages
-
     pdf_path = os.path.join(folder, "noise.pdf")
-    paths = [pdf_path]
-    with style(), PdfPages(pdf_path) as pdf:
-        for comp in result.components:
-            fig = figure_component(comp, result)
-            fig.savefig(pdf, format="pdf")
-            png = os.path.join(folder, f"noise_{comp.component}.png")
-            fig.savefig(png, dpi=dpi)
-            paths.append(png)
-    return paths
+    with style():
+        pngs = write_pages(((os.path.join(folder, f"noise_{comp.component}.png"),
+                             figure_component(comp, result)) for comp in result.components),
+                           pdf_path, dpi=dpi, grey=False)
+    return [pdf_path] + pngs
 
 
 #: The fields of a :class:`bayescal.core.selfnoise.sleeman.SelfNoise` saved per component.

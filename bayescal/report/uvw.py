@@ -25,10 +25,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
 from ..coil.uvw import ELEMENTS, PARAMS, XYZ  # noqa: E402
-from .layout import page_size, save_pdf_page  # noqa: E402
+from .layout import page_size, write_pages  # noqa: E402
 
 COLOURS = {"U": "tab:blue", "V": "tab:orange", "W": "tab:green",
            "X": "tab:red", "Y": "tab:purple", "Z": "tab:brown"}
@@ -182,14 +181,8 @@ def write_report_from_folder(folder, paper="a4"):
         arrays = {k: npz[k] for k in npz.files}
     pages = [("uvw_elements.png", elements_page), ("uvw_xyz.png", xyz_page),
              ("uvw_agreement.png", agreement_page)]
-    paths = []
     pdf_path = os.path.join(folder, "uvw_report.pdf")
-    with PdfPages(pdf_path) as pdf:
-        for name, make in pages:
-            fig = make(summary, arrays, paper)
-            path = os.path.join(folder, name)
-            fig.savefig(path, dpi=110)
-            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
-            plt.close(fig)
-            paths.append(path)
+    paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
+                         for name, make in pages), pdf_path,
+                        page=page_size(paper, landscape=True), dpi=110, grey=False)
     return paths + [pdf_path]
