@@ -4,7 +4,8 @@ from co-located recordings (see README.md).
 The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
-    version, core        plain numpy: geometry, responses, spectra, likelihood,
+    version, errors      leaves: the version, every exception and warning
+    core                 plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
     criticism            model criticism of a fitted model (imports core only)
     simulate             synthetic recordings with known truth (imports core;
@@ -26,11 +27,14 @@ _LAZY = {"Posterior": "bayescal.core.posterior.samples", "calibrate": "bayescal.
          "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
          "load_posterior": "bayescal.io.result",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
-         "write_network": "bayescal.simulate"}
+         "write_network": "bayescal.simulate",
+         **dict.fromkeys(("InputError", "InputWarning", "SpectraError", "ResponseError", "FitError",
+                          "ModelMisfitWarning", "NotConvergedWarning"), "bayescal.errors")}
 
 __all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Posterior",
            "simulate_pair",
-           "simulate_calibration", "write_network", "__version__"]
+           "simulate_calibration", "write_network", "InputError", "InputWarning", "SpectraError",
+           "ResponseError", "FitError", "ModelMisfitWarning", "NotConvergedWarning", "__version__"]
 
 
 def __getattr__(name):

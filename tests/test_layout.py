@@ -7,7 +7,8 @@ import pathlib
 
 PKG = pathlib.Path(__file__).resolve().parents[1] / "bayescal"
 
-#: What each subpackage may import (besides itself and bayescal.version).
+#: What each subpackage may import (besides itself and the top-level modules every layer
+#: may import: bayescal.version, bayescal.errors).
 ALLOWED = {
     "core": set(),
     "io": {"core", "criticism"},
@@ -18,6 +19,8 @@ ALLOWED = {
     "network": {"core", "io", "criticism", "report"},
     "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate"},
 }
+#: Top-level modules every layer may import: leaves that import nothing of bayescal.
+LEAVES = ("version", "errors")
 MAX_LINES = 520
 
 #: What each group of bayescal.core may import of the core (besides itself
@@ -86,7 +89,7 @@ def test_imports_point_down_the_layers():
         for dep in deps:
             dparts = dep.split(".")
             target = dparts[1] if len(dparts) > 1 else "bayescal"
-            if target in (layer, "version") or target in ALLOWED[layer]:
+            if target == layer or target in LEAVES or target in ALLOWED[layer]:
                 continue
             bad.append(f"{mod} imports {dep}")
     assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
@@ -176,9 +179,10 @@ def test_public_api_as_the_readme_shows():
     import bayescal
     for name in ("calibrate", "calibrate_files", "write_results", "Posterior", "simulate_pair"):
         assert callable(getattr(bayescal, name))
-    from bayescal import io
-    for name in ("paz_inventory", "two_pole_inventory", "flat_inventory", "InputError"):
+    from bayescal import errors, io
+    for name in ("paz_inventory", "two_pole_inventory", "flat_inventory"):
         assert hasattr(io, name)
+    assert bayescal.InputError is errors.InputError
 
 
 def test_fit_path_does_not_import_heavy_modules():
@@ -220,3 +224,28 @@ def test_no_private_name_imported_from_another_module():
                 and node.value.id in modules and node.attr.startswith("_")
                 and not node.attr.startswith("__")]
     assert not bad, "private names used across modules:\n" + "\n".join(sorted(bad))
+
+
+def test_exceptions_and_warnings_live_in_errors():
+    """Every exception and warning class of the package is defined in
+    ``bayescal/errors.py``: no other module subclasses an exception or a
+    warning (a builtin one, or one of bayescal.errors)."""
+    import builtins
+
+    import bayescal.errors
+
+    kinds = {n for n, v in vars(builtins).items()
+             if isinstance(v, type) and issubclass(v, BaseException)}
+    kinds |= {n for n, v in vars(bayescal.errors).items()
+              if isinstance(v, type) and issubclass(v, BaseException)}
+    bad = []
+    for path in PKG.rglob("*.py"):
+        if path == PKG / "errors.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                bases = {b.attr if isinstance(b, ast.Attribute) else getattr(b, "id", "")
+                         for b in node.bases}
+                if bases & kinds:
+                    bad.append(f"{_module_name(path)}:{node.lineno} defines {node.name}")
+    assert not bad, "exceptions or warnings outside bayescal.errors:\n" + "\n".join(bad)

@@ -21,10 +21,7 @@ COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
 
 def _user_errors():
-    from ..core.fit.errors import FitError
-    from ..io.read import InputError
-    from ..core.response.family import ResponseError
-    from ..core.spectra.welch import SpectraError
+    from ..errors import FitError, InputError, ResponseError, SpectraError
     return (InputError, SpectraError, FitError, ResponseError)
 
 

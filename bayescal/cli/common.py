@@ -156,8 +156,7 @@ def quiet_convergence_warnings():
     and a failed model check in its summary, not as Python warnings."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.posterior.convergence import NotConvergedWarning
+    from ..errors import ModelMisfitWarning, NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console

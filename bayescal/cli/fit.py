@@ -218,7 +218,7 @@ def transient_words(transients):
 
 def run(args):
     """Run the fit; returns the exit code."""
-    from ..io.read import InputError, InputWarning
+    from ..errors import InputError, InputWarning
     from ..io.pipeline import calibrate_files, write_results
 
     out = os.path.abspath(args.out)

@@ -30,9 +30,8 @@ import numpy as np
 
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
+from ..errors import FitError, InputError
 from ..core.response.family import TwoPoleFamily, pendulum_coefficients
-from ..io.read import InputError
 
 #: A pole or zero is free when its frequency is at most this times the band's top.
 HF_REACH = 3.0

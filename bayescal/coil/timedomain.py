@@ -41,7 +41,7 @@ from scipy.signal import lfilter
 from scipy.stats import chi2
 
 from ..core.fit.leastsq import refine
-from ..io.read import InputError
+from ..errors import InputError
 from .bounded import BoundedPosterior
 
 #: Largest autoregression order tried for the noise.

@@ -55,8 +55,7 @@ import numpy as np
 
 from ..core.response import pendulum
 from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
-from ..io.read import InputError
+from ..errors import FitError, InputError
 from ..core.posterior.samples import interval_summary
 from ..core.response.family import TwoPoleFamily
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix

@@ -21,6 +21,6 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,
-threadpoolctl, ObsPy's response evaluation and :mod:`bayescal.version`;
-never another bayescal subpackage.
+threadpoolctl, ObsPy's response evaluation, :mod:`bayescal.version` and
+:mod:`bayescal.errors`; never another bayescal subpackage.
 """

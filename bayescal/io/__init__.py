@@ -1,7 +1,6 @@
 """Recordings and metadata in, corrected metadata out.
 
-* :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros),
-                      ``InputError``
+* :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros)
 * :mod:`.validate`    checks of every metadata value a fit uses, as written and as read
 * :mod:`.channels`    each sensor's channels chosen by SEED-id patterns
 * :mod:`.align`       two or more sensors' recordings on one time grid
@@ -17,10 +16,10 @@ May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline crit
 fit that fails its model check); never coil, report, network or cli.
 """
 from .align import align, align_sensors
-from .read import (CODE_ORIENTATION, InputError, InputWarning, flat_inventory, metadata_format,
+from .read import (CODE_ORIENTATION, flat_inventory, metadata_format,
                    orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
                    read_waveforms, two_pole_inventory)
 
-__all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "align_sensors",
+__all__ = ["CODE_ORIENTATION", "align", "align_sensors",
            "flat_inventory", "metadata_format", "orientation_from_code", "paz_inventory",
            "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .read import InputError
+from ..errors import InputError
 from ..core.spectra.coherence import welch_multiple_coherence
 
 #: Default coherence a band must have on every visible SUT channel.
@@ -131,7 +131,7 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     fs : sampling rate (Hz).
     threshold : multiple coherence required on every visible SUT channel.
 
-    Returns a :class:`BandChoice`; raises :class:`bayescal.io.InputError` when
+    Returns a :class:`BandChoice`; raises :class:`bayescal.errors.InputError` when
     no band of useful width is coherent.
     """
     n = sut.data.shape[1]

@@ -38,7 +38,8 @@ import numpy as np
 from ..core.selfnoise import sleeman as core
 from ..core.spectra.dof import band_dof
 from ..core.spectra.welch import cross_spectra
-from .read import InputError, read_waveforms
+from ..errors import InputError
+from .read import read_waveforms
 from .align import Side, align_sensors
 
 SCHEMA = "bayescal.noise/1"

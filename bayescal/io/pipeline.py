@@ -19,10 +19,11 @@ import numpy as np
 
 from ..core.fit.run import fit_spectra, judge_reported_response
 from .channels import check_distinct, select_channels
-from .read import InputError, flat_inventory, read_metadata, read_waveforms
+from ..errors import InputError, SpectraError
+from .read import flat_inventory, read_metadata, read_waveforms
 from .align import align
 from ..core.model.likelihood import Priors
-from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.spectra.welch import cross_spectra
 from ..core.spectra.transients import find as find_transients, summary as transient_summary
 from ..core.checks.record_length import record_length
 from ..core.response import reference_tolerance
@@ -273,7 +274,8 @@ def _warn_on_misfit(post):
     so a script sees it as the console does."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning, describe, from_diagnostics
+    from ..errors import ModelMisfitWarning
+    from ..core.checks.adequacy import describe, from_diagnostics
     verdict = from_diagnostics(post.diagnostics)
     if verdict.get("ok") is False:
         c = post.criticism.get("verdict_text") if post.criticism else None

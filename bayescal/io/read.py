@@ -36,17 +36,11 @@ import re
 
 import numpy as np
 
+from ..errors import InputError
+
 
 #: Orientation implied by a SEED component code when StationXML has none.
 CODE_ORIENTATION = {"N": (0.0, 0.0), "E": (90.0, 0.0), "Z": (0.0, -90.0)}
-
-
-class InputError(ValueError):
-    """Bad input data or metadata; the message names the source and problem."""
-
-
-class InputWarning(UserWarning):
-    """Suspicious input (clipping, NaN samples) that does not stop the fit."""
 
 
 def _paths(paths):

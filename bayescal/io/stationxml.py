@@ -36,7 +36,7 @@ import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
 from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
-from .read import InputError
+from ..errors import InputError
 
 
 def _errors(entry):
@@ -131,7 +131,8 @@ def update_response(channel, samples, free, summary):
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
         # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
-        from ..core.response.evalresp import NotHandled, velocity_response
+        from ..errors import NotHandled
+        from ..core.response.evalresp import velocity_response
         sens.frequency = float(freq)
         try:
             sens.value = float(abs(velocity_response(resp, [freq])[0]))

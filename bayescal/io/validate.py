@@ -18,7 +18,7 @@ the response evaluation). So the checks work on two levels:
   recording can have.
 
 Each problem is one sentence; :func:`bayescal.io.read.channel_meta` raises
-it as an :class:`bayescal.io.read.InputError` naming the file and the
+it as an :class:`bayescal.errors.InputError` naming the file and the
 channel, so the command line ends with one line and exit code 2.
 """
 from __future__ import annotations

@@ -5,8 +5,6 @@
 * :mod:`.modes`         several optima of one posterior: searched and weighed
 * :mod:`.unconstrained` a gain the data do not constrain: found and held
 * :mod:`.assemble`      a fit's Posterior put together from its model and samples
-* :mod:`.errors`        :class:`~bayescal.core.fit.errors.FitError`, raised
-                        when a fit cannot proceed
 * :mod:`.rotation`      one reference channel, two SUT horizontals: their
                         common rotation
 

@@ -12,7 +12,7 @@ import numpy as np
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
-from .errors import FitError
+from ...errors import FitError
 from .assemble import assemble_posterior, plugin_meta
 from .leastsq import refine
 from ..orientation.geometry import Circle, Fixed, Sphere
