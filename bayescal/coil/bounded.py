@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.response import pendulum
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 
 
 class BoundedPosterior:

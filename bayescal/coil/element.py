@@ -12,7 +12,8 @@ from ..core.response.family import pendulum_coefficients, pendulum_denominator
 from ..core.sampling.mcmc import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit.leastsq import refine
-from ..core.model.likelihood import INFLATION_SHRINK, Priors
+from ..core.model.likelihood import INFLATION_SHRINK
+from ..core.priors import Priors
 from ..core.posterior.samples import interval_summary
 from ..core.spectra.welch import cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.response import pendulum
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..errors import FitError, InputError
 from ..core.response.family import TwoPoleFamily, pendulum_coefficients
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..errors import InputError
 from .element import RunModel, fit_two_pass, transfer_scale
 from .hf import PZSpec, iw_powers, poly_at_iw, scale_start

@@ -18,7 +18,7 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..core.response.family import pendulum_coefficients, pendulum_denominator
 from ..core.sampling.mcmc import sample
 from ..core.threads import single_threaded_blas

@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.response import pendulum
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..errors import FitError, InputError
 from ..core.posterior.samples import interval_summary
 from ..core.response.family import TwoPoleFamily

@@ -15,6 +15,7 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 * :mod:`.fit`         the whole fit: start, least squares, modes, held
                       parameters, sampling, the posterior
 * :mod:`.selfnoise`   self-noise of co-located sensors
+* :mod:`.priors`      the priors of every fit (:class:`~bayescal.core.priors.Priors`)
 * :mod:`.threads`     the BLAS thread limit every group's small products run under
 * :mod:`.budget`      work budgets: a stage's work counted in model evaluations,
                       with a wall-clock limit only as a safety net

@@ -22,7 +22,7 @@ from .channels import check_distinct, select_channels
 from ..errors import InputError, SpectraError
 from .read import flat_inventory, read_metadata, read_waveforms
 from .align import align
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..core.spectra.welch import cross_spectra
 from ..core.spectra.transients import find as find_transients, summary as transient_summary
 from ..core.checks.record_length import record_length

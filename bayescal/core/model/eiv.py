@@ -29,7 +29,8 @@ import numpy as np
 
 from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
-from .likelihood import INFLATION_SHRINK, Model, Priors
+from .likelihood import INFLATION_SHRINK, Model
+from ..priors import Priors
 
 
 @dataclass

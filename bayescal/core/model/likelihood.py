@@ -63,6 +63,7 @@ from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from ..response.family import TwoPoleFamily, gain_prior_factor
+from ..priors import Priors
 
 #: Density of the nodes at which response ratios are evaluated.
 NODES_PER_DECADE = 60
@@ -73,27 +74,6 @@ MIN_TIME_BLOCKS = 4
 #: Shrinkage weight (in segment x entry counts) of a band's inflation factor
 #: toward the value pooled over bands.
 INFLATION_SHRINK = 50.0
-
-
-@dataclass(frozen=True)
-class Priors:
-    """Explicit, documented priors.
-
-    Orientation: uniform on the sphere (or on the circle of a two-channel
-    reference). Natural period and damping (pair fits and coil
-    calibrations): each log-normal around its nominal value with relative
-    standard deviation ``period_tolerance`` and ``damping_tolerance`` (the
-    manufacturer's tolerance; :mod:`bayescal.core.response.pendulum`). Gain:
-    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``. The
-    reference's gain, period and damping: exact (``reference_tolerance``
-    0) or log-normal with that relative standard deviation
-    (:mod:`bayescal.core.response.reference_tolerance`).
-    """
-
-    gain_factor: float = 10.0
-    period_tolerance: float = pendulum.PERIOD_TOLERANCE
-    damping_tolerance: float = pendulum.DAMPING_TOLERANCE
-    reference_tolerance: float = 0.0
 
 
 @dataclass(frozen=True)
