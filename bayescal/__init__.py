@@ -4,7 +4,8 @@ from co-located recordings (see README.md).
 The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
-    version, errors      leaves: the version, every exception and warning
+    version, errors,     leaves: the version, every exception and warning,
+    lazy                 the lazy public face of every subpackage
     core                 plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
     criticism            model criticism of a fitted model (imports core only)
@@ -17,8 +18,7 @@ import only the layers listed before it:
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """
-import importlib
-
+from .lazy import attach
 from .version import __version__
 
 #: Public name -> module defining it. Imported on first use (PEP 562), so that
@@ -37,18 +37,5 @@ __all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "P
            "ResponseError", "FitError", "ModelMisfitWarning", "NotConvergedWarning", "__version__"]
 
 
-def __getattr__(name):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    try:                              # subpackages: bayescal.io, bayescal.core, ...
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, _ = attach(__name__, {module: [n for n, m in _LAZY.items() if m == module]
+                                     for module in set(_LAZY.values())})

@@ -14,12 +14,23 @@
 
 May import :mod:`bayescal.core` and :mod:`bayescal.criticism` (the pipeline criticises a
 fit that fails its model check); never coil, report, network or cli.
-"""
-from .align import align, align_sensors
-from .read import (CODE_ORIENTATION, flat_inventory, metadata_format,
-                   orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
-                   read_waveforms, two_pole_inventory)
 
-__all__ = ["CODE_ORIENTATION", "align", "align_sensors",
-           "flat_inventory", "metadata_format", "orientation_from_code", "paz_inventory",
-           "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+"""
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".read": ["CODE_ORIENTATION", "channel_meta", "flat_inventory", "metadata_format",
+              "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
+              "read_waveforms", "two_pole_inventory"],
+    ".align": ["align_sensors"],
+    ".band": ["MIN_COHERENCE", "choose_band"],
+    ".pipeline": ["calibrate", "calibrate_files", "load_inventory", "placeholder_channels",
+                  "write_results"],
+    ".result": ["load_posterior", "save_posterior"],
+    ".noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
+    ".refnoise_file": ["for_channels", "read_reference_noise"],
+    ".stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",
+                    "update_response", "write_corrected"],
+})
