@@ -249,3 +249,42 @@ def test_exceptions_and_warnings_live_in_errors():
                 if bases & kinds:
                     bad.append(f"{_module_name(path)}:{node.lineno} defines {node.name}")
     assert not bad, "exceptions or warnings outside bayescal.errors:\n" + "\n".join(bad)
+
+
+#: Imports of a core group's module from outside the core still made: a module
+#: used whole (``from ..core.response import pendulum``) or a name its module
+#: shares (``record_length``). This list only shrinks.
+DEEP_ALLOWED = {
+    ("bayescal.coil.bounded", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.element", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.hf", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.result", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.uvw", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.diagnose", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.effects", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.reference_noise", "bayescal.core.model.refnoise"),
+    ("bayescal.io.noise", "bayescal.core.selfnoise.sleeman"),
+    ("bayescal.io.pipeline", "bayescal.core.checks.record_length"),
+    ("bayescal.io.pipeline", "bayescal.core.response.reference_tolerance"),
+    ("bayescal.simulate.selfnoise", "bayescal.core.selfnoise.sleeman"),
+}
+
+
+def test_core_is_imported_through_its_faces():
+    """Outside bayescal.core, the core is imported from the face of a group
+    (``from ..core.spectra import cross_spectra``) or of the core itself and
+    its top-level modules (``from ..core import Priors``), never from a
+    group's modules (``bayescal.core.<group>.<module>``), besides
+    :data:`DEEP_ALLOWED`."""
+    made, bad = set(), []
+    for mod, deps in _graph().items():
+        if mod == "bayescal.core" or mod.startswith("bayescal.core."):
+            continue
+        for dep in deps:
+            d = dep.split(".")
+            if d[:2] == ["bayescal", "core"] and len(d) > 3:
+                made.add((mod, dep))
+                if (mod, dep) not in DEEP_ALLOWED:
+                    bad.append(f"{mod} imports {dep}")
+    assert not bad, "imports into a core group's modules:\n" + "\n".join(sorted(bad))
+    assert not DEEP_ALLOWED - made, f"no longer made (remove): {sorted(DEEP_ALLOWED - made)}"

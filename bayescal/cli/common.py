@@ -46,7 +46,7 @@ def add_tolerance_arguments(parser, when):
     """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
     stated prior on natural period and damping (:mod:`bayescal.core.response.pendulum`),
     which applies ``when`` (e.g. "with --fit-response all")."""
-    from ..core.response.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+    from ..core.response import DAMPING_TOLERANCE, PERIOD_TOLERANCE
 
     parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
                         metavar="PERCENT",
@@ -166,7 +166,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
 
     code = 0
     for label, conv in entries:

@@ -7,15 +7,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.response.family import pendulum_coefficients, pendulum_denominator
-from ..core.sampling.mcmc import sample
+from ..core.response import pendulum, pendulum_coefficients, pendulum_denominator
+from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
-from ..core.fit.leastsq import refine
-from ..core.model.likelihood import INFLATION_SHRINK
+from ..core.fit import refine
+from ..core.model import INFLATION_SHRINK
 from ..core.priors import Priors
-from ..core.posterior.samples import interval_summary
-from ..core.spectra.welch import cross_spectra
+from ..core.posterior import interval_summary
+from ..core.spectra import cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg

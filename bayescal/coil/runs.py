@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError, ResponseError
-from ..core.response.family import TwoPoleFamily, evaluate_velocity_response
+from ..core.response import TwoPoleFamily, evaluate_velocity_response
 from .triaxial import ELEMENTS, XYZ, output_axis
 
 

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..core.posterior.samples import interval_summary
-from ..core.sampling.mcmc import sample
+from ..core.posterior import interval_summary
+from ..core.sampling import sample
 from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
 from .result import SCHEMA

@@ -19,8 +19,8 @@ import numpy as np
 from scipy.fft import irfft
 
 from ..core.priors import Priors
-from ..core.response.family import pendulum_coefficients, pendulum_denominator
-from ..core.sampling.mcmc import sample
+from ..core.response import pendulum_coefficients, pendulum_denominator
+from ..core.sampling import sample
 from ..core.threads import single_threaded_blas
 from ..errors import InputError
 from .hf import PZSpec, scale_start

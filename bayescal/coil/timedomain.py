@@ -40,7 +40,7 @@ from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.fit.leastsq import refine
+from ..core.fit import refine
 from ..errors import InputError
 from .bounded import BoundedPosterior
 

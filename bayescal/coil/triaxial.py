@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.orientation.geometry import STS2_UVW, TRILLIUM_UVW
+from ..core.orientation import STS2_UVW, TRILLIUM_UVW
 from ..errors import InputError
 
 

@@ -35,7 +35,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..core.response import pendulum
-from ..core.model.likelihood import Effect
+from ..core.model import Effect
 
 #: Horizontal/vertical coherence-deficit ratio (two lowest bands) naming tilt noise.
 TILT_RATIO = 4.0

@@ -11,8 +11,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.family import evaluate_velocity_response, response_family
+from ..core.orientation import unit_vector
+from ..core.response import evaluate_velocity_response, response_family
 from ..errors import InputError, InputWarning
 from .read import channel_meta
 

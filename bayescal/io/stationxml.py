@@ -86,8 +86,8 @@ def written_period_damping(summary, family):
 
 def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response.family import (pendulum_coefficients, pendulum_denominator,
-                                        pendulum_poles, response_family)
+    from ..core.response import (pendulum_coefficients, pendulum_denominator, pendulum_poles,
+                                 response_family)
 
     resp = channel.response
     stage = resp.response_stages[0]
@@ -132,7 +132,7 @@ def update_response(channel, samples, free, summary):
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
         # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
         from ..errors import NotHandled
-        from ..core.response.evalresp import velocity_response
+        from ..core.response import velocity_response
         sens.frequency = float(freq)
         try:
             sens.value = float(abs(velocity_response(resp, [freq])[0]))
@@ -232,8 +232,8 @@ def _decimating_stage(channel):
 def _lean_azimuth(posterior, cid):
     """Interval summary of the SEED azimuth of a near-vertical channel's axis
     (the direction of its horizontal part), unwrapped around its mean."""
-    from ..core.orientation.geometry import azimuth_dip, unwrap_azimuths
-    from ..core.posterior.samples import interval_summary
+    from ..core.orientation import azimuth_dip, unwrap_azimuths
+    from ..core.posterior import interval_summary
 
     az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
     return interval_summary(unwrap_azimuths(az))

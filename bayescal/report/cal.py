@@ -40,7 +40,7 @@ def _measured(fit):
 
 def response_page(fit, summary, paper="a4"):
     """Measured, fitted and nominal response; ratios to the nominal."""
-    from ..core.response.family import evaluate_velocity_response
+    from ..core.response import evaluate_velocity_response
 
     c = fit.curves()
     f, nom = c["freqs"], c["nominal"]
@@ -113,7 +113,7 @@ def parameter_lines(summary):
 
 def residuals_page(fit, summary, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
-    from ..core.posterior.convergence import describe_sampler, not_converged_line
+    from ..core.posterior import describe_sampler, not_converged_line
 
     m = fit.model
     med = np.median(fit.theta, axis=0)

@@ -25,7 +25,7 @@ def build_figure(diagnosis, paper="a4"):
     centres = np.sqrt(edges[:-1] * edges[1:])
     fig = Figure(figsize=page_size(paper))
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
     conv = getattr(d.final, "convergence", None) or {}
     warn = None if conv.get("converged", True) else not_converged_line(
         {"converged": False, "n_steps": conv["n_steps"], "ess_min": float(np.min(conv["ess"])),

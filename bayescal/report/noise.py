@@ -17,7 +17,7 @@ import textwrap
 
 import numpy as np
 
-from ..core.selfnoise.sleeman import below_resolution, db
+from ..core.selfnoise import below_resolution, db
 from .layout import A4, LINESTYLES, MARKERS, style
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")

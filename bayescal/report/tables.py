@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.orientation.geometry import NEAR_VERTICAL_DIP_DEG, unit_vector
+from ..core.orientation import NEAR_VERTICAL_DIP_DEG, unit_vector
 from ..errors import InputError
 
 
