@@ -26,7 +26,7 @@ What real recordings need, and what this module does about it:
   the file and as read (:mod:`bayescal.io.validate`), and the response must
   evaluate; a channel that fails is named with the file and the value.
 
-Errors are raised as :class:`InputError` with one sentence naming the file
+Errors are raised as :class:`bayescal.errors.InputError` with one sentence naming the file
 and the problem; the command line turns them into a message and exit code 2.
 """
 from __future__ import annotations

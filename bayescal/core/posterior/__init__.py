@@ -3,7 +3,7 @@
 * :mod:`.samples`     the :class:`~bayescal.core.posterior.samples.Posterior`:
                       samples, per-channel summaries and intervals
 * :mod:`.modes`       the modes a fit reported: which intervals they lie outside
-* :mod:`.convergence` the convergence warning and how a chain is told to a user
+* :mod:`.convergence` the NOT CONVERGED line and how a chain is told to a user
 
 May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`
 and :mod:`bayescal.core.checks`.
