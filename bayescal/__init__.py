@@ -4,7 +4,9 @@ from co-located recordings (see README.md).
 The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
-    version, core        plain numpy: geometry, responses, spectra, likelihood,
+    version, errors,     leaves: the version, every exception and warning,
+    lazy                 the lazy public face of every subpackage
+    core                 plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
     criticism            model criticism of a fitted model (imports core only)
     simulate             synthetic recordings with known truth (imports core;
@@ -16,8 +18,7 @@ import only the layers listed before it:
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """
-import importlib
-
+from .lazy import attach
 from .version import __version__
 
 #: Public name -> module defining it. Imported on first use (PEP 562), so that
@@ -26,25 +27,15 @@ _LAZY = {"Posterior": "bayescal.core.posterior.samples", "calibrate": "bayescal.
          "calibrate_files": "bayescal.io.pipeline", "write_results": "bayescal.io.pipeline",
          "load_posterior": "bayescal.io.result",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
-         "write_network": "bayescal.simulate"}
+         "write_network": "bayescal.simulate",
+         **dict.fromkeys(("InputError", "InputWarning", "SpectraError", "ResponseError", "FitError",
+                          "ModelMisfitWarning", "NotConvergedWarning"), "bayescal.errors")}
 
 __all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Posterior",
            "simulate_pair",
-           "simulate_calibration", "write_network", "__version__"]
+           "simulate_calibration", "write_network", "InputError", "InputWarning", "SpectraError",
+           "ResponseError", "FitError", "ModelMisfitWarning", "NotConvergedWarning", "__version__"]
 
 
-def __getattr__(name):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    try:                              # subpackages: bayescal.io, bayescal.core, ...
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, _ = attach(__name__, {module: [n for n, m in _LAZY.items() if m == module]
+                                     for module in set(_LAZY.values())})

@@ -103,7 +103,7 @@ def test_huddle_band_follows_the_rule(tmp_path):
 
 
 def test_gaps_drop_segments_and_too_few_refuse():
-    from bayescal.core.spectra.welch import SpectraError
+    from bayescal.errors import SpectraError
 
     rng = np.random.default_rng(1)
     g = rng.standard_normal(4096)

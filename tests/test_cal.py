@@ -163,7 +163,7 @@ def test_coil_prior_is_the_stated_prior_on_period_and_damping(hf_fit):
     import emcee
     from scipy import stats
 
-    from bayescal.core.model.likelihood import Priors
+    from bayescal.core.priors import Priors
     from tests.tolerance import LEVEL
 
     model = copy.copy(hf_fit[0].model)

@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import norm
 
 from bayescal.io.pipeline import calibrate
-from bayescal.io.read import InputError
+from bayescal.errors import InputError
 from bayescal.io.refnoise_file import for_channels, read_reference_noise
 from bayescal.simulate.pair import self_noise_psd, simulate_pair
 from tests.test_cli_fit import PY, assert_user_error, base_args, run_fit

@@ -7,7 +7,8 @@ import pathlib
 
 PKG = pathlib.Path(__file__).resolve().parents[1] / "bayescal"
 
-#: What each subpackage may import (besides itself and bayescal.version).
+#: What each subpackage may import (besides itself and the top-level modules every layer
+#: may import: bayescal.version, bayescal.errors, bayescal.lazy).
 ALLOWED = {
     "core": set(),
     "io": {"core", "criticism"},
@@ -18,6 +19,8 @@ ALLOWED = {
     "network": {"core", "io", "criticism", "report"},
     "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate"},
 }
+#: Top-level modules every layer may import: leaves that import nothing of bayescal.
+LEAVES = ("version", "errors", "lazy")
 MAX_LINES = 520
 
 #: What each group of bayescal.core may import of the core (besides itself
@@ -86,7 +89,7 @@ def test_imports_point_down_the_layers():
         for dep in deps:
             dparts = dep.split(".")
             target = dparts[1] if len(dparts) > 1 else "bayescal"
-            if target in (layer, "version") or target in ALLOWED[layer]:
+            if target == layer or target in LEAVES or target in ALLOWED[layer]:
                 continue
             bad.append(f"{mod} imports {dep}")
     assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
@@ -176,9 +179,10 @@ def test_public_api_as_the_readme_shows():
     import bayescal
     for name in ("calibrate", "calibrate_files", "write_results", "Posterior", "simulate_pair"):
         assert callable(getattr(bayescal, name))
-    from bayescal import io
-    for name in ("paz_inventory", "two_pole_inventory", "flat_inventory", "InputError"):
+    from bayescal import errors, io
+    for name in ("paz_inventory", "two_pole_inventory", "flat_inventory"):
         assert hasattr(io, name)
+    assert bayescal.InputError is errors.InputError
 
 
 def test_fit_path_does_not_import_heavy_modules():
@@ -346,3 +350,67 @@ def test_private_read_rule_sees_a_reintroduced_read():
            "def g(model):\n"
            "    return model._saa_b, model.spectra._x\n")
     assert private_reads(src) == [(6, "model._saa_b"), (6, "model.spectra._x")]
+
+
+def test_exceptions_and_warnings_live_in_errors():
+    """Every exception and warning class of the package is defined in
+    ``bayescal/errors.py``: no other module subclasses an exception or a
+    warning (a builtin one, or one of bayescal.errors)."""
+    import builtins
+
+    import bayescal.errors
+
+    kinds = {n for n, v in vars(builtins).items()
+             if isinstance(v, type) and issubclass(v, BaseException)}
+    kinds |= {n for n, v in vars(bayescal.errors).items()
+              if isinstance(v, type) and issubclass(v, BaseException)}
+    bad = []
+    for path in PKG.rglob("*.py"):
+        if path == PKG / "errors.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                bases = {b.attr if isinstance(b, ast.Attribute) else getattr(b, "id", "")
+                         for b in node.bases}
+                if bases & kinds:
+                    bad.append(f"{_module_name(path)}:{node.lineno} defines {node.name}")
+    assert not bad, "exceptions or warnings outside bayescal.errors:\n" + "\n".join(bad)
+
+
+#: Imports of a core group's module from outside the core still made: a module
+#: used whole (``from ..core.response import pendulum``) or a name its module
+#: shares (``record_length``). This list only shrinks.
+DEEP_ALLOWED = {
+    ("bayescal.coil.bounded", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.element", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.hf", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.result", "bayescal.core.response.pendulum"),
+    ("bayescal.coil.uvw", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.diagnose", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.effects.response_parameters", "bayescal.core.response.pendulum"),
+    ("bayescal.criticism.reference_noise", "bayescal.core.model.refnoise"),
+    ("bayescal.io.noise", "bayescal.core.selfnoise.sleeman"),
+    ("bayescal.io.pipeline", "bayescal.core.checks.record_length"),
+    ("bayescal.io.pipeline", "bayescal.core.response.reference_tolerance"),
+    ("bayescal.simulate.selfnoise", "bayescal.core.selfnoise.sleeman"),
+}
+
+
+def test_core_is_imported_through_its_faces():
+    """Outside bayescal.core, the core is imported from the face of a group
+    (``from ..core.spectra import cross_spectra``) or of the core itself and
+    its top-level modules (``from ..core import Priors``), never from a
+    group's modules (``bayescal.core.<group>.<module>``), besides
+    :data:`DEEP_ALLOWED`."""
+    made, bad = set(), []
+    for mod, deps in _graph().items():
+        if mod == "bayescal.core" or mod.startswith("bayescal.core."):
+            continue
+        for dep in deps:
+            d = dep.split(".")
+            if d[:2] == ["bayescal", "core"] and len(d) > 3:
+                made.add((mod, dep))
+                if (mod, dep) not in DEEP_ALLOWED:
+                    bad.append(f"{mod} imports {dep}")
+    assert not bad, "imports into a core group's modules:\n" + "\n".join(sorted(bad))
+    assert not DEEP_ALLOWED - made, f"no longer made (remove): {sorted(DEEP_ALLOWED - made)}"

@@ -69,7 +69,7 @@ def test_non_finite_least_squares_point_is_a_fit_error(monkeypatch):
     from types import SimpleNamespace
 
     from bayescal.core.fit import leastsq
-    from bayescal.core.fit.errors import FitError
+    from bayescal.errors import FitError
 
     sp, s, r = _spectra(0, 0.9)
     setup = build_model(sp, r.vectors, s.vectors, s.families(), free="gain")

@@ -12,7 +12,7 @@ from scipy.optimize import least_squares
 from scipy.stats import norm
 
 from bayescal.core.response import reference_tolerance
-from bayescal.core.model.likelihood import Priors
+from bayescal.core.priors import Priors
 from bayescal.io.pipeline import calibrate
 from bayescal.simulate.pair import simulate_pair, velocity_response
 from tests.tolerance import Z_001

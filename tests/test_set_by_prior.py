@@ -22,7 +22,7 @@ import pytest
 
 from bayescal.cli.fit import response_lines
 from bayescal.core.fit.unconstrained import BOUND_FRACTION
-from bayescal.core.model.likelihood import Priors
+from bayescal.core.priors import Priors
 from bayescal.core.response import pendulum
 from bayescal.io.pipeline import calibrate, write_results
 from bayescal.io.read import read_metadata

@@ -7,6 +7,9 @@ defining ``HELP`` (one line), ``configure(parser)`` and ``run(args) -> int``:
 share. This is the top layer: it may import every other subpackage, and
 nothing imports it. Errors a user can fix (bad files, no overlap, too little
 data...) end with one line on stderr and exit code 2, never a traceback.
+
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
 """
 from __future__ import annotations
 
@@ -14,17 +17,20 @@ import argparse
 import importlib
 import sys
 
+from ..lazy import attach
 from ..version import __version__
 
 #: The sub-commands, in the order ``bayescal --help`` lists them.
 COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
+__getattr__, __dir__, _LAZY_NAMES = attach(__name__, {
+    ".fit": ["print_summary", "response_lines"],
+})
+__all__ = sorted([*_LAZY_NAMES, "COMMANDS", "build_parser", "main"])
+
 
 def _user_errors():
-    from ..core.fit.errors import FitError
-    from ..io.read import InputError
-    from ..core.response.family import ResponseError
-    from ..core.spectra.welch import SpectraError
+    from ..errors import FitError, InputError, ResponseError, SpectraError
     return (InputError, SpectraError, FitError, ResponseError)
 
 

@@ -31,7 +31,8 @@ import os
 
 import numpy as np
 
-from ..io.read import InputError, read_metadata
+from ..errors import InputError
+from ..io.read import read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
                      convergence_exit, priors_from, quiet_convergence_warnings, staging)
 

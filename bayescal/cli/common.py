@@ -36,7 +36,7 @@ def _percent_or_zero(text):
 
 def priors_from(args):
     """The fit's :class:`bayescal.core.model.likelihood.Priors` from the options."""
-    from ..core.model.likelihood import Priors
+    from ..core.priors import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
                   damping_tolerance=args.damping_tolerance / 100.0,
                   reference_tolerance=getattr(args, "ref_tolerance", 0.0) / 100.0)
@@ -46,7 +46,7 @@ def add_tolerance_arguments(parser, when):
     """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
     stated prior on natural period and damping (:mod:`bayescal.core.response.pendulum`),
     which applies ``when`` (e.g. "with --fit-response all")."""
-    from ..core.response.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+    from ..core.response import DAMPING_TOLERANCE, PERIOD_TOLERANCE
 
     parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
                         metavar="PERCENT",
@@ -166,8 +166,7 @@ def quiet_convergence_warnings():
     and a failed model check in its summary, not as Python warnings."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.posterior.convergence import NotConvergedWarning
+    from ..errors import ModelMisfitWarning, NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
@@ -177,7 +176,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
 
     code = 0
     for label, conv in entries:

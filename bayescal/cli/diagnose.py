@@ -44,7 +44,7 @@ def configure(parser):
 
 def run(args):
     """Run the diagnosis; returns the exit code."""
-    from ..io.read import InputError
+    from ..errors import InputError
     from ..io.pipeline import write_results
     from ..io.result import write_json
 

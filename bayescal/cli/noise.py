@@ -78,7 +78,7 @@ def configure(parser):
 
 
 def _check_options(args):
-    from ..io.read import InputError
+    from ..errors import InputError
 
     if args.n_boot < 20:
         raise InputError(f"--n-boot {args.n_boot}: give at least 20 replicates")
@@ -96,7 +96,7 @@ def _check_options(args):
 def run(args):
     """Estimate, write noise.json (and the figures) atomically; returns the exit code."""
     from ..io.noise import AXIS_MISMATCH, self_noise_files, to_json, write_json
-    from ..io.read import InputWarning
+    from ..errors import InputWarning
 
     out = _check_options(args)
     t_start = time.perf_counter()

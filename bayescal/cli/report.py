@@ -28,7 +28,7 @@ def configure(parser):
 
 def run(args):
     """Render the report; returns the exit code."""
-    from ..io.read import InputError
+    from ..errors import InputError
     from ..report.fit import write_report
 
     if not args.threshold > 0:

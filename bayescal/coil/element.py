@@ -7,16 +7,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.response.family import pendulum_coefficients, pendulum_denominator
-from ..core.sampling.mcmc import sample
-from ..core.fit.errors import FitError
-from ..core.fit.leastsq import refine
-from ..io.read import InputError
-from ..core.model.inflation import shrunk_inflation
-from ..core.model.likelihood import Priors
-from ..core.posterior.samples import interval_summary
-from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.response import pendulum, pendulum_coefficients, pendulum_denominator
+from ..core.sampling import sample
+from ..errors import FitError, InputError, SpectraError
+from ..core.fit import refine
+from ..core.model import shrunk_inflation
+from ..core.priors import Priors
+from ..core.posterior import interval_summary
+from ..core.spectra import cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg

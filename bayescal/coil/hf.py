@@ -28,11 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
-from ..core.response.family import TwoPoleFamily, pendulum_coefficients
-from ..io.read import InputError
+from ..core.response import pendulum, TwoPoleFamily, pendulum_coefficients
+from ..core.priors import Priors
+from ..errors import FitError, InputError
 
 #: A pole or zero is free when its frequency is at most this times the band's top.
 HF_REACH = 3.0

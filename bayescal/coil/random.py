@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model.likelihood import Priors
-from ..io.read import InputError
+from ..core.priors import Priors
+from ..errors import InputError
 from .element import RunModel, fit_two_pass
 from .hf import PZSpec, iw_powers, poly_at_iw, scale_start
 from .result import CalFit

@@ -7,9 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
-from ..core.response import pendulum
-from ..core.posterior.samples import interval_summary
-from ..core.response.family import evaluate_velocity_response
+from ..core.response import pendulum, evaluate_velocity_response
+from ..core.posterior import interval_summary
 from .bounded import mark_set_by_prior, prior_meta
 
 SCHEMA = "bayescal.cal/1"

@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.read import InputError
-from ..core.response.family import ResponseError, TwoPoleFamily, evaluate_velocity_response
+from ..errors import InputError, ResponseError
+from ..core.response import TwoPoleFamily, evaluate_velocity_response
 from .triaxial import ELEMENTS, XYZ, output_axis
 
 

@@ -26,11 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..core.posterior.samples import interval_summary
-from ..core.sampling.mcmc import sample
-from ..core.fit.errors import FitError
+from ..core.posterior import interval_summary
+from ..core.sampling import sample
+from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
-from ..io.read import InputError
 from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
                          least_squares_time, padding)

@@ -40,8 +40,8 @@ from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.fit.leastsq import refine
-from ..io.read import InputError
+from ..core.fit import refine
+from ..errors import InputError
 from .bounded import BoundedPosterior
 
 #: Largest autoregression order tried for the noise.

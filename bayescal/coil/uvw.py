@@ -53,12 +53,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
-from ..io.read import InputError
-from ..core.posterior.samples import interval_summary
-from ..core.response.family import TwoPoleFamily
+from ..core.response import pendulum, TwoPoleFamily
+from ..core.priors import Priors
+from ..errors import FitError, InputError
+from ..core.posterior import interval_summary
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix
 from .element import RunModel, nominal_start, fit_run, run_spectra
 from .runs import default_band

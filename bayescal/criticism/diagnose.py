@@ -34,15 +34,13 @@ import numpy as np
 
 from . import effects as catalogue, tilt, wiring
 from .reference_noise import reference_noise_test
-from ..core.model.refnoise import treatment_meta as reference_noise_meta
-from ..core.sampling.mcmc import default_walkers, sample
-from ..core.fit.assemble import assemble_posterior, plugin_meta
-from ..core.fit.run import least_squares_fit
-from ..core.orientation.geometry import unit_vector
+from ..core.model import treatment_meta as reference_noise_meta, EIVModel
+from ..core.sampling import default_walkers, sample
+from ..core.fit import (assemble_posterior, plugin_meta, least_squares_fit, describe_late,
+                        information, late_flags)
+from ..core.orientation import unit_vector
 from ..core.response import pendulum
-from ..core.fit.unconstrained import describe_late, information, late_flags
-from ..core.model.eiv import EIVModel
-from ..core.posterior.samples import interval_summary
+from ..core.posterior import interval_summary
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
                      orientation_score, search)
 from .locate import band_ratio, block_timing, locate, ratio_weights, segment_timing

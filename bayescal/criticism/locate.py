@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.checks.adequacy import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
+from ..core.checks import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
 
 # --- locate -----------------------------------------------------------------
 

@@ -51,8 +51,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.fit.leastsq import solve
-from ..core.spectra.welch import make_bands
+from ..core.fit import solve
+from ..core.spectra import make_bands
 
 #: Bounds of the common exponent (tilt power ~ f^-alpha). Tilt ``theta`` puts
 #: ``g theta`` on a horizontal's acceleration, so its velocity PSD is

@@ -11,9 +11,10 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.family import evaluate_velocity_response, response_family
-from .read import InputError, InputWarning, channel_meta
+from ..core.orientation import unit_vector
+from ..core.response import evaluate_velocity_response, response_family
+from ..errors import InputError, InputWarning
+from .read import channel_meta
 
 #: Sub-sample offsets smaller than this fraction of a sample are rounded.
 SUBSAMPLE_TOLERANCE = 0.01

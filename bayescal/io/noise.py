@@ -36,9 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.selfnoise import sleeman as core
-from ..core.spectra.dof import band_dof
-from ..core.spectra.welch import cross_spectra
-from .read import InputError, read_waveforms
+from ..core.spectra import band_dof, cross_spectra
+from ..errors import InputError
+from .read import read_waveforms
 from .align import Side, align_sensors
 
 SCHEMA = "bayescal.noise/1"

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.fit.run import fit_spectra, judge_reported_response
+from ..core.fit import fit_spectra, judge_reported_response
 from .channels import check_distinct, select_channels
-from .read import InputError, flat_inventory, read_metadata, read_waveforms
+from ..errors import InputError, SpectraError
+from .read import flat_inventory, read_metadata, read_waveforms
 from .align import align
-from ..core.model.likelihood import Priors
-from ..core.spectra.welch import SpectraError, cross_spectra
-from ..core.spectra.transients import find as find_transients, summary as transient_summary
+from ..core.priors import Priors
+from ..core.spectra import cross_spectra, find as find_transients, summary as transient_summary
 from ..core.checks.record_length import record_length
 from ..core.response import reference_tolerance
 
@@ -218,7 +218,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     for cid, c in low.items():
         post.not_estimable[cid] = (f"no coherence with the reference in the band (mean multiple "
                                    f"coherence {c:.3f}, needed {MIN_COHERENCE:g})")
-    from ..core.selfnoise.pair_noise import for_fit
+    from ..core.selfnoise import for_fit
     used = post.meta.get("reference_noise", {}).get("mode", ref_noise)
     post.self_noise, post.sensor_order = for_fit(post.model, post.full_samples,
                                                  used, fit_response, seed,
@@ -248,7 +248,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 def _criticise(post, budget_s, seed, sample_kw):
     """When the model check fails, the criticism of the fit (see
     :mod:`bayescal.criticism.verdict`), kept on ``post``."""
-    from ..core.checks.adequacy import from_diagnostics
+    from ..core.checks import from_diagnostics
 
     if post.model is None or post.theta_ls is None:
         return
@@ -273,7 +273,8 @@ def _warn_on_misfit(post):
     so a script sees it as the console does."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning, describe, from_diagnostics
+    from ..errors import ModelMisfitWarning
+    from ..core.checks import describe, from_diagnostics
     verdict = from_diagnostics(post.diagnostics)
     if verdict.get("ok") is False:
         c = post.criticism.get("verdict_text") if post.criticism else None
@@ -283,7 +284,7 @@ def _warn_on_misfit(post):
 
 def _known_reference_noise(psd, ref_noise, spectra):
     """(mode "fixed", (B, n_r) band sums, a JSON-safe note) from ``psd``."""
-    from ..core.model.refnoise import band_sums_of_psd
+    from ..core.model import band_sums_of_psd
     from .refnoise_file import for_channels, read_reference_noise
 
     if ref_noise not in (None, "fixed"):

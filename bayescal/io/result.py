@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from ..core.posterior.samples import Posterior, jsonable
+from ..core.posterior import Posterior, jsonable
 
 
 def save_posterior(post, folder):

@@ -67,8 +67,7 @@ def run_item(item, out):
     thread, worker, error); never
     raises for a problem of the item itself.
     """
-    from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.posterior.convergence import NotConvergedWarning
+    from ..errors import ModelMisfitWarning, NotConvergedWarning
     from ..io.stationxml import write_corrected
 
     t, cpu = time.time(), time.thread_time()

@@ -26,7 +26,8 @@ import re
 
 from obspy import Inventory, UTCDateTime
 
-from ..io.read import InputError, read_metadata
+from ..errors import InputError
+from ..io.read import read_metadata
 
 REQUIRED = ("label", "ref", "ref_xml", "sut", "sut_xml")
 OPTIONAL = ("band_min", "band_max", "fit_response", "seed", "start", "end", "sut_id", "ref_id")

@@ -103,7 +103,7 @@ def parameter_lines(summary):
 
 def residuals_page(summary, arrays, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
-    from ..core.posterior.convergence import describe_sampler, not_converged_line
+    from ..core.posterior import describe_sampler, not_converged_line
 
     z, fc = arrays["band_residual"], arrays["band_centres"]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=page_size(paper, landscape=True),
@@ -191,6 +191,6 @@ def write_report_from_folder(folder, paper="a4"):
     subs = sorted(d for d in os.listdir(folder)
                   if os.path.isfile(os.path.join(folder, d, "cal.json")))
     if not subs:
-        from ..io.read import InputError
+        from ..errors import InputError
         raise InputError(f"{folder}: no cal.json (not a bayescal cal folder)")
     return [p for d in subs for p in write_report_from_folder(os.path.join(folder, d), paper)]

@@ -47,7 +47,7 @@ def timeseries_page(summary, arrays, paper="a4"):
     a3.set_xlabel(f"standardised innovation (AR({ad['ar_order']}) noise); mean square "
                   f"{ad['misfit']:.3f}, {ad['test']} p = {ad['p_value']:.3g}")
     a3.legend(fontsize=8)
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
     warn = not_converged_line(summary["convergence"])
     fig.suptitle(f"{summary['channel']}: {summary['kind']} calibration, fit in time"
                  + (f"\n{warn}" if warn else ""), fontsize=10 if warn is None else 8)

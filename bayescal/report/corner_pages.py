@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.pendulum import damping_over_period
+from ..core.orientation import unit_vector
+from ..core.response import damping_over_period
 from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_header
 

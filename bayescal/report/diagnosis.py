@@ -36,7 +36,7 @@ def build_figure(diagnosis, paper="a4"):
 def _findings(d):
     """The page's text: the diagnosis's sentences, a line when the final
     model's sampler did not converge, and the base model's mismatches."""
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
 
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
     conv = getattr(d.final, "convergence", None) or {}

@@ -270,7 +270,7 @@ def header_lines(ctx):
     if m.get("assumption"):
         lines += textwrap.wrap(f"Assumed: {m['assumption']}", 120)
     if m.get("reference_noise"):
-        from ..core.posterior.samples import describe_treatment
+        from ..core.posterior import describe_treatment
         lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m['reference_noise'])}",
                                120)
     if m.get("method"):

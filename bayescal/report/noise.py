@@ -20,7 +20,7 @@ import textwrap
 
 import numpy as np
 
-from ..core.selfnoise.sleeman import below_resolution, db
+from ..core.selfnoise import below_resolution, db
 from .layout import A4, LINESTYLES, MARKERS, style, write_pages
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
@@ -168,7 +168,7 @@ def read_result(folder):
     ``bayescal noise`` folder's ``noise.json`` and ``noise_curves.npz``."""
     import json
 
-    from ..core.selfnoise.sleeman import SelfNoise
+    from ..core.selfnoise import SelfNoise
     from ..io.noise import ComponentNoise, NoiseResult
 
     with open(os.path.join(folder, "noise.json")) as fh:

@@ -88,7 +88,7 @@ def elements_page(summary, arrays, paper="a4"):
     tab.scale(1, 3)
     ax.set_title(f"medians [95 %]  ({summary['mode']})\ngain: {summary['gain_units']}",
                  fontsize=8)
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
     lines = [not_converged_line(v["convergence"], what=f"the sampler of element {e}")
              for e, v in summary["elements"].items()]
     lines = [x for x in lines if x]

@@ -22,8 +22,7 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.response.family import paz_velocity_response, pendulum_poles
-from ..core.response.paz import normalization_factor
+from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
 from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 

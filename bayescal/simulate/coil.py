@@ -29,8 +29,8 @@ from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
 from scipy.signal import max_len_seq
 
-from ..core.orientation.geometry import STS2_UVW, azimuth_dip
-from ..core.response.family import paz_velocity_response
+from ..core.orientation import STS2_UVW, azimuth_dip
+from ..core.response import paz_velocity_response
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 ELEMENTS = ("U", "V", "W")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import binom
 
-from ..core.orientation.geometry import tilt_components, unit_vector, unwrap_azimuths
+from ..core.orientation import tilt_components, unit_vector, unwrap_azimuths
 from ..io.pipeline import calibrate
 from .pair import simulate_pair
 

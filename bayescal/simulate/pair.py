@@ -35,9 +35,8 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.family import paz_velocity_response, pendulum_poles
-from ..core.response.paz import normalization_factor
+from ..core.orientation import unit_vector
+from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz

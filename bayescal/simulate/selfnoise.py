@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.response.paz import transfer
+from ..core.response import transfer
 
 #: Nominal responses (rad/s; generator constant V/(m/s)), ../shared/data/README.md.
 STS1 = dict(zeros=[0j, 0j], poles=[-0.01234 + 0.01234j, -0.01234 - 0.01234j,
@@ -179,8 +179,7 @@ def estimate_and_truth(sim, band=None, *, n_boot=400, level=0.9, method="wishart
     0.01 Hz up to 0.8 of Nyquist.
     """
     from ..core.selfnoise import sleeman as core
-    from ..core.spectra.dof import band_dof
-    from ..core.spectra.welch import cross_spectra
+    from ..core.spectra import band_dof, cross_spectra
 
     n = sim.data.shape[1]
     band = band or (0.01, 0.4 * sim.fs)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .errors import FitError
+from ...errors import FitError
 
 #: Tolerances of a refinement's passes.
 TIGHT = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)

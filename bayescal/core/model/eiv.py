@@ -30,7 +30,8 @@ import numpy as np
 from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
 from .inflation import shrunk_inflation
-from .likelihood import Model, Priors
+from .likelihood import Model
+from ..priors import Priors
 
 
 @dataclass

@@ -66,30 +66,10 @@ from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
 from .inflation import shrunk_inflation
 from .nodes import NODES_PER_DECADE, interpolation_nodes
 from ..response.family import gain_prior_factor
+from ..priors import Priors
 
 #: Fewest time blocks with which the per-block likelihood is used.
 MIN_TIME_BLOCKS = 4
-
-
-@dataclass(frozen=True)
-class Priors:
-    """Explicit, documented priors.
-
-    Orientation: uniform on the sphere (or on the circle of a two-channel
-    reference). Natural period and damping (pair fits and coil
-    calibrations): each log-normal around its nominal value with relative
-    standard deviation ``period_tolerance`` and ``damping_tolerance`` (the
-    manufacturer's tolerance; :mod:`bayescal.core.response.pendulum`). Gain:
-    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``. The
-    reference's gain, period and damping: exact (``reference_tolerance``
-    0) or log-normal with that relative standard deviation
-    (:mod:`bayescal.core.response.reference_tolerance`).
-    """
-
-    gain_factor: float = 10.0
-    period_tolerance: float = pendulum.PERIOD_TOLERANCE
-    damping_tolerance: float = pendulum.DAMPING_TOLERANCE
-    reference_tolerance: float = 0.0
 
 
 @dataclass

@@ -3,8 +3,18 @@
 * :mod:`.samples`     the :class:`~bayescal.core.posterior.samples.Posterior`:
                       samples, per-channel summaries and intervals
 * :mod:`.modes`       the modes a fit reported: which intervals they lie outside
-* :mod:`.convergence` the convergence warning and how a chain is told to a user
+* :mod:`.convergence` the NOT CONVERGED line and how a chain is told to a user
 
 May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`
 and :mod:`bayescal.core.checks`.
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".samples": ["Posterior", "describe_treatment", "interval_summary", "jsonable"],
+    ".modes": ["describe", "multimodal_line"],
+    ".convergence": ["describe_sampler", "not_converged_line"],
+})

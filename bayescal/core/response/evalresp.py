@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from .paz import transfer
+from ...errors import NotHandled
 
 FIR_NORM_TOL = 0.02
 
@@ -61,10 +62,6 @@ for _kind, _names in (
 _SCALE = {**dict.fromkeys(("CM/S**2", "CM/S", "CM/SEC", "CM"), 1e2),
           **dict.fromkeys(("MM/S**2", "MM/S", "MM/SEC", "MM"), 1e3),
           **dict.fromkeys(("NM/S**2", "NM/S", "NM/SEC", "NM"), 1e9)}
-
-
-class NotHandled(Exception):
-    """A response this module does not evaluate (ObsPy is asked instead)."""
 
 
 def _unit(name):

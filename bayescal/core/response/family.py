@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .paz import transfer
+from ...errors import ResponseError
 
 #: Names of the response parameters, in the order used everywhere.
 RESPONSE_PARAMS = ("period_s", "damping", "gain")
@@ -44,16 +45,13 @@ def units_label(output_units, input_units):
     out, inp = word(output_units), word(input_units)
     return f"{out}/({inp})" if "/" in inp else f"{out}/{inp}"
 
-class ResponseError(ValueError):
-    """A response cannot be used as asked (missing stage, wrong type...)."""
-
-
 def evaluate_velocity_response(response, freqs):
     """Complex velocity response (counts per m/s) of an ObsPy ``Response``:
     evaluated in numpy as evalresp does (:mod:`bayescal.core.response.evalresp`, no
     ``obspy.signal`` import), by ObsPy's evalresp for what that does not
     cover."""
-    from .evalresp import NotHandled, velocity_response
+    from ...errors import NotHandled
+    from .evalresp import velocity_response
 
     freqs = np.asarray(freqs, dtype=float)
     try:

@@ -47,7 +47,8 @@ from dataclasses import dataclass, field
 import emcee
 import numpy as np
 
-from ..posterior.convergence import NotConvergedWarning, not_converged_line
+from ...errors import NotConvergedWarning
+from ..posterior.convergence import not_converged_line
 
 #: ``move="independence"``: DE steps before the first proposal is fitted (from
 #: their second half), independence steps before it is refitted, and the

@@ -37,6 +37,8 @@ import numpy as np
 from scipy import linalg
 from scipy.fft import next_fast_len
 
+from ...errors import SpectraError
+
 
 #: Time blocks kept of the per-frequency totals (see ``CrossSpectra.block_totals``).
 TIME_BLOCKS = 16
@@ -66,10 +68,6 @@ def detrend(x, axis=-1, type="linear"):
     flat = moved.reshape(n, -1).copy()
     flat = flat - a @ linalg.lstsq(a, flat)[0]
     return np.moveaxis(flat.reshape(moved.shape), 0, -1)
-
-
-class SpectraError(ValueError):
-    """The data cannot give the spectra asked for (too short, empty band...)."""
 
 
 @dataclass

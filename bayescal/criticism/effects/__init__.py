@@ -19,31 +19,26 @@ misfit located after the base fit looks like each.
                      per-band ratio (timing offset, extra pole, gain error)
 * :mod:`.tilt_ratio` the coherence-ratio rule for tilt noise, the baseline of
                      :mod:`bayescal.criticism.tilt`
+* :mod:`.catalogue`  the effects by name (:data:`.catalogue.CATALOGUE`)
 
 Reversed and exchanged channels are screened from the fitted axes
 (:mod:`bayescal.criticism.wiring`) and tilt noise is a nested extension of a
 noise-spectrum model (:mod:`bayescal.criticism.tilt`): neither changes the
 response, so neither is an effect here. A new effect is a module here with
-a :class:`.base.CriticismEffect`, listed in :data:`CATALOGUE`, and its
+a :class:`.base.CriticismEffect`, listed in :data:`.catalogue.CATALOGUE`, and its
 candidates (where the search tries it, with its starting grid) in
 :mod:`bayescal.criticism.search`.
 """
-from __future__ import annotations
+from ...lazy import attach
 
-from .base import CriticismEffect
-from .drift import ClockDrift, CorrectedDrift, drift_corrected, drift_signature
-from .gain import GainError
-from .pole import IDENTIFIABLE_RATIO, ExtraPole
-from .response_parameters import ResponseParameters, measured
-from .screens import signatures
-from .tilt_ratio import TILT_RATIO, tilt_signature
-from .timing import TimingOffset
-
-#: The effects by name (a clock drift's by its per-block form).
-CATALOGUE = {cls.name: cls for cls in (TimingOffset, ClockDrift, ExtraPole, GainError,
-                                       ResponseParameters)}
-
-__all__ = ["CATALOGUE", "ClockDrift", "CorrectedDrift", "CriticismEffect", "ExtraPole",
-           "GainError", "IDENTIFIABLE_RATIO", "ResponseParameters", "TILT_RATIO",
-           "TimingOffset", "drift_corrected", "drift_signature", "measured", "signatures",
-           "tilt_signature"]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".base": ["CriticismEffect"],
+    ".catalogue": ["CATALOGUE"],
+    ".drift": ["ClockDrift", "CorrectedDrift", "drift_corrected", "drift_signature"],
+    ".gain": ["GainError"],
+    ".pole": ["IDENTIFIABLE_RATIO", "ExtraPole"],
+    ".response_parameters": ["ResponseParameters", "measured"],
+    ".screens": ["signatures"],
+    ".tilt_ratio": ["TILT_RATIO", "tilt_signature"],
+    ".timing": ["TimingOffset"],
+})

@@ -13,7 +13,7 @@ one; the diagnosis (:mod:`bayescal.criticism.diagnose`) reports
 """
 from __future__ import annotations
 
-from ...core.model.effect import Effect
+from ...core.model import Effect
 
 
 class CriticismEffect(Effect):

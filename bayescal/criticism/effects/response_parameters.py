@@ -27,7 +27,7 @@ class ResponseParameters(CriticismEffect):
     null = 1.0
 
     def __init__(self, rows, families, channel_ids, priors=None):
-        from ...core.model.likelihood import Priors
+        from ...core.priors import Priors
 
         self.rows = list(rows)
         self.families = list(families)
