@@ -4,7 +4,9 @@ from co-located recordings (see README.md).
 The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
-    version, result      a fit's saved result: its frozen record, meta and
+    version, errors,     leaves: the version, every exception and warning,
+    lazy                 the lazy public face of every subpackage
+    result               a fit's saved result: its frozen record, meta and
                          schema (numpy and the standard library only)
     core                 plain numpy: geometry, responses, spectra, likelihood,
                          sampler, posterior
@@ -18,36 +20,25 @@ import only the layers listed before it:
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """
-import importlib
-
+from .lazy import attach
 from .version import __version__
 
 #: Public name -> module defining it. Imported on first use (PEP 562), so that
 #: ``bayescal --help`` or a sub-command pays only for what it uses.
 _LAZY = {"Result": "bayescal.result.record", "Posterior": "bayescal.result.record",
-         "calibrate": "bayescal.pair.calibrate", "calibrate_files": "bayescal.pair.calibrate",
+         "calibrate": "bayescal.pair.workflow", "calibrate_files": "bayescal.pair.workflow",
          "write_results": "bayescal.io.result", "load_posterior": "bayescal.result.schema",
          "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
-         "write_network": "bayescal.simulate"}
+         "write_network": "bayescal.simulate",
+         **dict.fromkeys(("InputError", "InputWarning", "SpectraError", "ResponseError", "FitError",
+                          "ModelMisfitWarning", "NotConvergedWarning"), "bayescal.errors")}
 
 __all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Result",
            "Posterior",
            "simulate_pair",
-           "simulate_calibration", "write_network", "__version__"]
+           "simulate_calibration", "write_network", "InputError", "InputWarning", "SpectraError",
+           "ResponseError", "FitError", "ModelMisfitWarning", "NotConvergedWarning", "__version__"]
 
 
-def __getattr__(name):
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    try:                              # subpackages: bayescal.io, bayescal.core, ...
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__, _ = attach(__name__, {module: [n for n, m in _LAZY.items() if m == module]
+                                     for module in set(_LAZY.values())})

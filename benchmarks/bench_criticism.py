@@ -59,7 +59,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"{DATA} not found (see ../shared/data/README.md)")
-    from bayescal.pair.calibrate import calibrate_files
+    from bayescal.pair.workflow import calibrate_files
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in cases(tmp).items():

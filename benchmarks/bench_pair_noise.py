@@ -24,7 +24,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
     from bayescal.core.selfnoise import pair_noise
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.io.result import write_results
     from bayescal.simulate.pair import simulate_pair
 

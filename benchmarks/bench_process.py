@@ -58,7 +58,7 @@ for a, b in itertools.product(range(len(x)), repeat=2):
 
 IMPORT = """
 import time
-import obspy, bayescal.pair.calibrate, bayescal.core.fit.run
+import obspy, bayescal.pair.workflow, bayescal.core.fit.run
 t = time.process_time()
 import emcee
 print(time.process_time() - t)

@@ -43,7 +43,7 @@ sys.path.insert(0, tree)
 sys.path.insert(0, tree + "/examples")
 import numpy as np
 import obspy
-import bayescal.pair.calibrate
+import bayescal.pair.workflow
 t0 = time.process_time()
 import emcee
 t_import = time.process_time() - t0
@@ -66,7 +66,7 @@ for mod in list(sys.modules.values()):
     if getattr(mod, "sample", None) is original:
         mod.sample = timed
 import inspect
-from bayescal.pair.calibrate import calibrate_files as _cf
+from bayescal.pair.workflow import calibrate_files as _cf
 if "sut_files" in inspect.signature(_cf).parameters:    # positional, SUT first (older trees)
     calibrate_files = _cf
 else:                                                   # keywords (this tree)

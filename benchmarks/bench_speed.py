@@ -193,7 +193,7 @@ def worst_case(seed):
     """The worst case: a 360-s sensor (truth = nominal), 2 h at 20 Hz,
     period, damping and gain of every channel free, band chosen from the
     data; the whole of :func:`bayescal.calibrate` is timed."""
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
 
     sim = simulate_pair(duration=7200, fs=20, seed=seed, sut_response=((360.0, 0.707, 750.0),) * 3,
                         nominal_response=(360.0, 0.707, 750.0))

@@ -52,7 +52,7 @@ def fitted_amplitude(result_dir, sut_xml, band=COMPARE_BAND, n=200):
     per posterior sample; returns (median, 2.5 %, 97.5 %)."""
     from bayescal.io.result import load_posterior
     from bayescal.io.read import read_metadata
-    from bayescal.core.response.family import TwoPoleFamily, evaluate_velocity_response
+    from bayescal.core.response import TwoPoleFamily, evaluate_velocity_response
 
     post = load_posterior(result_dir)
     resp = read_metadata(sut_xml)[0][0][0].response

@@ -130,7 +130,7 @@ def test_clean_simulations_pass_at_the_level():
     3.29 sd (two-sided level 0.001; the cells of one pair share its fit, so
     this is approximate). A check that never fails passes this test; the
     truly misfitting pair above is what catches that."""
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.simulate.pair import simulate_pair
 
     n_pairs, fails, p_all = 6, 0, []

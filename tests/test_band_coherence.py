@@ -71,8 +71,7 @@ def demo():
 def test_demo_band_and_fit_find_the_truth(demo):
     from tests.fitting import fit_sim
 
-    s, r, fs, _ = align(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory, "SUT",
-                        "reference", None, None)
+    s, r, fs, _ = align(demo.sut, demo.sut_inventory, demo.ref, demo.ref_inventory)
     choice, freqs = _check_coherence(s, r, fs)
     # coherence 0.995 at every frequency: the whole range the record allows
     assert choice.band == (freqs[0], freqs[-1])
@@ -99,13 +98,12 @@ def test_huddle_band_follows_the_rule(tmp_path):
     ref_xml, sut_xml = write_inputs(HUDDLE, str(tmp_path))
     ref = io.read_waveforms(HUDDLE / "ref_STS2")
     sut = io.read_waveforms(HUDDLE / "ref_unknown")
-    s, r, fs, _ = align(sut, load_inventory(sut_xml, sut), ref, load_inventory(ref_xml, ref),
-                        "SUT", "reference", None, None)
+    s, r, fs, _ = align(sut, load_inventory(sut_xml, sut), ref, load_inventory(ref_xml, ref))
     _check_coherence(s, r, fs)
 
 
 def test_gaps_drop_segments_and_too_few_refuse():
-    from bayescal.core.spectra.welch import SpectraError
+    from bayescal.errors import SpectraError
 
     rng = np.random.default_rng(1)
     g = rng.standard_normal(4096)

@@ -75,7 +75,7 @@ def test_band_model_is_the_ratio_summed_over_each_band(fit):
     t0 = spec.nominal_theta()
     model = PZModel(sp, spec, base=spec.ratio(sp.freqs, t0 + 0.01))
     theta = t0 + 0.03 * np.random.default_rng(0).standard_normal((8, t0.size))
-    want = np.add.reduceat(model.mu(theta)[:, 0] * model._saa, model._starts, axis=1)
+    want = np.add.reduceat(model.mu(theta)[:, 0] * model.input_power, model._starts, axis=1)
     # the same products summed in another order: a sum of at most a few
     # thousand terms agrees to (terms x 2.2e-16) relative, below 1e-12
     np.testing.assert_allclose(model.band_model(theta), want, rtol=1e-12)
@@ -163,7 +163,7 @@ def test_coil_prior_is_the_stated_prior_on_period_and_damping(hf_fit):
     import emcee
     from scipy import stats
 
-    from bayescal.core.model.likelihood import Priors
+    from bayescal.core.priors import Priors
     from tests.tolerance import LEVEL
 
     model = copy.copy(hf_fit[0].model)

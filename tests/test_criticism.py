@@ -361,7 +361,7 @@ def _cowi_phase_delay(d, azimuth=3.2, band=(0.125, 1 / 3.0), nperseg=256):
 def test_cowi_clock_offset_named_and_estimates_stated(cowi_data):
     from obspy import UTCDateTime
 
-    from bayescal.pair.calibrate import calibrate_files
+    from bayescal.pair.workflow import calibrate_files
     d = cowi_data
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -395,7 +395,7 @@ def test_huddle_misfit_left_unexplained_with_a_band_advice(huddle_data, tmp_path
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
     from real_huddle import write_inputs
 
-    from bayescal.pair.calibrate import calibrate_files
+    from bayescal.pair.workflow import calibrate_files
     ref_xml, sut_xml = write_inputs(huddle_data, str(tmp_path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -173,7 +173,7 @@ def test_misfit_sentence_says_rises_when_it_rose():
     """A misfit whose median rose (8.55e3 -> 1.46e4) is said to rise, not fall."""
     import numpy as np
 
-    from bayescal.criticism.diagnose import misfit_change
+    from bayescal.criticism.diagnosis import misfit_change
 
     edges = np.array([0.02, 0.1, 3.0])
     up = misfit_change(edges, np.array([8.55e3, 8.55e3]), np.array([1.46e4, 1.46e4]))

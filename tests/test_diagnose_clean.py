@@ -165,7 +165,7 @@ def test_mismatch_left_with_a_noisy_reference_names_the_noise_model_as_suspect()
     microseism bands (BHZ, 0.084-0.171 Hz, misfit 5.3 times its expectation)
     is reported as unexplained, with the caveat that a reference noise of
     another shape leaves such a mismatch."""
-    from bayescal.criticism.diagnose import REFERENCE_SHAPE_CAVEAT
+    from bayescal.criticism.diagnosis import REFERENCE_SHAPE_CAVEAT
 
     d = _harness_run(1001, "equal", 0.03)
     assert d.effects == [], d.sentences()
@@ -180,8 +180,8 @@ def test_caveat_also_when_the_user_chose_the_reference_noise_model():
     diagnosis then has nothing to test: the reference's noise is already
     modelled): the mismatch left carries the caveat too. ``equal`` has a
     caveat of its own; ``quiet`` and ``fixed`` have none."""
-    from bayescal.criticism.diagnose import (EQUAL_SHAPE_CAVEAT, REFERENCE_SHAPE_CAVEAT,
-                                             reference_shape_caveat)
+    from bayescal.criticism.diagnosis import (EQUAL_SHAPE_CAVEAT, REFERENCE_SHAPE_CAVEAT,
+                                              reference_shape_caveat)
 
     d = _harness_run(1001, "equal", 0.03, ref_noise="estimate")
     assert d.effects == [], d.sentences()

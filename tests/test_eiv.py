@@ -136,7 +136,7 @@ def test_eiv_model_in_model_criticism_and_one_channel_refusal():
     reference, which has no errors-in-variables model, is refused."""
     from bayescal import calibrate
     from bayescal.core.model.eiv import EIVModel
-    from bayescal.core.fit.errors import FitError
+    from bayescal.errors import FitError
     from bayescal.criticism.search import held_orientation_loglik
 
     sim = simulate_pair(duration=3600, fs=10, seed=2, coherence=0.95, ref_coherence=0.95,

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import obspy
-from bayescal.core.response.evalresp import NotHandled, velocity_response
+from bayescal.errors import NotHandled
+from bayescal.core.response.evalresp import velocity_response
 from bayescal.core.response.family import evaluate_velocity_response
 
 OBSPY = os.path.dirname(obspy.__file__)

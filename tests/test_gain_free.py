@@ -80,7 +80,7 @@ def test_flat_metadata_gives_the_true_relative_gain(tmp_path):
 
 
 def test_flat_metadata_refuses_period_and_damping():
-    from bayescal.core.fit.errors import FitError
+    from bayescal.errors import FitError
 
     sim = simulate_pair(**dict(SIM_KW, duration=1200.0))
     with pytest.raises(FitError, match="poles-and-zeros"):

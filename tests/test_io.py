@@ -10,7 +10,7 @@ import pytest
 from scipy.signal import resample_poly
 
 from bayescal import io
-from bayescal.io.read import InputError, InputWarning
+from bayescal.errors import InputError, InputWarning
 from bayescal.io.align import align
 from tests.closed_forms import check_horizontal_azimuths
 from tests.conftest import SIM_BAND

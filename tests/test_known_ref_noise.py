@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from bayescal.pair.calibrate import calibrate
-from bayescal.io.read import InputError
+from bayescal.pair.workflow import calibrate
+from bayescal.errors import InputError
 from bayescal.io.refnoise_file import for_channels, read_reference_noise
 from bayescal.simulate.pair import self_noise_psd, simulate_pair
 from tests.test_cli_fit import PY, assert_user_error, base_args, run_fit

@@ -32,7 +32,7 @@ def test_node_interpolation_matches_per_bin_sum():
     vecs, ratio = model.unpack(theta[None])
     r_model = model.residual(theta[None])[0]
     t = vecs[0] @ model.ref_pinv
-    via_nodes = r_model[:, 0, :] + (t @ model._srr)[:, 0, :]
+    via_nodes = r_model[:, 0, :] + (t @ model.reference_band_sums)[:, 0, :]
     assert np.max(np.abs(via_nodes - exact) / np.abs(exact)) < 1e-4
 
 
@@ -69,7 +69,7 @@ def test_non_finite_least_squares_point_is_a_fit_error(monkeypatch):
     from types import SimpleNamespace
 
     from bayescal.core.fit import leastsq
-    from bayescal.core.fit.errors import FitError
+    from bayescal.errors import FitError
 
     sp, s, r = _spectra(0, 0.9)
     setup = build_model(sp, r.vectors, s.vectors, s.families(), free="gain")

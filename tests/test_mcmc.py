@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from bayescal.core.sampling import mcmc
-from bayescal.core.posterior.convergence import NotConvergedWarning
+from bayescal.errors import NotConvergedWarning
 from tests.conftest import SIM_BAND
 
 

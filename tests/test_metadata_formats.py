@@ -68,7 +68,8 @@ def test_gse2_paz_response_is_the_formula(tmp_path):
 
 
 def test_gse2_without_recordings_and_bad_resp_are_one_line_errors(tmp_path):
-    from bayescal.io import InputError, read_metadata
+    from bayescal.errors import InputError
+    from bayescal.io import read_metadata
 
     cal = tmp_path / "sensor.cal"
     cal.write_text(GSE2)

@@ -8,7 +8,7 @@ from scipy.integrate import quad
 from scipy.stats import invgamma
 
 from bayescal.core.model.misfit_scale import band_loglik, band_scale
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate.pair import simulate_pair
 from tests.tolerance import Z_001
 

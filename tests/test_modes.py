@@ -91,7 +91,7 @@ def _grid_masses(model, sig, half_deg=3.0, n=241):
 
 def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     from bayescal.cli.fit import print_summary
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.io.result import write_results
     from bayescal.report.fit import load_result
     from bayescal.report.fit_pages import page_summary
@@ -142,7 +142,7 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
 
 def test_normal_pair_is_not_flagged():
     from bayescal.cli.fit import print_summary
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=3, coherence=0.99,
@@ -163,7 +163,7 @@ def test_normal_pair_is_not_flagged():
 
 
 def test_cowi_is_not_flagged(cowi_data):
-    from bayescal.pair.calibrate import calibrate_files
+    from bayescal.pair.workflow import calibrate_files
 
     d = cowi_data
     post = calibrate_files(sut=str(d / "C100823215422_COWI.LHx"), sut_xml="flat",

@@ -121,7 +121,7 @@ def test_a_failed_model_check_is_a_python_warning():
     the damping apart are set by the prior (said, with the tolerance to
     widen), damping/period is measured: 0.707 / 20 inside its interval."""
     from bayescal import calibrate
-    from bayescal.core.checks.adequacy import ModelMisfitWarning
+    from bayescal.errors import ModelMisfitWarning
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999,

@@ -405,7 +405,7 @@ def test_clock_advice_shifts_the_start_times_against_the_offset(offset):
     """The console's advice for a timing offset gives the signed shift of
     the SUT's start times: minus the offset (samples 0.2 s late: -0.2 s;
     0.2 s early: +0.2 s), whichever way the clock is off."""
-    from bayescal.criticism.verdict import _advice
+    from bayescal.criticism.words import advice as _advice
 
     text = _advice({"name": "timing_offset", "parameters": {"seconds": {"median": offset}}})
     assert f"shift each SUT trace's start time by {-offset:+.3g} s" in text, text

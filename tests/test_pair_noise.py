@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bayescal.core.selfnoise import pair_noise
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.io.result import write_results
 from bayescal.simulate.harness import band_noise_truth
 from bayescal.simulate.pair import simulate_pair

@@ -122,7 +122,7 @@ def pair():
 
 @pytest.mark.parametrize("mode", ["quiet", "estimate", "equal"])
 def test_models_carry_the_weights(pair, mode):
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     post = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise=mode)
     model = post.state.model
@@ -152,7 +152,7 @@ def test_diagnosis_reports_its_final_models_weights(pair):
     model after a quiet base fit) reports that model's weights (``p = n_u +
     n_r``), not the base fit's."""
     from bayescal.criticism.diagnose import posterior_of
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     base = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,
                      band=(0.02, 1.0), fit_response="gain", progress=False, ref_noise="quiet")
     eiv = calibrate(sut=pair.sut, sut_xml=pair.sut_inventory, ref=pair.ref, ref_xml=pair.ref_inventory,

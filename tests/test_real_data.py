@@ -109,7 +109,7 @@ def test_cowi_band_chosen_from_coherence(cowi_data):
     """Without --band: the chosen band covers the secondary microseism,
     leaves out the vertical (no vertical reference), and the azimuths still
     agree with ASL."""
-    from bayescal.pair.calibrate import calibrate_files
+    from bayescal.pair.workflow import calibrate_files
 
     post = calibrate_files(sut=cowi_data / "C100823215422_COWI.LHx", sut_xml="flat",
                            ref=[cowi_data / "DT000110.LH1", cowi_data / "DT000110.LH2"], ref_xml="flat",

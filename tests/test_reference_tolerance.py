@@ -12,8 +12,8 @@ from scipy.optimize import least_squares
 from scipy.stats import norm
 
 from bayescal.core.response import reference_tolerance
-from bayescal.core.model.likelihood import Priors
-from bayescal.pair.calibrate import calibrate
+from bayescal.core.priors import Priors
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate.pair import simulate_pair, velocity_response
 from tests.tolerance import Z_001
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from bayescal.io.band import MIN_COHERENCE
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate.pair import simulate_pair
 
 

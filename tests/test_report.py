@@ -15,7 +15,7 @@ pypdf = pytest.importorskip("pypdf")
 
 import bayescal  # noqa: E402
 from bayescal.cli import main as cli_main  # noqa: E402
-from bayescal.io.read import InputError  # noqa: E402
+from bayescal.errors import InputError  # noqa: E402
 from bayescal.io.result import save_posterior  # noqa: E402
 from bayescal.report.fit import write_report  # noqa: E402
 from bayescal.simulate.pair import simulate_pair  # noqa: E402

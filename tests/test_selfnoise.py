@@ -171,7 +171,7 @@ def test_cli_recovers_known_noise(sim_files, tmp_path):
     assert main(["noise", "--data", *data, "--xml", *xml, "--out", str(out), "--quiet",
                  "--band", "0.01", "4", "--n-boot", "300"]) == 0
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
-        "noise.json", "noise.pdf", "noise_Z.png"]
+        "noise.json", "noise.pdf", "noise_Z.png", "noise_curves.npz"]
     doc = json.loads((out / "noise.json").read_text())
     assert doc["schema"] == "bayescal.noise/1"
     assert list(doc["sensors"]) == ["XS.SIM.00.BHZ", "XS.SIM.10.BHZ", "XS.SIM.60.BHZ"]

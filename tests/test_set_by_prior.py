@@ -22,9 +22,9 @@ import pytest
 
 from bayescal.cli.fit import response_lines
 from bayescal.core.fit.unconstrained import BOUND_FRACTION
-from bayescal.core.model.likelihood import Priors
+from bayescal.core.priors import Priors
 from bayescal.core.response import pendulum
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.io.result import write_results
 from bayescal.io.read import read_metadata
 from bayescal.io.stationxml import write_corrected

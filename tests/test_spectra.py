@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 from scipy.signal import csd
 
-from bayescal.core.spectra.welch import SpectraError, cross_spectra
+from bayescal.errors import SpectraError
+from bayescal.core.spectra.welch import cross_spectra
 
 FS = 10.0
 

@@ -9,7 +9,7 @@ import pytest
 
 from bayescal.core.spectra import transients
 from bayescal.io.align import align
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate.pair import simulate_pair
 
 BURSTS_S = (200.0, 520.0, 900.0)
@@ -37,8 +37,7 @@ def _pair(seed, bursts=BURSTS_S):
 
 def _spectra(p, ref, band=(0.05, 0.5)):
     from bayescal.core.spectra.welch import cross_spectra
-    s, r, fs, _ = align(p.sut, p.sut_inventory, ref, p.ref_inventory, "SUT", "reference",
-                        None, None)
+    s, r, fs, _ = align(p.sut, p.sut_inventory, ref, p.ref_inventory)
     return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band)
 
 
@@ -116,8 +115,7 @@ def test_a_misfit_that_rises_with_the_signal_is_not_a_transient():
             for start in BURSTS_S:
                 i, n = int(start * fs), int(60 * fs)
                 tr.data[i:i + n] *= 4.0
-    s, r, fs, _ = align(sut, p.sut_inventory, ref, p.ref_inventory, "SUT", "reference",
-                        None, None)
+    s, r, fs, _ = align(sut, p.sut_inventory, ref, p.ref_inventory)
     from bayescal.core.spectra.welch import cross_spectra
     sp = cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), (0.05, 0.5))
     found = transients.find(sp)

@@ -17,7 +17,7 @@ from bayescal import cli, coil
 from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
 from bayescal.core.response import pendulum
 from bayescal.core.orientation.geometry import STS2_UVW, TRILLIUM_UVW
-from bayescal.io.read import InputError
+from bayescal.errors import InputError
 from bayescal.core.response.family import paz_velocity_response
 from bayescal.simulate.pair import NORM_FREQ
 

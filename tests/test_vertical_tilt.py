@@ -92,7 +92,7 @@ TILTS = (0.0, 0.15, 0.3)
 
 
 def _fit_vertical(seed, tilt, azimuth):
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=1800.0, fs=10.0, seed=seed, coherence=0.99,

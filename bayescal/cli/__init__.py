@@ -7,6 +7,9 @@ defining ``HELP`` (one line), ``configure(parser)`` and ``run(args) -> int``:
 share. This is the top layer: it may import every other subpackage, and
 nothing imports it. Errors a user can fix (bad files, no overlap, too little
 data...) end with one line on stderr and exit code 2, never a traceback.
+
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
 """
 from __future__ import annotations
 
@@ -14,17 +17,20 @@ import argparse
 import importlib
 import sys
 
+from ..lazy import attach
 from ..version import __version__
 
 #: The sub-commands, in the order ``bayescal --help`` lists them.
 COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
+__getattr__, __dir__, _LAZY_NAMES = attach(__name__, {
+    ".fit": ["print_summary", "response_lines"],
+})
+__all__ = sorted([*_LAZY_NAMES, "COMMANDS", "build_parser", "main"])
+
 
 def _user_errors():
-    from ..core.fit.errors import FitError
-    from ..io.read import InputError
-    from ..core.response.family import ResponseError
-    from ..core.spectra.welch import SpectraError
+    from ..errors import FitError, InputError, ResponseError, SpectraError
     return (InputError, SpectraError, FitError, ResponseError)
 
 
@@ -41,18 +47,18 @@ def build_parser():
         p = sub.add_parser(name, help=mod.HELP, description=mod.__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         mod.configure(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(command_run=mod.run)
     return parser
 
 
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not getattr(args, "_run", None):
+    if not getattr(args, "command_run", None):
         parser.print_help()
         return 2
     try:
-        return int(args._run(args) or 0)
+        return int(args.command_run(args) or 0)
     except _user_errors() as exc:
         print(f"bayescal: error: {exc}", file=sys.stderr)
         return 2

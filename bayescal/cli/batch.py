@@ -26,7 +26,7 @@ Examples:
 """
 from __future__ import annotations
 
-from ..io.read import InputError
+from ..errors import InputError
 from .common import add_paper_argument
 
 HELP = "calibrate many pairs (CSV plan or SDS archive) on Dask, resumable, with a network report"

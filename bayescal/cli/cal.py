@@ -7,7 +7,8 @@ band reaches (--fit hf), or both (--fit all).
 Example:
   bayescal cal --cal RUN.mseed --input-channel BC0 --output-channel BHZ \\
                --sut-xml SUT.xml --coil-constant 1e-9 --out DIR --fit lp
-Writes DIR/cal.json (schema bayescal.cal/1), DIR/cal_samples.npz,
+Writes DIR/cal.json (schema bayescal.cal/1), DIR/cal_samples.npz (the
+samples and every array the report draws: `bayescal report DIR` redraws it),
 DIR/sut_corrected.xml (the StationXML with the fitted values and their 68 %
 errors) and the report (DIR/cal_report.pdf and PNG pages). With several
 --output-channel, one sub-folder DIR/<SEED id>/ per channel and one
@@ -27,14 +28,13 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 
 import numpy as np
 
-from ..io.read import InputError, read_metadata
+from ..errors import InputError
+from ..io.read import read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
-                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
+                     convergence_exit, priors_from, quiet_convergence_warnings, staging)
 
 HELP = "calibration of a channel from a coil calibration run (random, step, sine; posterior)"
 KINDS = ("random", "step", "sine")
@@ -106,28 +106,21 @@ def write_outputs(fits, inventory, out, paper="a4"):
     """Write everything into a temporary folder, then move it into ``out``."""
     from ..coil.calxml import write_corrected_cal
     from ..io.result import write_json
-    from ..report.cal import write_report
+    from ..report.cal import write_report_from_folder
 
-    parent = os.path.dirname(os.path.abspath(out)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".cal-", dir=parent)
-    try:
+    with staging(out) as tmp:
         summaries = []
         for fit in fits:
             folder = tmp if len(fits) == 1 else os.path.join(tmp, fit.channel)
             os.makedirs(folder, exist_ok=True)
             summary = fit.summary()
             write_json(os.path.join(folder, "cal.json"), summary)
-            np.savez(os.path.join(folder, "cal_samples.npz"), theta=fit.theta,
-                     names=np.array(fit.model.names))
-            write_report(fit, folder, paper=paper)
+            np.savez(os.path.join(folder, "cal_samples.npz"), **fit.report_arrays())
+            write_report_from_folder(folder, paper=paper)
             summaries.append(summary)
         corrected = [f for f in fits if f.spec is not None]
         if corrected:
             write_corrected_cal(inventory, corrected, os.path.join(tmp, "sut_corrected.xml"))
-        publish(tmp, out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
     return summaries
 
 

@@ -1,12 +1,12 @@
 """What several sub-commands share: the arguments of a sensor pair, the page size, messages
-on stderr, and publishing a finished output folder in one move."""
+on stderr, and the output folder written in a staging folder and published when complete
+(:func:`bayescal.io.atomic.staging`)."""
 from __future__ import annotations
 
 import contextlib
-import os
-import shutil
 import sys
-import tempfile
+
+from ..io.atomic import staging  # noqa: F401  (the sub-commands' one output rule)
 
 
 def parse_time(text):
@@ -36,7 +36,7 @@ def _percent_or_zero(text):
 
 def priors_from(args):
     """The fit's :class:`bayescal.core.model.likelihood.Priors` from the options."""
-    from ..core.model.likelihood import Priors
+    from ..core.priors import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
                   damping_tolerance=args.damping_tolerance / 100.0,
                   reference_tolerance=getattr(args, "ref_tolerance", 0.0) / 100.0)
@@ -46,7 +46,7 @@ def add_tolerance_arguments(parser, when):
     """``--period-tolerance`` and ``--damping-tolerance`` (per cent): the
     stated prior on natural period and damping (:mod:`bayescal.core.response.pendulum`),
     which applies ``when`` (e.g. "with --fit-response all")."""
-    from ..core.response.pendulum import DAMPING_TOLERANCE, PERIOD_TOLERANCE
+    from ..core.response import DAMPING_TOLERANCE, PERIOD_TOLERANCE
 
     parser.add_argument("--period-tolerance", type=_percent, default=100 * PERIOD_TOLERANCE,
                         metavar="PERCENT",
@@ -64,6 +64,42 @@ def add_tolerance_arguments(parser, when):
 def add_pair_arguments(parser):
     """Arguments shared by ``bayescal fit`` and ``bayescal diagnose``: the two
     sensors' files, the output folder, the band, the window and the options."""
+    _add_inputs(parser)
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--fit-response", nargs="?", const="all", default="gain",
+                        choices=["all", "gain", "none"],
+                        help="which of the SUT's response parameters are fitted: 'gain' (the "
+                             "default without the option: each channel's gain, reported also "
+                             "as a relative gain = fitted / metadata; works with 'flat' "
+                             "metadata), 'all' (the default when the option is given without "
+                             "a value: natural period, damping and gain per channel; needs "
+                             "poles and zeros) or 'none' (gains held at their metadata values, "
+                             "angles only). With one horizontal reference channel the gains "
+                             "are held (it cannot separate them from the rotation)")
+    add_tolerance_arguments(parser, "with --fit-response all")
+    _add_reference_arguments(parser)
+    parser.add_argument("--keep-transients", action="store_true",
+                        help="fit every Welch segment; by default segments in which one sensor "
+                             "records noise the other does not, beyond the record's stationary "
+                             "noise (a transient near one sensor: a gust, a door, a vehicle), "
+                             "are left out, and the console says how many and when")
+    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: chosen from the data where the "
+                             "sensors are coherent)")
+    parser.add_argument("--start", type=parse_time, metavar="T",
+                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
+    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress display (the band used and the results table are "
+                             "still printed)")
+    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    add_sampling_argument(parser)
+    add_paper_argument(parser)
+
+
+def _add_inputs(parser):
+    """The two sensors' recordings, metadata and channel patterns."""
     g = parser.add_argument_group("inputs")
     g.add_argument("--ref", nargs="+", required=True, metavar="FILE",
                    help="reference recording(s): miniSEED or any format ObsPy reads")
@@ -79,18 +115,10 @@ def add_pair_arguments(parser):
                         "'XX.SIM.10.BH?'): needed when a file holds both sensors")
     g.add_argument("--ref-id", nargs="+", metavar="PATTERN",
                    help="SEED ids of the reference's channels (e.g. 'XX.SIM.00.BH?')")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--fit-response", nargs="?", const="all", default="gain",
-                        choices=["all", "gain", "none"],
-                        help="which of the SUT's response parameters are fitted: 'gain' (the "
-                             "default without the option: each channel's gain, reported also "
-                             "as a relative gain = fitted / metadata; works with 'flat' "
-                             "metadata), 'all' (the default when the option is given without "
-                             "a value: natural period, damping and gain per channel; needs "
-                             "poles and zeros) or 'none' (gains held at their metadata values, "
-                             "angles only). With one horizontal reference channel the gains "
-                             "are held (it cannot separate them from the rotation)")
-    add_tolerance_arguments(parser, "with --fit-response all")
+
+
+def _add_reference_arguments(parser):
+    """What is known of the reference: its metadata's tolerance and its self-noise."""
     parser.add_argument("--ref-tolerance", type=_percent_or_zero, default=0.0,
                         metavar="PERCENT",
                         help="how well the reference's own metadata are known: the relative "
@@ -112,24 +140,6 @@ def add_pair_arguments(parser):
                              "bayescal noise's noise.json (from a third co-located sensor: the "
                              "remedy for a one-channel pair such as a vertical huddle) or a text "
                              "file of period (s) and PSD (dB re 1 (m/s^2)^2/Hz) columns")
-    parser.add_argument("--keep-transients", action="store_true",
-                        help="fit every Welch segment; by default segments in which one sensor "
-                             "records noise the other does not, beyond the record's stationary "
-                             "noise (a transient near one sensor: a gust, a door, a vehicle), "
-                             "are left out, and the console says how many and when")
-    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
-                        help="analysis band in Hz (default: chosen from the data where the "
-                             "sensors are coherent)")
-    parser.add_argument("--start", type=parse_time, metavar="T",
-                        help="start of the analysis window, e.g. 2010-08-24T02:00:00")
-    parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true",
-                        help="no progress display (the band used and the results table are "
-                             "still printed)")
-    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
-    add_sampling_argument(parser)
-    add_paper_argument(parser)
 
 
 #: Exit code of a run whose results are written but one of whose samplers
@@ -156,8 +166,7 @@ def quiet_convergence_warnings():
     and a failed model check in its summary, not as Python warnings."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.posterior.convergence import NotConvergedWarning
+    from ..errors import ModelMisfitWarning, NotConvergedWarning
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=NotConvergedWarning)
         warnings.filterwarnings("ignore", category=ModelMisfitWarning)   # said on the console
@@ -167,7 +176,7 @@ def quiet_convergence_warnings():
 def convergence_exit(entries, stream=None):
     """Print one NOT CONVERGED line per unconverged chain; returns the exit code.
     ``entries``: (label, convergence dict) pairs."""
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
 
     code = 0
     for label, conv in entries:
@@ -187,68 +196,3 @@ def add_paper_argument(parser):
 def say(args, text):
     if not args.quiet:
         print(text, file=sys.stderr)
-
-
-#: The list of what bayescal wrote into an output folder (one name a line).
-MANIFEST = ".bayescal-written"
-
-
-def publish(tmp, out):
-    """Move the finished files from ``tmp`` into ``out``. A rerun into the
-    same folder first removes what the previous run wrote there (the names
-    in its :data:`MANIFEST`) and this run does not write again, so no file
-    of an earlier run can be read as this one's; files bayescal did not
-    write are left alone. The new manifest lists this run's files."""
-    names = sorted(n for n in os.listdir(tmp) if n != MANIFEST)
-    with open(os.path.join(tmp, MANIFEST), "w") as fh:
-        fh.write("".join(f"{n}\n" for n in names))
-    if not os.path.exists(out):
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)
-        os.replace(tmp, out)
-        return
-    for old in _previous_run(out):
-        if old not in names:
-            path = os.path.join(out, old)
-            if os.path.isdir(path) and not os.path.islink(path):
-                shutil.rmtree(path, ignore_errors=True)
-            elif os.path.lexists(path):
-                os.remove(path)
-    for name in names + [MANIFEST]:
-        dest = os.path.join(out, name)
-        if os.path.isdir(dest) and not os.path.islink(dest):
-            shutil.rmtree(dest)
-        os.replace(os.path.join(tmp, name), dest)
-    shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _previous_run(out):
-    """Names the previous run listed in ``out``'s manifest (plain names
-    only: nothing outside ``out``)."""
-    try:
-        with open(os.path.join(out, MANIFEST)) as fh:
-            names = [ln.strip() for ln in fh]
-    except OSError:
-        return []
-    return [n for n in names if n and n not in (".", "..", MANIFEST) and os.sep not in n
-            and (os.altsep is None or os.altsep not in n)]
-
-
-@contextlib.contextmanager
-def staging(out):
-    """A hidden temporary folder beside ``out`` (with the usual permissions)
-    to write into; on success its files are published into ``out`` in one
-    move (:func:`publish`), on any error it is removed and ``out`` untouched."""
-    parent = os.path.dirname(out) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    try:
-        yield tmp
-        publish(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

@@ -25,12 +25,10 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
 import sys
-import tempfile
 
-from .common import (add_pair_arguments, convergence_exit, priors_from, publish,
-                     quiet_convergence_warnings)
+from .common import (add_pair_arguments, convergence_exit, priors_from,
+                     quiet_convergence_warnings, staging)
 
 HELP = "locate model/recording mismatch, name and model the missing physics"
 
@@ -46,7 +44,7 @@ def configure(parser):
 
 def run(args):
     """Run the diagnosis; returns the exit code."""
-    from ..io.read import InputError
+    from ..errors import InputError
     from ..io.result import write_json, write_results
 
     out = os.path.abspath(args.out)
@@ -57,10 +55,7 @@ def run(args):
     with quiet_convergence_warnings():
         base, d = _run_diagnosis(args, say)
     final = d.final.replace(sut_inventory=base.sut_inventory).to_result()
-    parent = os.path.dirname(out) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.tmp-", dir=parent)
-    try:
+    with staging(out) as tmp:
         write_results(final, tmp)
         # the base fit as bayescal fit reports it (its self-noise included)
         write_json(os.path.join(tmp, "diagnosis.json"), {**d.summary(), "base": base.summary()})
@@ -71,10 +66,6 @@ def run(args):
             except Exception as exc:   # the findings matter more than the figure
                 print(f"bayescal: warning: the diagnosis page could not be written "
                       f"({type(exc).__name__}: {exc})", file=sys.stderr)
-        publish(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     for s in d.sentences():
         print(s)
     short = (final.meta.record_length or {}).get("note")
@@ -88,7 +79,7 @@ def run(args):
 def _run_diagnosis(args, say):
     """The base fit and its diagnosis: ``(base, Diagnosis)``."""
     from ..criticism.diagnose import diagnose
-    from ..pair.calibrate import calibrate_files
+    from ..pair.workflow import calibrate_files
 
     base = calibrate_files(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
                            sut_xml=args.sut_xml,

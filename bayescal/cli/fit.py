@@ -136,8 +136,8 @@ def response_lines(entry, fmt=_fmt):
 def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
     it says so before any number), then medians and 95 % intervals."""
-    from ..core.checks.adequacy import describe
-    from ..core.posterior.modes import multimodal_line
+    from ..core.checks import describe
+    from ..core.posterior import multimodal_line
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     crit = summary.get("criticism") or {}
@@ -166,7 +166,7 @@ def print_summary(summary, stream=None):
         print(f"{cid:22s}  not estimable: {why}", file=stream)
     rn = summary.get("meta", {}).get("reference_noise", {})
     if rn:
-        from ..core.posterior.samples import describe_treatment
+        from ..core.posterior import describe_treatment
         print(f"reference noise: {describe_treatment(rn)}", file=stream)
     if rn.get("input", {}).get("extrapolated"):
         print(f"reference noise: {rn['input']['extrapolated']}", file=stream)
@@ -218,9 +218,9 @@ def transient_words(transients):
 
 def run(args):
     """Run the fit; returns the exit code."""
-    from ..io.read import InputError, InputWarning
+    from ..errors import InputError, InputWarning
     from ..io.result import write_results
-    from ..pair.calibrate import calibrate_files
+    from ..pair.workflow import calibrate_files
 
     out = os.path.abspath(args.out)
     if os.path.exists(out) and not os.path.isdir(out):

@@ -17,6 +17,8 @@ bound only ("< X below resolution"). Writes into DIR:
                "psd_db", "ci90_db": [lower, upper], "below_resolution",
                "period_bands", ...}}, "meta": {...}};
                PSD in dB re 1 (m/s^2)^2/Hz, null where not estimable
+  noise_curves.npz  the estimates at full precision, from which the figures
+               are drawn (`bayescal report DIR` redraws them)
   noise.pdf    one A4 page per component, against Peterson's NLNM and NHNM
                (below resolution: a downward marker at the upper bound)
   noise_Z.png  (and _N, _E) the same pages as PNG
@@ -76,7 +78,7 @@ def configure(parser):
 
 
 def _check_options(args):
-    from ..io.read import InputError
+    from ..errors import InputError
 
     if args.n_boot < 20:
         raise InputError(f"--n-boot {args.n_boot}: give at least 20 replicates")
@@ -94,7 +96,7 @@ def _check_options(args):
 def run(args):
     """Estimate, write noise.json (and the figures) atomically; returns the exit code."""
     from ..io.noise import AXIS_MISMATCH, self_noise_files, to_json, write_json
-    from ..io.read import InputWarning
+    from ..errors import InputWarning
 
     out = _check_options(args)
     t_start = time.perf_counter()
@@ -110,12 +112,14 @@ def run(args):
         if issubclass(w.category, InputWarning):
             print(f"bayescal: warning: {w.message}", file=sys.stderr)
     with staging(out) as tmp:
+        from ..report.noise import save_curves, write_report_from_folder
+
         write_json(result, tmp)
+        save_curves(result, tmp)
         if not args.no_report:
-            from ..report.noise import write_figures
             say(args, "drawing the figures ...")
             try:
-                write_figures(result, tmp)
+                write_report_from_folder(tmp)
             except Exception as exc:  # the numbers matter more than the figures
                 print(f"bayescal: warning: the figures could not be drawn "
                       f"({type(exc).__name__}: {exc}); noise.json is complete", file=sys.stderr)

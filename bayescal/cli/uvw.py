@@ -15,7 +15,8 @@ Example:
                --input-channel BC0 --coil-constant 1e-9 --sensor sts2 \\
                --sut-xml sut.xml --out out/
 Writes out/uvw.json (schema bayescal.uvw/1), out/uvw_samples.npz (the
-samples every interval of uvw.json is taken from) and the report
+samples every interval of uvw.json is taken from, and the bands the report
+draws: `bayescal report out/` redraws it) and the report
 (out/uvw_report.pdf and PNG pages).
 
 Everyday use, no calibration: rotate recorded X, Y, Z to the element axes
@@ -31,14 +32,14 @@ which; its intervals are provisional).
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 
 import numpy as np
 
-from ..io.read import InputError, read_metadata
+from ..errors import InputError
+from ..io.atomic import atomic_path
+from ..io.read import read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
-                     convergence_exit, priors_from, publish, quiet_convergence_warnings)
+                     convergence_exit, priors_from, quiet_convergence_warnings, staging)
 
 HELP = "UVW (STS-2, Trillium) calibration from coil-by-coil runs"
 
@@ -134,26 +135,15 @@ def write_outputs(result, out, quiet=True, paper="a4"):
     """Write ``uvw.json``, ``uvw_samples.npz`` and the report into ``out``:
     everything goes to a temporary folder first and is moved in at the end,
     so a failure leaves nothing half-written."""
+    from ..coil.uvw import report_arrays
     from ..io.result import write_json
-    from ..report.uvw import write_report
+    from ..report.uvw import write_report_from_folder
 
-    parent = os.path.dirname(os.path.abspath(out)) or "."
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".uvw-", dir=parent)
-    try:
+    with staging(out) as tmp:
         summary = result.summary()
         write_json(os.path.join(tmp, "uvw.json"), summary)
-        arrays = {"joint": result.joint, "freqs": result.freqs,
-                  **{f"element_{e}": f.samples for e, f in result.fits.items()},
-                  **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()},
-                  "xyz_equivalent": result.xyz["equivalent"],
-                  "xyz_gain_at_norm": result.xyz["gain_at_norm"],
-                  "cross_talk": result.xyz["cross_talk"]}
-        np.savez(os.path.join(tmp, "uvw_samples.npz"), **arrays)
-        write_report(result, tmp, paper=paper)
-        publish(tmp, out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        np.savez(os.path.join(tmp, "uvw_samples.npz"), **report_arrays(result))
+        write_report_from_folder(tmp, paper=paper)
     return summary
 
 
@@ -205,9 +195,8 @@ def rotate_file(args):
     os.makedirs(args.out, exist_ok=True)
     stem = os.path.splitext(os.path.basename(args.rotate))[0]
     path = os.path.join(args.out, f"{stem}_{'uvw' if to_uvw else 'xyz'}.mseed")
-    tmp = path + ".tmp"
-    out.write(tmp, format="MSEED", encoding="FLOAT64")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        out.write(tmp, format="MSEED", encoding="FLOAT64")
     if not args.quiet:
         print(f"rotated {'XYZ to UVW' if to_uvw else 'UVW to XYZ'}: {path}")
     return 0

@@ -13,22 +13,27 @@ coil model shares (:mod:`.bounded`).
 
 May import :mod:`bayescal.core` and :mod:`bayescal.io`; nothing above them
 (no reports, no command line).
-"""
-from .element import ElementFit, RunModel, fit_run, least_squares_run, run_spectra
-from .hf import PZSpec, hf_items
-from .random import fit_random
-from .sine import SineFit, fit_sine
-from .step import fit_step
-from .result import CalFit
-from .runs import CalRun, default_band, read_run
-from .triaxial import (ELEMENTS, PARAMS, SENSORS, XYZ, cross_talk, load_matrix, output_axis,
-                       response_matrix, seed_xyz_diagonal, sensor_matrix, uvw_to_xyz, xyz_to_uvw)
-from .uvw import (AGREEMENT_Z, SCHEMA, UVWResult, agreement, calibrate_uvw, derive_xyz,
-                  element_ratios, equivalent_two_pole)
-from ..core.orientation.geometry import STS2_UVW, TRILLIUM_UVW
 
-__all__ = ["PZSpec", "hf_items", "fit_random", "fit_step", "fit_sine", "SineFit", "CalFit", "default_band", "ElementFit", "RunModel", "fit_run", "least_squares_run", "CalRun", "read_run",
-           "run_spectra", "ELEMENTS", "PARAMS", "SENSORS", "XYZ", "cross_talk", "load_matrix",
-           "output_axis", "response_matrix", "seed_xyz_diagonal", "sensor_matrix", "uvw_to_xyz",
-           "xyz_to_uvw", "AGREEMENT_Z", "SCHEMA", "UVWResult", "agreement", "calibrate_uvw",
-           "derive_xyz", "element_ratios", "equivalent_two_pole", "STS2_UVW", "TRILLIUM_UVW"]
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+"""
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".element": ["ElementFit", "RunModel", "fit_run", "least_squares_run", "run_spectra"],
+    ".hf": ["PZSpec", "hf_items"],
+    ".random": ["PZModel", "default_cal_band", "fit_random"],
+    ".sine": ["SineFit", "fit_sine", "sine_frequency"],
+    ".step": ["StepModel", "fit_step", "least_squares_step"],
+    ".result": ["CalFit"],
+    ".runs": ["CalRun", "default_band", "read_run"],
+    ".triaxial": ["ELEMENTS", "PARAMS", "SENSORS", "XYZ", "cross_talk", "load_matrix",
+                  "output_axis", "response_matrix", "seed_xyz_diagonal", "sensor_matrix",
+                  "uvw_to_xyz", "xyz_to_uvw"],
+    ".uvw": ["AGREEMENT_Z", "SCHEMA", "UVWResult", "agreement", "calibrate_uvw", "derive_xyz",
+             "element_ratios", "equivalent_two_pole"],
+    ".bounded": ["BoundedPosterior"],
+    ".calxml": ["corrected_cal_inventory", "write_corrected_cal"],
+    ".timedomain": ["Predictor", "ar_fit", "coil_transfer", "padding"],
+    "bayescal.core.orientation": ["STS2_UVW", "TRILLIUM_UVW"],
+})

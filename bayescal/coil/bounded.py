@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.response import pendulum
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 
 
 class BoundedPosterior:
@@ -67,7 +67,7 @@ class BoundedPosterior:
         """The likelihood's Fisher information at ``theta`` (Gauss-Newton:
         ``2 LIKELIHOOD_SCALE J^T J``, ``J`` the forward-difference Jacobian of
         ``likelihood_residual``), the noise model as set."""
-        from ..core.fit.leastsq import jacobian
+        from ..core.fit import jacobian
 
         jac = jacobian(self.likelihood_residual, np.asarray(theta, float))
         return 2.0 * self.LIKELIHOOD_SCALE * jac.T @ jac

@@ -11,11 +11,11 @@ Everything else is left untouched."""
 from __future__ import annotations
 
 import copy
-import os
 
 import numpy as np
 from obspy.core.util.obspy_types import ComplexWithUncertainties
 
+from ..io.atomic import atomic_path
 from ..io.stationxml import find_channel, pole_with_errors, prior_text, update_response
 
 
@@ -24,7 +24,7 @@ def _replace_hf(stage, spec, roots):
     scale = 1.0 / (2 * np.pi) if "HERTZ" in str(stage.pz_transfer_function_type).upper() else 1.0
     med = np.median(roots.real, axis=0) + 1j * np.median(roots.imag, axis=0)
     sn = np.array([2j * np.pi * spec.family.norm_freq])
-    phi = spec._phi(sn, med[None])[0, 0]
+    phi = spec.free_factors(sn, med[None])[0, 0]
     for k, it in enumerate(spec.items):
         target = stage.poles if it.kind == "pole" else stage.zeros
         err = pole_with_errors(roots[:, k])
@@ -76,7 +76,6 @@ def _comment(fit, params):
 def write_corrected_cal(inventory, fits, path):
     """Write :func:`corrected_cal_inventory` to ``path`` atomically."""
     inv = corrected_cal_inventory(inventory, fits)
-    tmp = os.fspath(path) + ".tmp"
-    inv.write(tmp, format="STATIONXML", validate=False)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        inv.write(tmp, format="STATIONXML", validate=False)
     return path

@@ -7,15 +7,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.response.family import pendulum_coefficients, pendulum_denominator
-from ..core.sampling.mcmc import sample
-from ..core.fit.errors import FitError
-from ..core.fit.leastsq import refine
-from ..io.read import InputError
-from ..core.model.likelihood import INFLATION_SHRINK, Priors
-from ..core.posterior.samples import interval_summary
-from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.response import pendulum, pendulum_coefficients, pendulum_denominator
+from ..core.sampling import sample
+from ..errors import FitError, InputError, SpectraError
+from ..core.fit import refine
+from ..core.model import shrunk_inflation
+from ..core.priors import Priors
+from ..core.posterior import interval_summary
+from ..core.spectra import cross_spectra
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
@@ -95,10 +94,12 @@ class RunModel(BoundedPosterior):
         f = spectra.freqs
         self.base = np.ones((no, f.size), complex) if base is None else base
         t = spectra.total
-        self._cya = t[:, :no, no]                                   # (F, no)
-        self._saa = t[:, no, no].real                               # (F,)
+        # public views of the spectra: C_yA (F, no), S_AA (F,), the (F, B)
+        # one-hot band membership of the bins and S_AA,b (B,) (set below)
+        self.output_input = t[:, :no, no]
+        self.input_power = t[:, no, no].real
         self._cyy = t[:, :no, :no]
-        self._onehot = np.eye(spectra.n_bands)[spectra.band_of]     # (F, B)
+        self.band_membership = np.eye(spectra.n_bands)[spectra.band_of]
         self._starts = np.r_[0, np.flatnonzero(np.diff(spectra.band_of)) + 1]
         # TwoPoleFamily.ratio split into per-frequency constants and the one
         # factor that depends on (T, h): 1 / D(s; T, h), shared by all outputs
@@ -113,9 +114,9 @@ class RunModel(BoundedPosterior):
             fam.period_s, fam.damping))) for fam, sn in zip(families, self._sn)])
         self._g_nom = np.array([fam.gain for fam in families])
         self._const = d_nom / self.base                               # (no, F)
-        self._kernel = self.coef[:, None] * self._const * self._saa[None]
-        self._cya_b = self._cya.T @ self._onehot                    # (no, B)
-        self._saa_b = self._saa @ self._onehot                      # (B,)
+        self._kernel = self.coef[:, None] * self._const * self.input_power[None]
+        self._cya_b = self.output_input.T @ self.band_membership          # (no, B)
+        self.band_input_power = self.input_power @ self.band_membership
         self.noise = None
         self.sigma = None
         self.inflation = None
@@ -177,60 +178,60 @@ class RunModel(BoundedPosterior):
         sp = self.spectra
         no = sp.n_u
         mu = self.mu(theta)[0].T                                     # (F, no)
-        cya, saa = self._cya, self._saa
+        cya, saa = self.output_input, self.input_power
         e = (self._cyy - cya[:, :, None] * mu.conj()[:, None, :]
              - mu[:, :, None] * cya.conj()[:, None, :]
              + saa[:, None, None] * mu[:, :, None] * mu.conj()[:, None, :])
         n_bins = sp.bins_per_band * sp.n_segments
-        sigma = np.einsum("fb,fij->bij", self._onehot, e) / n_bins[:, None, None]
+        sigma = np.einsum("fb,fij->bij", self.band_membership, e) / n_bins[:, None, None]
         sigma = regularise(0.5 * (sigma + sigma.conj().transpose(0, 2, 1)),
-                           np.einsum("fb,fii->bi", self._onehot, self._cyy).real / n_bins[:, None])
+                           np.einsum("fb,fii->bi", self.band_membership, self._cyy).real / n_bins[:, None])
         s_inv = np.linalg.inv(sigma)
-        mu_b = (mu * saa[:, None]).T @ self._onehot / self._saa_b       # (no, B)
+        mu_b = (mu * saa[:, None]).T @ self.band_membership / self.band_input_power       # (no, B)
         seg = sp.per_segment                                          # (K, B, n, n)
         r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
         q0 = np.einsum("kbi,bij,kbj->b", r_k.conj(), s_inv, r_k).real
         adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q1 = np.einsum("kbi,bij,kbj->b", r_k[adj + 1].conj(), s_inv, r_k[adj]).real
-        raw = (q0 + 2.0 * q1) / (no * self._saa_b)
-        pooled = raw.mean()
-        wgt = sp.n_segments * no
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * max(pooled, 1e-12))
+        c = shrunk_inflation((q0 + 2.0 * q1) / (no * self.band_input_power), sp.n_segments * no,
+                             pooled_floor=1e-12)
         self.sigma, self.inflation = sigma, c
-        self.noise = s_inv / (c * self._saa_b)[:, None, None]
+        self.noise = s_inv / (c * self.band_input_power)[:, None, None]
         return self.noise
 
     def misfit(self, theta):
         """Per output, the mean over bands of ``|R_b,c|^2`` over its expected
         value: about 1 where the model (and the geometry) fits."""
         r = self.residual(theta)[0]
-        var = np.einsum("bii->bi", self.sigma).real * (self.inflation * self._saa_b)[:, None]
-        return np.mean(np.abs(r) ** 2 / var, axis=0)
+        return np.mean(np.abs(r) ** 2 / self.residual_variance(), axis=0)
+
+    def residual_variance(self):
+        """(B, n_out) expected ``|R_b,c|^2`` under the noise model as set."""
+        return np.einsum("bii->bi", self.sigma).real * (self.inflation
+                                                        * self.band_input_power)[:, None]
+
+    def transfer_scale(self, theta):
+        """Least-squares scale of the model transfer at ``theta`` to the data
+        (its sign tells whether the geometry's polarity holds)."""
+        mu = self.mu(theta)[0]
+        num = np.sum((mu.conj() * self.output_input.T).real)
+        den = np.sum(np.abs(mu) ** 2 * self.input_power[None])
+        return num / den
 
     def apparent_coefficients(self, theta):
         """Least-squares ``m_c`` per output given the element response at
         ``theta``: equals the geometry's ``M[n, c]`` when the geometry is right."""
         rho = self.ratio(theta)[0]
-        num = np.sum(rho.conj() * self._cya.T, axis=1)
-        den = np.sum(np.abs(rho) ** 2 * self._saa[None], axis=1)
+        num = np.sum(rho.conj() * self.output_input.T, axis=1)
+        den = np.sum(np.abs(rho) ** 2 * self.input_power[None], axis=1)
         return num / den
-
-
-def transfer_scale(model, theta):
-    """Least-squares scale of the model transfer at ``theta`` to the data (its
-    sign tells whether the geometry's polarity holds)."""
-    mu = model.mu(theta)[0]
-    num = np.sum((mu.conj() * model._cya.T).real)
-    den = np.sum(np.abs(mu) ** 2 * model._saa[None])
-    return num / den
 
 
 def nominal_start(model):
     """Nominal period and damping, and the least-squares scale of the nominal
     transfer to the data."""
     theta = np.array([1.0, 1.0, np.log(model.nominal.gain)])
-    return theta, transfer_scale(model, theta)
+    return theta, model.transfer_scale(theta)
 
 
 def least_squares_run(model, theta0):
@@ -244,7 +245,7 @@ def least_squares_run(model, theta0):
                   x_scale="jac")
 
 
-def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, seed=0,
+def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, *, seed=0,
                  progress=False, **sample_kw):
     """The fit of one run shared by ``bayescal uvw`` (:func:`fit_run`) and
     ``bayescal cal --kind random`` (:func:`bayescal.coil.random.fit_random`).

@@ -28,11 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
-from ..core.response.family import TwoPoleFamily, pendulum_coefficients
-from ..io.read import InputError
+from ..core.response import pendulum, TwoPoleFamily, pendulum_coefficients
+from ..core.priors import Priors
+from ..errors import FitError, InputError
 
 #: A pole or zero is free when its frequency is at most this times the band's top.
 HF_REACH = 3.0
@@ -196,7 +194,7 @@ class PZSpec:
             j += it.n_params
         return np.stack(out, axis=1) if out else np.zeros((theta.shape[0], 0), complex)
 
-    def _phi(self, s, q):
+    def free_factors(self, s, q):
         """Product of the free factors at ``s`` (F,) for roots ``q`` (W, K): (W, F)."""
         out = np.ones((q.shape[0], s.size), complex)
         for k, it in enumerate(self.items):
@@ -222,8 +220,8 @@ class PZSpec:
         r = fam.ratio(f, t, h, np.exp(theta[:, self.i_gain]))
         if self.items:
             q = self.roots(theta)
-            r = r * self._phi(2j * np.pi * f, q) / np.abs(
-                self._phi(np.array([2j * np.pi * fam.norm_freq]), q))
+            r = r * self.free_factors(2j * np.pi * f, q) / np.abs(
+                self.free_factors(np.array([2j * np.pi * fam.norm_freq]), q))
         return r
 
     def polynomials(self, theta):

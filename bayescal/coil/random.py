@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model.likelihood import Priors
-from ..io.read import InputError
-from .element import RunModel, fit_two_pass, transfer_scale
+from ..core.priors import Priors
+from ..errors import InputError
+from .element import RunModel, fit_two_pass
 from .hf import PZSpec, iw_powers, poly_at_iw, scale_start
 from .result import CalFit
 from .runs import default_band
@@ -47,7 +47,7 @@ class PZModel(RunModel):
         fam = spec.family
         sn = 2j * np.pi * fam.norm_freq
         c = spec.constant_factor(self._s) / abs(spec.constant_factor(np.array([sn]))[0])
-        kernel = c / self.base[0] * self._saa / fam.gain
+        kernel = c / self.base[0] * self.input_power / fam.gain
         self._kernel_re, self._kernel_im = kernel.real.copy(), kernel.imag.copy()
         p, z = spec.polynomials(spec.nominal_theta())
         degree = max(p.shape[1], z.shape[1]) - 1
@@ -86,9 +86,19 @@ class PZModel(RunModel):
 
     def measured(self):
         """Per band: the measured transfer over ``nominal * base`` and its sd."""
-        t = self._cya_b[0] / self._saa_b
-        sd = np.sqrt(self.sigma[:, 0, 0].real * self.inflation / self._saa_b)
+        t = self._cya_b[0] / self.band_input_power
+        sd = np.sqrt(self.sigma[:, 0, 0].real * self.inflation / self.band_input_power)
         return t, sd
+
+    def measured_response(self):
+        """Per band: the centre frequency (weighted by the input's power),
+        the measured response over the nominal and its sd (``measured``
+        with the deconvolution ``base`` put back, at each band's centre)."""
+        t, sd = self.measured()
+        w = self.input_power[:, None] * self.band_membership              # (F, B) weights
+        fc = (self.spectra.freqs @ w) / w.sum(axis=0)
+        rel = (self.base[0] * self.input_power) @ self.band_membership / self.band_input_power
+        return fc, t * rel, sd * np.abs(rel)
 
 
 def default_cal_band(run, fit):
@@ -122,7 +132,7 @@ def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, 
 
     def start(model):
         theta0 = spec.nominal_theta()
-        return scale_start(run, spec, theta0, transfer_scale(model, theta0))
+        return scale_start(run, spec, theta0, model.transfer_scale(theta0))
 
     model, chain, _, _, _ = fit_two_pass(run, coil_constant, band, nperseg,
                                          lambda sp, base: PZModel(sp, spec, base=base), start,

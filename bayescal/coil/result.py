@@ -7,9 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
-from ..core.response import pendulum
-from ..core.posterior.samples import interval_summary
-from ..core.response.family import evaluate_velocity_response
+from ..core.response import pendulum, evaluate_velocity_response
+from ..core.posterior import interval_summary
 from .bounded import mark_set_by_prior, prior_meta
 
 SCHEMA = "bayescal.cal/1"
@@ -20,8 +19,7 @@ def adequacy_summary(model, theta):
     ``|R_b|^2 / E|R_b|^2`` (about 1 when the model fits) and the chi-square
     p-value of their sum (2 degrees of freedom per band and output)."""
     r = model.residual(theta)[0]
-    var = np.einsum("bii->bi", model.sigma).real * (model.inflation * model._saa_b)[:, None]
-    q = np.abs(r) ** 2 / var
+    q = np.abs(r) ** 2 / model.residual_variance()
     dof = 2 * q.size
     return {"misfit": float(q.mean()), "n_bands": int(q.shape[0]),
             "p_value": float(chi2.sf(2 * q.sum(), dof))}
@@ -61,6 +59,47 @@ class CalFit:
 
     def physical(self):
         return self.spec.physical(self.theta)
+
+    def corner_columns(self):
+        """``(samples (N, k), labels)`` of the fitted parameters in physical
+        units, as the report's corner plot shows them."""
+        phys = self.physical()
+        cols, labels = [], []
+        for p, lab in (("period_s", "period (s)"), ("damping", "damping"), ("gain", "gain")):
+            if p in phys:
+                cols.append(phys[p])
+                labels.append(lab)
+        for k, it in enumerate(self.spec.items):
+            cols.append(phys["hf"][:, k].real)
+            labels.append(f"{it.kind} {it.freq_hz:.3g} Hz re")
+            if it.complex_pair:
+                cols.append(phys["hf"][:, k].imag)
+                labels.append(f"{it.kind} {it.freq_hz:.3g} Hz im")
+        return np.column_stack(cols), labels
+
+    def report_arrays(self):
+        """Everything the report draws, as arrays (saved in ``cal_samples.npz``
+        beside ``cal.json``; :mod:`bayescal.report.cal` reads them back):
+        the samples, the response curves (:meth:`curves`), per band the
+        measured response and the standardised residuals (random runs), the
+        time series (step runs) and the corner plot's columns."""
+        c = self.curves()
+        corner, labels = self.corner_columns()
+        out = {"theta": self.theta, "names": np.array(self.model.names),
+               "curve_freqs": c["freqs"], "curve_nominal": c["nominal"],
+               "curve_amp": c["amp"], "curve_phase": c["phase"],
+               "corner_samples": corner, "corner_labels": np.array(labels)}
+        med = np.median(self.theta, axis=0)
+        if hasattr(self.model, "measured_response"):
+            fc, ratio, sd = self.model.measured_response()
+            r = self.model.residual(med)[0][:, 0]
+            out.update(measured_freqs=fc, measured_ratio=ratio, measured_sd=sd,
+                       measured_nominal=evaluate_velocity_response(self.response, fc),
+                       band_centres=self.model.spectra.band_centres,
+                       band_residual=r / np.sqrt(self.model.residual_variance()[:, 0] / 2))
+        if hasattr(self.model, "report_series"):
+            out.update(self.model.report_series(med))
+        return out
 
     def summary(self):
         """The ``cal.json`` content."""

@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.read import InputError
-from ..core.response.family import ResponseError, TwoPoleFamily, evaluate_velocity_response
+from ..errors import InputError, ResponseError
+from ..core.response import TwoPoleFamily, evaluate_velocity_response
 from .triaxial import ELEMENTS, XYZ, output_axis
 
 
@@ -127,19 +127,37 @@ def read_run(element, stream, inventory, input_channel, source):
     if len(rates) != 1:
         raise InputError(f"{source}: sampling rates differ between channels: {sorted(rates)} Hz")
     fs = rates.pop()
-    t0 = max(tr.stats.starttime for tr in trs)
-    t1 = min(tr.stats.endtime for tr in trs)
+    arrays = _on_one_grid(trs, fs, source)
+    responses, families = _nominal_responses(outs, inventory, source)
+    order = np.argsort([("XYZUVW").index(a) for a in axes])
+    return CalRun(element=element, source=source, axes=[axes[i] for i in order],
+                  ids=[outs[i].id for i in order], data=np.array(arrays[1:])[order],
+                  input=arrays[0], fs=float(fs), responses=[responses[i] for i in order],
+                  families=[families[i] for i in order])
+
+
+def _on_one_grid(traces, fs, source):
+    """The traces' samples on the time grid they share (NaN where a trace
+    has none), one array each."""
+    t0 = max(tr.stats.starttime for tr in traces)
+    t1 = min(tr.stats.endtime for tr in traces)
     if t1 <= t0:
         raise InputError(f"{source}: input and outputs do not overlap in time")
     n = int(np.floor((t1 - t0) * fs)) + 1
     arrays = []
-    for tr in trs:
+    for tr in traces:
         off = int(round((tr.stats.starttime - t0) * fs))
         x = np.full(n, np.nan)
         src = _as_float(tr)
         lo, hi = max(off, 0), min(off + src.size, n)
         x[lo:hi] = src[lo - off:hi - off]
         arrays.append(x)
+    return arrays
+
+
+def _nominal_responses(outs, inventory, source):
+    """Each output's nominal ObsPy Response and its two-pole family, from
+    the SUT Inventory."""
     responses, families = [], []
     for tr in outs:
         sel = inventory.select(network=tr.stats.network, station=tr.stats.station,
@@ -156,8 +174,4 @@ def read_run(element, stream, inventory, input_channel, source):
         except ResponseError as exc:
             raise InputError(f"{source}: channel {tr.id}: {exc}") from None
         responses.append(resp)
-    order = np.argsort([("XYZUVW").index(a) for a in axes])
-    return CalRun(element=element, source=source, axes=[axes[i] for i in order],
-                  ids=[outs[i].id for i in order], data=np.array(arrays[1:])[order],
-                  input=arrays[0], fs=float(fs), responses=[responses[i] for i in order],
-                  families=[families[i] for i in order])
+    return responses, families

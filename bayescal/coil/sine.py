@@ -26,11 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..core.posterior.samples import interval_summary
-from ..core.sampling.mcmc import sample
-from ..core.fit.errors import FitError
+from ..core.posterior import interval_summary
+from ..core.sampling import sample
+from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
-from ..io.read import InputError
 from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
                          least_squares_time, padding)
@@ -112,6 +111,18 @@ class SineFit:
                 "response_amplitude": a * abs(self.nominal),
                 "response_phase_deg": np.degrees(np.angle(self.nominal) + phi)}
 
+    def report_arrays(self):
+        """What the report draws (as :meth:`bayescal.coil.result.CalFit.report_arrays`):
+        the samples, the time series at the posterior median and the corner
+        plot's columns (amplitude ratio, phase difference)."""
+        phys = self.physical()
+        out = {"theta": self.theta, "names": np.array(self.model.names),
+               "corner_samples": np.column_stack([phys["amplitude_ratio"],
+                                                  phys["phase_difference_deg"]]),
+               "corner_labels": np.array(["amplitude / nominal", "phase - nominal (deg)"])}
+        out.update(self.model.report_series(np.median(self.theta, axis=0)))
+        return out
+
     def summary(self):
         """The ``cal.json`` content (kind ``sine``)."""
         params = {k: interval_summary(v) for k, v in self.physical().items()}
@@ -149,7 +160,7 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     model = SineModel(x, run.fs, pred, skip)
     # start: least squares of x on (p, q) with offset and drift
     design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
-                              model.predict(np.array([0.0, np.pi / 2]))[0], model._nuisance])
+                              model.predict(np.array([0.0, np.pi / 2]))[0], model.nuisance])
     c, *_ = np.linalg.lstsq(design[skip:], x[skip:], rcond=None)
     rho = complex(c[0], c[1])
     if not 0.1 < abs(rho) < 10:

@@ -18,11 +18,11 @@ import numpy as np
 
 from scipy.fft import irfft
 
-from ..core.model.likelihood import Priors
-from ..core.response.family import pendulum_coefficients, pendulum_denominator
-from ..core.sampling.mcmc import sample
+from ..core.priors import Priors
+from ..core.response import pendulum_coefficients, pendulum_denominator
+from ..core.sampling import sample
 from ..core.threads import single_threaded_blas
-from ..io.read import InputError
+from ..errors import InputError
 from .hf import PZSpec, scale_start
 from .result import CalFit
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
@@ -110,7 +110,7 @@ def _start(model, spec):
     """Nominal theta with the gain scaled by least squares (offset, drift free)."""
     theta = spec.nominal_theta()
     m = model.predict(theta)[0]
-    design = np.column_stack([m, model._nuisance])
+    design = np.column_stack([m, model.nuisance])
     coef, *_ = np.linalg.lstsq(design, model.x, rcond=None)
     return theta, coef[0]
 

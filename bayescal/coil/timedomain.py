@@ -40,8 +40,8 @@ from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from ..core.fit.leastsq import refine
-from ..io.read import InputError
+from ..core.fit import refine
+from ..errors import InputError
 from .bounded import BoundedPosterior
 
 #: Largest autoregression order tried for the noise.
@@ -150,7 +150,7 @@ class TimeModel(BoundedPosterior):
         self.predictor = predictor
         self.skip = int(skip)
         t = np.arange(self.x.size) / fs
-        self._nuisance = np.column_stack([np.ones_like(t), t - t.mean()])
+        self.nuisance = np.column_stack([np.ones_like(t), t - t.mean()])
         self.set_noise(np.zeros(0), 1.0)
 
     # --- noise ---------------------------------------------------------------
@@ -181,7 +181,7 @@ class TimeModel(BoundedPosterior):
         self._weight = np.where(np.isfinite(w), w, 0.0)
         self._keep = slice(max(self.skip, self.ar.size), None)
         xw = lfilter(b, 1.0, self._pre(self.x))[self._keep]
-        cols = self._pre(self._nuisance)
+        cols = self._pre(self.nuisance)
         if pa.size > 1:
             cols = np.column_stack([cols, np.ones(self.x.size)])
         nw = lfilter(b, 1.0, cols, axis=0)[self._keep]
@@ -191,8 +191,8 @@ class TimeModel(BoundedPosterior):
     def raw_residual(self, theta):
         """``x - m(theta)`` with offset and drift removed by least squares."""
         r = self.x - self.predict(theta)[0]
-        c, *_ = np.linalg.lstsq(self._nuisance, r, rcond=None)
-        return r - self._nuisance @ c
+        c, *_ = np.linalg.lstsq(self.nuisance, r, rcond=None)
+        return r - self.nuisance @ c
 
     def estimate_noise(self, theta):
         """AR noise model from the residual at ``theta`` (after ``skip``)."""
@@ -214,6 +214,15 @@ class TimeModel(BoundedPosterior):
         """``-|innovations|^2 / 2``, theta (W, ndim) -> (W,)."""
         e = self.innovations(theta)
         return -0.5 * np.sum(e * e, axis=1)
+
+    def report_series(self, theta):
+        """The time series a report draws at ``theta``: the model output
+        ``series_model``, the residual ``series_residual`` (offset and drift
+        removed), the standardised ``innovations``, the sampling rate
+        ``series_fs`` and the samples left out at the start ``series_skip``."""
+        return {"series_model": self.predict(theta)[0], "series_residual": self.raw_residual(theta),
+                "innovations": self.innovations(theta)[0], "series_fs": self.fs,
+                "series_skip": self.skip}
 
     def adequacy(self, theta):
         """Mean square of the standardised innovations (about 1 when the

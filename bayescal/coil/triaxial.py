@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.orientation.geometry import STS2_UVW, TRILLIUM_UVW
-from ..io.read import InputError
+from ..core.orientation import STS2_UVW, TRILLIUM_UVW
+from ..errors import InputError
 
 
 ELEMENTS = ("U", "V", "W")

@@ -53,12 +53,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum
-from ..core.model.likelihood import Priors
-from ..core.fit.errors import FitError
-from ..io.read import InputError
-from ..core.posterior.samples import interval_summary
-from ..core.response.family import TwoPoleFamily
+from ..core.response import pendulum, TwoPoleFamily
+from ..core.priors import Priors
+from ..errors import FitError, InputError
+from ..core.posterior import interval_summary
 from .triaxial import ELEMENTS, PARAMS, XYZ, cross_talk, response_matrix
 from .element import RunModel, nominal_start, fit_run, run_spectra
 from .runs import default_band
@@ -227,6 +225,42 @@ class UVWResult:
         return out
 
 
+#: Quantiles (per cent) of the report's credible bands: the median and a 90 % band.
+BAND_PERCENTILES = (5, 50, 95)
+
+
+def _bands(x):
+    """(3, ...) the ``BAND_PERCENTILES`` of ``x`` over its first axis (samples)."""
+    return np.percentile(x, BAND_PERCENTILES, axis=0)
+
+
+def report_arrays(result):
+    """Everything the report draws besides ``uvw.json`` (saved in
+    ``uvw_samples.npz``; :mod:`bayescal.report.uvw` reads them back): the
+    samples (``joint``, ``element_<e>``, ``z_only_<e>``), the derived XYZ
+    quantities, and over ``freqs`` the 90 % bands (``BAND_PERCENTILES``) of
+    each element's and each XYZ axis's response over the nominal (amplitude
+    ``*_amp``, phase in degrees ``*_phase``, shape (3, 3 quantiles, F)) and
+    of the cross-talk of each pair X-Y, X-Z, Y-Z in per cent."""
+    k = element_ratios(result.joint, result.family, result.freqs)
+    t = result.xyz["ratio"]
+    diag = np.stack([t[:, i, i] for i in range(3)], axis=1)
+    d = np.abs(np.einsum("nllf->nlf", t))
+    talk = np.stack([100 * (np.abs(t[:, i, j]) / np.sqrt(d[:, i] * d[:, j]))
+                     for i, j in ((0, 1), (0, 2), (1, 2))], axis=1)
+    return {"joint": result.joint, "freqs": result.freqs,
+            **{f"element_{e}": f.samples for e, f in result.fits.items()},
+            **{f"z_only_{e}": f.samples for e, f in result.z_fits.items()},
+            "xyz_equivalent": result.xyz["equivalent"],
+            "xyz_gain_at_norm": result.xyz["gain_at_norm"],
+            "cross_talk": result.xyz["cross_talk"],
+            "element_amp": np.stack([_bands(np.abs(k[:, j])) for j in range(3)]),
+            "element_phase": np.stack([_bands(np.degrees(np.angle(k[:, j]))) for j in range(3)]),
+            "xyz_amp": np.stack([_bands(np.abs(diag[:, j])) for j in range(3)]),
+            "xyz_phase": np.stack([_bands(np.degrees(np.angle(diag[:, j]))) for j in range(3)]),
+            "cross_talk_pairs": np.stack([_bands(talk[:, j]) for j in range(3)])}
+
+
 def _mark_derived(entry, elements):
     """Mark an XYZ axis's period, damping or damping/period as set by the
     prior when it is for any element (``elements``: name -> summary) that
@@ -246,8 +280,9 @@ def _pair(fits, n_max, rng):
                     axis=1)
 
 
-def calibrate_uvw(runs, m, coil_constant=None, band=None, z_only=False, seed=0, progress=False,
-                  matrix_source="", nperseg=None, n_derived=2000, priors=Priors(), **sample_kw):
+def calibrate_uvw(runs, m, *, coil_constant=None, band=None, z_only=False, seed=0,
+                  progress=False, matrix_source="", nperseg=None, n_derived=2000, priors=Priors(),
+                  **sample_kw):
     """Posterior over the three elements from coil-by-coil runs.
 
     Parameters

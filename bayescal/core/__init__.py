@@ -15,12 +15,29 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 * :mod:`.fit`         the whole fit: start, least squares, modes, held
                       parameters, sampling, the posterior
 * :mod:`.selfnoise`   self-noise of co-located sensors
+* :mod:`.priors`      the priors of every fit (:class:`~bayescal.core.priors.Priors`)
 * :mod:`.threads`     the BLAS thread limit every group's small products run under
 * :mod:`.budget`      work budgets: a stage's work counted in model evaluations,
                       with a wall-clock limit only as a safety net
 
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,
-threadpoolctl, ObsPy's response evaluation and :mod:`bayescal.version`;
-never another bayescal subpackage.
+threadpoolctl, ObsPy's response evaluation, :mod:`bayescal.version`,
+:mod:`bayescal.errors` and :mod:`bayescal.lazy`; never another bayescal subpackage.
+
+Outside the core, a name of the core is imported from the face of its group
+(``from bayescal.core.spectra import cross_spectra``), or from this face for
+the core's top-level modules (``from bayescal.core import Priors``); never
+from a group's modules (the layout test rejects ``bayescal.core.<group>.<module>``
+imports from outside the core). Inside the core, a group imports the modules
+of the groups it may import. Every face lists its public names in
+``__all__`` and loads each on first use (:func:`bayescal.lazy.attach`), so
+importing a face costs no import time.
 """
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".budget": ["Budget"],
+    ".priors": ["Priors"],
+    ".threads": ["single_threaded_blas"],
+})

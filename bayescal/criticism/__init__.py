@@ -7,12 +7,33 @@
 * :mod:`.naming`    which kept effects are named: pruning, a timing offset's
                     consistency across the band, the posterior's exclusion of
                     each effect's absence
-* :mod:`.diagnose`  the whole diagnosis and its summary
+* :mod:`.diagnose`  the whole diagnosis: locate, name and model, show
+* :mod:`.diagnosis` what the diagnosis found: its summary (diagnosis.json) and
+                    its finding in plain words
 * :mod:`.verdict`   the criticism of a fit that failed its model check
+* :mod:`.words`     the named effects in plain words: their labels and advice
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the
                     mismatch (a noise-model term, tested before any physics is named)
 
 May import :mod:`bayescal.core`; never io, report, network or cli.
+
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
 """
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".tilt": ["ALPHA_RANGE", "base_fit", "nsr_data", "tilt_test"],
+    ".effects": ["ClockDrift"],
+    ".verdict": ["DEFAULT_BUDGET_S", "WORK_PER_SECOND", "check_orientation", "criticise",
+                 "criticism_budget", "failed", "lines"],
+    ".diagnose": ["posterior_of"],
+    ".diagnosis": ["EQUAL_SHAPE_CAVEAT", "REFERENCE_SHAPE_CAVEAT", "misfit_change",
+                   "reference_shape_caveat"],
+    ".naming": ["weak_effects"],
+    ".locate": ["band_coherence", "block_timing"],
+    ".search": ["held_orientation_loglik", "with_effects"],
+    ".wiring": ["swaps_with_unfitted"],
+})

@@ -34,47 +34,21 @@ import numpy as np
 
 from . import effects as catalogue, tilt, wiring
 from .reference_noise import reference_noise_test
-from ..core.model.refnoise import treatment_meta as reference_noise_meta
-from ..core.sampling.mcmc import default_walkers, sample
-from ..core.fit.assemble import assemble_posterior, plugin_meta
-from ..core.fit.run import least_squares_fit
-from ..core.orientation.geometry import unit_vector
+from ..core.model import treatment_meta as reference_noise_meta, EIVModel
+from ..core.sampling import default_walkers, sample
+from ..core.fit import (assemble_posterior, plugin_meta, least_squares_fit, describe_late,
+                        information, late_flags)
+from ..core.orientation import unit_vector
 from ..core.response import pendulum
-from ..core.fit.unconstrained import describe_late, information, late_flags
-from ..core.model.eiv import EIVModel
-from ..core.posterior.samples import interval_summary
+from ..core.posterior import interval_summary
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
                      orientation_score, search)
-from .locate import (ALPHA, true_runs, band_ratio, block_timing, locate, ratio_weights,
-                     segment_timing)
+from .locate import band_ratio, block_timing, locate, ratio_weights, segment_timing
 from .naming import without_effects, prune_overdispersed, timing_consistency, weak_effects
+from .diagnosis import Diagnosis
 
 
-SCHEMA = "bayescal.diagnose/1"
-#: Said with any mismatch left once the reference's noise is modelled: its
-#: model is two spectral shapes, and a reference noise of another shape
-#: leaves mismatch of its own (the harness's ``equal`` regime, the noise
-#: shaped like the ground: 11 of 30 clean pairs, none in ``equal-counts``).
-REFERENCE_SHAPE_CAVEAT = (
-    "the reference's self-noise is modelled as two spectral shapes (white in ground units, "
-    "white in its counts); a reference noise of another shape, one that follows the ground "
-    "motion's spectrum for instance, leaves a mismatch like this one: a third co-located "
-    "sensor settles it (bayescal noise, then --ref-noise-psd)")
-#: The same caveat when the user chose ``--ref-noise equal``.
-EQUAL_SHAPE_CAVEAT = (
-    "the reference's self-noise is modelled as equal to the SUT's; a reference noise of "
-    "another level or shape leaves a mismatch like this one: a third co-located sensor "
-    "settles it (bayescal noise, then --ref-noise-psd)")
-
-
-def reference_shape_caveat(mode):
-    """The caveat said with a mismatch left by a fit whose reference-noise
-    model is an assumed shape (``estimate`` or ``equal``, whether the user
-    or the diagnosis chose it); None for ``quiet`` and ``fixed``."""
-    return {"estimate": REFERENCE_SHAPE_CAVEAT, "equal": EQUAL_SHAPE_CAVEAT}.get(mode)
-
-
-def posterior_of(model, theta, cov, meta, not_estimable, free, seed=0, mcmc=True,
+def posterior_of(model, theta, cov, meta, not_estimable, free, *, seed=0, mcmc=True,
                  progress=False, n_laplace=4000, **sample_kw):
     """A :class:`~bayescal.core.posterior.state.FitState` of ``model`` (with effects) from MCMC
     (:func:`bayescal.core.sampling.mcmc.sample`, the pair fit's independence
@@ -224,7 +198,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     """Diagnose a base fit.
 
     ``base`` is a :class:`~bayescal.core.posterior.state.FitState` (with
-    ``.model`` and ``.theta_ls``): a pair fit's, :func:`bayescal.pair.fit.fit`,
+    ``.model`` and ``.theta_ls``): a pair fit's, :func:`bayescal.pair.fitting.fit`,
     or ``result.state`` of :func:`bayescal.calibrate`. ``budget``: a
     :class:`bayescal.core.budget.Budget` (active while this runs, so that
     the models' evaluations count into it): once spent no further candidate
@@ -240,16 +214,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     before = locate(model0, th0)
     ids = [b.channel_id for b in model0.blocks]
     sp = model0.spectra
-    q = band_ratio(model0, th0)
-    sig = catalogue.signatures(sp.band_centres, q, ratio_weights(sp))
-    times, tau_k, w_k = segment_timing(model0, th0)
-    sig["clock_drift"] = catalogue.drift_signature(times, tau_k, w_k)
-    blocks = block_timing(model0, th0)
-    if blocks is not None:
-        # a drift large enough to wrap the segments' phases shows in the blocks' lags
-        by_block = catalogue.drift_signature(*blocks)
-        if abs(by_block["t_stat"]) > abs(sig["clock_drift"]["t_stat"]):
-            sig["clock_drift"] = dict(by_block, screen="time blocks' lags")
+    sig, q = _screens(model0, th0)
     # the reference's own noise first: a noise-model term, not physics; when it
     # is there, every effect is judged against the model that includes it
     sig["reference_noise"], eiv, th_e, cov_e = reference_noise_test(model0, th0, BIC_KEEP)
@@ -268,22 +233,70 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     tried = sorted({t["effect"] for step in steps for t in step if "effect" in t})
     dropped = []
     if model.effects and incomplete is None:
-        model, th2, dropped, sig["overdispersion"] = prune_overdispersed(model, th, log=log)
-        if any(e.name == "timing_offset" for e in model.effects):
-            sig["timing_consistency"] = tc = timing_consistency(model, th2)
-            if not tc["consistent"]:
-                if log:
-                    log("  timing_offset dropped: not consistent across sub-bands")
-                m, t = without_effects(model, th2, {"timing_offset"})
-                m.adopt_noise(model.noise)
-                model, th2 = m, best_refit(m, (t,))[1]
-                dropped.append({"effect": "timing_offset", "reason": "its size differs between "
-                                "the lower and the upper half of the band"})
-        if dropped:
-            if model.effects:
-                th, cov = least_squares_fit(model, th2)
-            else:
-                model, th, cov = start, th0, None
+        model, th, cov, dropped = _prune(model, th, cov, start, th0, sig, log)
+    model, th, final, after, before_common = _final_fit(
+        base, model, th, cov, (model0, th0, eiv, cov_e), sig=sig, dropped=dropped, free=free,
+        seed=seed, mcmc=mcmc, progress=progress, log=log, budget=budget, sample_kw=sample_kw)
+    effects = _model_effects(model, final, steps, sig)
+    effects += orientation_effects(base, model0, th0, ids, sig)
+    effects += _tilt_effect(base, sp, ids, sig)
+    return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
+                     incomplete=incomplete, tried=tried, dropped=dropped,
+                     before_common=before_common,
+                     steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
+                     ratio_before=q, ratio_after=band_ratio(model, th))
+
+
+def _screens(model0, th0):
+    """The screens of the base fit: ``(sig, q)``, the response-side
+    candidates' and a clock drift's signatures, and the per-band ratio
+    recorded/predicted."""
+    sp = model0.spectra
+    q = band_ratio(model0, th0)
+    sig = catalogue.signatures(sp.band_centres, q, ratio_weights(sp))
+    times, tau_k, w_k = segment_timing(model0, th0)
+    sig["clock_drift"] = catalogue.drift_signature(times, tau_k, w_k)
+    blocks = block_timing(model0, th0)
+    if blocks is not None:
+        # a drift large enough to wrap the segments' phases shows in the blocks' lags
+        by_block = catalogue.drift_signature(*blocks)
+        if abs(by_block["t_stat"]) > abs(sig["clock_drift"]["t_stat"]):
+            sig["clock_drift"] = dict(by_block, screen="time blocks' lags")
+    return sig, q
+
+
+def _prune(model, th, cov, start, th0, sig, log):
+    """The search's model less the effects the overdispersion does not
+    support and a timing offset that differs between the band's halves:
+    ``(model, th, cov, dropped)`` (the search's ``start`` when none is left,
+    ``cov`` None then)."""
+    model, th2, dropped, sig["overdispersion"] = prune_overdispersed(model, th, log=log)
+    if any(e.name == "timing_offset" for e in model.effects):
+        sig["timing_consistency"] = tc = timing_consistency(model, th2)
+        if not tc["consistent"]:
+            if log:
+                log("  timing_offset dropped: not consistent across sub-bands")
+            m, t = without_effects(model, th2, {"timing_offset"})
+            m.adopt_noise(model.noise)
+            model, th2 = m, best_refit(m, (t,))[1]
+            dropped.append({"effect": "timing_offset", "reason": "its size differs between "
+                            "the lower and the upper half of the band"})
+    if dropped:
+        if model.effects:
+            th, cov = least_squares_fit(model, th2)
+        else:
+            model, th, cov = start, th0, None
+    return model, th, cov, dropped
+
+
+def _final_fit(base, model, th, cov, origin, *, sig, dropped, free, seed, mcmc, progress, log,
+               budget, sample_kw):
+    """Sample the final model, dropping the weakest effect while one's
+    posterior does not exclude its absence: ``(model, th, final, after,
+    before_common)``. ``origin``: ``(model0, th0, eiv, cov_e)``, the model
+    the search started from (the errors-in-variables model when the
+    reference's noise is modelled), its point and that model's covariance."""
+    model0, th0, eiv, cov_e = origin
     while True:
         if cov is None:
             model, th = model0, th0
@@ -295,180 +308,101 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
         common.adopt_noise(model.noise)
         before_common = locate(common, best_refit(common, (th0,))[1])
         if mcmc and budget is not None and (model.effects or eiv is not None):
-            # the chain gets what is left of the budget (at least MIN_CHAIN_WORK):
-            # too few steps, or the time limit (the safety net) passed, and the
-            # Gaussian approximation stands in for it
-            n_steps = affordable_steps(model, max(budget.remaining, MIN_CHAIN_WORK))
-            if n_steps < MIN_CHAIN_STEPS or budget.out_of_time():
-                mcmc = False
-            else:
-                sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
+            mcmc = _chain_affordable(model, budget, sample_kw)
         if not (model.effects or eiv is not None):
             final = base    # nothing to add to the response model: the final fit is the base fit
             break
-        # sampled with the fit's likelihood: each band's noise scale
-        # marginalised as in the fit (core.model.misfit_scale), so that intervals
-        # widen where the improved model still misfits (the search compares
-        # the Gaussian likelihoods)
-        model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
-        meta = base.meta.to_dict() if eiv is None else dict(
-            base.meta.to_dict(), reference_noise=dict(reference_noise_meta(eiv, th0),
-                                            chosen_by="diagnose",
-                                            reason=sig["reference_noise"]["explanation"]))
-        final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
-                             mcmc=mcmc, progress=progress, **sample_kw)
-        if mcmc and not final.convergence.converged:
-            # a chain stopped before converging (a start at a bound, a ridge):
-            # the Gaussian approximation at the least-squares point instead
-            final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
-                                 base.not_estimable, free, seed=seed, mcmc=False)
+        final = _improved_posterior(base, model, th, cov, eiv=eiv, th0=th0, sig=sig, free=free,
+                                    seed=seed, mcmc=mcmc, progress=progress, sample_kw=sample_kw)
         weak = weak_effects(model, final.samples)
         if not weak:
             break
-        # an effect whose absence its posterior does not exclude is not named:
-        # the weakest goes, the rest are re-fitted and sampled again
-        _, key, _, _, why = min(weak)
-        if log:
-            log(f"  {key} dropped: {why}")
-        dropped.append({"effect": key, "reason": why})
-        m, t = without_effects(model, th, {key})
-        m.adopt_noise(model.noise)
-        if m.effects:
-            model = m
-            th, cov = least_squares_fit(model, t)
-        else:
-            cov = None
+        model, th, cov = _drop_weakest(model, th, weak, dropped, log)
+    return model, th, final, after, before_common
+
+
+def _chain_affordable(model, budget, sample_kw):
+    """Whether the improved model's chain runs: it gets what is left of the
+    budget (at least MIN_CHAIN_WORK), its ``max_steps`` in ``sample_kw``
+    cut to it; too few steps, or the time limit (the safety net) passed, and
+    the Gaussian approximation stands in for it."""
+    n_steps = affordable_steps(model, max(budget.remaining, MIN_CHAIN_WORK))
+    if n_steps < MIN_CHAIN_STEPS or budget.out_of_time():
+        return False
+    sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or n_steps), n_steps)
+    return True
+
+
+def _improved_posterior(base, model, th, cov, *, eiv, th0, sig, free, seed, mcmc, progress,
+                        sample_kw):
+    """The improved model's posterior, sampled with the fit's likelihood;
+    its Laplace approximation when a chain stops before converging."""
+    # sampled with the fit's likelihood: each band's noise scale
+    # marginalised as in the fit (core.model.misfit_scale), so that intervals
+    # widen where the improved model still misfits (the search compares
+    # the Gaussian likelihoods)
+    model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
+    meta = base.meta.to_dict() if eiv is None else dict(
+        base.meta.to_dict(), reference_noise=dict(reference_noise_meta(eiv, th0),
+                                        chosen_by="diagnose",
+                                        reason=sig["reference_noise"]["explanation"]))
+    final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
+                         mcmc=mcmc, progress=progress, **sample_kw)
+    if mcmc and not final.convergence.converged:
+        # a chain stopped before converging (a start at a bound, a ridge):
+        # the Gaussian approximation at the least-squares point instead
+        final = posterior_of(model, th, cov, dict(meta, mcmc_not_converged=True),
+                             base.not_estimable, free, seed=seed, mcmc=False)
+    return final
+
+
+def _drop_weakest(model, th, weak, dropped, log):
+    """The model without its weakest effect (whose absence its posterior
+    does not exclude; recorded in ``dropped``), re-fitted: ``(model, th,
+    cov)``, ``cov`` None when no effect is left."""
+    _, key, _, _, why = min(weak)
+    if log:
+        log(f"  {key} dropped: {why}")
+    dropped.append({"effect": key, "reason": why})
+    m, t = without_effects(model, th, {key})
+    m.adopt_noise(model.noise)
+    if not m.effects:
+        return model, th, None
+    th, cov = least_squares_fit(m, t)
+    return m, th, cov
+
+
+def _model_effects(model, final, steps, sig):
+    """The entries of the final model's effects, each with its BIC gain
+    in the search and its signature."""
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
     for e, sl in zip(model.effects, model.effect_slices):
         entry = _effect_entry(model, e, sl, final.samples, kept.get(effect_key(e)))
         entry["signature"] = sig.get(effect_key(e), {})
         effects.append(entry)
-    effects += orientation_effects(base, model0, th0, ids, sig)
+    return effects
+
+
+def _tilt_effect(base, sp, ids, sig):
+    """The tilt-noise test on the horizontals by their metadata
+    (:func:`.tilt.tilt_test`, into ``sig``): its entry when it names
+    channels, in a list (empty otherwise)."""
     nominal = _nominal_vectors(base.meta, ids) if base.meta.nominal else None
-    if nominal is not None:
-        horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
-        t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
-        sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
-        if t["applicable"] and t["kept"] and t["channels"]:
-            params = {"alpha": t["alpha"]}
-            for i in t["channels"]:
-                params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
-                    t["per_channel"][str(i)]["nsr_lowest_band"]
-            effects.append({"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
-                            "parameters": params, "score_gain": t["delta_bic"],
-                            "explanation": t["explanation"] + "; it is noise, not a response "
-                            "error: the per-band noise model carries it (those bands weigh "
-                            "less), so the orientation and response estimates do not move",
-                            "signature": sig["tilt_noise"]})
-    return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
-                     incomplete=incomplete, tried=tried, dropped=dropped,
-                     before_common=before_common,
-                     steps=steps, signatures=sig, band_edges=sp.band_edges, ids=ids,
-                     ratio_before=q, ratio_after=band_ratio(model, th))
-
-
-class Diagnosis:
-    """Everything :func:`diagnose` found; ``summary()`` is diagnosis.json."""
-
-    def __init__(self, **kw):
-        self.__dict__.update(kw)
-
-    @property
-    def names(self):
-        return [e["name"] for e in self.effects]
-
-    def unexplained(self):
-        """Sentences for mismatch that remains after the final model."""
-        return [f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz "
-                f"on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}, misfit up to "
-                f"{m['misfit_max']:.2g} times its expectation)" for m in self.after["mismatch"]]
-
-    def movements(self):
-        """How each channel's orientation (and response) moved from the
-        base fit to the final fit (median differences)."""
-        b, f = self.base.summary()["channels"], self.final.summary()["channels"]
-        out = {}
-        for cid in b:
-            d = {}
-            for key in ("azimuth_deg", "dip_deg"):
-                if "median" in b[cid][key] and not b[cid][key].get("undefined"):
-                    d[key] = _difference(f[cid][key].get("median"), b[cid][key]["median"])
-            for key, v in b[cid].get("response", {}).items():
-                d[key] = _difference(f[cid]["response"].get(key, {}).get("median"),
-                                     v.get("median"))
-            out[cid] = d
-        return out
-
-    def sentences(self):
-        """The finding in plain words."""
-        out = []
-        edges = self.band_edges
-        ref = self.signatures.get("reference_noise", {})
-        if ref.get("kept"):
-            out.append(ref["explanation"])
-        for e in self.effects:
-            s = e["explanation"]
-            if e.get("score_gain") is not None and "BIC" not in s:
-                s += f" (BIC gain {e['score_gain']:.0f})"
-            out.append(s)
-        fixed = self.before_common["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
-        if fixed.any() and any(e.get("score_gain") for e in self.effects):
-            before = self.before_common["misfit"][fixed].max()
-            after = self.after["misfit"][fixed].max()
-            where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in true_runs(fixed))
-            out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
-                       f"misfit in {where} Hz (largest standardised misfit there "
-                       f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
-        if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
-            out.append(misfit_change(edges, self.before_common["misfit"],
-                                     self.after["misfit"]))
-        moves = self.movements()
-        big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
-               if k == "azimuth_deg" and abs(v) > 0.05]
-        if big and any(e.get("score_gain") for e in self.effects):
-            out.append("it moves " + ", ".join(f"{c}'s azimuth by {v:+.2f} degree"
-                                               for c, _, v in big))
-        if not self.effects and not self.after["mismatch"]:
-            out.append("no mismatch: the model describes the recordings within their noise"
-                       + (" once the reference's noise is modelled" if ref.get("kept") else ""))
-        out += self.unexplained()
-        caveat = reference_shape_caveat((self.final.meta.reference_noise or {}).get("mode"))
-        if caveat and self.after["mismatch"]:
-            out.append(caveat)
-        return out
-
-    def summary(self):
-        def cells(loc):
-            return {"misfit": loc["misfit"], "p_value": loc["p_value"]}
-        steps = [[{k: v for k, v in t.items()} for t in step] for step in self.steps]
-        return {"schema": SCHEMA, "mismatch": self.before["mismatch"],
-                "effects": self.effects, "unexplained": self.after["mismatch"],
-                "summary": self.sentences(),
-                "per_band": {"band_edges_hz": self.band_edges, "channels": self.ids,
-                             "before": cells(self.before), "after": cells(self.after),
-                             "before_under_final_noise": cells(self.before_common),
-                             "ratio_amplitude_before": np.abs(self.ratio_before),
-                             "ratio_phase_deg_before": np.degrees(np.angle(self.ratio_before)),
-                             "ratio_amplitude_after": np.abs(self.ratio_after),
-                             "ratio_phase_deg_after": np.degrees(np.angle(self.ratio_after))},
-                "signatures": self.signatures, "search": steps,
-                "movements": self.movements(),
-                "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
-                             "score": "BIC difference under the extended model's noise model"},
-                "base": self.base.summary(), "final": self.final.summary()}
-
-
-def _difference(a, b):
-    """a - b, or nan when either is missing (a summary holds None for nan)."""
-    return float("nan") if a is None or b is None else a - b
-
-
-def misfit_change(edges, before, after):
-    """One sentence on how the standardised misfit over the whole band moved
-    (median and largest), with the verb the numbers call for."""
-    mb, ma = float(np.median(before)), float(np.median(after))
-    verb = "falls" if ma < mb else "rises" if ma > mb else "stays"
-    return (f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised misfit "
-            f"{verb} from median {mb:.3g} (largest {np.max(before):.3g}) to median {ma:.3g} "
-            f"(largest {np.max(after):.3g}); 1 means a fit within the noise")
+    if nominal is None:
+        return []
+    horizontal = np.abs(np.degrees(np.arcsin(np.clip(nominal[:, 2], -1, 1)))) < 45
+    t = tilt.tilt_test(sp, horizontal, bic_keep=BIC_KEEP)
+    sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
+    if not (t["applicable"] and t["kept"] and t["channels"]):
+        return []
+    params = {"alpha": t["alpha"]}
+    for i in t["channels"]:
+        params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
+            t["per_channel"][str(i)]["nsr_lowest_band"]
+    return [{"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
+             "parameters": params, "score_gain": t["delta_bic"],
+             "explanation": t["explanation"] + "; it is noise, not a response "
+             "error: the per-band noise model carries it (those bands weigh "
+             "less), so the orientation and response estimates do not move",
+             "signature": sig["tilt_noise"]}]

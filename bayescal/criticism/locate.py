@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.checks.adequacy import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
+from ..core.checks import ALPHA, band_p_values, mismatch_flags  # noqa: F401 (ALPHA re-exported)
 
 # --- locate -----------------------------------------------------------------
 
@@ -19,7 +19,7 @@ def band_ratio(model, theta):
     vecs, _ = model.unpack(theta)
     t = (vecs @ model.ref_pinv)[0]                                   # (nu, nr)
     r = model.residual(np.atleast_2d(theta))[0]                      # (B, nu, nr)
-    srr = model._srr
+    srr = model.reference_band_sums
     sur = r + np.einsum("ij,bjk->bik", t, srr)
     num = np.einsum("bij,ij->bi", sur, t)
     den = np.einsum("ij,bjk,ik->bi", t, srr, t).real

@@ -24,10 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model import refnoise
-from ..core.model.eiv import EIVModel
-from ..core.model.likelihood import Model
-from ..core.fit.run import least_squares_fit
+from ..core.model import refnoise, EIVModel, Model
+from ..core.fit import least_squares_fit
 
 
 class _QuietUnderEIV(EIVModel):

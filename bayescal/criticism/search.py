@@ -9,15 +9,11 @@ from dataclasses import replace
 import numpy as np
 
 from . import effects as catalogue
-from ..core.model.jacobian import forward_jacobian
-from ..core.fit.leastsq import TIGHT, solve
-from ..core.fit.run import least_squares_fit
+from ..core.model import forward_jacobian, EIVModel, EIVNoise, MIN_TIME_BLOCKS, Model
+from ..core.fit import TIGHT, solve, least_squares_fit, prior_bounds
 from ..core.threads import single_threaded_blas
-from ..core.fit.unconstrained import prior_bounds
-from ..core.orientation.geometry import Fixed
-from ..core.model.eiv import EIVModel, EIVNoise
-from ..core.model.likelihood import MIN_TIME_BLOCKS, Model
-from ..core.response.family import TwoPoleFamily
+from ..core.orientation import Fixed
+from ..core.response import TwoPoleFamily
 from .locate import overdispersion
 
 

@@ -51,8 +51,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.fit.leastsq import solve
-from ..core.spectra.welch import make_bands
+from ..core.fit import solve
+from ..core.spectra import make_bands
 
 #: Bounds of the common exponent (tilt power ~ f^-alpha). Tilt ``theta`` puts
 #: ``g theta`` on a horizontal's acceleration, so its velocity PSD is
@@ -296,6 +296,66 @@ def _name(sp, i):
     return ids[i].split(".")[-1] if i < len(ids) else f"channel {i}"
 
 
+def _horizontals(sp, horizontal):
+    """The SUT's horizontal channels (indices) and why the test does not
+    apply to them ("" when it does)."""
+    horizontal = np.asarray(horizontal, bool)
+    if horizontal.shape != (sp.n_u,):
+        raise ValueError(f"horizontal mask has shape {horizontal.shape}, expected ({sp.n_u},)")
+    hz = [int(i) for i in np.flatnonzero(horizontal)]
+    if not hz:
+        return hz, "no horizontal SUT channel: tilt noise is a horizontal effect"
+    if horizontal.all():
+        return hz, ("no vertical SUT channel: without one the tilt noise on the "
+                    "horizontals cannot be told from a common noise shape")
+    return hz, ""
+
+
+def _per_channel(sp, data, hz, shape, res, theta0, *, phi, dbic, chi2_tilt, n_base):
+    """Each horizontal's own evidence: the BIC cost of dropping its tilt
+    term from the fit ``res`` and its noise-to-signal ratio in the lowest
+    band, by SUT index (as a string)."""
+    n = data["y"].size
+    per_channel = {}
+    for j, i in enumerate(hz):
+        others = [h for h in hz if h != i]
+        if others:
+            sub = TiltModel(sp, data, others, shape)
+            th = np.r_[res.x[:n_base], np.delete(res.x[n_base:n_base + len(hz)], j), res.x[-1]]
+            r = sub.fit(theta0, extra_starts=[th])
+            chi2_drop = max(2.0 * r.cost, chi2_tilt)
+            own = (chi2_drop - chi2_tilt) / phi - np.log(n)     # one level (alpha shared)
+        else:
+            own = dbic
+        a, a_sd = _laplace(res, phi, n_base + j)
+        at_null = a <= LEVEL_RANGE[0] + 1.0
+        per_channel[str(i)] = {
+            "channel": _name(sp, i), "delta_bic": float(own),
+            "nsr_lowest_band": {"median": float(np.exp(a)),
+                                "ci95": [0.0 if at_null else float(np.exp(a - 1.96 * a_sd)),
+                                         float(np.exp(min(a + 1.96 * a_sd, 50.0)))]},
+            "at_null": bool(at_null)}
+    return per_channel
+
+
+def _tilted(hz, per_channel, kept, channel_keep):
+    """The horizontals named as tilted: those whose own delta BIC exceeds
+    ``channel_keep`` when the model is kept, else (evidence for the pair,
+    neither alone decisive) those whose level is off its null bound."""
+    channels = [i for i in hz if kept and per_channel[str(i)]["delta_bic"] > channel_keep]
+    if kept and not channels:
+        channels = [i for i in hz if not per_channel[str(i)]["at_null"]]
+    return channels
+
+
+def _alpha(res, phi):
+    """The exponent ``alpha``: its median and Laplace 95 % interval, clipped
+    to its allowed range."""
+    al, al_sd = _laplace(res, phi, -1)
+    return {"median": al, "ci95": np.clip([al - 1.96 * al_sd, al + 1.96 * al_sd],
+                                          *ALPHA_RANGE).tolist()}
+
+
 def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine=FINE_BANDS):
     """Test for tilt noise on the SUT's horizontals (see the module docstring).
 
@@ -319,15 +379,9 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
     by ``phi``), symmetric in ``alpha`` (clipped to its allowed range) and in
     the log level (lower end 0 when the level sits at its null bound).
     """
-    horizontal = np.asarray(horizontal, bool)
-    if horizontal.shape != (sp.n_u,):
-        raise ValueError(f"horizontal mask has shape {horizontal.shape}, expected ({sp.n_u},)")
-    hz = [int(i) for i in np.flatnonzero(horizontal)]
-    if not hz:
-        return _not_applicable("no horizontal SUT channel: tilt noise is a horizontal effect")
-    if horizontal.all():
-        return _not_applicable("no vertical SUT channel: without one the tilt noise on the "
-                               "horizontals cannot be told from a common noise shape")
+    hz, why = _horizontals(sp, horizontal)
+    if why:
+        return _not_applicable(why)
     data = nsr_data(sp, fine=fine)
     y, sd = data["y"], data["sd"]
     if y.shape[0] < 4:
@@ -347,44 +401,17 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
     phi = max(1.0, chi2_tilt / dof)
     dbic = (chi2_base - chi2_tilt) / phi - k * np.log(n)
     kept = bool(dbic > bic_keep)
-
-    per_channel, channels = {}, []
-    n_base = nb + nu - 1
-    for j, i in enumerate(hz):
-        others = [h for h in hz if h != i]
-        if others:
-            sub = TiltModel(sp, data, others, shape)
-            th = np.r_[res.x[:n_base], np.delete(res.x[n_base:n_base + len(hz)], j), res.x[-1]]
-            r = sub.fit(theta0, extra_starts=[th])
-            chi2_drop = max(2.0 * r.cost, chi2_tilt)
-            own = (chi2_drop - chi2_tilt) / phi - np.log(n)     # one level (alpha shared)
-        else:
-            own = dbic
-        a, a_sd = _laplace(res, phi, n_base + j)
-        at_null = a <= LEVEL_RANGE[0] + 1.0
-        per_channel[str(i)] = {
-            "channel": _name(sp, i), "delta_bic": float(own),
-            "nsr_lowest_band": {"median": float(np.exp(a)),
-                                "ci95": [0.0 if at_null else float(np.exp(a - 1.96 * a_sd)),
-                                         float(np.exp(min(a + 1.96 * a_sd, 50.0)))]},
-            "at_null": bool(at_null)}
-        if kept and own > channel_keep:
-            channels.append(i)
-    if kept and not channels:       # evidence for the pair, neither alone decisive
-        channels = [i for i in hz if not per_channel[str(i)]["at_null"]]
-    al, al_sd = _laplace(res, phi, -1)
-    alpha = {"median": al, "ci95": np.clip([al - 1.96 * al_sd, al + 1.96 * al_sd],
-                                           *ALPHA_RANGE).tolist()}
-    pred1 = model.predict(res.x)
-    f1 = float(data["centres"][0])
+    per_channel = _per_channel(sp, data, hz, shape, res, theta0, phi=phi, dbic=dbic,
+                               chi2_tilt=chi2_tilt, n_base=nb + nu - 1)
+    channels = _tilted(hz, per_channel, kept, channel_keep)
     out = {"applicable": True, "reason": "", "kept": kept, "delta_bic": float(dbic),
            "bic_keep": float(bic_keep), "channels": channels,
            "channel_ids": [_name(sp, i) for i in channels], "per_channel": per_channel,
-           "alpha": alpha, "shape": shape, "lowest_band_hz": data["edges"][:2].tolist(),
-           "lowest_band_centre_hz": f1, "phi": float(phi), "chi2_base": float(chi2_base),
+           "alpha": _alpha(res, phi), "shape": shape, "lowest_band_hz": data["edges"][:2].tolist(),
+           "lowest_band_centre_hz": float(data["centres"][0]), "phi": float(phi), "chi2_base": float(chi2_base),
            "chi2_tilt": float(chi2_tilt), "n_data": int(n), "n_added_parameters": int(k),
            "dof_tilt": int(dof), "interval_method": "Laplace (least-squares covariance x phi)",
-           "misfit_base": ((y - pred0) / sd).tolist(), "misfit_tilt": ((y - pred1) / sd).tolist()}
+           "misfit_base": ((y - pred0) / sd).tolist(), "misfit_tilt": ((y - model.predict(res.x)) / sd).tolist()}
     out["explanation"] = explain(out)
     return out
 

@@ -1,5 +1,5 @@
 """The criticism of a fit that failed its model check, in the main path of
-``bayescal fit`` and :func:`bayescal.calibrate` (:mod:`bayescal.pair.criticise`): the diagnosis
+``bayescal fit`` and :func:`bayescal.calibrate` (:mod:`bayescal.pair.criticism`): the diagnosis
 (:func:`.diagnose.diagnose`, started from the fit's own model, spectra and
 least-squares point, not refitted from scratch) within a work budget
 (:func:`criticism_budget`: model evaluations, so that the same seed names
@@ -23,6 +23,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
+
+from . import words
 
 #: An estimate "moves" when the improved model shifts it by more than this
 #: many of its standard deviations (the fit's 68 % half-width).
@@ -58,32 +60,11 @@ SIZE_NOTE_DEGENERATE = ("the sizes above come from an improved model whose poste
 SIZE_NOTE_INCOMPLETE = ("the sizes above come from a search that ran out of its budget before "
                         "every candidate was tried: their intervals are not measurements")
 
-#: What the user can do about each named effect (the option to pass, or the
-#: change to make in the metadata).
-ADVICE = {
-    "response_parameters": "fit the period and damping with --fit-response all",
-    "timing_offset": "correct the SUT's clock, and the time stamps of the recordings it "
-                     "made: a clock offset is a time correction of the data (shift each SUT "
-                     "trace's start time by {shift:+.3g} s), not a response change; the "
-                     "corrected StationXML records it in a stage delay, which ObsPy's "
-                     "remove_response does not apply",
-    "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
-    "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
-                  "include its high-frequency poles)",
-    "gain_error": "correct the channel's sensitivity in its metadata (or leave the gains free, "
-                  "the default, which measures it as the relative gain)",
-    "polarity_reversal": "correct the channel's polarity (dip or azimuth sign) in its metadata",
-    "channel_swap": "correct the channel names or wiring",
-    "tilt_noise": "nothing to correct: it is noise; a quieter site or a longer record "
-                  "narrows the long-period intervals",
-}
-
-
 class Criticism:
     """What :func:`criticise` found: ``summary`` (JSON-safe, result.json's
     ``criticism``), ``improved`` (the improved model's
-    :class:`~bayescal.core.posterior.state.FitState`, or None when nothing
-    was added), ``diagnosis`` (the
+    :class:`~bayescal.core.posterior.state.FitState`,
+    or None when nothing was added), ``diagnosis`` (the
     :class:`.diagnose.Diagnosis`, or None when it did not run)."""
 
     def __init__(self, summary, improved=None, diagnosis=None):
@@ -125,17 +106,6 @@ def improved_estimates(base_summary, final_summary):
                           "fit_median": be["median"], "moved_sd": float(moved)}
         out[cid] = entry
     return out
-
-
-def _advice(effect):
-    """:data:`ADVICE` for a named effect; a timing offset's with its signed
-    time correction (minus the offset: + = the SUT's samples late)."""
-    text = ADVICE.get(effect["name"], "")
-    if effect["name"] == "timing_offset":
-        seconds = effect.get("parameters", {}).get("seconds", {}).get("median")
-        text = text.format(shift=-float(seconds)) if seconds is not None else \
-            text.replace(" (shift each SUT trace's start time by {shift:+.3g} s)", "")
-    return text
 
 
 def _effect_sizes(effect):
@@ -201,28 +171,6 @@ def _where(mismatch):
                      f"{', '.join(m['channels'])}" for m in mismatch)
 
 
-def _label(effect):
-    """An effect's name in plain words."""
-    name = effect["name"]
-    if name == "extra_pole":
-        who = "reference" if effect.get("parameters", {}).get("which") == "ref" else "SUT"
-        return f"a pole missing from the {who}'s metadata"
-    return {"response_parameters": "the SUT's period and damping off their metadata values",
-            "timing_offset": "a timing offset between the digitizers",
-            "clock_drift": "a drifting SUT clock", "gain_error": "a sensitivity off its metadata",
-            "polarity_reversal": "a reversed channel", "channel_swap": "exchanged channels",
-            "tilt_noise": "long-period tilt noise"}.get(name, name.replace("_", " "))
-
-
-def _names(effects):
-    out = []
-    for e in effects:
-        lab = _label(e)
-        if lab not in out:
-            out.append(lab)
-    return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
-
-
 def criticism_budget(budget_s=DEFAULT_BUDGET_S):
     """The criticism's :class:`bayescal.core.budget.Budget` for a budget
     stated in seconds (``--diagnose-budget``): ``budget_s *``
@@ -235,9 +183,8 @@ def criticism_budget(budget_s=DEFAULT_BUDGET_S):
 
 def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budget=None,
               **sample_kw):
-    """Criticise the fit ``post`` (a
-    :class:`~bayescal.core.posterior.state.FitState`, with its ``model`` and
-    ``theta_ls``). Returns a :class:`Criticism`.
+    """Criticise the fit ``post`` (a :class:`~bayescal.core.posterior.state.FitState`,
+    with its ``model`` and ``theta_ls``). Returns a :class:`Criticism`.
 
     ``budget_s``: the work the search for effects and the improved model's
     chain may do, stated in seconds of :data:`WORK_PER_SECOND` model
@@ -249,17 +196,90 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     from .diagnose import diagnose
 
     t0 = time.monotonic()
-    if budget is None:
-        budget = criticism_budget(budget_s)
-    else:       # a budget given in work: the seconds it stands for, for the words
-        budget_s = budget.limit / WORK_PER_SECOND
+    budget, budget_s = _budget(budget, budget_s)
+    free = post.meta.free_response or "none"
     base_sum = post.summary()
+    pinned = _pinned_parameters(base_sum)
+    if pinned:
+        return Criticism(_pinned(pinned, budget_s))
+    with budget.active():
+        d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
+                     **_sampler_options(sample_kw))
+    seconds = time.monotonic() - t0
+    named = [e for e in d.effects]
+    moves = _moves(d, post, base_sum, named)
+    biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
+    left = d.after["mismatch"]
+    ref = d.signatures.get("reference_noise", {})
+    effects = [_effect_entry(e) for e in named]
+    names = words.names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
+    degenerate = _degenerate(d, post, effects)
+    verdict, text, size_note, advice = _verdict(d, names=names, degenerate=degenerate,
+                                                biggest=biggest, budget=budget,
+                                                budget_s=budget_s, free=free)
+    for e in effects:
+        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
+            advice.append(e["advice"])
+    if degenerate:
+        moves, biggest = {}, 0.0
+    stationxml = "improved model" if verdict in ("usable", "improved") and \
+        d.final is not post else "fit"
+    conditional = verdict == "unexplained"
+    for e in effects:
+        e["size_is_measurement"] = not conditional
+    summary = {
+        "verdict": verdict, "verdict_text": text, "effects": effects,
+        "reference_noise_modelled": bool(ref.get("kept")),
+        **_misfits(d),
+        "improved_estimates": moves, "max_moved_sd": float(biggest), "move_threshold_sd": MOVE_SD,
+        "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
+                         "misfit_max": m["misfit_max"]} for m in left],
+        "advice": advice, "stationxml": stationxml,
+        **({"size_note": size_note} if conditional and effects else {}),
+        **_search_record(d, budget, budget_s, seconds),
+        "sentences": d.sentences(),
+    }
+    improved = d.final if d.final is not post and not degenerate else None
+    return Criticism(summary, improved, d)
+
+
+def _budget(budget, budget_s):
+    """The criticism's budget and the seconds it stands for: ``budget``
+    when given (its seconds for the words), else :func:`criticism_budget`."""
+    if budget is None:
+        return criticism_budget(budget_s), budget_s
+    return budget, budget.limit / WORK_PER_SECOND
+
+
+def _effect_entry(e):
+    """A named effect as the summary lists it."""
+    return {"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
+            "explanation": e["explanation"], "advice": words.advice(e),
+            **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
+
+
+def _misfits(d):
+    """The largest standardised misfits before and after, for the summary."""
+    return {"misfit_before": float(np.max(d.before_common["misfit"])),
+            "misfit_after": float(np.max(d.after["misfit"])),
+            "misfit_note": "largest standardised misfit over bands and channels, before and "
+                           "after under the improved model's noise model (about 1 is a fit "
+                           "within the noise)",
+            "misfit_check": float(np.max(d.before["misfit"]))}
+
+
+def _pinned_parameters(base_sum):
+    """``{channel id: [response parameter, ...]}`` of the parameters the fit
+    pinned (gain aside), for the channels with any."""
     pinned = {cid: [k for k, v in e.get("response", {}).items()
                     if k != "relative_gain" and "pinned" in str(v.get("reason", ""))]
               for cid, e in base_sum["channels"].items()}
-    pinned = {c: k for c, k in pinned.items() if k}
-    if pinned:
-        return Criticism(_pinned(pinned, budget_s))
+    return {c: k for c, k in pinned.items() if k}
+
+
+def _sampler_options(sample_kw):
+    """The sampler's options for the improved model from the fit's."""
+    sample_kw = dict(sample_kw)
     sample_kw.pop("progress", None)
     # the fit's own options, not the sampler's: the improved model takes the
     # fit's misfit shape from its model (criticism.diagnose)
@@ -267,61 +287,40 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     # the improved model's sampler is bounded too: a chain that does not
     # converge in MAX_STEPS falls back to the Gaussian approximation
     sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)
-    with budget.active():
-        d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
-                     **sample_kw)
-    seconds = time.monotonic() - t0
-    effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-                "explanation": e["explanation"], "advice": _advice(e),
-                **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
-               for e in d.effects]
-    degenerate = _degenerate(d, post, effects)
-    moves = {} if degenerate else _moves(d, post, base_sum)
-    biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
-    verdict, text, size_note, advice = _judge(d, effects, degenerate, biggest, budget_s=budget_s,
-                                              budget=budget, free=post.meta.free_response)
-    for e in effects:
-        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
-            advice.append(e["advice"])
-    summary = _summary(d, post, effects, verdict=verdict, text=text, size_note=size_note,
-                       advice=advice, moves=moves, biggest=biggest)
-    summary.update({"budget_s": float(budget_s), "seconds": float(seconds),
-                    "budget": budget.summary(),
-                    **({"budget_note": budget.note()} if budget.ended_by == "time" else {}),
-                    "sentences": d.sentences()})
-    improved = d.final if d.final is not post and not degenerate else None
-    return Criticism(summary, improved, d)
+    return sample_kw
 
 
-def _moves(d, post, base_sum):
-    """Per channel, the estimates the improved model moves
-    (:func:`improved_estimates`), and the period and damping the fit held
-    at their metadata values."""
+def _moves(d, post, base_sum, named):
+    """The estimates that modelling the named effects moves, by channel."""
     moves = {}
     if d.final is not post:
         moves = improved_estimates(base_sum, d.final.summary())
-    for e in d.effects:
+    for e in named:
         if e["name"] == "response_parameters":
             for cid, v in _held_response_moves(e).items():
                 moves.setdefault(cid, {}).update(v)
     return moves
 
 
-def _judge(d, effects, degenerate, biggest, *, budget_s, budget, free):
-    """``(verdict, its words, the size note, advice)`` of a diagnosis ``d``."""
-    named = d.effects
+def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free):
+    """``(verdict, text, size_note, advice)`` of the diagnosis ``d``:
+    unexplained (a degenerate improved model, an incomplete search or a
+    misfit left), usable (nothing moves by more than :data:`MOVE_SD`) or
+    improved."""
     left = d.after["mismatch"]
-    ref = d.signatures.get("reference_noise", {})
-    names = _names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
     advice = []
+    size_note = SIZE_NOTE
     if degenerate:
+        verdict = "unexplained"
         text = (f"{names or 'an effect'} would explain the misfit, but the improved model's "
                 f"posterior could not be characterised ({degenerate}): its estimates and the "
                 "sizes are not measurements; the misfit stays unexplained")
+        size_note = SIZE_NOTE_DEGENERATE
         if d.incomplete:
             advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
-        return "unexplained", text, SIZE_NOTE_DEGENERATE, advice
-    if d.incomplete:
+    elif d.incomplete:
+        size_note = SIZE_NOTE_INCOMPLETE
+        verdict = "unexplained"
         spent = (f"time limit ({budget.time_limit_s:g} s, a safety net: its work budget was "
                  "not spent)" if budget.ended_by == "time" else f"budget of {budget_s:g} s")
         text = (f"criticism incomplete: tried {', '.join(d.tried) or 'no candidate'} before its "
@@ -329,35 +328,36 @@ def _judge(d, effects, degenerate, biggest, *, budget_s, budget, free):
                 f"{', '.join(d.incomplete['not_tried'])}; --diagnose-budget raises it): the "
                 f"misfit stays unexplained")
         advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
-        return "unexplained", text, SIZE_NOTE_INCOMPLETE, advice
-    if left:
+    elif left:
+        verdict = "unexplained"
         text = (f"the model does not fit the recordings in {_where(left)}"
                 + (f", even with {names} modelled" if names else "")
                 + ": no effect the criticism knows explains it; treat the estimates with "
                   "caution")
-        return "unexplained", text, SIZE_NOTE, advice + _unexplained_advice(d, free)
-    if biggest <= MOVE_SD:
+        advice += _misfit_advice(d, free)
+    elif biggest <= MOVE_SD:
+        verdict = "usable"
         text = (f"the model misfits the recordings because of {names or 'an effect it leaves out'}"
                 f"; modelling it moves no estimate by more than {MOVE_SD:g} of its standard "
                 "deviation: the estimates are usable as they are")
-        return "usable", text, SIZE_NOTE, advice
-    text = (f"the model misfits the recordings because of {names}; modelling it moves the "
-            f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
-            "model's estimates (the criticism lists those that move; the corrected "
-            "StationXML holds them all)")
-    return "improved", text, SIZE_NOTE, advice
+    else:
+        verdict = "improved"
+        text = (f"the model misfits the recordings because of {names}; modelling it moves the "
+                f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
+                "model's estimates (the criticism lists those that move; the corrected "
+                "StationXML holds them all)")
+    return verdict, text, size_note, advice
 
 
-def _unexplained_advice(d, free):
-    """What to try when a misfit stays: the widest band where the model
-    holds, period and damping fitted, and the diagnosis's own caveat."""
+def _misfit_advice(d, free):
+    """What to try when a misfit is left that no known effect explains."""
     advice = []
     edges = np.asarray(d.band_edges)
     good = _good_band(edges, d.after["flag"]) or _good_band(edges, d.before["flag"])
     if good:
         advice.append(f"--band {good[0]:.3g} {good[1]:.3g} (the widest band where the "
                       "model holds) if the misfit is not physics to model")
-    if (free or "none") != "all" and "response_parameters" not in d.tried:
+    if free != "all" and "response_parameters" not in d.tried:
         advice.append("--fit-response all (period and damping fitted)")
     caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
         d.sentences()[-1] else None
@@ -366,33 +366,14 @@ def _unexplained_advice(d, free):
     return advice
 
 
-def _summary(d, post, effects, *, verdict, text, size_note, advice, moves, biggest):
-    """result.json's ``criticism`` of a diagnosis ``d`` judged ``verdict``
-    (without its budget and timing)."""
-    ref = d.signatures.get("reference_noise", {})
-    stationxml = "improved model" if verdict in ("usable", "improved") and \
-        d.final is not post else "fit"
-    conditional = verdict == "unexplained"
-    for e in effects:
-        e["size_is_measurement"] = not conditional
-    return {
-        "verdict": verdict, "verdict_text": text, "effects": effects,
-        "reference_noise_modelled": bool(ref.get("kept")),
-        "misfit_before": float(np.max(d.before_common["misfit"])),
-        "misfit_after": float(np.max(d.after["misfit"])),
-        "misfit_note": "largest standardised misfit over bands and channels, before and after "
-                       "under the improved model's noise model (about 1 is a fit within the "
-                       "noise)",
-        "misfit_check": float(np.max(d.before["misfit"])),
-        "improved_estimates": moves, "max_moved_sd": float(biggest), "move_threshold_sd": MOVE_SD,
-        "unexplained": [{"band_hz": m["band_hz"], "channels": m["channels"],
-                         "misfit_max": m["misfit_max"]} for m in d.after["mismatch"]],
-        "advice": advice, "stationxml": stationxml,
-        **({"size_note": size_note} if conditional and effects else {}),
-        "complete": d.incomplete is None, "tried": d.tried,
-        "not_tried": (d.incomplete or {}).get("not_tried", []),
-        "not_named": d.dropped,
-    }
+def _search_record(d, budget, budget_s, seconds):
+    """The search's extent for the summary: complete or not, what it tried
+    and named, its budget and time."""
+    return {"complete": d.incomplete is None, "tried": d.tried,
+            "not_tried": (d.incomplete or {}).get("not_tried", []),
+            "not_named": d.dropped, "budget_s": float(budget_s), "seconds": float(seconds),
+            "budget": budget.summary(),
+            **({"budget_note": budget.note()} if budget.ended_by == "time" else {})}
 
 
 def _pinned(pinned, budget_s):
@@ -425,11 +406,9 @@ def check_orientation(post):
     named = orientation_effects(post, model, th, ids)
     if not named:
         return None
-    effects = [{"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
-                "explanation": e["explanation"], "advice": _advice(e)}
-               for e in named]
+    effects = [_effect_entry(e) for e in named]       # (no prior sets an orientation)
     return {"verdict": "fits", "verdict_text": "the model fits the recordings, with "
-            f"{_names(named)} that the fitted orientation already holds: the estimates are "
+            f"{words.names(named)} that the fitted orientation already holds: the estimates are "
             "usable as they are, and the metadata need correcting (the corrected StationXML "
             "holds the fitted orientation)", "effects": effects, "complete": True,
             "tried": ["polarity_reversal", "channel_swap"], "not_tried": [],

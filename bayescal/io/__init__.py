@@ -1,7 +1,6 @@
 """Recordings and metadata in, corrected metadata out.
 
-* :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros),
-                      ``InputError``
+* :mod:`.read`        waveforms and metadata (StationXML, RESP, GSE2 poles and zeros)
 * :mod:`.validate`    checks of every metadata value a fit uses, as written and as read
 * :mod:`.channels`    each sensor's channels chosen by SEED-id patterns
 * :mod:`.align`       two or more sensors' recordings on one time grid
@@ -13,15 +12,26 @@
 * :mod:`.result`      a fit's result.json / samples.npz written and read back,
                       with the corrected StationXML beside them
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
+* :mod:`.atomic`      files and output folders written so that none is seen half written
 
 May import :mod:`bayescal.core` and :mod:`bayescal.result`; never criticism,
 pair, coil, report, network or cli.
-"""
-from .align import align, align_sensors
-from .read import (CODE_ORIENTATION, InputError, InputWarning, flat_inventory, metadata_format,
-                   orientation_from_code, paz_inventory, read_gse2_paz, read_metadata,
-                   read_waveforms, two_pole_inventory)
 
-__all__ = ["CODE_ORIENTATION", "InputError", "InputWarning", "align", "align_sensors",
-           "flat_inventory", "metadata_format", "orientation_from_code", "paz_inventory",
-           "read_gse2_paz", "read_metadata", "read_waveforms", "two_pole_inventory"]
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+"""
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".read": ["CODE_ORIENTATION", "channel_meta", "flat_inventory", "metadata_format",
+              "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
+              "read_waveforms", "two_pole_inventory"],
+    ".align": ["align_sensors"],
+    ".band": ["MIN_COHERENCE", "choose_band"],
+    ".inventory": ["assumed_flat", "load_inventory", "placeholder_channels"],
+    ".result": ["load_posterior", "save_posterior", "write_results"],
+    ".noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
+    ".refnoise_file": ["for_channels", "read_reference_noise"],
+    ".stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",
+                    "update_response", "write_corrected"],
+})

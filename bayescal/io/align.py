@@ -11,9 +11,10 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.family import evaluate_velocity_response, response_family
-from .read import InputError, InputWarning, channel_meta
+from ..core.orientation import unit_vector
+from ..core.response import evaluate_velocity_response, response_family
+from ..errors import InputError, InputWarning
+from .read import channel_meta
 
 #: Sub-sample offsets smaller than this fraction of a sample are rounded.
 SUBSAMPLE_TOLERANCE = 0.01
@@ -205,6 +206,14 @@ def _stream_files(stream, default):
     return ", ".join(files) if files else default
 
 
+def _span(st):
+    """The time every channel of ``st`` covers: its latest start and earliest end."""
+    ids = {tr.id for tr in st}
+    first = max(min(tr.stats.starttime for tr in st if tr.id == i) for i in ids)
+    last = min(max(tr.stats.endtime for tr in st if tr.id == i) for i in ids)
+    return first, last
+
+
 def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=None):
     """Bring the streams of n sensors onto one time grid and read their metadata.
 
@@ -224,16 +233,9 @@ def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=N
         if len(st) == 0:
             raise InputError(f"{source}: no traces")
     fs = float(fs or min(tr.stats.sampling_rate for st in streams for tr in st))
-
-    def span(st):
-        ids = {tr.id for tr in st}
-        first = max(min(tr.stats.starttime for tr in st if tr.id == i) for i in ids)
-        last = min(max(tr.stats.endtime for tr in st if tr.id == i) for i in ids)
-        return first, last
-
     if start is not None and end is not None and start >= end:
         raise InputError(f"--start {start} is not before --end {end}")
-    spans = [span(st) for st in streams]
+    spans = [_span(st) for st in streams]
     files = [_stream_files(st, src) for st, src in zip(streams, sources)]
     t0, t1 = max(s[0] for s in spans), min(s[1] for s in spans)
     if t1 <= t0:
@@ -268,7 +270,7 @@ def align_sensors(streams, inventories, sources=None, start=None, end=None, fs=N
     return sides, fs, t0
 
 
-def align(sut, sut_inventory, ref, ref_inventory, sut_source="SUT", ref_source="reference",
+def align(sut, sut_inventory, ref, ref_inventory, *, sut_source="SUT", ref_source="reference",
           start=None, end=None, fs=None):
     """Bring both streams onto one time grid and read their metadata
     (:func:`align_sensors` for a SUT and a reference).

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .read import InputError
-from ..core.spectra.coherence import welch_multiple_coherence
+from ..errors import InputError
+from ..core.spectra import welch_multiple_coherence
 
 #: Default coherence a band must have on every visible SUT channel.
 DEFAULT_THRESHOLD = 0.9
@@ -113,7 +113,7 @@ def _widest_run(mask, freqs):
 
 def _inside_span(sut, ref):
     """Indices of SUT channels whose nominal axis the reference can see."""
-    from ..core.fit.run import SPAN_TOLERANCE_DEG, span_basis
+    from ..core.fit import SPAN_TOLERANCE_DEG, span_basis
 
     basis, _ = span_basis(np.asarray(ref.vectors, float))
     if basis.shape[0] == 3:
@@ -131,7 +131,7 @@ def choose_band(sut, ref, fs, threshold=DEFAULT_THRESHOLD, source=""):
     fs : sampling rate (Hz).
     threshold : multiple coherence required on every visible SUT channel.
 
-    Returns a :class:`BandChoice`; raises :class:`bayescal.io.InputError` when
+    Returns a :class:`BandChoice`; raises :class:`bayescal.errors.InputError` when
     no band of useful width is coherent.
     """
     n = sut.data.shape[1]

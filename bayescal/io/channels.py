@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from fnmatch import fnmatchcase
 
-from .read import InputError
+from ..errors import InputError
 
 
 def _files(stream):

@@ -36,9 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.selfnoise import sleeman as core
-from ..core.spectra.dof import band_dof
-from ..core.spectra.welch import cross_spectra
-from .read import InputError, read_waveforms
+from ..core.spectra import band_dof, cross_spectra
+from ..errors import InputError
+from .read import read_waveforms
 from .align import Side, align_sensors
 
 SCHEMA = "bayescal.noise/1"
@@ -157,7 +157,7 @@ def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart"
     return est, C, bands, ranges
 
 
-def self_noise_streams(streams, inventories, sources=None, band=None, nperseg=None, start=None,
+def self_noise_streams(streams, inventories, *, sources=None, band=None, nperseg=None, start=None,
                        end=None, level=0.9, n_boot=1000, seed=0, method="wishart",
                        axis_mismatch=AXIS_MISMATCH, bands_per_decade=BANDS_PER_DECADE,
                        progress=None):

@@ -26,7 +26,7 @@ What real recordings need, and what this module does about it:
   the file and as read (:mod:`bayescal.io.validate`), and the response must
   evaluate; a channel that fails is named with the file and the value.
 
-Errors are raised as :class:`InputError` with one sentence naming the file
+Errors are raised as :class:`bayescal.errors.InputError` with one sentence naming the file
 and the problem; the command line turns them into a message and exit code 2.
 """
 from __future__ import annotations
@@ -36,17 +36,11 @@ import re
 
 import numpy as np
 
+from ..errors import InputError
+
 
 #: Orientation implied by a SEED component code when StationXML has none.
 CODE_ORIENTATION = {"N": (0.0, 0.0), "E": (90.0, 0.0), "Z": (0.0, -90.0)}
-
-
-class InputError(ValueError):
-    """Bad input data or metadata; the message names the source and problem."""
-
-
-class InputWarning(UserWarning):
-    """Suspicious input (clipping, NaN samples) that does not stop the fit."""
 
 
 def _paths(paths):
@@ -196,7 +190,7 @@ PLACEHOLDER_NOTE = ("placeholder metadata written by bayescal, not measured: lat
                     "unknown; orientation is nominal from the channel code")
 
 
-def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientations=None,
+def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, *, orientations=None,
                   normalize=True, input_units="M/S", note=None):
     """An Inventory for every channel of ``stream`` with one poles-and-zeros
     stage (rad/s; ``gain`` counts per ``input_units`` at ``norm_freq``).
@@ -211,11 +205,10 @@ def paz_inventory(stream, zeros=(), poles=(), gain=1.0, norm_freq=1.0, orientati
     from obspy.core.inventory import Channel, Inventory, Network, Response, Station
     from obspy.core.inventory.util import Comment
 
+    from ..core.response import normalization_factor
+
     zeros, poles = list(zeros), list(poles)
-    s = 2j * np.pi * norm_freq
-    paz = np.prod([s - z for z in zeros]) / np.prod([s - p for p in poles]) if (zeros or poles) \
-        else 1.0
-    a0 = float(1.0 / abs(paz)) if normalize else 1.0
+    a0 = normalization_factor(zeros, poles, norm_freq) if normalize else 1.0
     nets = {}
     for tr in stream:
         st = tr.stats

@@ -25,7 +25,7 @@ import os
 
 import numpy as np
 
-from .read import InputError
+from ..errors import InputError
 
 
 def read_reference_noise(path):

@@ -30,13 +30,13 @@ Everything else in the file is left untouched.
 from __future__ import annotations
 
 import copy
-import os
 
 import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
 from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
-from .read import InputError
+from .atomic import atomic_path
+from ..errors import InputError
 
 
 def _errors(entry):
@@ -86,8 +86,8 @@ def written_period_damping(summary, family):
 
 def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response.family import (pendulum_coefficients, pendulum_denominator,
-                                        pendulum_poles, response_family)
+    from ..core.response import (pendulum_coefficients, pendulum_denominator, pendulum_poles,
+                                 response_family)
 
     resp = channel.response
     stage = resp.response_stages[0]
@@ -131,7 +131,8 @@ def update_response(channel, samples, free, summary):
     freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
         # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
-        from ..core.response.evalresp import NotHandled, velocity_response
+        from ..errors import NotHandled
+        from ..core.response import velocity_response
         sens.frequency = float(freq)
         try:
             sens.value = float(abs(velocity_response(resp, [freq])[0]))
@@ -231,8 +232,8 @@ def _decimating_stage(channel):
 def _lean_azimuth(posterior, cid):
     """Interval summary of the SEED azimuth of a near-vertical channel's axis
     (the direction of its horizontal part), unwrapped around its mean."""
-    from ..core.orientation.geometry import azimuth_dip, unwrap_azimuths
-    from ..core.posterior.samples import interval_summary
+    from ..core.orientation import azimuth_dip, unwrap_azimuths
+    from ..core.posterior import interval_summary
 
     az, _ = azimuth_dip(posterior.vectors[:, posterior.channel_ids.index(cid)])
     return interval_summary(unwrap_azimuths(az))
@@ -301,7 +302,6 @@ def write_corrected(inventory, posterior, path, criticism=None):
     """Write :func:`corrected_inventory` as StationXML to ``path``
     (atomically: temporary name, then rename). Returns ``path``."""
     inv = corrected_inventory(inventory, posterior, criticism)
-    tmp = os.fspath(path) + ".tmp"
-    inv.write(tmp, format="STATIONXML", validate=False)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        inv.write(tmp, format="STATIONXML", validate=False)
     return path

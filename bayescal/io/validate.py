@@ -18,7 +18,7 @@ the response evaluation). So the checks work on two levels:
   recording can have.
 
 Each problem is one sentence; :func:`bayescal.io.read.channel_meta` raises
-it as an :class:`bayescal.io.read.InputError` naming the file and the
+it as an :class:`bayescal.errors.InputError` naming the file and the
 channel, so the command line ends with one line and exit code 2.
 """
 from __future__ import annotations
@@ -260,7 +260,7 @@ def _bandpass_problem(k, st, sens):
 def _gain_problem(resp):
     """The gain the fit scales (the first stage's, or the sensitivity) must
     be positive: the fit works with its logarithm."""
-    from ..core.response.family import response_family
+    from ..core.response import response_family
 
     try:
         family = response_family(resp)
@@ -277,7 +277,7 @@ def _gain_problem(resp):
 def _evaluation_problem(resp, fs):
     """None when the response evaluates to finite velocity responses below
     Nyquist and a plausible size at its sensitivity frequency."""
-    from ..core.response.family import evaluate_velocity_response
+    from ..core.response import evaluate_velocity_response
 
     sens = resp.instrument_sensitivity
     f_ref = float(sens.frequency) if sens is not None and sens.frequency else 1.0

@@ -4,4 +4,13 @@
 * :mod:`.batch`  running them, resumable, and writing the tables and report
 
 A shell: may import every layer below it (core, io, criticism, report).
+
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
 """
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".plan": ["default_options", "read_csv_plan", "sds_plan"],
+    ".batch": ["item_seed", "read_log", "run_batch"],
+})

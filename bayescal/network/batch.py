@@ -5,8 +5,8 @@
     >>> items = sds_plan("archive/", "stationxml/")        # one item per station-day
     >>> summary = run_batch(items, "out/", seed=1)         # LocalCluster, all cores
 
-Each item runs the ordinary pipeline (:func:`bayescal.pair.calibrate.calibrate_files`
-for CSV items, :func:`bayescal.pair.calibrate.calibrate` on ObsPy's SDS reader for
+Each item runs the ordinary pipeline (:func:`bayescal.pair.workflow.calibrate_files`
+for CSV items, :func:`bayescal.pair.workflow.calibrate` on ObsPy's SDS reader for
 archive items) on a Dask worker and writes its result
 folder ``out/<label>/`` (``result.json``, ``samples.npz``, ``diagnostics.npz``,
 ``sut_corrected.xml`` as ``bayescal fit`` writes them, and ``item.json``)
@@ -37,6 +37,7 @@ import uuid
 import warnings
 from dataclasses import replace
 
+from ..io.atomic import replace_folder, staging
 from ..io.result import save_posterior, write_json
 
 LOG = "batch_log.jsonl"
@@ -67,43 +68,45 @@ def run_item(item, out):
     thread, worker, error); never
     raises for a problem of the item itself.
     """
-    from ..core.checks.adequacy import ModelMisfitWarning
-    from ..core.posterior.convergence import NotConvergedWarning
+    from ..errors import ModelMisfitWarning, NotConvergedWarning
     from ..io.stationxml import write_corrected
 
     t, cpu = time.time(), time.thread_time()
-    tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
-    os.makedirs(tmp)
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
             "fit_response": item["fit_response"], "seed": item["seed"], "progress": False}
     try:
-        with warnings.catch_warnings():      # both recorded in the batch's table instead
-            warnings.filterwarnings("ignore", category=ModelMisfitWarning)
-            warnings.filterwarnings("ignore", category=NotConvergedWarning)
-            post, sut_inv = _fit_item(item, opts)
-        post = replace(post, meta=post.meta.replace(batch_label=item["label"]))
-        save_posterior(post, tmp)
-        if sut_inv is not None and not isinstance(sut_inv, str):
-            write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
+        with _item_folder(out, item) as tmp:
+            with warnings.catch_warnings():      # both recorded in the batch's table instead
+                warnings.filterwarnings("ignore", category=ModelMisfitWarning)
+                warnings.filterwarnings("ignore", category=NotConvergedWarning)
+                post, sut_inv = _fit_item(item, opts)
+            post = replace(post, meta=post.meta.replace(batch_label=item["label"]))
+            save_posterior(post, tmp)
+            if sut_inv is not None and not isinstance(sut_inv, str):
+                write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
+            seconds, cpu = time.time() - t, time.thread_time() - cpu
+            write_json(os.path.join(tmp, "item.json"),
+                       {**item, "seconds": seconds, "cpu_seconds": cpu})
     except Exception as exc:   # recorded, never fatal to the batch
-        shutil.rmtree(tmp)
         return record_error(item, out, exc, time.time() - t)
-    seconds, cpu = time.time() - t, time.thread_time() - cpu
-    write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds, "cpu_seconds": cpu})
-    _publish(tmp, os.path.join(out, item["label"]))
     return {"label": item["label"], "status": "done", "seconds": seconds, "cpu_seconds": cpu,
             "worker": f"{socket.gethostname()}:{os.getpid()}", "error": None}
+
+
+def _item_folder(out, item):
+    """The staging folder of an item's result folder ``out/<label>/``: made
+    under ``out/.tmp/``, replacing the folder as a whole when complete."""
+    return staging(os.path.join(out, item["label"]), finish=replace_folder,
+                   within=os.path.join(out, TMP))
 
 
 def record_error(item, out, exc, seconds=0.0):
     """Publish ``out/<label>/error.json`` (the one-line message) and
     ``item.json`` atomically; returns the item's status dict."""
     error = f"{type(exc).__name__}: " + (str(exc).strip().splitlines() or [""])[0]
-    tmp = os.path.join(out, TMP, f"{item['label']}.{uuid.uuid4().hex[:8]}")
-    os.makedirs(tmp)
-    write_json(os.path.join(tmp, "error.json"), {"label": item["label"], "error": error})
-    write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})
-    _publish(tmp, os.path.join(out, item["label"]))
+    with _item_folder(out, item) as tmp:
+        write_json(os.path.join(tmp, "error.json"), {"label": item["label"], "error": error})
+        write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})
     return {"label": item["label"], "status": "failed", "seconds": seconds,
             "worker": f"{socket.gethostname()}:{os.getpid()}", "error": error}
 
@@ -111,15 +114,6 @@ def record_error(item, out, exc, seconds=0.0):
 def _time(value):
     from obspy import UTCDateTime
     return None if value in (None, "") else UTCDateTime(value)
-
-
-def _publish(tmp, final):
-    """Move a complete folder into place; an older (failed) one goes first."""
-    if os.path.exists(final):
-        trash = f"{tmp}.old"
-        os.replace(final, trash)
-        shutil.rmtree(trash, ignore_errors=True)
-    os.replace(tmp, final)
 
 
 def _client(scheduler, workers, processes):
@@ -132,7 +126,7 @@ def _client(scheduler, workers, processes):
     return Client(cluster), cluster
 
 
-def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, quiet=False,
+def run_batch(items, out, *, seed=0, scheduler=None, workers=None, processes=True, quiet=False,
               threshold_deg=2.0, gain_threshold_pct=2.0, report=True, paper="a4"):
     """Run every unfinished item of a plan on Dask and write the tables and report.
 
@@ -152,13 +146,10 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
     Returns a dict: counts of ``computed``, ``skipped``, ``failed`` items and
     the paths of ``results.csv`` and the report.
     """
-    from distributed import as_completed
-
     from ..report.batch import results_table, write_report
 
     os.makedirs(out, exist_ok=True)
     shutil.rmtree(os.path.join(out, TMP), ignore_errors=True)   # left by a killed run
-    os.makedirs(os.path.join(out, TMP))
     items = [dict(it, seed=item_seed(seed, it["label"]) if it.get("seed") is None else it["seed"])
              for it in items]
     todo = [it for it in items if item_status(out, it["label"]) != "done"]
@@ -169,28 +160,8 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
     if todo:
         client, cluster = _client(scheduler, workers, processes)
         try:
-            futures = [client.submit(run_item, it, os.path.abspath(out), pure=False,
-                                     key=f"bayescal-item-{it['label']}-{uuid.uuid4().hex[:6]}")
-                       for it in todo]
-            bar = None
-            if not quiet:
-                from tqdm.auto import tqdm
-                # disable=None: a bar on a terminal, none in a log
-                bar = tqdm(total=len(todo), unit="pair", desc="calibrating", disable=None)
-            by_key = {fut.key: it for fut, it in zip(futures, todo)}
-            for fut in as_completed(futures):
-                try:
-                    res = fut.result()
-                except Exception as exc:   # the worker died (memory, crash...)
-                    res = record_error(by_key[fut.key], os.path.abspath(out), exc)
+            for res in _run_on(client, todo, out, quiet):
                 counts["computed" if res["status"] == "done" else "failed"] += 1
-                _log(out, [{"event": res["status"], **res}])
-                if bar is not None:
-                    bar.update(1)
-                    if res["error"]:
-                        bar.write(f"{res['label']}: {res['error']}")
-            if bar is not None:
-                bar.close()
         finally:
             client.close()
             if cluster is not None:
@@ -202,6 +173,35 @@ def run_batch(items, out, seed=0, scheduler=None, workers=None, processes=True, 
         summary.update(write_report(table, out, threshold_deg=threshold_deg,
                                     gain_threshold_pct=gain_threshold_pct, paper=paper))
     return summary
+
+
+def _run_on(client, todo, out, quiet):
+    """Submit the items ``todo`` to ``client``; yield each one's status
+    dict as it finishes (logged, and shown on the progress bar)."""
+    from distributed import as_completed
+
+    futures = [client.submit(run_item, it, os.path.abspath(out), pure=False,
+                             key=f"bayescal-item-{it['label']}-{uuid.uuid4().hex[:6]}")
+               for it in todo]
+    bar = None
+    if not quiet:
+        from tqdm.auto import tqdm
+        # disable=None: a bar on a terminal, none in a log
+        bar = tqdm(total=len(todo), unit="pair", desc="calibrating", disable=None)
+    by_key = {fut.key: it for fut, it in zip(futures, todo)}
+    for fut in as_completed(futures):
+        try:
+            res = fut.result()
+        except Exception as exc:   # the worker died (memory, crash...)
+            res = record_error(by_key[fut.key], os.path.abspath(out), exc)
+        _log(out, [{"event": res["status"], **res}])
+        if bar is not None:
+            bar.update(1)
+            if res["error"]:
+                bar.write(f"{res['label']}: {res['error']}")
+        yield res
+    if bar is not None:
+        bar.close()
 
 
 def _log(out, records):
@@ -223,7 +223,7 @@ def read_log(out):
 def _fit_item(item, opts):
     """The posterior of one plan item and the SUT's inventory (for the
     corrected StationXML)."""
-    from ..pair.calibrate import calibrate, calibrate_files
+    from ..pair.workflow import calibrate, calibrate_files
     from .plan import read_sds_item
 
     if item["kind"] == "files":

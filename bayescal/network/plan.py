@@ -14,7 +14,7 @@ Two ways to make a plan:
   per day".
 
 :func:`read_sds_item` reads an SDS item's recordings (ObsPy) on the worker;
-file items go to :func:`bayescal.pair.calibrate.calibrate_files`.
+file items go to :func:`bayescal.pair.workflow.calibrate_files`.
 """
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ import re
 
 from obspy import Inventory, UTCDateTime
 
-from ..io.read import InputError, read_metadata
+from ..errors import InputError
+from ..io.read import read_metadata
 
 REQUIRED = ("label", "ref", "ref_xml", "sut", "sut_xml")
 OPTIONAL = ("band_min", "band_max", "fit_response", "seed", "start", "end", "sut_id", "ref_id")

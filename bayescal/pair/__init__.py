@@ -1,16 +1,34 @@
 """A pair fit, one step a module, data flowing one way:
 
-* :mod:`.prepare`   recordings and metadata -> :class:`~.prepare.PairData`
+* :mod:`.preparation` :func:`prepare`: recordings and metadata ->
+                    :class:`~.preparation.PairData`
                     (aligned, band chosen, spectra, transients left out)
-* :mod:`.fit`       PairData -> :class:`~bayescal.core.posterior.state.FitState`
+* :mod:`.fitting`   :func:`fit`: PairData -> :class:`~bayescal.core.posterior.state.FitState`
                     (model, least-squares point, samples, convergence)
-* :mod:`.criticise` FitState -> :class:`~bayescal.criticism.verdict.Criticism`
-* :mod:`.choose`    FitState and Criticism -> the frozen
+* :mod:`.criticism` :func:`criticise`: FitState -> :class:`~bayescal.criticism.verdict.Criticism`
+* :mod:`.choice`    :func:`choose`: FitState and Criticism -> the frozen
                     :class:`~bayescal.result.record.Result` (self-noise,
                     the reference's tolerance, the prior flags applied first)
-* :mod:`.calibrate` the four in a row: :func:`~.calibrate.calibrate` and
-                    :func:`~.calibrate.calibrate_files`
+* :mod:`.workflow`  the four in a row: :func:`calibrate` and
+                    :func:`calibrate_files`
 
 May import :mod:`bayescal.core`, :mod:`bayescal.io`, :mod:`bayescal.criticism`
 and :mod:`bayescal.result`.
+
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`)::
+
+    from bayescal.pair import prepare, fit, criticise, choose
+    data = prepare(ref=ref_stream, ref_xml="ref.xml", sut=sut_stream, sut_xml="sut.xml")
+    state = fit(data)
+    result = choose(state, criticise(state), data=data)
 """
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".preparation": ["PairData", "prepare"],
+    ".fitting": ["fit"],
+    ".criticism": ["criticise"],
+    ".choice": ["choose"],
+    ".workflow": ["calibrate", "calibrate_files"],
+})

@@ -1,6 +1,7 @@
 """PDF/PNG reports, one module per kind, figures beside them.
 
-* :mod:`.layout`     what every page shares: context, style, tables, headers
+* :mod:`.layout`     what every page shares: context, style, tables, headers, and
+                     the loop writing a report's pages into its PDF and PNGs
 * :mod:`.axes`       axis helpers: log-frequency ticks, the PSD's unit
 * :mod:`.tables`     rows of the fit report (intervals, nominal, deviations)
 * :mod:`.fit`        the fit report from a result folder
@@ -15,7 +16,18 @@
 * :mod:`.noise`      the self-noise pages (against the NLNM and NHNM)
 
 May import core, io, criticism and coil; never network or cli.
-"""
-from .fit import load_result, write_report
 
-__all__ = ["load_result", "write_report"]
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+"""
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".fit": ["load_result", "write_report"],
+    ".layout": ["A4", "ReportContext"],
+    ".batch": ["COLUMNS", "find_flags", "read_results", "results_table"],
+    ".diagnosis": ["build_figure", "write_page"],
+    ".fit_pages": ["page_convergence", "page_data_fit", "page_summary"],
+    ".noise": ["figure_component", "write_figures"],
+    ".tables": ["angle_rows", "response_rows"],
+})

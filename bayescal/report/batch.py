@@ -25,7 +25,8 @@ import os
 
 import numpy as np
 
-from .layout import page_size, save_pdf_page
+from ..io.atomic import atomic_path
+from .layout import page_size, write_pages
 
 COLUMNS = ("label", "station", "day", "channel", "kind",
            "azimuth", "azimuth_lo95", "azimuth_hi95", "nominal_azimuth",
@@ -107,13 +108,11 @@ def results_table(items, out):
 
 
 def _write_csv(path, columns, rows):
-    tmp = path + ".tmp"
-    with open(tmp, "w", newline="") as fh:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
         w.writeheader()
         for r in rows:
             w.writerow({k: ("" if r.get(k) is None else r.get(k, "")) for k in columns})
-    os.replace(tmp, path)
 
 
 def read_results(path):
@@ -262,8 +261,6 @@ def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, pe
     orientation page) in ``out``; returns their paths and the flags."""
     import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.backends.backend_pdf import PdfPages
 
     rows = read_results(results_csv)
     flags = find_flags(rows, threshold_deg, gain_threshold_pct)
@@ -271,18 +268,13 @@ def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, pe
              "png": os.path.join(out, "report.png")}
     _write_csv(paths["flags"], FLAG_COLUMNS, flags)
     stations = sorted({r["station"] for r in rows if r.get("station") and not r.get("error")})
-    pages = [stations[k:k + per_page] for k in range(0, len(stations), per_page)]
+    groups = [stations[k:k + per_page] for k in range(0, len(stations), per_page)]
     page = page_size(paper)
-    with PdfPages(paths["pdf"] + ".tmp.pdf") as pdf:
-        fig = _text_page(rows, flags, threshold_deg, gain_threshold_pct, page)
-        save_pdf_page(pdf, fig, page)
-        plt.close(fig)
-        for k, stas in enumerate(pages):
-            fig = _figure(rows, flags, stas, threshold_deg, gain_threshold_pct, page)
-            save_pdf_page(pdf, fig, page)
-            if k == 0:
-                fig.savefig(paths["png"] + ".tmp.png", dpi=90)
-                os.replace(paths["png"] + ".tmp.png", paths["png"])
-            plt.close(fig)
-    os.replace(paths["pdf"] + ".tmp.pdf", paths["pdf"])
+
+    def pages():
+        yield None, _text_page(rows, flags, threshold_deg, gain_threshold_pct, page)
+        for k, stas in enumerate(groups):
+            yield (paths["png"] if k == 0 else None), _figure(rows, flags, stas, threshold_deg,
+                                                              gain_threshold_pct, page)
+    write_pages(pages(), paths["pdf"], page=page, dpi=90, grey=False)
     return {**paths, "flag_list": flags}

@@ -1,4 +1,6 @@
-"""Report of a coil calibration of one channel (:class:`bayescal.coil.result.CalFit`).
+"""Report of a coil calibration of one channel, drawn from its folder alone:
+``cal.json`` and ``cal_samples.npz`` (the arrays of
+:meth:`bayescal.coil.result.CalFit.report_arrays`).
 
 Three pages, each a PNG and a page of ``cal_report.pdf``:
 
@@ -22,57 +24,45 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
-from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, save_pdf_page  # noqa: E402
-
-
-def _measured(fit):
-    """Band centres, measured complex response and its sd, from the model."""
-    m = fit.model
-    t, sd = m.measured()
-    sp = m.spectra
-    w = m._saa[:, None] * m._onehot                                  # (F, B) weights
-    fc = (sp.freqs @ w) / w.sum(axis=0)
-    rel = (m.base[0] * m._saa) @ m._onehot / m._saa_b                 # base at band centre
-    return fc, t * rel, sd * np.abs(rel)
+from .cal_time import sine_corner_page, timeseries_page  # noqa: E402
+from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, write_pages  # noqa: E402
 
 
-def response_page(fit, summary, paper="a4"):
+def response_page(summary, arrays, paper="a4"):
     """Measured, fitted and nominal response; ratios to the nominal."""
-    from ..core.response.family import evaluate_velocity_response
-
-    c = fit.curves()
-    f, nom = c["freqs"], c["nominal"]
-    if hasattr(fit.model, "measured"):
-        fc, ratio_m, sd_m = _measured(fit)
+    f, nom = arrays["curve_freqs"], arrays["curve_nominal"]
+    amp, phase = arrays["curve_amp"], arrays["curve_phase"]
+    if "measured_freqs" in arrays:
+        fc, ratio_m, sd_m = arrays["measured_freqs"], arrays["measured_ratio"], arrays["measured_sd"]
+        nom_c = arrays["measured_nominal"]
     else:                                       # time-domain fit: no per-band measurement
         fc, ratio_m, sd_m = np.zeros(0), np.zeros(0, complex), np.zeros(0)
-    nom_c = evaluate_velocity_response(fit.response, fc) if fc.size else np.zeros(0, complex)
+        nom_c = np.zeros(0, complex)
     fig, axes = plt.subplots(2, 2, figsize=page_size(paper, landscape=True), sharex=True)
     (a_amp, a_ph), (r_amp, r_ph) = axes
     a_amp.loglog(f, np.abs(nom), "k--", lw=1, label="nominal")
-    a_amp.fill_between(f, np.abs(nom) * c["amp"][0], np.abs(nom) * c["amp"][2], color="tab:blue",
+    a_amp.fill_between(f, np.abs(nom) * amp[0], np.abs(nom) * amp[2], color="tab:blue",
                        alpha=0.3, lw=0)
-    a_amp.plot(f, np.abs(nom) * c["amp"][1], color="tab:blue", label="fitted (95 % band)")
+    a_amp.plot(f, np.abs(nom) * amp[1], color="tab:blue", label="fitted (95 % band)")
     a_amp.errorbar(fc, np.abs(nom_c * ratio_m), yerr=2 * np.abs(nom_c) * sd_m, fmt=".",
                    color="tab:red", ms=3, label="measured (2 sigma)")
     a_amp.set_ylabel("amplitude (counts per m/s)")
     ph_nom = np.degrees(np.unwrap(np.angle(nom)))
     a_ph.plot(f, ph_nom, "k--", lw=1)
-    a_ph.fill_between(f, ph_nom + c["phase"][0], ph_nom + c["phase"][2], color="tab:blue",
+    a_ph.fill_between(f, ph_nom + phase[0], ph_nom + phase[2], color="tab:blue",
                       alpha=0.3, lw=0)
-    a_ph.plot(f, ph_nom + c["phase"][1], color="tab:blue")
+    a_ph.plot(f, ph_nom + phase[1], color="tab:blue")
     a_ph.plot(fc, np.interp(np.log(fc), np.log(f), ph_nom) + np.degrees(np.angle(ratio_m)), ".",
               color="tab:red", ms=3)
     a_ph.set_ylabel("phase (deg)")
-    r_amp.fill_between(f, c["amp"][0], c["amp"][2], color="tab:blue", alpha=0.3, lw=0)
-    r_amp.plot(f, c["amp"][1], color="tab:blue")
+    r_amp.fill_between(f, amp[0], amp[2], color="tab:blue", alpha=0.3, lw=0)
+    r_amp.plot(f, amp[1], color="tab:blue")
     r_amp.errorbar(fc, np.abs(ratio_m), yerr=2 * sd_m, fmt=".", color="tab:red", ms=3)
     r_amp.axhline(1.0, color="k", ls="--", lw=1)
     r_amp.set_ylabel("amplitude / nominal")
-    r_ph.fill_between(f, c["phase"][0], c["phase"][2], color="tab:blue", alpha=0.3, lw=0)
-    r_ph.plot(f, c["phase"][1], color="tab:blue")
+    r_ph.fill_between(f, phase[0], phase[2], color="tab:blue", alpha=0.3, lw=0)
+    r_ph.plot(f, phase[1], color="tab:blue")
     r_ph.errorbar(fc, np.degrees(np.angle(ratio_m)), yerr=np.degrees(2 * sd_m), fmt=".",
                   color="tab:red", ms=3)
     r_ph.axhline(0.0, color="k", ls="--", lw=1)
@@ -111,16 +101,11 @@ def parameter_lines(summary):
     return lines
 
 
-def residuals_page(fit, summary, paper="a4"):
+def residuals_page(summary, arrays, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
-    from ..core.posterior.convergence import describe_sampler, not_converged_line
+    from ..core.posterior import describe_sampler, not_converged_line
 
-    m = fit.model
-    med = np.median(fit.theta, axis=0)
-    r = m.residual(med)[0][:, 0]
-    var = m.sigma[:, 0, 0].real * m.inflation * m._saa_b
-    z = r / np.sqrt(var / 2)
-    fc = m.spectra.band_centres
+    z, fc = arrays["band_residual"], arrays["band_centres"]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=page_size(paper, landscape=True),
                                  gridspec_kw={"height_ratios": [2, 1]})
     a1.semilogx(fc, z.real, "o", ms=4, label="real")
@@ -154,21 +139,9 @@ def residuals_page(fit, summary, paper="a4"):
     return fig
 
 
-def corner_page(fit, summary, paper="a4"):
+def corner_page(summary, arrays, paper="a4"):
     """Corner plot of the fitted parameters in physical units."""
-    phys = fit.physical()
-    cols, labels = [], []
-    for p, lab in (("period_s", "period (s)"), ("damping", "damping"), ("gain", "gain")):
-        if p in phys:
-            cols.append(phys[p])
-            labels.append(lab)
-    for k, it in enumerate(fit.spec.items):
-        cols.append(phys["hf"][:, k].real)
-        labels.append(f"{it.kind} {it.freq_hz:.3g} Hz re")
-        if it.complex_pair:
-            cols.append(phys["hf"][:, k].imag)
-            labels.append(f"{it.kind} {it.freq_hz:.3g} Hz im")
-    data = np.column_stack(cols)
+    data, labels = arrays["corner_samples"], [str(x) for x in arrays["corner_labels"]]
     fig = plt.figure(figsize=page_size(paper, landscape=True))
     corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
                   plot_datapoints=False, label_kwargs={"fontsize": 8})
@@ -176,29 +149,48 @@ def corner_page(fit, summary, paper="a4"):
     return fig
 
 
-def write_report(fit, folder, paper="a4"):
+#: The pages of each kind of run: (file name, page function).
+PAGES = {"random": [("cal_response.png", response_page), ("cal_residuals.png", residuals_page),
+                    ("cal_corner.png", corner_page)],
+         "step": [("cal_response.png", response_page), ("cal_timeseries.png", timeseries_page),
+                  ("cal_corner.png", corner_page)],
+         "sine": [("cal_timeseries.png", timeseries_page), ("cal_corner.png", sine_corner_page)]}
+
+
+def read_folder(folder):
+    """``(summary, arrays)`` of one channel's calibration folder: ``cal.json``
+    and the arrays of ``cal_samples.npz``."""
+    import json
+
+    with open(os.path.join(folder, "cal.json")) as fh:
+        summary = json.load(fh)
+    with np.load(os.path.join(folder, "cal_samples.npz")) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    return summary, arrays
+
+
+def write_report(summary, arrays, folder, paper="a4"):
     """Write the PNG pages and ``cal_report.pdf`` (landscape pages of
     ``paper``, "a4" or "letter") into ``folder``: for a random run the three
     above; for a step run the response page (fitted and nominal only), the
     time series (:mod:`.cal_time`) and the corner plot; for a sine run the
     time series and the corner plot of amplitude and phase."""
-    from .cal_time import sine_corner_page, timeseries_page
-
-    summary = fit.summary()
-    pages = {"random": [("cal_response.png", response_page),
-                        ("cal_residuals.png", residuals_page), ("cal_corner.png", corner_page)],
-             "step": [("cal_response.png", response_page),
-                      ("cal_timeseries.png", timeseries_page), ("cal_corner.png", corner_page)],
-             "sine": [("cal_timeseries.png", timeseries_page),
-                      ("cal_corner.png", sine_corner_page)]}[fit.kind]
-    paths = []
     pdf_path = os.path.join(folder, "cal_report.pdf")
-    with PdfPages(pdf_path) as pdf:
-        for name, make in pages:
-            fig = make(fit, summary, paper)
-            path = os.path.join(folder, name)
-            fig.savefig(path, dpi=100)
-            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
-            plt.close(fig)
-            paths.append(path)
+    paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
+                         for name, make in PAGES[summary["kind"]]), pdf_path,
+                        page=page_size(paper, landscape=True), dpi=100, grey=False)
     return paths + [pdf_path]
+
+
+def write_report_from_folder(folder, paper="a4"):
+    """Rebuild the report of a ``bayescal cal`` output folder from its files
+    alone: the folder's own ``cal.json``, or (several output channels) each
+    sub-folder's. Returns the paths written."""
+    if os.path.isfile(os.path.join(folder, "cal.json")):
+        return write_report(*read_folder(folder), folder, paper=paper)
+    subs = sorted(d for d in os.listdir(folder)
+                  if os.path.isfile(os.path.join(folder, d, "cal.json")))
+    if not subs:
+        from ..errors import InputError
+        raise InputError(f"{folder}: no cal.json (not a bayescal cal folder)")
+    return [p for d in subs for p in write_report_from_folder(os.path.join(folder, d), paper)]

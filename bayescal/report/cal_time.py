@@ -1,5 +1,6 @@
 """Report pages of a time-domain coil calibration (step or sine; see
-:mod:`bayescal.coil.timedomain`):
+:mod:`bayescal.coil.timedomain`), from the arrays saved with it
+(:meth:`bayescal.coil.timedomain.TimeModel.report_series`):
 
 * ``cal_timeseries.png``: the recorded output and the fitted model (posterior
   median, offset and drift removed) against time, the input below, and the
@@ -21,22 +22,19 @@ import numpy as np  # noqa: E402
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size  # noqa: E402
 
 
-def timeseries_page(fit, summary, paper="a4"):
+def timeseries_page(summary, arrays, paper="a4"):
     """Output, fitted model, input and standardised innovations."""
-    m = fit.model
-    med = np.median(fit.theta, axis=0)
-    t = np.arange(m.x.size) / m.fs
-    model = m.predict(med)[0]
-    resid = m.raw_residual(med)
+    model, resid, e = arrays["series_model"], arrays["series_residual"], arrays["innovations"]
+    fs, skip = float(arrays["series_fs"]), int(arrays["series_skip"])
+    t = np.arange(model.size) / fs
     data = model + resid
-    e = m.innovations(med)[0]
     fig, axes = plt.subplots(3, 1, figsize=page_size(paper, landscape=True),
                              gridspec_kw={"height_ratios": [2, 1, 1]})
     a1, a2, a3 = axes
     a1.plot(t, data, color="0.6", lw=0.6, label="recorded (offset, drift removed)")
     a1.plot(t, model, color="tab:blue", lw=1, label="fitted (posterior median)")
-    if m.skip:
-        a1.axvspan(0, m.skip / m.fs, color="0.9", label="settling time, not fitted")
+    if skip:
+        a1.axvspan(0, skip / fs, color="0.9", label="settling time, not fitted")
     a1.set_ylabel("output (counts)")
     a1.legend(fontsize=8)
     a2.plot(t, resid, color="tab:red", lw=0.5)
@@ -49,7 +47,7 @@ def timeseries_page(fit, summary, paper="a4"):
     a3.set_xlabel(f"standardised innovation (AR({ad['ar_order']}) noise); mean square "
                   f"{ad['misfit']:.3f}, {ad['test']} p = {ad['p_value']:.3g}")
     a3.legend(fontsize=8)
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
     warn = not_converged_line(summary["convergence"])
     fig.suptitle(f"{summary['channel']}: {summary['kind']} calibration, fit in time"
                  + (f"\n{warn}" if warn else ""), fontsize=10 if warn is None else 8)
@@ -57,10 +55,9 @@ def timeseries_page(fit, summary, paper="a4"):
     return fig
 
 
-def sine_corner_page(fit, summary, paper="a4"):
+def sine_corner_page(summary, arrays, paper="a4"):
     """Corner plot of the amplitude ratio and the phase difference."""
-    phys = fit.physical()
-    data = np.column_stack([phys["amplitude_ratio"], phys["phase_difference_deg"]])
+    data = arrays["corner_samples"]
     fig = plt.figure(figsize=(8, 8))
     corner.corner(data, fig=fig, labels=["amplitude / nominal", "phase - nominal (deg)"],
                   levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES, plot_datapoints=False)

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.orientation.geometry import unit_vector
-from ..core.posterior.samples import sampled_azimuth_dip
-from ..core.response.pendulum import damping_over_period
+from ..core.orientation import unit_vector
+from ..core.posterior import sampled_azimuth_dip
+from ..core.response import damping_over_period
 from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_header
 

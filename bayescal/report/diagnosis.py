@@ -6,7 +6,7 @@ import textwrap
 
 import numpy as np
 
-from .layout import page_size
+from .layout import page_size, write_pages
 
 
 def build_figure(diagnosis, paper="a4"):
@@ -16,16 +16,29 @@ def build_figure(diagnosis, paper="a4"):
     and is split into one entry per channel (colour) and one per line style
     (what the line shows), so it stays short however many channels."""
     from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
 
     from .axes import frequency_ticks
 
     d = diagnosis
     edges = np.asarray(d.band_edges)
-    centres = np.sqrt(edges[:-1] * edges[1:])
     fig = Figure(figsize=page_size(paper))
+    fig.text(0.06, 0.97, "\n".join(textwrap.fill(t, 95) for t in _findings(d)), va="top",
+             family="monospace", fontsize=7.5)
+    ax1 = fig.add_axes([0.13, 0.42, 0.58, 0.25])
+    ax2 = fig.add_axes([0.13, 0.08, 0.58, 0.25])
+    colours = _draw_curves(d, ax1, ax2, np.sqrt(edges[:-1] * edges[1:]))
+    _label_panels(ax1, ax2, colours, after=d.final is not d.base)
+    for ax in (ax1, ax2):
+        frequency_ticks(ax, edges[0], edges[-1])
+    return fig
+
+
+def _findings(d):
+    """The page's text: the diagnosis's sentences, a line when the final
+    model's sampler did not converge, and the base model's mismatches."""
+    from ..core.posterior import not_converged_line
+
     text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
-    from ..core.posterior.convergence import not_converged_line
     conv = getattr(d.final, "convergence", None)
     warn = None if conv is None or conv.converged else not_converged_line(
         conv.summary(), "the final model's sampler")
@@ -35,10 +48,14 @@ def build_figure(diagnosis, paper="a4"):
         text.append("Mismatch of the base model: " + "; ".join(
             f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on {', '.join(m['channels'])} "
             f"(p = {m['p_value']:.2g})" for m in d.before["mismatch"]))
-    wrapped = "\n".join(textwrap.fill(t, 95) for t in text)
-    fig.text(0.06, 0.97, wrapped, va="top", family="monospace", fontsize=7.5)
-    ax1 = fig.add_axes([0.13, 0.42, 0.58, 0.25])
-    ax2 = fig.add_axes([0.13, 0.08, 0.58, 0.25])
+    return text
+
+
+def _draw_curves(d, ax1, ax2, centres):
+    """Each channel's misfit (``ax1``) and recorded/predicted ratio
+    (``ax2``) at the band centres; returns one legend entry per channel."""
+    from matplotlib.lines import Line2D
+
     after = d.final is not d.base
     colours = []
     for i, cid in enumerate(d.ids):
@@ -53,38 +70,41 @@ def build_figure(diagnosis, paper="a4"):
                          alpha=0.6)
             ax2.semilogx(centres, 100 * (np.abs(d.ratio_after[:, i]) - 1), "^-", color=c,
                          alpha=0.6)
+    return colours
 
-    def style(fmt, label):
-        return Line2D([], [], color="0.3", ls={"--": "--", ":": ":", "-": "-"}[fmt[1:]],
-                      marker=fmt[0], mfc="white", label=label)
 
+def _style(fmt, label):
+    """A legend entry for a line style (``fmt`` as marker then line, e.g. ``"o--"``)."""
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], color="0.3", ls={"--": "--", ":": ":", "-": "-"}[fmt[1:]],
+                  marker=fmt[0], mfc="white", label=label)
+
+
+def _label_panels(ax1, ax2, colours, after):
+    """Reference lines, axis labels, titles and legends of the two panels."""
     ax1.axhline(1.0, color="k", lw=0.8)
     ax1.set_ylabel("standardised misfit per band\n(1 = fits)", fontsize=8)
     ax1.set_title("misfit before and after modelling the effects (both under the final "
                   "model's noise model)", fontsize=8, loc="left")
-    ax1.legend(handles=colours + [style("o--", "base model"), style("s-", "with the effects")],
+    ax1.legend(handles=colours + [_style("o--", "base model"), _style("s-", "with the effects")],
                fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set_xlabel("frequency (Hz)")
     ax2.set_ylabel("recorded / predicted:\nphase (deg), amplitude - 1 (%)", fontsize=8)
     ax2.set_title("ratio of the SUT's recording to the prediction of the base model and of "
                   "the model with the effects", fontsize=8, loc="left")
-    styles = [style("o--", "phase, base model"), style("^:", "amplitude, base model")]
+    styles = [_style("o--", "phase, base model"), _style("^:", "amplitude, base model")]
     if after:
-        styles += [style("o-", "phase, with the effects"),
-                   style("^-", "amplitude, with the effects")]
+        styles += [_style("o-", "phase, with the effects"),
+                   _style("^-", "amplitude, with the effects")]
     ax2.legend(handles=colours + styles, fontsize=7, loc="upper left",
                bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
-    for ax in (ax1, ax2):
-        frequency_ticks(ax, edges[0], edges[-1])
-    return fig
 
 
 def write_page(diagnosis, stem, paper="a4"):
     """Write ``stem.pdf`` and ``stem.png`` (one page of ``paper``, "a4" or
     "letter"); returns the two paths."""
-    fig = build_figure(diagnosis, paper)
     paths = (f"{stem}.pdf", f"{stem}.png")
-    fig.savefig(paths[0])
-    fig.savefig(paths[1], dpi=80)
+    write_pages([(paths[1], build_figure(diagnosis, paper))], paths[0], dpi=80, grey=False)
     return paths

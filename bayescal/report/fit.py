@@ -21,7 +21,7 @@ import os
 import shutil
 import tempfile
 
-from ..io.read import InputError
+from ..errors import InputError
 from .tables import load_truth
 
 

@@ -17,11 +17,10 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from scipy import stats
 
-from ..core.checks.adequacy import describe
+from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
-from ..core.posterior.modes import multimodal_line
-from ..core.orientation.geometry import tilt_from_vertical
-from ..core.posterior.samples import sampled_azimuth_dip
+from ..core.posterior import multimodal_line, sampled_azimuth_dip
+from ..core.orientation import tilt_from_vertical
 from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
@@ -325,7 +324,7 @@ def page_convergence(ctx):
     if post.trace is not None:
         _trace_panels(fig, ctx, n_rows, trace_h)
     _convergence_table(fig, ctx, table_top, table_h)
-    from ..core.posterior.convergence import describe_sampler
+    from ..core.posterior import describe_sampler
     sampler = describe_sampler(post.meta.sampler)
     fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
              + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"

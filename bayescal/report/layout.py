@@ -1,5 +1,6 @@
 """Shared layout of report pages: the page context, style, PNG output,
-number formatting, tables and page headers.
+number formatting, tables and page headers, and :func:`write_pages`, which
+writes every report's pages into its PDF and PNGs.
 """
 from __future__ import annotations
 
@@ -100,6 +101,54 @@ def save_png(fig, path, dpi=PNG_DPI):
             .convert("L").save(path)
     finally:
         fig.dpi = old_dpi
+
+
+def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=None):
+    """Write a report's pages: each figure on one page of the PDF
+    ``pdf_path`` and, when it has a PNG path, as that PNG. Each figure is
+    closed once written; each file is written under a temporary name and
+    renamed when complete (:func:`bayescal.io.atomic.atomic_path`).
+
+    Parameters
+    ----------
+    pages : iterable of ``(png_path or None, figure)``; a generator builds
+        one figure at a time.
+    pdf_path : the PDF's path.
+    page : (width, height) in inches of every PDF page (:func:`save_pdf_page`);
+        None: each page the size of its figure.
+    dpi : resolution of the PNGs.
+    grey : PNGs in 8-bit greyscale (:func:`save_png`), else in colour as
+        matplotlib writes them.
+    metadata : the PDF's metadata (as ``PdfPages`` takes them).
+
+    Returns
+    -------
+    list of the PNG paths written, in page order.
+    """
+    import sys
+
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ..io.atomic import atomic_path
+
+    pngs = []
+    with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:
+        for png, fig in pages:
+            if page is None:
+                pdf.savefig(fig)
+            else:
+                save_pdf_page(pdf, fig, page)
+            if png is not None:
+                with atomic_path(png) as tmp_png:
+                    if grey:
+                        save_png(fig, tmp_png, dpi)
+                    else:
+                        fig.savefig(tmp_png, dpi=dpi)
+                pngs.append(png)
+            plt = sys.modules.get("matplotlib.pyplot")   # a figure pyplot made is pyplot's
+            if plt is not None:
+                plt.close(fig)
+    return pngs
 
 
 def subject_line(ctx):
@@ -221,7 +270,7 @@ def header_lines(ctx):
     if m.assumption:
         lines += textwrap.wrap(f"Assumed: {m.assumption}", 120)
     if m.reference_noise:
-        from ..core.posterior.samples import describe_treatment
+        from ..core.posterior import describe_treatment
         lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m.reference_noise)}",
                                120)
     if m.method:

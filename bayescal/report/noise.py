@@ -1,5 +1,8 @@
 """Self-noise report (:class:`bayescal.io.noise.NoiseResult`): one A4 page per
-component (Z, N, E), in ``noise.pdf`` and as ``noise_<component>.png``.
+component (Z, N, E), in ``noise.pdf`` and as ``noise_<component>.png``,
+drawn from the output folder alone: ``noise.json`` and the estimates at
+full precision in ``noise_curves.npz`` (:func:`save_curves`,
+:func:`read_result`).
 
 Each page shows every sensor's self-noise estimate with its interval band,
 each channel's recorded PSD (ambient signal plus self-noise, dotted), and
@@ -17,8 +20,8 @@ import textwrap
 
 import numpy as np
 
-from ..core.selfnoise.sleeman import below_resolution, db
-from .layout import A4, LINESTYLES, MARKERS, style
+from ..core.selfnoise import below_resolution, db
+from .layout import A4, LINESTYLES, MARKERS, style, write_pages
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
 #: Periods (s) of the table under the figure (nearest band; outside the band left out).
@@ -133,15 +136,58 @@ def figure_component(comp, result=None):
 def write_figures(result, folder, dpi=PNG_DPI):
     """``noise.pdf`` (one page per component) and ``noise_<component>.png``
     into ``folder``; returns the paths written."""
-    from matplotlib.backends.backend_pdf import PdfPages
-
     pdf_path = os.path.join(folder, "noise.pdf")
-    paths = [pdf_path]
-    with style(), PdfPages(pdf_path) as pdf:
-        for comp in result.components:
-            fig = figure_component(comp, result)
-            fig.savefig(pdf, format="pdf")
-            png = os.path.join(folder, f"noise_{comp.component}.png")
-            fig.savefig(png, dpi=dpi)
-            paths.append(png)
-    return paths
+    with style():
+        pngs = write_pages(((os.path.join(folder, f"noise_{comp.component}.png"),
+                             figure_component(comp, result)) for comp in result.components),
+                           pdf_path, dpi=dpi, grey=False)
+    return [pdf_path] + pngs
+
+
+#: The fields of a :class:`bayescal.core.selfnoise.sleeman.SelfNoise` saved per component.
+CURVE_FIELDS = ("freqs", "psd", "lo", "hi", "dof", "signal", "pair_range")
+
+
+def save_curves(result, folder):
+    """Write ``noise_curves.npz`` into ``folder``: per component ``c`` the
+    channel ids ``<c>_ids``, the fraction of the record used
+    ``<c>_fraction_used`` and each estimate field ``<c>_<field>``
+    (:data:`CURVE_FIELDS`; PSD in (m/s^2)^2/Hz); returns its path."""
+    arrays = {}
+    for comp in result.components:
+        arrays[f"{comp.component}_ids"] = np.array(comp.ids)
+        arrays[f"{comp.component}_fraction_used"] = comp.fraction_used
+        arrays.update({f"{comp.component}_{k}": getattr(comp.estimate, k) for k in CURVE_FIELDS})
+    path = os.path.join(folder, "noise_curves.npz")
+    np.savez(path, **arrays)
+    return path
+
+
+def read_result(folder):
+    """The :class:`bayescal.io.noise.NoiseResult` the figures need, from a
+    ``bayescal noise`` folder's ``noise.json`` and ``noise_curves.npz``."""
+    import json
+
+    from ..core.selfnoise import SelfNoise
+    from ..io.noise import ComponentNoise, NoiseResult
+
+    with open(os.path.join(folder, "noise.json")) as fh:
+        meta = json.load(fh)["meta"]
+    components = []
+    with np.load(os.path.join(folder, "noise_curves.npz")) as npz:
+        for comp, seg in meta["segments"].items():
+            fields = {k: npz[f"{comp}_{k}"] for k in CURVE_FIELDS}
+            ids = [str(c) for c in npz[f"{comp}_ids"]]
+            est = SelfNoise(level=meta["level"], method=meta["method"], ids=ids, **fields)
+            components.append(ComponentNoise(comp, ids, est, seg["nperseg"], seg["n_segments"],
+                                             float(npz[f"{comp}_fraction_used"]),
+                                             tuple(meta["band_hz"])))
+    return NoiseResult(components, meta["fs_hz"], meta["start"], meta["end"], meta["files"],
+                       meta=meta)
+
+
+def write_report_from_folder(folder, paper="a4"):
+    """Redraw the figures of a ``bayescal noise`` folder from its files
+    (:func:`read_result`, :func:`write_figures`; A4 pages whatever
+    ``paper``); returns the paths written."""
+    return write_figures(read_result(folder), folder)

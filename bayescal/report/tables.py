@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.orientation.geometry import NEAR_VERTICAL_DIP_DEG, unit_vector
-from ..io.read import InputError
+from ..core.orientation import NEAR_VERTICAL_DIP_DEG, unit_vector
+from ..errors import InputError
 
 
 #: A channel whose axis lies within this angle (degrees) of the opposite of

@@ -1,4 +1,6 @@
-"""Report pages of a UVW calibration (:class:`bayescal.coil.uvw.UVWResult`).
+"""Report pages of a UVW calibration, drawn from its folder alone:
+``uvw.json`` and ``uvw_samples.npz`` (the arrays of
+:func:`bayescal.coil.uvw.report_arrays`).
 
 Three pages, each a PNG and a page of ``uvw_report.pdf``:
 
@@ -23,29 +25,29 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 
-from ..coil.uvw import ELEMENTS, PARAMS, XYZ, element_ratios  # noqa: E402
-from .layout import page_size, save_pdf_page  # noqa: E402
+from ..coil.uvw import ELEMENTS, PARAMS, XYZ  # noqa: E402
+from .layout import page_size, write_pages  # noqa: E402
 
 COLOURS = {"U": "tab:blue", "V": "tab:orange", "W": "tab:green",
            "X": "tab:red", "Y": "tab:purple", "Z": "tab:brown"}
 LABELS = {"period_s": "period (s)", "damping": "damping", "gain": "gain"}
 
 
-def _band(ax, f, x, colour, label):
-    lo, med, hi = np.percentile(x, [5, 50, 95], axis=0)
+def _band(ax, f, q, colour, label):
+    """A 90 % band and its median line from the quantiles ``q`` (3, F)."""
+    lo, med, hi = q
     ax.fill_between(f, lo, hi, color=colour, alpha=0.3, lw=0)
     ax.plot(f, med, color=colour, lw=1.2, label=label)
 
 
-def _response_panels(fig, f, curves, title):
-    """Amplitude ratio and phase difference (deg) of complex ``curves``
-    (name -> (N, F))."""
+def _response_panels(fig, f, names, amp, phase, title):
+    """Amplitude ratio and phase difference (deg) bands of ``names``
+    (quantiles ``amp``, ``phase``: (len(names), 3, F))."""
     a1, a2 = fig.subplots(2, 1, sharex=True)
-    for name, c in curves.items():
-        _band(a1, f, np.abs(c), COLOURS[name], name)
-        _band(a2, f, np.degrees(np.angle(c)), COLOURS[name], name)
+    for name, qa, qp in zip(names, amp, phase):
+        _band(a1, f, qa, COLOURS[name], name)
+        _band(a2, f, qp, COLOURS[name], name)
     a1.set_xscale("log")
     a1.set_ylabel("amplitude / nominal")
     a2.set_ylabel("phase - nominal (deg)")
@@ -67,13 +69,12 @@ def _cell(entry, digits=5):
     return f"{entry['median']:.{digits}g}\n[{lo:.{digits}g}, {hi:.{digits}g}]"
 
 
-def elements_page(result, summary, paper="a4"):
+def elements_page(summary, arrays, paper="a4"):
     """Element responses over the nominal with 90 % bands, and the table."""
     fig = plt.figure(figsize=page_size(paper, landscape=True))
     left, right = fig.subfigures(1, 2, width_ratios=[1.35, 1])
-    k = element_ratios(result.joint, result.family, result.freqs)
-    _response_panels(left, result.freqs, {e: k[:, j] for j, e in enumerate(ELEMENTS)},
-                     "element responses (90 % bands)")
+    _response_panels(left, arrays["freqs"], ELEMENTS, arrays["element_amp"],
+                     arrays["element_phase"], "element responses (90 % bands)")
     ax = right.subplots()
     ax.axis("off")
     cols = (*PARAMS, "damping_over_period")
@@ -87,7 +88,7 @@ def elements_page(result, summary, paper="a4"):
     tab.scale(1, 3)
     ax.set_title(f"medians [95 %]  ({summary['mode']})\ngain: {summary['gain_units']}",
                  fontsize=8)
-    from ..core.posterior.convergence import not_converged_line
+    from ..core.posterior import not_converged_line
     lines = [not_converged_line(v["convergence"], what=f"the sampler of element {e}")
              for e, v in summary["elements"].items()]
     lines = [x for x in lines if x]
@@ -96,18 +97,16 @@ def elements_page(result, summary, paper="a4"):
     return fig
 
 
-def xyz_page(result, summary, paper="a4"):
+def xyz_page(summary, arrays, paper="a4"):
     """XYZ responses and cross-talk with 90 % bands."""
     fig = plt.figure(figsize=page_size(paper, landscape=True))
     left, right = fig.subfigures(1, 2)
-    t = result.xyz["ratio"]
-    _response_panels(left, result.freqs, {a: t[:, i, i] for i, a in enumerate(XYZ)},
+    _response_panels(left, arrays["freqs"], XYZ, arrays["xyz_amp"], arrays["xyz_phase"],
                      "XYZ responses diag(M^T diag(k) M) (90 % bands)")
     ax = right.subplots()
-    d = np.abs(np.einsum("nllf->nlf", t))
-    for (i, j), col in zip([(0, 1), (0, 2), (1, 2)], ["tab:cyan", "tab:olive", "tab:gray"]):
-        rel = np.abs(t[:, i, j]) / np.sqrt(d[:, i] * d[:, j])
-        _band(ax, result.freqs, 100 * rel, col, f"{XYZ[i]}-{XYZ[j]}")
+    for (i, j), q, col in zip([(0, 1), (0, 2), (1, 2)], arrays["cross_talk_pairs"],
+                              ["tab:cyan", "tab:olive", "tab:gray"]):
+        _band(ax, arrays["freqs"], q, col, f"{XYZ[i]}-{XYZ[j]}")
     ct = summary["cross_talk_max"]
     ax.set_xscale("log")
     ax.set_xlabel("frequency (Hz)")
@@ -119,17 +118,17 @@ def xyz_page(result, summary, paper="a4"):
     return fig
 
 
-def agreement_page(result, summary, paper="a4"):
+def agreement_page(summary, arrays, paper="a4"):
     """Z-only against all-output estimates, and the geometry check."""
     fig, axes = plt.subplots(2, 3, figsize=page_size(paper, landscape=True))
-    modes = [("all outputs" if summary["mode"] != "z-only" else "Z only", result.fits)]
-    if result.z_fits:
-        modes.append(("Z only", result.z_fits))
+    modes = [("all outputs" if summary["mode"] != "z-only" else "Z only", "element")]
+    if all(f"z_only_{e}" in arrays for e in ELEMENTS):
+        modes.append(("Z only", "z_only"))
     for j, p in enumerate(PARAMS):
         ax = axes[0, j]
-        for k, (label, fits) in enumerate(modes):
+        for k, (label, key) in enumerate(modes):
             for i, e in enumerate(ELEMENTS):
-                x = fits[e].samples[:, j]
+                x = arrays[f"{key}_{e}"][:, j]
                 q = np.percentile(x, [2.5, 16, 50, 84, 97.5])
                 y = i + 0.15 * (k - 0.5 * (len(modes) - 1))
                 col = "k" if k == 0 else "tab:red"
@@ -145,10 +144,11 @@ def agreement_page(result, summary, paper="a4"):
         "Z-only comparison not available (Z-only mode, or no Z output)"
     fig.suptitle(note, fontsize=10)
     ax = axes[1, 0]
+    elements = summary["elements"]
     for i, e in enumerate(ELEMENTS):
-        for a, v in result.fits[e].apparent.items():
+        for a, v in elements[e]["apparent_coefficient"].items():
             ax.plot(v["expected"], v["estimate"], "o", color=COLOURS[e],
-                    label=e if a == result.fits[e].outputs[0] else None)
+                    label=e if a == elements[e]["outputs_used"][0] else None)
     lim = [-1.05, 1.05]
     ax.plot(lim, lim, "k:", lw=1)
     ax.set_xlabel("geometry coefficient M[n, c]")
@@ -158,7 +158,7 @@ def agreement_page(result, summary, paper="a4"):
     ax.legend(fontsize=8)
     ax = axes[1, 1]
     for e in ELEMENTS:
-        mis = result.fits[e].misfit
+        mis = elements[e]["misfit"]
         ax.plot(range(len(mis)), list(mis.values()), "o-", color=COLOURS[e], label=e)
         ax.set_xticks(range(len(mis)), list(mis.keys()))
     ax.axhline(1.0, color="k", lw=0.8, ls=":")
@@ -168,21 +168,21 @@ def agreement_page(result, summary, paper="a4"):
     return fig
 
 
-def write_report(result, folder, paper="a4"):
-    """Write the three PNG pages and ``uvw_report.pdf`` (landscape pages of
-    ``paper``, "a4" or "letter") into ``folder``;
+def write_report_from_folder(folder, paper="a4"):
+    """Draw the three PNG pages and ``uvw_report.pdf`` (landscape pages of
+    ``paper``, "a4" or "letter") of a ``bayescal uvw`` folder from its
+    ``uvw.json`` and ``uvw_samples.npz`` alone, into the same folder;
     returns their paths."""
-    summary = result.summary()
+    import json
+
+    with open(os.path.join(folder, "uvw.json")) as fh:
+        summary = json.load(fh)
+    with np.load(os.path.join(folder, "uvw_samples.npz")) as npz:
+        arrays = {k: npz[k] for k in npz.files}
     pages = [("uvw_elements.png", elements_page), ("uvw_xyz.png", xyz_page),
              ("uvw_agreement.png", agreement_page)]
-    paths = []
     pdf_path = os.path.join(folder, "uvw_report.pdf")
-    with PdfPages(pdf_path) as pdf:
-        for name, make in pages:
-            fig = make(result, summary, paper)
-            path = os.path.join(folder, name)
-            fig.savefig(path, dpi=110)
-            save_pdf_page(pdf, fig, page_size(paper, landscape=True))
-            plt.close(fig)
-            paths.append(path)
+    paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
+                         for name, make in pages), pdf_path,
+                        page=page_size(paper, landscape=True), dpi=110, grey=False)
     return paths + [pdf_path]

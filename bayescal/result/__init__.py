@@ -14,3 +14,11 @@ Light on purpose: its modules import only numpy and the standard library,
 so reading a result loads no model, sampler, plotting or ObsPy module.
 Imports no other part of bayescal.
 """
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".record": ["SCHEMA", "Posterior", "Result", "jsonable"],
+    ".meta": ["Meta", "by_channel"],
+    ".convergence": ["Convergence"],
+    ".schema": ["load", "load_posterior", "save", "write_json"],
+})

@@ -12,9 +12,21 @@ The generators import only :mod:`bayescal.core` (:mod:`.selfnoise` builds
 its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` also runs
 :mod:`bayescal.pair` on what it simulates, and :mod:`.harness` computes
 a pair's cross-spectra with :mod:`bayescal.io.align` (neither is imported here).
-"""
-from .coil import simulate_calibration
-from .network import write_network
-from .pair import simulate_pair
 
-__all__ = ["simulate_calibration", "simulate_pair", "write_network"]
+Its public names (``__all__``) are loaded on first use
+(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+"""
+from ..lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".selfnoise": ["DIGITIZER", "STS1", "T240", "estimate_and_truth", "simulate_colocated"],
+    ".pair": ["DIGITIZER_GAIN", "NORM_FREQ", "self_noise_psd", "simulate_pair",
+              "velocity_response"],
+    ".cal": ["HF_NOMINAL", "LP_NOMINAL", "simulate_random_cal", "simulate_sine_cal",
+             "simulate_step_cal"],
+    ".harness": ["KINDS", "REGIMES", "band_noise_truth", "coherences", "concealed_pair",
+                 "draw_truth", "tilt_pair_spectra"],
+    ".coverage": ["binomial_band", "coverage_checks", "draw_case", "run_case", "summarise"],
+    ".coil": ["STS2_NOMINAL", "simulate_calibration"],
+    ".network": ["sds_path", "write_network"],
+})

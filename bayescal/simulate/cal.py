@@ -22,7 +22,7 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.response.family import paz_velocity_response, pendulum_poles
+from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
 from .coil import CalibrationSimulation, white_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
 
@@ -46,13 +46,11 @@ def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_fr
     """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
     conjugates added), gain at ``norm_freq``, a flat digitizer."""
     poles = list(pendulum_poles(period_s, damping)) + _expand(hf_poles)
-    s = 2j * np.pi * norm_freq
-    pz = s * s / np.prod([s - p for p in poles])
     st1 = PolesZerosResponseStage(
         stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
         input_units="M/S", output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
         normalization_frequency=norm_freq, zeros=[0j, 0j], poles=poles,
-        normalization_factor=1.0 / abs(pz))
+        normalization_factor=normalization_factor([0j, 0j], poles, norm_freq))
     st2 = CoefficientsTypeResponseStage(
         stage_sequence_number=2, stage_gain=DIGITIZER_GAIN, stage_gain_frequency=norm_freq,
         input_units="V", output_units="COUNTS", cf_transfer_function_type="DIGITAL",
@@ -63,7 +61,7 @@ def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_fr
     return Response(instrument_sensitivity=sens, response_stages=[st1, st2])
 
 
-def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
+def simulate_random_cal(*, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
                         duration=3 * 3600.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
                         clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, seed=0,
                         **header):
@@ -77,12 +75,14 @@ def simulate_random_cal(truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nom
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
     u = amplitude * prbs(n, clock_samples, seed=int(rng.integers(1 << 30)))
-    return _simulate(u, "random", rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant,
-                     noise_ratio * coil_constant * amplitude, digitizer_noise,
-                     {"noise_ratio": noise_ratio, "seed": seed}, **header)
+    return _simulate(u, "random", rng, truth=truth, hf_true=hf_true, nominal=nominal,
+                     hf_nominal=hf_nominal, fs=fs, coil_constant=coil_constant,
+                     noise_std=noise_ratio * coil_constant * amplitude,
+                     digitizer_noise=digitizer_noise,
+                     extra={"noise_ratio": noise_ratio, "seed": seed}, **header)
 
 
-def simulate_step_cal(truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, fs=20.0,
+def simulate_step_cal(*, truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, fs=20.0,
                       steps=((120.0, 1.0), (900.0, 0.0)), coil_constant=1e-9, amplitude=1e5,
                       noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
     """One step calibration run: the input is 0 counts, then ``amplitude``
@@ -97,13 +97,15 @@ def simulate_step_cal(truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, fs=
     u = np.zeros(n)
     for t0, level in steps:
         u[t >= t0] = amplitude * level
-    return _simulate(u, "step", rng, truth, (), nominal, (), fs, coil_constant,
-                     noise_ratio * coil_constant * amplitude, digitizer_noise,
-                     {"noise_ratio": noise_ratio, "seed": seed, "steps": [list(s) for s in steps]},
-                     **header)
+    return _simulate(u, "step", rng, truth=truth, hf_true=(), nominal=nominal, hf_nominal=(),
+                     fs=fs, coil_constant=coil_constant,
+                     noise_std=noise_ratio * coil_constant * amplitude,
+                     digitizer_noise=digitizer_noise,
+                     extra={"noise_ratio": noise_ratio, "seed": seed,
+                            "steps": [list(s) for s in steps]}, **header)
 
 
-def simulate_sine_cal(freq, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
+def simulate_sine_cal(freq, *, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
                       duration=900.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
                       noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
     """One sine calibration run at ``freq`` Hz (rounded to a whole number of
@@ -119,13 +121,15 @@ def simulate_sine_cal(freq, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf
     u = amplitude * np.sin(2 * np.pi * f0 * np.arange(n) / fs + phase)
     h0 = paz_velocity_response([f0], *truth, extra_poles=_expand(hf_true),
                                digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)[0]
-    return _simulate(u, "sine", rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant,
-                     noise_ratio * coil_constant * amplitude, digitizer_noise,
-                     {"noise_ratio": noise_ratio, "seed": seed, "sine_freq_hz": f0,
-                      "response": [h0.real, h0.imag]}, **header)
+    return _simulate(u, "sine", rng, truth=truth, hf_true=hf_true, nominal=nominal,
+                     hf_nominal=hf_nominal, fs=fs, coil_constant=coil_constant,
+                     noise_std=noise_ratio * coil_constant * amplitude,
+                     digitizer_noise=digitizer_noise,
+                     extra={"noise_ratio": noise_ratio, "seed": seed, "sine_freq_hz": f0,
+                            "response": [h0.real, h0.imag]}, **header)
 
 
-def _simulate(u, kind, rng, truth, hf_true, nominal, hf_nominal, fs, coil_constant, noise_std,
+def _simulate(u, kind, rng, *, truth, hf_true, nominal, hf_nominal, fs, coil_constant, noise_std,
               digitizer_noise, extra, input_channel="BC0", network="XX", station="CAL",
               location="00", start=UTCDateTime(2026, 1, 1)):
     """Output of a channel with the true response to ``C u`` plus self-noise

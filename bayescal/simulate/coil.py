@@ -29,8 +29,8 @@ from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
 from scipy.signal import max_len_seq
 
-from ..core.orientation.geometry import STS2_UVW, azimuth_dip
-from ..core.response.family import paz_velocity_response
+from ..core.orientation import STS2_UVW, azimuth_dip
+from ..core.response import paz_velocity_response
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 ELEMENTS = ("U", "V", "W")
@@ -87,7 +87,7 @@ def white_rfft(rng, nf, std_time, n):
     return out
 
 
-def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, matrix=STS2_UVW,
+def simulate_calibration(*, elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, matrix=STS2_UVW,
                          duration=8 * 3600.0, fs=1.0, coil_constant=1e-9, amplitude=1e5,
                          clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, outputs="xyz",
                          input_channel="BC0", seed=0, network="XX", station="UVW",
@@ -112,13 +112,7 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     iw = 2j * np.pi * freqs
     iw[0] = np.inf                                   # no DC in velocity
-    bc = band_code(fs)
-    if outputs == "xyz":
-        codes, mix = [f"{bc}H1", f"{bc}H2", f"{bc}HZ"], m
-    elif outputs == "uvw":
-        codes, mix = [f"{bc}HU", f"{bc}HV", f"{bc}HW"], np.eye(3)
-    else:
-        raise ValueError("outputs must be 'xyz' or 'uvw'")
+    codes, mix = _outputs(outputs, band_code(fs), m)
     k = np.array([paz_velocity_response(freqs, *el, digitizer_gain=DIGITIZER_GAIN,
                                         norm_freq=NORM_FREQ) for el in elements])
     runs = {}
@@ -134,16 +128,11 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
         out_f = mix.T @ elem
         out_t = np.fft.irfft(out_f, n=n, axis=1)
         out_t += digitizer_noise * rng.standard_normal(out_t.shape)
-        traces = [Trace(data=u.astype(np.float64), header=dict(
-            network=network, station=station, location=location, channel=input_channel,
-            sampling_rate=fs, starttime=t_run))]
-        for c, x in zip(codes, out_t):
-            traces.append(Trace(data=np.ascontiguousarray(x), header=dict(
-                network=network, station=station, location=location, channel=c,
-                sampling_rate=fs, starttime=t_run)))
-        runs[name] = Stream(traces)
+        runs[name] = _run_stream(u, out_t, [input_channel] + codes, network=network,
+                                 station=station, location=location, fs=fs, start=t_run)
         t_run = t_run + duration + 600.0
-    inventory = _inventory(codes, outputs, m, nominal, fs, network, station, location, start)
+    inventory = _inventory(codes, outputs, m, nominal, fs, network=network,
+                           station=station, location=location, start=start)
     truth = {"elements": {nm: {"period_s": float(el[0]), "damping": float(el[1]),
                                "gain": float(el[2])} for nm, el in zip(ELEMENTS, elements)},
              "nominal": {"period_s": nominal[0], "damping": nominal[1], "gain": nominal[2]},
@@ -154,7 +143,28 @@ def simulate_calibration(elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, mat
     return CalibrationSimulation(runs=runs, inventory=inventory, truth=truth)
 
 
-def _inventory(codes, outputs, matrix, nominal, fs, network, station, location, start):
+def _outputs(outputs, bc, matrix):
+    """The output channels' codes and the matrix from elements to outputs."""
+    if outputs == "xyz":
+        return [f"{bc}H1", f"{bc}H2", f"{bc}HZ"], matrix
+    if outputs == "uvw":
+        return [f"{bc}HU", f"{bc}HV", f"{bc}HW"], np.eye(3)
+    raise ValueError("outputs must be 'xyz' or 'uvw'")
+
+
+def _run_stream(u, out_t, channels, *, network, station, location, fs, start):
+    """One run's traces: the coil input ``u`` then the outputs ``out_t``."""
+    traces = [Trace(data=u.astype(np.float64), header=dict(
+        network=network, station=station, location=location, channel=channels[0],
+        sampling_rate=fs, starttime=start))]
+    for c, x in zip(channels[1:], out_t):
+        traces.append(Trace(data=np.ascontiguousarray(x), header=dict(
+            network=network, station=station, location=location, channel=c,
+            sampling_rate=fs, starttime=start)))
+    return Stream(traces)
+
+
+def _inventory(codes, outputs, matrix, nominal, fs, *, network, station, location, start):
     if outputs == "xyz":
         angles = [(0.0, 0.0), (90.0, 0.0), (0.0, -90.0)]
     else:

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import binom
 
-from ..core.orientation.geometry import tilt_components, unit_vector, unwrap_azimuths
-from ..core.posterior.samples import sampled_azimuth_dip
-from ..pair.calibrate import calibrate
+from ..core.orientation import tilt_components, unit_vector, unwrap_azimuths
+from ..core.posterior import sampled_azimuth_dip
+from ..pair.workflow import calibrate
 from .pair import simulate_pair
 
 NOMINAL = (30.0, 0.707, 750.0)
@@ -32,7 +32,7 @@ def draw_case(seed):
 
 def run_case(seed, duration, fs, band, fit_response, **calibrate_kw):
     """One seeded case fitted as ``bayescal fit`` does (``calibrate_kw`` to
-    :func:`bayescal.pair.calibrate.calibrate`, e.g. ``ref_noise``); returns the
+    :func:`bayescal.pair.workflow.calibrate`, e.g. ``ref_noise``); returns the
     result and the truth."""
     azs, dips, resp, coh = draw_case(seed)
     if fit_response == "none":            # response held at nominal: truth must be nominal

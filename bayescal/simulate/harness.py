@@ -141,7 +141,7 @@ def tilt_pair_spectra(seed, coherence, azimuth, level, band=(0.02, 3.0), **effec
     """Cross-spectra of one simulated pair (3600 s at 10 Hz, SUT turned by
     ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
     the pipeline does; ``effects`` go to :func:`simulate_pair`."""
-    from ..core.spectra.welch import cross_spectra
+    from ..core.spectra import cross_spectra
     from ..io.align import align
 
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence,

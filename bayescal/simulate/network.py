@@ -45,7 +45,7 @@ def _seed_for(seed, *parts):
     return zlib.crc32(":".join(str(p) for p in (seed, *parts)).encode()) & 0x7FFFFFFF
 
 
-def write_network(folder, n_stations=3, n_days=3, start="2026-01-01", duration=3600.0, fs=10.0,
+def write_network(folder, *, n_stations=3, n_days=3, start="2026-01-01", duration=3600.0, fs=10.0,
                   seed=0, coherence=0.99, network="XX", rotated_station="ST02", rotation_deg=5.0,
                   rotate_from_day=None, max_offset_deg=0.5):
     """Write the archive, the StationXML and the truth under ``folder``.

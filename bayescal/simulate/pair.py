@@ -35,8 +35,8 @@ from obspy.core.inventory import Channel, Network, Site, Station
 from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
                                            PolesZerosResponseStage, Response)
 
-from ..core.orientation.geometry import unit_vector
-from ..core.response.family import paz_velocity_response, pendulum_poles
+from ..core.orientation import unit_vector
+from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz
@@ -66,8 +66,7 @@ def velocity_response(period_s, damping, gain, norm_freq=NORM_FREQ, digitizer_ga
     """ObsPy ``Response`` of a broadband: two pendulum poles, two zeros at 0,
     gain ``gain`` (V per m/s) at ``norm_freq``, a flat digitizer."""
     poles = list(pendulum_poles(period_s, damping))
-    s = 2j * np.pi * norm_freq
-    a0 = 1.0 / abs(s * s / ((s - poles[0]) * (s - poles[1])))
+    a0 = normalization_factor([0j, 0j], poles, norm_freq)
     st1 = PolesZerosResponseStage(
         stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
         input_units=input_units, output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
@@ -171,7 +170,7 @@ def _drifting(spectrum, n, fs, ppm, chunk_s=10.0):
     return out
 
 
-def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherence=0.9999,
+def simulate_pair(*, duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherence=0.9999,
                   sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                   nominal_azimuth=(0.0, 90.0, 0.0), nominal_dip=(0.0, 0.0, -90.0),
                   sut_response=((30.0, 0.707, 750.0),) * 3, nominal_response=(30.0, 0.707, 750.0),
@@ -196,47 +195,98 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
     n = int(round(duration * fs))
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     g, expected = _plane_waves(rng, freqs, n_waves, diffuse, wave_seed)
-    bc = band_code(fs)
     v_sut = unit_vector(sut_azimuth, sut_dip)
     ref_az, ref_dip = (0.0, 90.0, 0.0), (0.0, 0.0, -90.0)
     v_ref = unit_vector(ref_az, ref_dip)
+    pole_sut, pole_ref = _extra_poles(extra_pole)
+    ground = (rng, freqs, g, expected)
+    xs = _record(*ground, v_sut, sut_response, coherence=coherence, extra=pole_sut,
+                 noise_in_counts=noise_in_counts)
+    xr = _record(*ground, v_ref, [ref_response] * 3, coherence=ref_coherence, extra=pole_ref,
+                 noise_in_counts=noise_in_counts)
+    if tilt_noise:
+        _add_tilt_noise(xs, rng, freqs, expected, v_sut, sut_response, tilt_noise)
+    sut_t = _sut_samples(xs, freqs, n, fs, timing_offset_s=timing_offset_s,
+                         clock_drift_ppm=clock_drift_ppm, polarity_reversal=polarity_reversal,
+                         channel_swap=channel_swap)
+    ref_t = np.fft.irfft(xr, n=n, axis=1)
 
+    bc = band_code(fs)
+    sut_codes = [f"{bc}H1", f"{bc}H2", f"{bc}HZ"]
+    ref_codes = [f"{bc}HN", f"{bc}HE", f"{bc}HZ"]
+    where = dict(network=network, station=station, fs=fs, start=start)
+    truth = {"channels": _truth_channels(f"{network}.{station}.10.", sut_codes, sut_azimuth,
+                                         sut_dip, sut_response),
+             "coherence": coherence, "ref_coherence": ref_coherence, "seed": seed,
+             "noise_in_counts": noise_in_counts,
+             "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
+                         "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
+                         "channel_swap": channel_swap, "tilt_noise": tilt_noise}}
+    if wave_seed is not None:
+        truth["wave_seed"] = wave_seed
+    return SimulatedPair(
+        sut=_stream(sut_t, "10", sut_codes, **where), ref=_stream(ref_t, "00", ref_codes, **where),
+        sut_inventory=_inventory("10", sut_codes, nominal_azimuth, nominal_dip, nominal_response,
+                                 **where),
+        ref_inventory=_inventory("00", ref_codes, ref_az, ref_dip, ref_response, **where),
+        truth=truth)
+
+
+def _extra_poles(extra_pole):
+    """``(SUT's, reference's)`` extra pole (rad/s, or None) of ``extra_pole``
+    = ``(which, corner Hz)``."""
+    if extra_pole is None:
+        return None, None
+    which, fc = extra_pole
+    p = -2 * np.pi * float(fc)
+    return (p, None) if which == "sut" else (None, p)
+
+
+def _truth_channels(prefix, codes, azimuth, dip, response):
+    """The true orientation and response of each SUT channel, by its id."""
+    return {f"{prefix}{c}": {"azimuth_deg": float(a) % 360.0, "dip_deg": float(d),
+                             "period_s": r[0], "damping": r[1], "gain": r[2]}
+            for c, a, d, r in zip(codes, azimuth, dip, response)}
+
+
+def _record(rng, freqs, g, expected, vectors, responses, *, coherence, extra, noise_in_counts):
+    """Spectra (counts) of the channels along ``vectors``: the ground motion
+    ``g`` plus self-noise at squared coherence ``coherence``, through each
+    channel's response (an extra pole ``extra`` rad/s when not None)."""
     # self-noise white in counts is the same on every channel of a sensor
     # (its electronics), at the level that gives the asked coherence on an
     # axis with the mean power of the three ground components
     mean_psd = np.real(np.einsum("fii->f", expected)) / 3.0
+    out = []
+    for k, v in enumerate(vectors):
+        sig = v @ g
+        psd = mean_psd if noise_in_counts else np.real(np.einsum("i,fij,j->f", v, expected, v))
+        t0, h, gain = responses[k]
+        poles = () if extra is None else (extra,)
+        resp = paz_velocity_response(freqs, t0, h, gain, extra_poles=poles,
+                                     digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
+        ground = sig + _noise_like(rng, freqs, psd, coherence, resp if noise_in_counts else None)
+        out.append(ground * resp)
+    return np.array(out)
 
-    def record(vectors, responses, coh, extra=None):
-        out = []
-        for k, v in enumerate(vectors):
-            sig = v @ g
-            psd = mean_psd if noise_in_counts else np.real(np.einsum("i,fij,j->f", v, expected, v))
-            t0, h, gain = responses[k]
-            poles = () if extra is None else (extra,)
-            resp = paz_velocity_response(freqs, t0, h, gain, extra_poles=poles,
-                                         digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
-            ground = sig + _noise_like(rng, freqs, psd, coh, resp if noise_in_counts else None)
-            out.append(ground * resp)
-        return np.array(out)
 
-    pole_sut = pole_ref = None
-    if extra_pole is not None:
-        which, fc = extra_pole
-        p = -2 * np.pi * float(fc)
-        pole_sut, pole_ref = (p, None) if which == "sut" else (None, p)
-    xs = record(v_sut, sut_response, coherence, pole_sut)
-    xr = record(v_ref, [ref_response] * 3, ref_coherence, pole_ref)
-    if tilt_noise:
-        red = np.where(freqs > 0, (0.02 / np.maximum(freqs, 1e-9)) ** 2, 0.0)
-        for k in range(2):
-            psd = np.real(np.einsum("i,fij,j->f", v_sut[k], expected, v_sut[k]))
-            lvl = np.sqrt(tilt_noise * red * np.median(psd) / 2)
-            xs[k] += lvl * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size)) \
-                * paz_velocity_response(freqs, *sut_response[k], digitizer_gain=DIGITIZER_GAIN)
+def _add_tilt_noise(xs, rng, freqs, expected, v_sut, sut_response, tilt_noise):
+    """Add red (tilt) noise to the SUT's two horizontal spectra ``xs`` in place."""
+    red = np.where(freqs > 0, (0.02 / np.maximum(freqs, 1e-9)) ** 2, 0.0)
+    for k in range(2):
+        psd = np.real(np.einsum("i,fij,j->f", v_sut[k], expected, v_sut[k]))
+        lvl = np.sqrt(tilt_noise * red * np.median(psd) / 2)
+        xs[k] += lvl * (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size)) \
+            * paz_velocity_response(freqs, *sut_response[k], digitizer_gain=DIGITIZER_GAIN)
+
+
+def _sut_samples(xs, freqs, n, fs, *, timing_offset_s, clock_drift_ppm, polarity_reversal,
+                 channel_swap):
+    """The SUT's samples from its spectra ``xs``, with the timing, clock,
+    polarity and wiring effects asked for."""
     if timing_offset_s:
         xs = xs * np.exp(-2j * np.pi * freqs * timing_offset_s)[None, :]
     sut_t = np.fft.irfft(xs, n=n, axis=1)
-    ref_t = np.fft.irfft(xr, n=n, axis=1)
     if clock_drift_ppm:
         sut_t = _drifting(xs, n, fs, clock_drift_ppm)
     if polarity_reversal is not None:
@@ -244,45 +294,29 @@ def simulate_pair(duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coherenc
     if channel_swap is not None:
         i, j = channel_swap
         sut_t[[i, j]] = sut_t[[j, i]]
-
-    sut_codes = [f"{bc}H1", f"{bc}H2", f"{bc}HZ"]
-    ref_codes = [f"{bc}HN", f"{bc}HE", f"{bc}HZ"]
-
-    def stream(data, loc, codes):
-        return Stream([Trace(data=np.ascontiguousarray(x), header={
-            "network": network, "station": station, "location": loc, "channel": c,
-            "sampling_rate": fs, "starttime": start}) for x, c in zip(data, codes)])
-
-    def inventory(loc, codes, az, dip, resp):
-        chans = [Channel(code=c, location_code=loc, latitude=0.0, longitude=0.0, elevation=0.0,
-                         depth=0.0, azimuth=float(a) % 360.0, dip=float(d), sample_rate=fs,
-                         start_date=start - 86400,
-                         response=velocity_response(*resp, sample_rate=fs))
-                 for c, a, d in zip(codes, az, dip)]
-        sta = Station(code=station, latitude=0.0, longitude=0.0, elevation=0.0, channels=chans,
-                      site=Site(name="bayescal simulation"), start_date=start - 86400)
-        return Inventory(networks=[Network(code=network, stations=[sta])], source="bayescal.simulate")
-
-    truth = {"channels": {
-        f"{network}.{station}.10.{c}": {"azimuth_deg": float(a) % 360.0, "dip_deg": float(d),
-                                          "period_s": r[0], "damping": r[1], "gain": r[2]}
-        for c, a, d, r in zip(sut_codes, sut_azimuth, sut_dip, sut_response)},
-        "coherence": coherence, "ref_coherence": ref_coherence, "seed": seed,
-        "noise_in_counts": noise_in_counts,
-        "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
-                    "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
-                    "channel_swap": channel_swap, "tilt_noise": tilt_noise}}
-    if wave_seed is not None:
-        truth["wave_seed"] = wave_seed
-    return SimulatedPair(
-        sut=stream(sut_t, "10", sut_codes), ref=stream(ref_t, "00", ref_codes),
-        sut_inventory=inventory("10", sut_codes, nominal_azimuth, nominal_dip,
-                                nominal_response),
-        ref_inventory=inventory("00", ref_codes, ref_az, ref_dip, ref_response),
-        truth=truth)
+    return sut_t
 
 
-def self_noise_psd(freqs, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
+def _stream(data, loc, codes, *, network, station, fs, start):
+    """One sensor's traces."""
+    return Stream([Trace(data=np.ascontiguousarray(x), header={
+        "network": network, "station": station, "location": loc, "channel": c,
+        "sampling_rate": fs, "starttime": start}) for x, c in zip(data, codes)])
+
+
+def _inventory(loc, codes, az, dip, resp, *, network, station, fs, start):
+    """One sensor's StationXML: its channels' orientations and one response."""
+    chans = [Channel(code=c, location_code=loc, latitude=0.0, longitude=0.0, elevation=0.0,
+                     depth=0.0, azimuth=float(a) % 360.0, dip=float(d), sample_rate=fs,
+                     start_date=start - 86400,
+                     response=velocity_response(*resp, sample_rate=fs))
+             for c, a, d in zip(codes, az, dip)]
+    sta = Station(code=station, latitude=0.0, longitude=0.0, elevation=0.0, channels=chans,
+                  site=Site(name="bayescal simulation"), start_date=start - 86400)
+    return Inventory(networks=[Network(code=network, stations=[sta])], source="bayescal.simulate")
+
+
+def self_noise_psd(freqs, *, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
                    ref_coherence=0.9999, sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                    sut_response=((30.0, 0.707, 750.0),) * 3, ref_response=(120.0, 0.707, 1500.0),
                    n_waves=6, diffuse=0.3, noise_in_counts=False, wave_seed=None, **_ignored):

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.response import transfer
+
 #: Nominal responses (rad/s; generator constant V/(m/s)), ../shared/data/README.md.
 STS1 = dict(zeros=[0j, 0j], poles=[-0.01234 + 0.01234j, -0.01234 - 0.01234j,
                                      -39.18 + 49.12j, -39.18 - 49.12j], generator=2200.0)
@@ -43,8 +45,7 @@ def paz_response(s, norm_freq=1.0):
     z, p = np.array(s["zeros"]), np.array(s["poles"])
 
     def raw(f):
-        w = 2j * np.pi * np.asarray(f, float)
-        return np.prod(w[..., None] - z, -1) / np.prod(w[..., None] - p, -1)
+        return transfer(2j * np.pi * np.asarray(f, float), z, p)
     scale = s["generator"] * DIGITIZER / abs(raw(norm_freq))
     return lambda f: scale * raw(f)
 
@@ -168,7 +169,7 @@ def simulate_colocated(duration=7200.0, fs=20.0, seed=0, axis_mismatch=0.0):
     return Colocated(np.array(out), float(fs), seed, axis_mismatch)
 
 
-def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
+def estimate_and_truth(sim, band=None, *, n_boot=400, level=0.9, method="wishart",
                        axis_mismatch=0.0, bands_per_decade=16, min_bins=4, seed=None):
     """Run a simulation through the same spectra and estimator as real data.
 
@@ -178,8 +179,7 @@ def estimate_and_truth(sim, band=None, n_boot=400, level=0.9, method="wishart",
     0.01 Hz up to 0.8 of Nyquist.
     """
     from ..core.selfnoise import sleeman as core
-    from ..core.spectra.dof import band_dof
-    from ..core.spectra.welch import cross_spectra
+    from ..core.spectra import band_dof, cross_spectra
 
     n = sim.data.shape[1]
     band = band or (0.01, 0.4 * sim.fs)

@@ -53,7 +53,7 @@ def main(argv=None):
     if args.bands_per_decade is not None:
         if args.bands_per_decade < 1:
             ap.error("--bands-per-decade must be 1 or more")
-        import bayescal.pair.prepare as pipeline
+        import bayescal.pair.preparation as pipeline
         spectra_fn = pipeline.cross_spectra
         pipeline.cross_spectra = lambda *a, **k: spectra_fn(
             *a, **dict(k, bands_per_decade=args.bands_per_decade))

@@ -197,7 +197,7 @@ def _sizes(kind, truth, hit, ids):
 
 def run_one(seed, kind):
     import bayescal
-    from bayescal.io.read import InputError
+    from bayescal.errors import InputError
     from bayescal.simulate.pair import simulate_pair
 
     kw, truth, regime = draw(seed, kind)

@@ -47,7 +47,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
     run = concealed_pair(seed, p_clean, regime, gain_off)
     sim, kind, kw, truth, coherence = run.sim, run.kind, run.kw, run.truth, run.coherence
     t0 = time.perf_counter()
-    from bayescal.io.read import InputError
+    from bayescal.errors import InputError
     try:
         post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
                                   band=BAND, progress=False, seed=seed, min_ess=200, n_tau=20,

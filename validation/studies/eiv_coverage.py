@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate import simulate_pair
 # NOMINAL and coherences are the studies' built on this one (ec.NOMINAL, ...)
 from bayescal.simulate.harness import NOMINAL, coherences, draw_truth  # noqa: F401

@@ -56,9 +56,9 @@ import numpy as np
 import study_results                          # the sibling module, run as a script
 
 from bayescal.core.response import pendulum
-from bayescal.core.model.likelihood import Priors
-from bayescal.pair.calibrate import calibrate
-from bayescal.io.read import InputError
+from bayescal.core.priors import Priors
+from bayescal.pair.workflow import calibrate
+from bayescal.errors import InputError
 from bayescal.simulate.coverage import binomial_band, coverage_checks, draw_case
 from bayescal.simulate.pair import simulate_pair, velocity_response
 

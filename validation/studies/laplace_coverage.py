@@ -34,7 +34,7 @@ def apply_variant(variant):
     """Monkeypatches for one probe; returns extra ``calibrate`` keywords."""
     import bayescal.core.model.likelihood as lk
     import bayescal.core.model.noisescale as ns
-    import bayescal.pair.prepare as pl
+    import bayescal.pair.preparation as pl
     kw = {}
     for v in filter(None, variant.split("+")):
         if v == "norescale":                       # no SUT-counts row rescaling (quiet model)
@@ -46,8 +46,8 @@ def apply_variant(variant):
             pl.cross_spectra = functools.partial(pl.cross_spectra, bands_per_decade=int(bpd),
                                                  min_bins=int(mb or 8))
         elif v.startswith("shrink"):               # inflation-factor shrinkage weight
-            import bayescal.core.model.eiv as ev         # both models' (eiv imports the value)
-            lk.INFLATION_SHRINK = ev.INFLATION_SHRINK = float(v[6:])
+            import bayescal.core.model.inflation as inflation     # every model's
+            inflation.INFLATION_SHRINK = float(v[6:])
         elif v == "quiet":                         # the reference taken as noise-free
             kw["ref_noise"] = "quiet"
         elif v.startswith("nperseg"):
@@ -63,7 +63,7 @@ def laplace_z(seed, duration=3600.0, fs=10.0, band=(0.01, 1.0), case=None, coher
     the coverage study's case ``seed``, or with ``case`` that case's truth
     (and ``coherence`` if given) simulated with noise and waves of ``seed``."""
     import bayescal.core.fit.run as sm
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.simulate.coverage import NOMINAL, draw_case
     from bayescal.simulate.pair import simulate_pair
     orig = sm.least_squares_fit

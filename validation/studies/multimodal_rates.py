@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 import study_results                          # the sibling module, run as a script
 
-from bayescal.pair.calibrate import calibrate
+from bayescal.pair.workflow import calibrate
 from bayescal.simulate.pair import simulate_pair
 
 SHORT = dict(min_ess=50, n_tau=5, max_steps=2000)

@@ -22,7 +22,7 @@ SEEDS = (3, 5, 6, 7, 8, 9)
 
 def main():
     from bayescal.core.selfnoise import pair_noise
-    from bayescal.pair.calibrate import calibrate
+    from bayescal.pair.workflow import calibrate
     from bayescal.simulate.harness import band_noise_truth
     from bayescal.simulate.pair import simulate_pair
 

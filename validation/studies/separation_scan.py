@@ -23,7 +23,7 @@ import numpy as np
 
 from bayescal.core.checks.separation import WIDE_RATIO
 from bayescal.simulate.harness import NOMINAL, coherences, draw_truth
-from bayescal.pair.calibrate import calibrate  # noqa: E402
+from bayescal.pair.workflow import calibrate  # noqa: E402
 from bayescal.simulate import simulate_pair  # noqa: E402
 from bayescal.simulate.coverage import coverage_checks  # noqa: E402
 

@@ -47,8 +47,7 @@ def main(argv=None):
         diffuse = float(rng.choice([0.0, 0.3, 1.0]))
         p = simulate_pair(duration=dur, fs=fs, seed=1000 + i, coherence=coh,
                           ref_coherence=ref_coh, noise_in_counts=counts, diffuse=diffuse)
-        s, r, f, _ = align(p.sut, p.sut_inventory, p.ref, p.ref_inventory, "SUT", "reference",
-                           None, None)
+        s, r, f, _ = align(p.sut, p.sut_inventory, p.ref, p.ref_inventory)
         band = (0.05 if dur <= 1800 else 0.02, min(0.4, f / 2 * 0.8))
         found = find(cross_spectra(s.data, r.data, f, s.response_fn(), r.response_fn(), band))
         records.append({"seed": 1000 + i, "duration_s": dur, "fs": fs, "coherence": coh,

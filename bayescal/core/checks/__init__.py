@@ -9,4 +9,15 @@
 
 May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
 :mod:`bayescal.core.spectra` and :mod:`bayescal.core.model`.
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".adequacy": ["ALPHA", "band_p_values", "describe", "from_diagnostics", "mismatch_flags"],
+    ".record_length": ["MIN_PERIODS"],
+    ".repeatability": ["reduced_chi_square", "sd_from_ci68"],
+    ".separation": ["WIDE_RATIO", "gain_separation"],
+})

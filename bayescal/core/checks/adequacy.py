@@ -77,11 +77,6 @@ def from_diagnostics(diagnostics, alpha=ALPHA):
                     len(d["ref_ids"]), alpha)
 
 
-class ModelMisfitWarning(UserWarning):
-    """The fit's model check failed: the recordings differ from the model by
-    more than its noise allows (:func:`describe` says where)."""
-
-
 def describe(verdict, next_step=None):
     """One line for a user: the verdict, where the model misses most, and
     what to do next. The test itself is described in the documentation

@@ -5,8 +5,6 @@
 * :mod:`.modes`         several optima of one posterior: searched and weighed
 * :mod:`.unconstrained` a gain the data do not constrain: found and held
 * :mod:`.assemble`      a fit's state put together from its model and samples
-* :mod:`.errors`        :class:`~bayescal.core.fit.errors.FitError`, raised
-                        when a fit cannot proceed
 * :mod:`.rotation`      one reference channel, two SUT horizontals: their
                         common rotation
 
@@ -15,4 +13,17 @@ May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
 :mod:`bayescal.core.checks`, :mod:`bayescal.core.sampling` and
 :mod:`bayescal.core.posterior`: every group but
 :mod:`bayescal.core.selfnoise`.
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".run": ["SPAN_TOLERANCE_DEG", "build_model", "fit_spectra", "judged_response_flags",
+             "least_squares_fit", "span_basis"],
+    ".leastsq": ["TIGHT", "jacobian", "refine", "solve"],
+    ".assemble": ["assemble_posterior", "plugin_meta"],
+    ".unconstrained": ["BOUND_FRACTION", "describe_late", "information", "late_flags",
+                       "prior_bounds"],
+})

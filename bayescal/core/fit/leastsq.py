@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .errors import FitError
+from ...errors import FitError
 
 #: Tolerances of a refinement's passes.
 TIGHT = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)
@@ -63,7 +63,7 @@ def covariance(jac, scale=2.0):
     return 0.5 * (cov + cov.T)
 
 
-def refine(fun, theta0, lo, hi, reestimate, passes, noise_args=tuple, method="lm",
+def refine(fun, theta0, lo, hi, reestimate, passes, *, noise_args=tuple, method="lm",
            jac="2-point", scale=2.0, reestimate_first=True, **kw):
     """Least squares with the noise model re-estimated after each pass.
 

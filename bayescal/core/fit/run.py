@@ -12,12 +12,13 @@ import numpy as np
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
-from .errors import FitError
+from ...errors import FitError
 from .assemble import assemble_posterior, plugin_meta
 from .leastsq import refine
 from ..orientation.geometry import Circle, Fixed, Sphere
 from ..model.eiv import EIVModel
-from ..model.likelihood import ChannelBlock, Model, Priors
+from ..model.likelihood import ChannelBlock, Model
+from ..priors import Priors
 from .unconstrained import prior_bounds
 
 #: A SUT channel is fitted against a two- or one-channel reference only when

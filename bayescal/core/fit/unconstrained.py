@@ -27,7 +27,6 @@ import numpy as np
 
 from ..response import pendulum
 from ..model.jacobian import least_squares_objective
-from ..response.family import gain_prior_factor
 from .leastsq import TIGHT, jacobian, solve
 
 #: Laplace sd / prior sd at or above which a parameter is held at nominal.
@@ -106,18 +105,7 @@ def early_holds(model, theta, ratio=EARLY_RATIO):
 
 def prior_bounds(model):
     """(lo, hi) of every parameter under the priors (infinite for the angles)."""
-    lo, hi = np.full(model.ndim, -np.inf), np.full(model.ndim, np.inf)
-    pr = model.priors
-    for b, (_, sr) in zip(model.blocks, model.slices):
-        if b.free == "none":
-            continue
-        idx = np.arange(model.ndim)[sr]
-        g = np.log(b.family.gain)
-        wide = np.log(gain_prior_factor(b.family, pr))
-        lo[idx[-1]], hi[idx[-1]] = g - wide, g + wide
-        if b.free == "all":       # c0_rel, c1_rel: positive (their prior is not a box)
-            lo[idx[:2]] = 0.0
-    return lo, hi
+    return model.bounds()
 
 
 class Held:

@@ -29,7 +29,9 @@ import numpy as np
 
 from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
-from .likelihood import INFLATION_SHRINK, Model, Priors
+from .inflation import shrunk_inflation
+from .likelihood import Model
+from ..priors import Priors
 
 
 @dataclass
@@ -89,7 +91,7 @@ class EIVModel(Model):
         self._rtol = 1e-2 if ref_noise == "equal" else 1e-10
         cuu = np.real(np.einsum("fii->fi", self._cuu))
         self._suu_nominal = np.einsum("fb,fi->bi", self._onehot, cuu)      # (B, nu)
-        self._cuu_rows = np.einsum("fq,fb,fi->iqb", self._interp, self._onehot, cuu)
+        self._cuu_rows = np.einsum("fq,fb,fi->iqb", self.node_weights, self._onehot, cuu)
         self._k = (spectra.bins_per_band * spectra.n_segments).astype(float)
         self._m = nu * spectra.n_r
         # reference channel of each entry of a flattened (n_u, n_r) residual
@@ -103,7 +105,7 @@ class EIVModel(Model):
         vecs, ratio = self.unpack(theta)
         t = vecs @ self.ref_pinv
         r0 = self.plain_residual_blocks(vecs, ratio, theta)[:, 0]
-        sur = r0 + np.einsum("wij,bjk->wbik", t, self._srr)
+        sur = r0 + np.einsum("wij,bjk->wbik", t, self.reference_band_sums)
         suu = np.broadcast_to(self._suu_nominal, (theta.shape[0],) + self._suu_nominal.shape).copy()
         for j in self._free_rows:
             suu[:, :, j] = (np.abs(ratio[:, j]) ** 2) @ self._cuu_rows[j]
@@ -240,7 +242,7 @@ class EIVModel(Model):
         vecs, ratio = self.unpack(theta0)
         t = (vecs @ self.ref_pinv)[0]
         along = np.argmax(np.abs(t), axis=0)
-        rho_f = ratio[0] @ self._interp.T                                   # (nu, F)
+        rho_f = ratio[0] @ self.node_weights.T                                   # (nu, F)
         d = np.concatenate([rho_f, np.ones((nr, rho_f.shape[1]))], axis=0)  # (n, F)
         s_band = np.einsum("fb,if,fij,jf->bij", self._onehot, d, sp.total, d.conj())
         c_band = s_band / self._k[:, None, None]
@@ -272,11 +274,7 @@ class EIVModel(Model):
         q0 = np.einsum("kbi,bij,kbj->b", x_k, w, x_k)
         adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
         q1 = np.einsum("kbi,bij,kbj->b", x_k[adj + 1], w, x_k[adj])
-        raw = (q0 + 2.0 * q1) / rank
-        pooled = raw.mean()
-        wgt = x_k.shape[0] * rank
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * pooled)
+        c = shrunk_inflation((q0 + 2.0 * q1) / rank, x_k.shape[0] * rank)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
                               weight=plugin.band_weights(band_dof(sp), nu + nr))

@@ -61,69 +61,15 @@ from ..budget import charge
 from ..response import pendulum
 from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
+from .channel import ChannelBlock  # noqa: F401  (re-exported: a Model is built of them)
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
-from ..response.family import TwoPoleFamily, gain_prior_factor
-
-#: Density of the nodes at which response ratios are evaluated.
-NODES_PER_DECADE = 60
+from .inflation import shrunk_inflation
+from .nodes import NODES_PER_DECADE, interpolation_nodes
+from ..response.family import gain_prior_factor
+from ..priors import Priors
 
 #: Fewest time blocks with which the per-block likelihood is used.
 MIN_TIME_BLOCKS = 4
-
-#: Shrinkage weight (in segment x entry counts) of a band's inflation factor
-#: toward the value pooled over bands.
-INFLATION_SHRINK = 50.0
-
-
-@dataclass(frozen=True)
-class Priors:
-    """Explicit, documented priors.
-
-    Orientation: uniform on the sphere (or on the circle of a two-channel
-    reference). Natural period and damping (pair fits and coil
-    calibrations): each log-normal around its nominal value with relative
-    standard deviation ``period_tolerance`` and ``damping_tolerance`` (the
-    manufacturer's tolerance; :mod:`bayescal.core.response.pendulum`). Gain:
-    log-uniform in ``[G_nom / gain_factor, G_nom * gain_factor]``. The
-    reference's gain, period and damping: exact (``reference_tolerance``
-    0) or log-normal with that relative standard deviation
-    (:mod:`bayescal.core.response.reference_tolerance`).
-    """
-
-    gain_factor: float = 10.0
-    period_tolerance: float = pendulum.PERIOD_TOLERANCE
-    damping_tolerance: float = pendulum.DAMPING_TOLERANCE
-    reference_tolerance: float = 0.0
-
-
-@dataclass(frozen=True)
-class ChannelBlock:
-    """How one SUT channel enters the model.
-
-    ``manifold`` (from :mod:`bayescal.core.orientation.geometry`) holds its orientation
-    parameters; ``free`` is ``"none"``, ``"gain"`` or ``"all"`` (period,
-    damping, gain: sampled as ``c0_rel``, ``c1_rel``, ``log_gain``, see
-    :mod:`bayescal.core.response.pendulum`); ``family`` is the channel's parametric
-    response.
-    """
-
-    channel_id: str
-    manifold: object
-    family: TwoPoleFamily | None
-    free: str = "none"
-
-    @property
-    def n_response(self):
-        return {"none": 0, "gain": 1, "all": 3}[self.free]
-
-    @property
-    def n_params(self):
-        return self.manifold.n_params + self.n_response
-
-    def param_names(self):
-        orient = {2: ["orient_a", "orient_b"], 1: ["azimuth_rad"], 0: []}[self.manifold.n_params]
-        resp = {"none": [], "gain": ["log_gain"], "all": [*pendulum.NAMES, "log_gain"]}[self.free]
-        return [f"{self.channel_id}:{p}" for p in orient + resp]
 
 
 @dataclass
@@ -163,11 +109,25 @@ class Model:
         self.blocks = list(blocks)
         self.priors = priors
         self.effects = list(effects)
-        nu = spectra.n_u
-        if len(self.blocks) != nu:
+        if len(self.blocks) != spectra.n_u:
             raise ValueError("one ChannelBlock per SUT channel is needed")
         self.ref_vectors = np.asarray(ref_vectors, float)
         self.ref_pinv = np.linalg.pinv(self.ref_vectors)          # (3, n_r)
+        self._lay_out_parameters()
+        self._fold_spectra(spectra)
+        self._inverse = {k: b.family.inverse_ratio_at(self.nodes)
+                         for k, b in enumerate(self.blocks) if b.free == "all"}
+        self._blocked = [(e, sl) for e, sl in zip(self.effects, self.effect_slices) if e.blocked]
+        self._fold_time_blocks(spectra, per_block)
+        affected = {k for e in self.effects for k in e.rows}
+        self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
+        # a gain alone scales its row of S_ur,b: no product over the nodes needed
+        self._scaled_rows = [k for k in self._free_rows
+                             if self.blocks[k].free == "gain" and k not in affected]
+        self.noise = None
+
+    def _lay_out_parameters(self):
+        """Names and slices of theta: the channel blocks, then the effects."""
         self.names = [n for b in self.blocks for n in b.param_names()]
         self.slices, i = [], 0
         for b in self.blocks:
@@ -181,26 +141,34 @@ class Model:
             self.names += [f"{e.name}:{p}" for p in e.param_names]
             i += e.n_params
         self.ndim = len(self.names)
+
+    def _fold_spectra(self, spectra):
+        """Band sums of the spectra and the SUT rows folded with the
+        interpolation weights."""
+        nu = spectra.n_u
         c = spectra.total
         self._cur = c[:, :nu, nu:]                                  # (F, nu, nr)
         self._cuu = c[:, :nu, :nu]
-        self._srr = spectra.band_sums()[:, nu:, nu:]                # (B, nr, nr)
+        # S_rr,b: the reference's spectra summed over each band, (B, nr, nr)
+        self.reference_band_sums = spectra.band_sums()[:, nu:, nu:]
         # one-hot band membership, (F, B)
         self._onehot = np.eye(spectra.n_bands)[spectra.band_of]
-        # The deconvolution factor H_nom/H(a) is smooth in frequency: it is
-        # evaluated at log-spaced nodes and linearly interpolated (in log f)
-        # to the bins. The interpolation weights are folded into the spectra,
-        # so a likelihood call costs O(nodes), not O(bins).
-        self.nodes, self._interp = interpolation_nodes(spectra.freqs, NODES_PER_DECADE)
+        # The deconvolution factor H_nom/H(a) at log-spaced nodes, and the
+        # (F, Q) weights that interpolate it to the bins (core.model.nodes),
+        # folded into the spectra
+        self.nodes, self.node_weights = interpolation_nodes(spectra.freqs, NODES_PER_DECADE)
         # (nu, Q, B*nr): row i of C_ur, band indicator and weights folded in
         # (folded band by band: the three-operand einsum took ~0.5 s per model)
-        self._cur_rows = fold(self._interp, spectra.band_of, spectra.n_bands, self._cur[None])[0]
+        self._cur_rows = fold(self.node_weights, spectra.band_of, spectra.n_bands, self._cur[None])[0]
         # S_ur,b at nominal response, (B, nu, nr); rows with a free response are recomputed
         self._sur_nominal = spectra.band_sums()[:, :nu, nu:]
-        self._band_nodes = noisescale.band_node_weights(self._onehot, self._interp)
-        self._inverse = {k: b.family.inverse_ratio_at(self.nodes)
-                         for k, b in enumerate(self.blocks) if b.free == "all"}
-        self._blocked = [(e, sl) for e, sl in zip(self.effects, self.effect_slices) if e.blocked]
+        self._band_nodes = noisescale.band_node_weights(self._onehot, self.node_weights)
+
+    def _fold_time_blocks(self, spectra, per_block):
+        """The per-time-block sums a time-dependent effect (or the noise
+        inflation under effects) needs; sets ``per_block`` and the layout
+        the residual uses."""
+        nu = spectra.n_u
         # A time-dependent effect needs the per-time-block likelihood: one
         # residual per band and block (see "Time blocks" in the module notes).
         self.per_block = bool(per_block or self._blocked)
@@ -214,7 +182,7 @@ class Model:
         self._exact_blocks = has_blocks and (self.per_block or bool(self.effects))
         if self._exact_blocks:
             # per time block, as _cur_rows: (G, nu, Q, B*nr)
-            self._cur_blocks = fold(self._interp, spectra.band_of, spectra.n_bands,
+            self._cur_blocks = fold(self.node_weights, spectra.band_of, spectra.n_bands,
                                     bt[:, :, :nu, nu:])
             band = np.einsum("fb,gfij->gbij", self._onehot, bt)
             self._sur_blocks, self._srr_blocks = band[:, :, :nu, nu:], band[:, :, nu:, nu:]
@@ -224,20 +192,14 @@ class Model:
         else:
             self.n_time_blocks = 1
             self._sur_g = self._sur_nominal[None]
-            self._srr_g = self._srr[None]
-        affected = {k for e in self.effects for k in e.rows}
-        self._free_rows = [k for k, b in enumerate(self.blocks) if b.free != "none" or k in affected]
-        # a gain alone scales its row of S_ur,b: no product over the nodes needed
-        self._scaled_rows = [k for k in self._free_rows
-                             if self.blocks[k].free == "gain" and k not in affected]
-        self.noise = None
+            self._srr_g = self.reference_band_sums[None]
 
     # --- parameters -------------------------------------------------------
     def unpack(self, theta):
         """theta (W, ndim) -> SUT axes (W, n_u, 3) and deconvolution factors
         ``H_nom(f) / H(f; a)`` at the interpolation nodes (W, n_u, Q) that turn
         the nominally deconvolved SUT spectra into spectra deconvolved by the
-        parametric response (``ratio @ self._interp.T`` gives them per bin)."""
+        parametric response (``ratio @ self.node_weights.T`` gives them per bin)."""
         theta = np.atleast_2d(theta)
         w, f = theta.shape[0], self.nodes.size
         vecs = np.empty((w, len(self.blocks), 3))
@@ -285,6 +247,14 @@ class Model:
                 vals[:, 2] = np.exp(r[:, 2])
             out[b.channel_id] = vals
         return out
+
+    def bounds(self):
+        """(lo, hi) of every parameter under the priors (infinite for the
+        angles and the effects' parameters)."""
+        lo, hi = np.full(self.ndim, -np.inf), np.full(self.ndim, np.inf)
+        for b, (_, sr) in zip(self.blocks, self.slices):
+            lo[sr], hi[sr] = b.response_bounds(self.priors)
+        return lo, hi
 
     @staticmethod
     def _period_damping(block, r):
@@ -399,6 +369,11 @@ class Model:
         z = self._whiten(theta, factors)
         return np.concatenate([z.real.ravel(), z.imag.ravel()])
 
+    def likelihood_residual(self, theta):
+        """The whitened residual at one ``theta`` with the noise model as
+        set: its squared norm is the weighted Gaussian ``-log L``."""
+        return self.whitened_residual(theta, self.noise.cholesky())
+
     # --- noise model -------------------------------------------------------
     def estimate_noise(self, theta0):
         """Plug-in noise model at ``theta0`` (see module docstring); sets and
@@ -407,12 +382,33 @@ class Model:
         nu = sp.n_u
         vecs, ratio = self.unpack(theta0)
         t = (vecs @ self.ref_pinv)[0]
+        rho_g, sigma = self._residual_covariance(theta0, t, ratio)
+        sigma_inv = np.linalg.inv(sigma)
+        b_inv = np.linalg.inv(self.reference_band_sums)
+        b_inv_g = np.linalg.inv(self._srr_g)                         # (G, B, nr, nr)
+        r_k, adjacent, dof = self._scatter_residuals(theta0, t, rho_g, b_inv)
+        q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
+        q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
+                       r_k[adjacent].conj()).real
+        p = nu * sp.n_r
+        c = shrunk_inflation(dof * (q0 + 2.0 * q1) / p, r_k.shape[0] * p)
+        scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
+        self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
+                                inflation=c, scale0=scale0,
+                                weight=plugin.band_weights(band_dof(sp), nu))
+        return self.noise
+
+    def _residual_covariance(self, theta0, t, ratio):
+        """Per-bin deconvolution factors ``rho_g`` (G, n_u, F) at ``theta0``
+        and the per-bin residual covariance ``Sigma_b`` (B, n_u, n_u)."""
+        sp = self.spectra
+        nu = sp.n_u
         bf = self.block_factors(theta0)
         if bf is None:
-            rho_g = (ratio[0] @ self._interp.T)[None]                # (1, nu, F)
+            rho_g = (ratio[0] @ self.node_weights.T)[None]                # (1, nu, F)
             c_g = sp.total[None]
         else:
-            rho_g = (ratio[0][None] * bf[0]) @ self._interp.T        # (G, nu, F)
+            rho_g = (ratio[0][None] * bf[0]) @ self.node_weights.T        # (G, nu, F)
             c_g = sp.block_totals
         # per-bin residual power summed in each band: sum e e^H
         yu_yu = np.einsum("gif,gfij,gjf->fij", rho_g, c_g[:, :, :nu, :nu], rho_g.conj())
@@ -421,10 +417,14 @@ class Model:
              + t @ sp.total[:, nu:, nu:] @ t.T)
         sum_e = np.einsum("fb,fij->bij", self._onehot, e)
         n_bins = sp.bins_per_band * sp.n_segments
-        sigma = sum_e / n_bins[:, None, None]
-        sigma_inv = np.linalg.inv(sigma)
-        b_inv = np.linalg.inv(self._srr)
-        b_inv_g = np.linalg.inv(self._srr_g)                         # (G, B, nr, nr)
+        return rho_g, sum_e / n_bins[:, None, None]
+
+    def _scatter_residuals(self, theta0, t, rho_g, b_inv):
+        """The residuals whose scatter measures the inflation: (K, B, n_u,
+        n_r), the indices of overlapping neighbours and the degrees-of-freedom
+        correction (B,) or 1."""
+        sp = self.spectra
+        nu = sp.n_u
         # per-segment band residuals, the band's response ratio at its centre
         if self._exact_blocks:
             # An effect's factor can vary within a band (a delay's phase does):
@@ -440,31 +440,14 @@ class Model:
             r_k = r_k - np.einsum("bij,gbjk->gbik", common, self._srr_blocks)
             # blocks share one overlapping segment pair at most: no lag term
             # (after the removal it would measure the removal, not overlap)
-            adjacent = np.zeros(0, int)
             share = np.einsum("bij,gbji->gb", b_inv, self._srr_blocks).real / sp.n_r
-            dof = 1.0 / (1.0 - np.sum(share ** 2, axis=0))             # (B,)
-        else:
-            rho = rho_g[0]
-            rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
-            seg = sp.per_segment
-            r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
-                "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
-            adjacent = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
-            dof = 1.0
-        q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
-        q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
-                       r_k[adjacent].conj()).real
-        p = nu * sp.n_r
-        raw = dof * (q0 + 2.0 * q1) / p
-        pooled = raw.mean()
-        wgt = r_k.shape[0] * p
-        c = (wgt * raw + INFLATION_SHRINK * pooled) / (wgt + INFLATION_SHRINK)
-        c = np.maximum(c, 1e-3 * pooled)
-        scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
-        self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
-                                inflation=c, scale0=scale0,
-                                weight=plugin.band_weights(band_dof(sp), nu))
-        return self.noise
+            return r_k, np.zeros(0, int), 1.0 / (1.0 - np.sum(share ** 2, axis=0))
+        rho = rho_g[0]
+        rho_b = np.stack([rho[:, sp.band_of == b].mean(axis=1) for b in range(sp.n_bands)])
+        seg = sp.per_segment
+        r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
+            "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
+        return r_k, np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg), 1.0
 
     def adopt_noise(self, noise):
         """Set the noise model to ``noise`` (from a model on the same
@@ -485,7 +468,7 @@ class Model:
         # the block-summed residual has covariance Sigma_b (x) S_rr,b^T in
         # either layout: one scale for models with and without time blocks
         la = np.linalg.cholesky(self.noise.A)
-        lb = np.linalg.cholesky(np.linalg.inv(self._srr))
+        lb = np.linalg.cholesky(np.linalg.inv(self.reference_band_sums))
         r = self.residual(np.atleast_2d(theta))[0]
         z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
         return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
@@ -499,22 +482,3 @@ def _times_blocks(t, s):
     flat = s.transpose(2, 0, 1, 3).reshape(nr, g * b * nr)
     out = np.ascontiguousarray(t).reshape(w * nu, nr) @ flat
     return out.reshape(w, nu, g, b, nr).transpose(0, 2, 3, 1, 4)
-
-
-def interpolation_nodes(freqs, per_decade=NODES_PER_DECADE):
-    """Log-spaced nodes spanning ``freqs`` and the (F, Q) matrix of linear
-    interpolation weights (in log frequency) from nodes to bins. With fewer
-    bins than nodes, the bins themselves are the nodes (weights = identity)."""
-    freqs = np.asarray(freqs, float)
-    lo, hi = np.log10(freqs[0]), np.log10(freqs[-1])
-    q = max(2, int(np.ceil((hi - lo) * per_decade)) + 1)
-    if q >= freqs.size:
-        return freqs.copy(), np.eye(freqs.size)
-    nodes = np.logspace(lo, hi, q)
-    x, xn = np.log10(freqs), np.log10(nodes)
-    j = np.clip(np.searchsorted(xn, x, side="right") - 1, 0, q - 2)
-    frac = (x - xn[j]) / (xn[j + 1] - xn[j])
-    weights = np.zeros((freqs.size, q))
-    weights[np.arange(freqs.size), j] = 1.0 - frac
-    weights[np.arange(freqs.size), j + 1] = frac
-    return nodes, weights

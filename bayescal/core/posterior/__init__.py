@@ -4,8 +4,20 @@
 * :mod:`.state`       :class:`~bayescal.core.posterior.state.FitState`: a fit
                       in memory, and the frozen Result built from it
 * :mod:`.modes`       the modes a fit reported: which intervals they lie outside
-* :mod:`.convergence` the convergence warning and how a chain is told to a user
+* :mod:`.convergence` the NOT CONVERGED line and how a chain is told to a user
 
 May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`
 and :mod:`bayescal.core.checks`.
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".samples": ["channel_summaries", "describe_treatment", "interval_summary", "orthogonality",
+                 "sampled_azimuth_dip"],
+    ".state": ["FitState"],
+    ".modes": ["describe", "multimodal_line"],
+    ".convergence": ["describe_sampler", "not_converged_line"],
+})

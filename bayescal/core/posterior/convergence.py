@@ -7,11 +7,6 @@ stored result's readers use it without importing the sampling code
 from __future__ import annotations
 
 
-class NotConvergedWarning(UserWarning):
-    """A chain stopped at ``max_steps`` without meeting the convergence rule:
-    its intervals are provisional."""
-
-
 def not_converged_line(convergence, what="the sampler", option="--max-steps"):
     """The one line said for a chain that stopped at ``max_steps`` (None when
     it converged). ``convergence``: a result's ``convergence`` entry

@@ -41,6 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .paz import transfer
+from ...errors import NotHandled
+
 FIR_NORM_TOL = 0.02
 
 _DIS, _VEL, _ACC = "DIS", "VEL", "ACC"
@@ -59,10 +62,6 @@ for _kind, _names in (
 _SCALE = {**dict.fromkeys(("CM/S**2", "CM/S", "CM/SEC", "CM"), 1e2),
           **dict.fromkeys(("MM/S**2", "MM/S", "MM/SEC", "MM"), 1e3),
           **dict.fromkeys(("NM/S**2", "NM/S", "NM/SEC", "NM"), 1e9)}
-
-
-class NotHandled(Exception):
-    """A response this module does not evaluate (ObsPy is asked instead)."""
 
 
 def _unit(name):
@@ -91,52 +90,59 @@ class _Stage:
             self.dt = 0.0 if rate == 0 else 1.0 / rate
             self.correction = float(st.decimation_correction)
         self.type, self.a0, self.a0_freq = None, 1.0, None
-        if kind == "PolesZerosResponseStage":
-            tf = st.pz_transfer_function_type
-            self.type = {"LAPLACE (RADIANS/SECOND)": "LAPLACE", "LAPLACE (HERTZ)": "ANALOG",
-                         "DIGITAL (Z-TRANSFORM)": "IIR_PZ"}.get(tf)
-            if self.type is None:
-                raise NotHandled(f"transfer function {tf!r}")
-            self.zeros = np.array([complex(z) for z in st.zeros])
-            self.poles = np.array([complex(p) for p in st.poles])
-            self.a0, self.a0_freq = st.normalization_factor, st.normalization_frequency
-            if self.type == "IIR_PZ" and (self.zeros.size or self.poles.size) and self.dt is None:
-                raise NotHandled("digital poles and zeros without decimation")
-            if self.type == "IIR_PZ" and not (self.zeros.size or self.poles.size):
-                self.type = "EMPTY"
-        elif kind == "CoefficientsTypeResponseStage":
-            num = np.array([float(c) for c in st.numerator])
-            den = np.array([float(c) for c in st.denominator])
-            if den.size:
-                self.type, self.num, self.den = "IIR_COEFFS", num, den
-            else:
-                if str(st.cf_transfer_function_type).lower() != "digital":
-                    raise NotHandled("FIR that is not digital")
-                self.type, self.coeffs = "FIR_ASYM", num
-                self._check_sym()
-            if self.dt is None:
-                raise NotHandled("digital filter without decimation")
-        elif kind == "FIRResponseStage":
-            self.coeffs = np.array([float(c) for c in st.coefficients])
-            self.type = {"NONE": "FIR_ASYM", "ODD": "FIR_SYM_1",
-                         "EVEN": "FIR_SYM_2"}.get(st.symmetry)
-            if self.type is None:
-                raise NotHandled(f"FIR symmetry {st.symmetry!r}")
-            if self.type == "FIR_ASYM":
-                self._check_sym()
-            if self.dt is None:
-                raise NotHandled("FIR without decimation")
-        elif kind == "ResponseStage":
-            if not self.has_gain:
-                raise NotHandled("a stage with neither filter nor gain")
-            if self.dt is not None:
-                raise NotHandled("a decimation without a filter")
-            self.type = "GAIN"
-        else:
+        read = {"PolesZerosResponseStage": self._read_paz,
+                "CoefficientsTypeResponseStage": self._read_coefficients,
+                "FIRResponseStage": self._read_fir, "ResponseStage": self._read_gain}.get(kind)
+        if read is None:
             raise NotHandled(f"stage type {kind}")
+        read(st)
         if self.type in ("FIR_ASYM", "FIR_SYM_1", "FIR_SYM_2") and not self.coeffs.size:
             self.type = "EMPTY"
         self.h0 = 1.0
+
+    def _read_paz(self, st):
+        tf = st.pz_transfer_function_type
+        self.type = {"LAPLACE (RADIANS/SECOND)": "LAPLACE", "LAPLACE (HERTZ)": "ANALOG",
+                     "DIGITAL (Z-TRANSFORM)": "IIR_PZ"}.get(tf)
+        if self.type is None:
+            raise NotHandled(f"transfer function {tf!r}")
+        self.zeros = np.array([complex(z) for z in st.zeros])
+        self.poles = np.array([complex(p) for p in st.poles])
+        self.a0, self.a0_freq = st.normalization_factor, st.normalization_frequency
+        if self.type == "IIR_PZ" and (self.zeros.size or self.poles.size) and self.dt is None:
+            raise NotHandled("digital poles and zeros without decimation")
+        if self.type == "IIR_PZ" and not (self.zeros.size or self.poles.size):
+            self.type = "EMPTY"
+
+    def _read_coefficients(self, st):
+        num = np.array([float(c) for c in st.numerator])
+        den = np.array([float(c) for c in st.denominator])
+        if den.size:
+            self.type, self.num, self.den = "IIR_COEFFS", num, den
+        else:
+            if str(st.cf_transfer_function_type).lower() != "digital":
+                raise NotHandled("FIR that is not digital")
+            self.type, self.coeffs = "FIR_ASYM", num
+            self._check_sym()
+        if self.dt is None:
+            raise NotHandled("digital filter without decimation")
+
+    def _read_fir(self, st):
+        self.coeffs = np.array([float(c) for c in st.coefficients])
+        self.type = {"NONE": "FIR_ASYM", "ODD": "FIR_SYM_1", "EVEN": "FIR_SYM_2"}.get(st.symmetry)
+        if self.type is None:
+            raise NotHandled(f"FIR symmetry {st.symmetry!r}")
+        if self.type == "FIR_ASYM":
+            self._check_sym()
+        if self.dt is None:
+            raise NotHandled("FIR without decimation")
+
+    def _read_gain(self, st):
+        if not self.has_gain:
+            raise NotHandled("a stage with neither filter nor gain")
+        if self.dt is not None:
+            raise NotHandled("a decimation without a filter")
+        self.type = "GAIN"
 
     def _check_sym(self):
         c = self.coeffs
@@ -154,6 +160,31 @@ class _Stage:
                 self.type, c = "FIR_SYM_1", c[:nc - n0]
         self.coeffs = c
 
+    def normalise(self, sensfreq):
+        """``norm_resp`` for this stage: its gain moved to ``sensfreq`` (its
+        ``A0`` or ``h0`` recomputed there); returns the gain."""
+        if self.gain == 0.0:
+            raise NotHandled("zero stage gain")
+        pz = self.type in ("LAPLACE", "ANALOG", "IIR_PZ")
+        if self.gain_freq != sensfreq or (pz and self.a0_freq != sensfreq):
+            if self.type in ("LAPLACE", "ANALOG", "IIR_PZ", "FIR_SYM_1", "FIR_SYM_2", "FIR_ASYM",
+                             "IIR_COEFFS"):
+                if pz:
+                    self.a0 = 1.0
+                else:
+                    self.h0 = 1.0
+                df = abs(self._filt_norm(self.gain_freq))
+                of = abs(self._filt_norm(sensfreq))
+                if df == 0.0 or of == 0.0:
+                    raise NotHandled("a gain frequency where the filter is zero")
+                self.gain = self.gain / df * of
+                self.gain_freq = sensfreq
+                if pz:
+                    self.a0, self.a0_freq = 1.0 / of, sensfreq
+                else:
+                    self.h0 = 1.0 / of
+        return self.gain
+
     # -- evaluation of the filter (without the stage gain), vectorised -------
     def filt(self, freq):
         """The stage's filter at frequencies ``freq`` (Hz), as ``calc_resp``
@@ -162,15 +193,9 @@ class _Stage:
         w = 2 * np.pi * freq
         t = self.type
         if t in ("LAPLACE", "ANALOG"):
-            s = 1j * (w if t == "LAPLACE" else freq)
-            num = np.prod(s[..., None] - self.zeros, axis=-1) if self.zeros.size else 1.0
-            den = np.prod(s[..., None] - self.poles, axis=-1) if self.poles.size else 1.0
-            return self.a0 * num / den * np.ones_like(s)
+            return transfer(1j * (w if t == "LAPLACE" else freq), self.zeros, self.poles, self.a0)
         if t == "IIR_PZ":
-            z = np.exp(1j * w * self.dt)
-            num = np.prod(z[..., None] - self.zeros, axis=-1) if self.zeros.size else 1.0
-            den = np.prod(z[..., None] - self.poles, axis=-1) if self.poles.size else 1.0
-            return self.a0 * num / den * np.ones_like(z)
+            return transfer(np.exp(1j * w * self.dt), self.zeros, self.poles, self.a0)
         if t == "IIR_COEFFS":
             e = np.exp(-1j * np.outer(w * self.dt, np.arange(max(self.num.size, self.den.size))))
             return self.h0 * (e[:, :self.num.size] @ self.num) / (e[:, :self.den.size] @ self.den)
@@ -208,19 +233,41 @@ def velocity_response(response, freqs):
     """Complex velocity response (counts per m/s) of an ObsPy ``Response`` at
     ``freqs`` (Hz), as ObsPy's evalresp gives it; raises :class:`NotHandled`
     for what this evaluation does not cover (see the module docstring)."""
+    stages = _stages(response)
+    sens = response.instrument_sensitivity
+    first_in = stages[0].in_units or (sens.input_units if sens is not None else None)
+    kind, scale = _unit(first_in)
+    _check_units(stages)
+    calc_sensit = _normalise(stages, _sensitivity_frequency(stages, sens))
+    freqs = np.asarray(freqs, dtype=float)
+    out = np.full(freqs.shape, calc_sensit * scale, dtype=complex)
+    for st in stages:
+        out *= st.filt(freqs)
+    w = 2 * np.pi * freqs
+    if kind == _DIS:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.where(w != 0.0, out * (-1j / w), 0.0)
+    elif kind == _ACC:
+        out = out * (1j * w)
+    return out
+
+
+def _stages(response):
+    """The response's stages in sequence order, as :class:`_Stage`."""
     raw = list(getattr(response, "response_stages", None) or [])
     if not raw:
         raise NotHandled("no response stages")
     seqs = [st.stage_sequence_number for st in raw]
     if len(set(seqs)) != len(seqs):
         raise NotHandled("a repeated stage number")
-    raw = [raw[i] for i in np.argsort(seqs, kind="stable")]
-    stages = [_Stage(st) for st in raw]
-    sens = response.instrument_sensitivity
-    first_in = stages[0].in_units or (sens.input_units if sens is not None else None)
-    kind, scale = _unit(first_in)
+    return [_Stage(raw[i]) for i in np.argsort(seqs, kind="stable")]
+
+
+def _check_units(stages):
+    """``check_channel``'s units check: each filter stage's input units are
+    of the kind of the previous filter stage's output units."""
     prev = None
-    for st in stages:                               # check_channel's units check
+    for st in stages:
         if st.type == "GAIN":
             continue
         if st.seq == 0 or st.in_units is None or st.out_units is None:
@@ -228,6 +275,12 @@ def velocity_response(response, freqs):
         if prev is not None and _unit(prev.out_units)[0] != _unit(st.in_units)[0]:
             raise NotHandled("units mismatch between stages")
         prev = st
+
+
+def _sensitivity_frequency(stages, sens):
+    """The frequency every stage gain is normalised to (``check_channel``):
+    the sensitivity's, else the last stage gain's; a lone stage without gain
+    takes the sensitivity as its gain."""
     if sens is not None:
         if not sens.value:
             raise NotHandled("a zero or missing sensitivity")
@@ -246,39 +299,14 @@ def velocity_response(response, freqs):
         for st in stages:
             if st.has_gain and st.gain_freq != 0.0:
                 sensfreq = float(st.gain_freq)
+    return sensfreq
+
+
+def _normalise(stages, sensfreq):
+    """``norm_resp``: each stage's gain moved to ``sensfreq``
+    (:meth:`_Stage.normalise`); returns the product of the stage gains."""
     calc_sensit = 1.0
-    for st in stages:                               # norm_resp
-        if not st.has_gain:
-            continue
-        if st.gain == 0.0:
-            raise NotHandled("zero stage gain")
-        pz = st.type in ("LAPLACE", "ANALOG", "IIR_PZ")
-        if st.gain_freq != sensfreq or (pz and st.a0_freq != sensfreq):
-            if st.type in ("LAPLACE", "ANALOG", "IIR_PZ", "FIR_SYM_1", "FIR_SYM_2", "FIR_ASYM",
-                           "IIR_COEFFS"):
-                if pz:
-                    st.a0 = 1.0
-                else:
-                    st.h0 = 1.0
-                df = abs(st._filt_norm(st.gain_freq))
-                of = abs(st._filt_norm(sensfreq))
-                if df == 0.0 or of == 0.0:
-                    raise NotHandled("a gain frequency where the filter is zero")
-                st.gain = st.gain / df * of
-                st.gain_freq = sensfreq
-                if pz:
-                    st.a0, st.a0_freq = 1.0 / of, sensfreq
-                else:
-                    st.h0 = 1.0 / of
-        calc_sensit *= st.gain
-    freqs = np.asarray(freqs, dtype=float)
-    out = np.full(freqs.shape, calc_sensit * scale, dtype=complex)
     for st in stages:
-        out *= st.filt(freqs)
-    w = 2 * np.pi * freqs
-    if kind == _DIS:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.where(w != 0.0, out * (-1j / w), 0.0)
-    elif kind == _ACC:
-        out = out * (1j * w)
-    return out
+        if st.has_gain:
+            calc_sensit *= st.normalise(sensfreq)
+    return calc_sensit

@@ -23,6 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .paz import transfer
+from ...errors import ResponseError
+
 #: Names of the response parameters, in the order used everywhere.
 RESPONSE_PARAMS = ("period_s", "damping", "gain")
 
@@ -42,16 +45,13 @@ def units_label(output_units, input_units):
     out, inp = word(output_units), word(input_units)
     return f"{out}/({inp})" if "/" in inp else f"{out}/{inp}"
 
-class ResponseError(ValueError):
-    """A response cannot be used as asked (missing stage, wrong type...)."""
-
-
 def evaluate_velocity_response(response, freqs):
     """Complex velocity response (counts per m/s) of an ObsPy ``Response``:
     evaluated in numpy as evalresp does (:mod:`bayescal.core.response.evalresp`, no
     ``obspy.signal`` import), by ObsPy's evalresp for what that does not
     cover."""
-    from .evalresp import NotHandled, velocity_response
+    from ...errors import NotHandled
+    from .evalresp import velocity_response
 
     freqs = np.asarray(freqs, dtype=float)
     try:
@@ -245,12 +245,9 @@ def paz_velocity_response(freqs, period_s, damping, gain, extra_poles=(), digiti
     ObsPy's evaluation, and by tests as a second construction."""
     s = 2j * np.pi * np.asarray(freqs, dtype=float)
     sn = 2j * np.pi * norm_freq
-    w0 = 2 * np.pi / period_s
+    c1, c0 = pendulum_coefficients(period_s, damping)
 
     def paz(x):
-        out = x * x / (x * x + 2 * damping * w0 * x + w0 * w0)
-        for p in extra_poles:
-            out = out / (x - p)
-        return out
+        return x * x / pendulum_denominator(x, c1, c0) * transfer(x, (), extra_poles)
 
     return gain * digitizer_gain * paz(s) / np.abs(paz(sn))

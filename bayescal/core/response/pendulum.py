@@ -162,21 +162,7 @@ def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol, extra_var=
     """
     theta = np.asarray(theta, float)
     n = theta.size
-    q = np.zeros((n, n))
-    grads = {}
-    devs = {}
-    for cid, (i0, i1) in blocks.items():
-        c0, c1 = theta[i0], theta[i1]
-        prec, jac = prior_precision(c0, c1, period_tol, damping_tol)
-        idx = np.array([i0, i1])
-        q[np.ix_(idx, idx)] += prec
-        # rows: ln T0, ln h, ln(h / T0) = ln c1_rel + const
-        g = np.zeros((3, n))
-        g[0, idx], g[1, idx] = jac[0], jac[1]
-        g[2, i1] = 1.0 / c1
-        grads[cid] = g
-        x, y = log_deviations(c0, c1)
-        devs[cid] = (idx, jac, np.array([x / period_tol ** 2, y / damping_tol ** 2]))
+    q, grads, devs = _prior_terms(theta, blocks, period_tol, damping_tol)
     cov1 = np.linalg.pinv(fisher + q, hermitian=True)
     out = {cid: {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0}
                  for name in ("period_s", "damping", "damping_over_period")} for cid in blocks}
@@ -203,6 +189,29 @@ def prior_sensitivity(fisher, theta, blocks, period_tol, damping_tol, extra_var=
         for e in entries.values():
             e["set_by_prior"] = bool(e["shift_sd"] > SHIFT_SD or e["width_ratio"] > WIDTH_RATIO)
     return out
+
+
+def _prior_terms(theta, blocks, period_tol, damping_tol):
+    """The prior's pieces at ``theta``: ``(q, grads, devs)``, its precision
+    (n, n), per channel the gradients (3, n) of ln T0, ln h and ln(h / T0),
+    and per channel ``(indices, jacobian, scaled log deviations)``."""
+    n = theta.size
+    q = np.zeros((n, n))
+    grads = {}
+    devs = {}
+    for cid, (i0, i1) in blocks.items():
+        c0, c1 = theta[i0], theta[i1]
+        prec, jac = prior_precision(c0, c1, period_tol, damping_tol)
+        idx = np.array([i0, i1])
+        q[np.ix_(idx, idx)] += prec
+        # rows: ln T0, ln h, ln(h / T0) = ln c1_rel + const
+        g = np.zeros((3, n))
+        g[0, idx], g[1, idx] = jac[0], jac[1]
+        g[2, i1] = 1.0 / c1
+        grads[cid] = g
+        x, y = log_deviations(c0, c1)
+        devs[cid] = (idx, jac, np.array([x / period_tol ** 2, y / damping_tol ** 2]))
+    return q, grads, devs
 
 
 def _weighted_quantiles(x, w, q):
@@ -250,74 +259,115 @@ def reweighted_sensitivity(samples, blocks, period_tol, damping_tol, reported=No
     n_draws = float(n_eff) if n_eff is not None else float(len(samples))
     out, undecided, extra = {}, {}, {}
     for cid, (i0, i1) in blocks.items():
-        x, y = log_deviations(samples[:, i0], samples[:, i1])
-        quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
-        own = {"period_s": x, "damping": y, "damping_over_period": y - x}
-        if reported is not None and cid in reported:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                rx, ry = np.log(np.asarray(reported[cid], float)[:, :2]).T
-            ok = np.isfinite(rx) & np.isfinite(ry) & np.isfinite(quad)
-            if ok.mean() >= 0.5:        # judged on the rows reported as numbers
-                x, y, quad = rx[ok], ry[ok], quad[ok]
-                extra[cid] = [max(_half_width(r) ** 2 - _half_width(v[ok]) ** 2, 0.0)
-                              for r, v in zip((x, y, y - x), own.values())]
-            # else: too few reported values to judge; the model's own are
+        x, y, quad, more = _judged_values(
+            samples[:, i0], samples[:, i1], period_tol, damping_tol,
+            reported[cid] if reported is not None and cid in reported else None)
+        if more is not None:
+            extra[cid] = more
         n1 = n_draws * x.size / len(samples)
-        values = {"period_s": x, "damping": y, "damping_over_period": y - x}
-        entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0,
-                          "mc_se": {"shift_sd": 0.0, "width_ratio": 0.0}} for name in values}
-        ones = np.ones(x.size)
-        base = {name: _weighted_quantiles(v, ones, (0.16, 0.5, 0.84)) for name, v in values.items()}
-        beyond = False
-        for s in PRIOR_SCALES:
-            logw = -(1.0 / s ** 2 - 1.0) * quad
-            w = np.exp(logw - np.max(logw))
-            share = w.sum() ** 2 / np.sum(w * w) / x.size
-            if not share >= MIN_WEIGHT_ESS:
-                beyond = True
-                continue
-            ns = max(n1 * share, 1.0)
-            for name, v in values.items():
-                e = entries[name]
-                lo1, med1, hi1 = base[name]
-                lo, med, hi = _weighted_quantiles(v, w, (0.16, 0.5, 0.84))
-                sd1, sds = 0.5 * (hi1 - lo1), 0.5 * (hi - lo)
-                ratio = float(max(sds / sd1, sd1 / sds))
-                if ratio > e["width_ratio"]:
-                    e["width_ratio"] = ratio
-                    e["mc_se"]["width_ratio"] = ratio * math.sqrt(HALF_WIDTH_VAR * (1 / ns + 1 / n1))
-                if s > 1:
-                    shift = float(abs(med - med1) / sd1)
-                    if shift >= e["shift_sd"]:
-                        e["shift_sd"] = shift
-                        e["mc_se"]["shift_sd"] = math.sqrt(
-                            MEDIAN_VAR * ((sds / sd1) ** 2 / ns + 1 / n1))
-        for name, e in entries.items():
-            if beyond:
-                e["beyond_samples"] = True
-                undecided.setdefault(cid, []).append(name)
-                continue
-            se = e["mc_se"]
-            above = (e["shift_sd"] - MC_MARGIN * se["shift_sd"] > SHIFT_SD
-                     or e["width_ratio"] - MC_MARGIN * se["width_ratio"] > WIDTH_RATIO)
-            below = (e["shift_sd"] + MC_MARGIN * se["shift_sd"] <= SHIFT_SD
-                     and e["width_ratio"] + MC_MARGIN * se["width_ratio"] <= WIDTH_RATIO)
-            e["set_by_prior"], e["rule"] = bool(above), "reweighted samples"
-            if not (above or below):
-                undecided.setdefault(cid, []).append(name)
+        entries, beyond = _reweighted(x, y, quad, n1)
+        names = _decide(entries, beyond)
+        if names:
+            undecided[cid] = names
         out[cid] = entries
     if undecided:
-        curv = _curvature_rule(samples, {c: blocks[c] for c in undecided}, period_tol,
-                               damping_tol, information, extra)
-        for cid, names in undecided.items():
-            for name in names:
-                e = out[cid][name]
-                sampled = {k: e.pop(k) for k in ("shift_sd", "width_ratio", "mc_se")}
-                c = curv[cid][name]
-                e.update(c, rule="likelihood curvature (Fisher)")
-                if not e.get("beyond_samples"):
-                    e["sampled"] = sampled
+        _decide_by_curvature(out, undecided, samples, blocks, period_tol, damping_tol,
+                             information, extra)
     return out
+
+
+def _judged_values(c0, c1, period_tol, damping_tol, reported):
+    """A channel's log deviations from nominal that the rule judges and the
+    prior's quadratic form: ``(x, y, quad, extra)``, the model's own, or
+    the ``reported`` (N, 2) period and damping's where at least half are
+    numbers, then with ``extra`` their variances beyond the model's (else
+    None)."""
+    x, y = log_deviations(c0, c1)
+    quad = 0.5 * (x / period_tol) ** 2 + 0.5 * (y / damping_tol) ** 2
+    own = {"period_s": x, "damping": y, "damping_over_period": y - x}
+    extra = None
+    if reported is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rx, ry = np.log(np.asarray(reported, float)[:, :2]).T
+        ok = np.isfinite(rx) & np.isfinite(ry) & np.isfinite(quad)
+        if ok.mean() >= 0.5:        # judged on the rows reported as numbers
+            x, y, quad = rx[ok], ry[ok], quad[ok]
+            extra = [max(_half_width(r) ** 2 - _half_width(v[ok]) ** 2, 0.0)
+                     for r, v in zip((x, y, y - x), own.values())]
+        # else: too few reported values to judge; the model's own are
+    return x, y, quad, extra
+
+
+def _reweighted(x, y, quad, n1):
+    """The entries of one channel from its samples reweighted to the prior
+    halved and doubled (``n1`` effective draws), and whether a rescaled
+    prior's weights left too few samples effective."""
+    values = {"period_s": x, "damping": y, "damping_over_period": y - x}
+    entries = {name: {"set_by_prior": False, "shift_sd": 0.0, "width_ratio": 1.0,
+                      "mc_se": {"shift_sd": 0.0, "width_ratio": 0.0}} for name in values}
+    ones = np.ones(x.size)
+    base = {name: _weighted_quantiles(v, ones, (0.16, 0.5, 0.84)) for name, v in values.items()}
+    beyond = False
+    for s in PRIOR_SCALES:
+        logw = -(1.0 / s ** 2 - 1.0) * quad
+        w = np.exp(logw - np.max(logw))
+        share = w.sum() ** 2 / np.sum(w * w) / x.size
+        if not share >= MIN_WEIGHT_ESS:
+            beyond = True
+            continue
+        ns = max(n1 * share, 1.0)
+        for name, v in values.items():
+            e = entries[name]
+            lo1, med1, hi1 = base[name]
+            lo, med, hi = _weighted_quantiles(v, w, (0.16, 0.5, 0.84))
+            sd1, sds = 0.5 * (hi1 - lo1), 0.5 * (hi - lo)
+            ratio = float(max(sds / sd1, sd1 / sds))
+            if ratio > e["width_ratio"]:
+                e["width_ratio"] = ratio
+                e["mc_se"]["width_ratio"] = ratio * math.sqrt(HALF_WIDTH_VAR * (1 / ns + 1 / n1))
+            if s > 1:
+                shift = float(abs(med - med1) / sd1)
+                if shift >= e["shift_sd"]:
+                    e["shift_sd"] = shift
+                    e["mc_se"]["shift_sd"] = math.sqrt(
+                        MEDIAN_VAR * ((sds / sd1) ** 2 / ns + 1 / n1))
+    return entries, beyond
+
+
+def _decide(entries, beyond):
+    """Decide each entry whose shift and width ratio clear the thresholds
+    by :data:`MC_MARGIN` Monte Carlo errors; returns the names left undecided."""
+    undecided = []
+    for name, e in entries.items():
+        if beyond:
+            e["beyond_samples"] = True
+            undecided.append(name)
+            continue
+        se = e["mc_se"]
+        above = (e["shift_sd"] - MC_MARGIN * se["shift_sd"] > SHIFT_SD
+                 or e["width_ratio"] - MC_MARGIN * se["width_ratio"] > WIDTH_RATIO)
+        below = (e["shift_sd"] + MC_MARGIN * se["shift_sd"] <= SHIFT_SD
+                 and e["width_ratio"] + MC_MARGIN * se["width_ratio"] <= WIDTH_RATIO)
+        e["set_by_prior"], e["rule"] = bool(above), "reweighted samples"
+        if not (above or below):
+            undecided.append(name)
+    return undecided
+
+
+def _decide_by_curvature(out, undecided, samples, blocks, period_tol, damping_tol,
+                         information, extra):
+    """Decide the ``undecided`` entries of ``out`` by :func:`_curvature_rule`,
+    keeping the samples' own values under ``sampled``."""
+    curv = _curvature_rule(samples, {c: blocks[c] for c in undecided}, period_tol,
+                           damping_tol, information, extra)
+    for cid, names in undecided.items():
+        for name in names:
+            e = out[cid][name]
+            sampled = {k: e.pop(k) for k in ("shift_sd", "width_ratio", "mc_se")}
+            c = curv[cid][name]
+            e.update(c, rule="likelihood curvature (Fisher)")
+            if not e.get("beyond_samples"):
+                e["sampled"] = sampled
 
 
 def _half_width(v):

@@ -4,4 +4,12 @@
                convergence rule
 
 May import :mod:`bayescal.core.posterior` (how convergence is told).
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".mcmc": ["default_walkers", "sample"],
+})

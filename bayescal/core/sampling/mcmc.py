@@ -47,8 +47,9 @@ from dataclasses import dataclass, field
 import emcee
 import numpy as np
 
+from ...errors import NotConvergedWarning
 from ...result.convergence import Convergence
-from ..posterior.convergence import NotConvergedWarning, not_converged_line
+from ..posterior.convergence import not_converged_line
 
 #: ``move="independence"``: DE steps before the first proposal is fitted (from
 #: their second half), independence steps before it is refitted, and the
@@ -280,7 +281,7 @@ def default_walkers(ndim):
     return n + n % 2
 
 
-def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
+def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
            rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.
@@ -312,56 +313,23 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
     ndim = model.ndim
     n_walkers = n_walkers or default_walkers(ndim)
     n_walkers += n_walkers % 2
-    rng = np.random.default_rng(seed)
-    p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
-    for _ in range(100):
-        bad = ~np.isfinite(model.log_prob(p0))
-        if not bad.any():
-            break
-        p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
-    chunk, min_burn, min_chunk = 1000, 100, 200
-    bar = _progress(progress, chunk, n_tau, min_ess, rhat_max)
+    p0 = _start_walkers(model, theta_start, cov, np.random.default_rng(seed), n_walkers)
+    rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max, max_steps=max_steps)
+    bar = _progress(progress, 1000, n_tau, min_ess, rhat_max)
     phases = _Phases(model.log_prob, n_walkers, ndim, bar)
     sampler = phases.new(_de_moves(), "differential evolution")
     state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
-    pre = np.empty((0, n_walkers, ndim))
-    if move == "independence":
-        state = phases.run(sampler, state, DE_BURN)
-        frozen = _frozen_proposal(phases, sampler, state)
-        if frozen is not None:
-            pre, sampler, state = frozen
-            min_burn, min_chunk = 10, 50
-            # the first run: what the rule needs at the adaptation's mixing
-            # (its tau, at least 1), with a fifth to spare; then as below
-            tau0 = max(1.0, float(np.max(integrated_time(pre[-ADAPT:]))))
-            chunk = int(np.ceil(1.2 * (min_burn + max(n_tau, min_ess / n_walkers) * tau0)))
-            chunk = min(max(chunk, min_chunk), 150)
+    pre, sampler, state, pace = _burn_in(phases, sampler, state, rule,
+                                         independence=move == "independence")
     # (a DE fallback keeps its burn-in steps in its own chain)
-    offset, steps, converged = pre.shape[0], sampler.iteration, False
-    chunk = max(1, min(chunk, max_steps - steps))
-    while True:
-        state = phases.run(sampler, state, chunk)
-        steps += chunk
-        full = sampler.get_chain()
-        tau_all = integrated_time(full[steps // 2:])
-        burn = int(min(steps // 2, max(min_burn, 5 * np.max(tau_all))))
-        kept = full[burn:]
-        tau = integrated_time(kept)
-        ess = kept.shape[0] * n_walkers / tau
-        rhat = split_rhat(kept, ess)
-        need = max(n_tau * tau.max() + burn, burn + (steps - burn) * min_ess / ess.min())
-        if kept.shape[0] >= n_tau * tau.max() and ess.min() >= min_ess and rhat.max() < rhat_max:
-            converged = True
-            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
-            break
-        chunk = int(min(max(min_chunk, 1.1 * need - steps), max_steps - steps))
-        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
-        if steps >= max_steps:
-            break
+    offset = pre.shape[0]
+    steps, burn, tau, ess, rhat, converged = _run_to_rule(phases, sampler, state, rule, pace,
+                                                                 offset)
     bar.close()
     phases.close(sampler)
     thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1   # a very short chain
     kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
+    full = sampler.get_chain()
     full = np.concatenate([pre, full]) if offset else full
     chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
                   log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
@@ -373,6 +341,80 @@ def sample(model, theta_start, cov, seed=0, n_walkers=None, min_ess=1000, n_tau=
         warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
                       stacklevel=2)
     return chain
+
+
+@dataclass(frozen=True)
+class _Rule:
+    """The convergence rule (module docstring) and the step budget."""
+    min_ess: float
+    n_tau: float
+    rhat_max: float
+    max_steps: int
+
+
+def _start_walkers(model, theta_start, cov, rng, n_walkers):
+    """Walkers drawn from a Gaussian around ``theta_start``; those where
+    ``model.log_prob`` is not finite drawn again, closer (up to 100 times)."""
+    p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
+    for _ in range(100):
+        bad = ~np.isfinite(model.log_prob(p0))
+        if not bad.any():
+            break
+        p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
+    return p0
+
+
+def _burn_in(phases, sampler, state, rule, independence):
+    """The burn-in before the kept phase: ``(pre, sampler, state, pace)``,
+    the chain run before the kept phase's sampler (none for the DE moves
+    alone), that sampler, its start state and ``pace`` = (first chunk of
+    steps, least burn-in, least chunk)."""
+    pre, pace = np.empty((0, phases.n_walkers, phases.ndim)), (1000, 100, 200)
+    if not independence:
+        return pre, sampler, state, pace
+    state = phases.run(sampler, state, DE_BURN)
+    frozen = _frozen_proposal(phases, sampler, state)
+    if frozen is None:
+        return pre, sampler, state, pace
+    pre, sampler, state = frozen
+    min_burn, min_chunk = 10, 50
+    # the first run: what the rule needs at the adaptation's mixing
+    # (its tau, at least 1), with a fifth to spare; then as below
+    tau0 = max(1.0, float(np.max(integrated_time(pre[-ADAPT:]))))
+    chunk = int(np.ceil(1.2 * (min_burn + max(rule.n_tau, rule.min_ess / phases.n_walkers)
+                                * tau0)))
+    return pre, sampler, state, (min(max(chunk, min_chunk), 150), min_burn, min_chunk)
+
+
+def _run_to_rule(phases, sampler, state, rule, pace, offset):
+    """Run ``sampler`` in chunks until ``rule`` holds or its ``max_steps``
+    are run; returns ``(steps, burn, tau, ess, rhat, converged)`` of the
+    kept phase (``offset``: the steps run before it, for the progress bar)."""
+    chunk, min_burn, min_chunk = pace
+    n_walkers, bar = phases.n_walkers, phases.bar
+    steps, converged = sampler.iteration, False
+    chunk = max(1, min(chunk, rule.max_steps - steps))
+    while True:
+        state = phases.run(sampler, state, chunk)
+        steps += chunk
+        full = sampler.get_chain()
+        tau_all = integrated_time(full[steps // 2:])
+        burn = int(min(steps // 2, max(min_burn, 5 * np.max(tau_all))))
+        kept = full[burn:]
+        tau = integrated_time(kept)
+        ess = kept.shape[0] * n_walkers / tau
+        rhat = split_rhat(kept, ess)
+        need = max(rule.n_tau * tau.max() + burn, burn + (steps - burn) * rule.min_ess / ess.min())
+        if (kept.shape[0] >= rule.n_tau * tau.max() and ess.min() >= rule.min_ess
+                and rhat.max() < rule.rhat_max):
+            converged = True
+            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+            break
+        chunk = int(min(max(min_chunk, 1.1 * need - steps), rule.max_steps - steps))
+        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+        if steps >= rule.max_steps:
+            break
+    return steps, burn, tau, ess, rhat, converged
 
 
 def _frozen_proposal(phases, de, state):

@@ -5,4 +5,13 @@
 * :mod:`.pair_noise` both sensors of a pair fit, from the fitted transfer
 
 May import :mod:`bayescal.core.spectra`.
+
+Its public names (``__all__``) are loaded on first use; outside the core,
+import them from here, not from its modules.
 """
+from ...lazy import attach
+
+__getattr__, __dir__, __all__ = attach(__name__, {
+    ".sleeman": ["SelfNoise", "below_resolution", "db"],
+    ".pair_noise": ["for_fit"],
+})

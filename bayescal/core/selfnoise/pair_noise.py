@@ -82,7 +82,7 @@ def transfer(model, theta):
     # band means of the interpolation weights first (linear, so the same
     # numbers as averaging the per-bin factors, at O(nodes) per draw)
     onehot = np.eye(sp.n_bands)[sp.band_of]                            # (F, B)
-    wb = np.ascontiguousarray(model._interp.T @ (onehot / onehot.sum(axis=0)))   # (Q, B)
+    wb = np.ascontiguousarray(model.node_weights.T @ (onehot / onehot.sum(axis=0)))   # (Q, B)
     rho_b = np.swapaxes(np.ascontiguousarray(ratio) @ wb, 1, 2)        # (R, B, nu)
     return np.broadcast_to(t[:, None], (t.shape[0], sp.n_bands) + t.shape[1:]), rho_b
 

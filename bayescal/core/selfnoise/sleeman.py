@@ -303,7 +303,7 @@ class SelfNoise:
             return np.stack([10 * np.log10(self.lo), 10 * np.log10(self.hi)])
 
 
-def estimate_self_noise(C, dof, freqs, level=0.9, n_boot=1000, seed=0, per_segment=None,
+def estimate_self_noise(C, dof, freqs, *, level=0.9, n_boot=1000, seed=0, per_segment=None,
                         method="wishart", block=4, axis_mismatch=0.0, ids=(), combine=None):
     """Self-noise estimates with intervals from band-averaged matrices.
 

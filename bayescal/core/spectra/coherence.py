@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .welch import SpectraError, hann
+from ...errors import SpectraError
+from .welch import hann
 
 
 def _detrended(seg):

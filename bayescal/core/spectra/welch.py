@@ -37,6 +37,8 @@ import numpy as np
 from scipy import linalg
 from scipy.fft import next_fast_len
 
+from ...errors import SpectraError
+
 
 #: Time blocks kept of the per-frequency totals (see ``CrossSpectra.block_totals``).
 TIME_BLOCKS = 16
@@ -66,10 +68,6 @@ def detrend(x, axis=-1, type="linear"):
     flat = moved.reshape(n, -1).copy()
     flat = flat - a @ linalg.lstsq(a, flat)[0]
     return np.moveaxis(flat.reshape(moved.shape), 0, -1)
-
-
-class SpectraError(ValueError):
-    """The data cannot give the spectra asked for (too short, empty band...)."""
 
 
 @dataclass
@@ -296,7 +294,7 @@ def deconvolve_runs(data, fs, response, band, margin):
     return out
 
 
-def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, overlap=0.5,
+def cross_spectra(sut, ref, fs, sut_response, ref_response, band, *, nperseg=None, overlap=0.5,
                   bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
                   edge_periods=2.0, time_blocks=TIME_BLOCKS, exclude=None):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
@@ -319,6 +317,45 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         gives them; e.g. the transients of :mod:`bayescal.core.spectra.transients`),
         or None.
     """
+    sut, ref, fmin, fmax = _checked_inputs(sut, ref, fs, band)
+    n_samples = sut.shape[1]
+    nperseg = int(nperseg or default_nperseg(fs, fmin, n_samples, fmax=fmax))
+    step = max(1, int(round(nperseg * (1 - overlap))))
+    if n_samples < nperseg + 3 * step:
+        raise SpectraError(
+            f"too little data for the band: {n_samples / fs:.0f} s recorded, the band's lower "
+            f"edge {fmin:g} Hz needs segments of {nperseg / fs:.0f} s and at least 4 of them")
+    keep, freqs, edges, band_of, bounds = _band_grid(fs, nperseg, fmin, fmax, bands_per_decade,
+                                                     min_bins)
+    margin = int(round(edge_periods * fs / fmin))
+    data = np.vstack([deconvolve_runs(sut, fs, sut_response, (fmin, fmax), margin),
+                      deconvolve_runs(ref, fs, ref_response, (fmin, fmax), margin)])
+    win = hann(nperseg, sym=False)
+    starts = np.arange(0, n_samples - nperseg + 1, step)
+    total, per_segment, segment_starts, blocks, block_of = _accumulate(
+        data, starts, win, keep, bounds, chunk=chunk, exclude=exclude,
+        time_blocks=time_blocks, n_samples=n_samples)
+    if per_segment.shape[0] < 4:
+        raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
+                           " too little data for the band")
+    if not np.all(np.isfinite(total)):
+        raise SpectraError("the cross-spectra overflow: samples or responses far beyond any "
+                           "recording's (a corrupted file or metadata value?)")
+    power = [np.ones((x.shape[0], freqs.size)) if fn is None else np.abs(fn(freqs)) ** 2
+             for fn, x in ((sut_response, sut), (ref_response, ref))]
+    return CrossSpectra(
+        response_power=np.vstack(power),
+        fs=float(fs), nperseg=nperseg, step=step, freqs=freqs, band_edges=edges, band_of=band_of,
+        total=total, per_segment=per_segment, segment_starts=segment_starts,
+        n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),
+        psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids),
+        block_totals=blocks, block_of=block_of)
+
+
+def _checked_inputs(sut, ref, fs, band):
+    """The SUT and reference as 2-D float arrays and the band's edges, or a
+    :class:`SpectraError` on arrays of different lengths or a band outside
+    ``(0, fs / 2]``."""
     sut = np.atleast_2d(np.asarray(sut, dtype=float))
     ref = np.atleast_2d(np.asarray(ref, dtype=float))
     if sut.shape[1] != ref.shape[1]:
@@ -328,28 +365,31 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
         raise SpectraError(f"band {band} is not a positive interval")
     if fmax > fs / 2:
         raise SpectraError(f"band upper edge {fmax} Hz is above Nyquist ({fs / 2} Hz)")
-    n_samples = sut.shape[1]
-    nperseg = int(nperseg or default_nperseg(fs, fmin, n_samples, fmax=fmax))
-    step = max(1, int(round(nperseg * (1 - overlap))))
-    if n_samples < nperseg + 3 * step:
-        raise SpectraError(
-            f"too little data for the band: {n_samples / fs:.0f} s recorded, the band's lower "
-            f"edge {fmin:g} Hz needs segments of {nperseg / fs:.0f} s and at least 4 of them")
+    return sut, ref, fmin, fmax
 
+
+def _band_grid(fs, nperseg, fmin, fmax, bands_per_decade, min_bins):
+    """The segment's frequencies in the band: ``(keep, freqs, edges,
+    band_of, bounds)``, the mask on the FFT grid, the frequencies, the
+    averaging bands' edges, each frequency's band and each band's first bin."""
     all_f = np.fft.rfftfreq(nperseg, 1.0 / fs)
     keep = (all_f >= fmin) & (all_f <= fmax)
     freqs = all_f[keep]
     edges = make_bands(freqs, fmin, fmax, bands_per_decade, min_bins)
     band_of = np.clip(np.searchsorted(edges, freqs, side="right") - 1, 0, edges.size - 2)
     bounds = np.r_[0, np.flatnonzero(np.diff(band_of)) + 1]
+    return keep, freqs, edges, band_of, bounds
 
-    margin = int(round(edge_periods * fs / fmin))
-    data = np.vstack([deconvolve_runs(sut, fs, sut_response, (fmin, fmax), margin),
-                      deconvolve_runs(ref, fs, ref_response, (fmin, fmax), margin)])
-    win = hann(nperseg, sym=False)
+
+def _accumulate(data, starts, win, keep, bounds, *, chunk, exclude, time_blocks, n_samples):
+    """Sum the windowed segments' cross-products: ``(total, per_segment,
+    segment_starts, blocks, block_of)``, the sum over gap-free segments, each
+    segment's sums over the averaging bands, the segments' first samples,
+    the sums over time blocks (those a gap left empty dropped) and each
+    segment's block."""
+    nperseg = win.size
     n = data.shape[0]
-    starts = np.arange(0, n_samples - nperseg + 1, step)
-    total = np.zeros((freqs.size, n, n), dtype=complex)
+    total = np.zeros((int(keep.sum()), n, n), dtype=complex)
     n_blocks = max(1, min(int(time_blocks), starts.size // 2))
     block_of_start = np.minimum((starts * n_blocks) // max(n_samples - nperseg + 1, 1), n_blocks - 1)
     blocks = np.zeros((n_blocks,) + total.shape, dtype=np.complex64)
@@ -380,18 +420,4 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, nperseg=None, 
     block_of = block_of_start[np.searchsorted(starts, segment_starts)]
     filled = np.bincount(block_of, minlength=n_blocks) > 0
     blocks, block_of = blocks[filled], (np.cumsum(filled) - 1)[block_of]
-    if per_segment.shape[0] < 4:
-        raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
-                           " too little data for the band")
-    if not np.all(np.isfinite(total)):
-        raise SpectraError("the cross-spectra overflow: samples or responses far beyond any "
-                           "recording's (a corrupted file or metadata value?)")
-    power = [np.ones((x.shape[0], freqs.size)) if fn is None else np.abs(fn(freqs)) ** 2
-             for fn, x in ((sut_response, sut), (ref_response, ref))]
-    return CrossSpectra(
-        response_power=np.vstack(power),
-        fs=float(fs), nperseg=nperseg, step=step, freqs=freqs, band_edges=edges, band_of=band_of,
-        total=total, per_segment=per_segment, segment_starts=segment_starts,
-        n_u=sut.shape[0], n_r=ref.shape[0], n_segments_possible=int(starts.size),
-        psd_scale=2.0 / (fs * np.sum(win ** 2)), sut_ids=list(sut_ids), ref_ids=list(ref_ids),
-        block_totals=blocks, block_of=block_of)
+    return total, per_segment, segment_starts, blocks, block_of

@@ -4,7 +4,7 @@ leaves out and whether modelling it moves the estimates
 channel fits reversed or exchanged (:func:`bayescal.criticism.verdict.check_orientation`)."""
 from __future__ import annotations
 
-from ..core.checks.adequacy import from_diagnostics
+from ..core.checks import from_diagnostics
 from ..criticism.verdict import DEFAULT_BUDGET_S, Criticism
 
 
@@ -19,7 +19,7 @@ def criticise(state, *, budget_s=DEFAULT_BUDGET_S, seed=0, enabled=True, **sampl
     Parameters
     ----------
     state : FitState
-        From :func:`bayescal.pair.fit.fit`.
+        From :func:`bayescal.pair.fitting.fit`.
     budget_s : float
         The criticism's work budget, stated in seconds: each stands for
         :data:`bayescal.criticism.verdict.WORK_PER_SECOND` model

@@ -22,13 +22,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.checks.record_length import record_length
-from ..core.spectra.transients import find as find_transients, summary as transient_summary
-from ..core.spectra.welch import SpectraError, cross_spectra
+from ..core.spectra import find as find_transients, summary as transient_summary
+from ..core.spectra import cross_spectra
+from ..errors import SpectraError
 from ..io.align import align
 from ..io.band import coherence_gate
 from ..io.channels import check_distinct
 from ..io.inventory import assumed_flat, load_inventory, placeholder_channels
-from ..io.read import InputError
+from ..errors import InputError
 
 #: What a result says of the segments a fit leaves out.
 SEGMENT_NOTE = ("segments touching a gap, an overlap with conflicting data or a clipped sample "
@@ -96,9 +97,8 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
     sut_source, ref_source : str
         How messages name each side's metadata.
     ref_noise_psd : str, dict or None
-        The reference's self-noise as known: a file path or
-        :func:`bayescal.io.refnoise_file.read_reference_noise`'s table
-        (``bayescal noise``'s noise.json, or a period / dB text file).
+        The reference's self-noise as known: a path (``bayescal noise``'s noise.json,
+        a period / dB text file) or :func:`~bayescal.io.refnoise_file.read_reference_noise`'s table.
 
     Raises
     ------
@@ -108,11 +108,9 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
     """
     if transients not in ("drop", "keep"):
         raise ValueError(f"transients must be 'drop' or 'keep', not {transients!r}")
-    sut_inventory = load_inventory(sut_xml, sut, "SUT StationXML")
-    ref_inventory = load_inventory(ref_xml, ref, "reference StationXML")
-    check_distinct(sut, ref)
-    s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source, ref_source,
-                         start, end)
+    sut_inventory, ref_inventory = _metadata(sut, sut_xml, ref, ref_xml)
+    s, r, fs, t0 = align(sut, sut_inventory, ref, ref_inventory, sut_source=sut_source,
+                         ref_source=ref_source, start=start, end=end)
     files = f"{_describe_files(s)} vs {_describe_files(r)}: "
     spectra, band, band_note = _spectra(s, r, fs, band, nperseg, files)
     low = coherence_gate(spectra, s, r, files)
@@ -124,8 +122,7 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
             spectra, keep if low else None, t0,
             redo=lambda exclude: _welch(s, r, fs, band, nperseg, files, exclude=exclude))
     meta = _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory)
-    if dropped:
-        meta["data_used"]["transients"] = dropped
+    meta["data_used"].update({"transients": dropped} if dropped else {})
     fitted = spectra.select(keep) if low else spectra
     families = s.families()
     known = None
@@ -136,6 +133,15 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
                     ref_vectors=r.vectors, ref_families=r.families(), meta=meta,
                     sut_inventory=sut_inventory, ref_inventory=ref_inventory, known_noise=known,
                     ref_flat=assumed_flat(ref_inventory), sut_flat=assumed_flat(sut_inventory))
+
+
+def _metadata(sut, sut_xml, ref, ref_xml):
+    """Each side's Inventory (:func:`bayescal.io.inventory.load_inventory`),
+    once the two sides are known to be different recordings."""
+    sut_inventory = load_inventory(sut_xml, sut, "SUT StationXML")
+    ref_inventory = load_inventory(ref_xml, ref, "reference StationXML")
+    check_distinct(sut, ref)
+    return sut_inventory, ref_inventory
 
 
 def _drop_transients(spectra, keep, t0, redo):
@@ -209,7 +215,7 @@ def _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory):
 def _known_reference_noise(psd, spectra):
     """((B, n_r) band sums of the reference's given self-noise, a JSON-safe
     note) from ``psd`` (a file path or a table)."""
-    from ..core.model.refnoise import band_sums_of_psd
+    from ..core.model import band_sums_of_psd
     from ..io.refnoise_file import for_channels, read_reference_noise
 
     source = psd if isinstance(psd, str) else "ref_noise_psd"

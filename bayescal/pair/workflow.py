@@ -15,14 +15,14 @@ From ObsPy objects::
 """
 from __future__ import annotations
 
-from ..core.model.likelihood import Priors
+from ..core.priors import Priors
 from ..io.channels import select_channels
 from ..io.inventory import load_inventory
 from ..io.read import read_waveforms
-from .choose import choose
-from .criticise import criticise
-from .fit import fit
-from .prepare import prepare
+from .choice import choose
+from .criticism import criticise
+from .fitting import fit
+from .preparation import prepare
 
 #: How :func:`calibrate` and :func:`calibrate_files` take their data.
 KEYWORDS = "ref=..., ref_xml=..., sut=..., sut_xml=..."
@@ -42,9 +42,9 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
               **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings: what ``bayescal fit`` computes, from ObsPy objects:
-    :func:`~bayescal.pair.prepare.prepare`, :func:`~bayescal.pair.fit.fit`,
-    :func:`~bayescal.pair.criticise.criticise` and
-    :func:`~bayescal.pair.choose.choose` in a row.
+    :func:`~bayescal.pair.preparation.prepare`, :func:`~bayescal.pair.fitting.fit`,
+    :func:`~bayescal.pair.criticism.criticise` and
+    :func:`~bayescal.pair.choice.choose` in a row.
 
     Parameters
     ----------
@@ -52,14 +52,14 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         The two sensors' recordings and metadata (keywords only, as
         ``--ref``, ``--ref-xml``, ``--sut`` and ``--sut-xml``).
     band, start, end, nperseg, transients, ref_noise_psd, sut_source, ref_source
-        What of the recordings is fitted: :func:`~bayescal.pair.prepare.prepare`.
+        What of the recordings is fitted: :func:`~bayescal.pair.preparation.prepare`.
     fit_response, seed, priors, ref_noise, progress, **sample_kw
-        How it is fitted: :func:`~bayescal.pair.fit.fit` (``priors``'s
-        ``reference_tolerance``: :func:`~bayescal.pair.choose.choose`).
+        How it is fitted: :func:`~bayescal.pair.fitting.fit` (``priors``'s
+        ``reference_tolerance``: :func:`~bayescal.pair.choice.choose`).
     diagnose, diagnose_budget_s
         Whether a fit that fails its model check is criticised, and the
         criticism's work budget in seconds:
-        :func:`~bayescal.pair.criticise.criticise` (``enabled``, ``budget_s``).
+        :func:`~bayescal.pair.criticism.criticise` (``enabled``, ``budget_s``).
 
     Returns
     -------
@@ -97,7 +97,8 @@ def _warn_on_misfit(result):
     so a script sees it as the console does."""
     import warnings
 
-    from ..core.checks.adequacy import ModelMisfitWarning, describe
+    from ..core.checks import describe
+    from ..errors import ModelMisfitWarning
     if result.adequacy.get("ok") is False:
         c = result.criticism.get("verdict_text") if result.criticism else None
         warnings.warn(describe(result.adequacy, next_step=c and f"Criticism: {c}."),

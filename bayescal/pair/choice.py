@@ -10,9 +10,9 @@ criticism says so).
 """
 from __future__ import annotations
 
-from ..core.fit.run import judged_response_flags
-from ..core.response.reference_tolerance import meta_entry, widen_responses
-from ..core.selfnoise.pair_noise import for_fit
+from ..core.fit import judged_response_flags
+from ..core.response import meta_entry, widen_responses
+from ..core.selfnoise import for_fit
 
 
 def self_noise(state, data, *, fit_response, seed=0):
@@ -46,11 +46,11 @@ def choose(state, criticism, *, data, fit_response="gain", tolerance=0.0, seed=0
     Parameters
     ----------
     state : FitState
-        From :func:`bayescal.pair.fit.fit`.
+        From :func:`bayescal.pair.fitting.fit`.
     criticism : Criticism
-        From :func:`bayescal.pair.criticise.criticise`.
+        From :func:`bayescal.pair.criticism.criticise`.
     data : PairData
-        What the fit was made from (:func:`bayescal.pair.prepare.prepare`).
+        What the fit was made from (:func:`bayescal.pair.preparation.prepare`).
     fit_response : str
         What of the response was asked to be fitted.
     tolerance : float

@@ -21,10 +21,10 @@ one-channel pair cannot separate the reference's noise); see
 """
 from __future__ import annotations
 
-from ..core.fit.run import fit_spectra
-from ..core.model.likelihood import Priors
+from ..core.fit import fit_spectra
+from ..core.priors import Priors
 from ..io.band import MIN_COHERENCE
-from ..io.read import InputError
+from ..errors import InputError
 
 
 def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, progress=True,
@@ -34,7 +34,7 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
     Parameters
     ----------
     data : PairData
-        From :func:`bayescal.pair.prepare.prepare`.
+        From :func:`bayescal.pair.preparation.prepare`.
     fit_response : {"gain", "none", "all"}
         What of the response is fitted (module docstring).
     priors : bayescal.core.model.likelihood.Priors
@@ -45,7 +45,7 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
         ``reference_tolerance`` (default 0: the reference's metadata taken as
         exact) the relative standard deviation of the reference's gain,
         period and damping, carried into the SUT's response intervals by
-        :func:`bayescal.pair.choose.choose`
+        :func:`bayescal.pair.choice.choose`
         (:mod:`bayescal.core.response.reference_tolerance`).
     seed : int
         Random seed (results are reproducible).

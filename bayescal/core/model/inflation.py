@@ -1,0 +1,43 @@
+"""The noise-inflation factor ``c_b`` of a plug-in noise model, shrunk
+toward its value pooled over bands.
+
+Every likelihood of bayescal measures, per band b, the ratio ``raw_b`` of
+the scatter of per-segment (or per-block) residuals to what the
+independent-bin formula expects (window leakage, segment overlap and
+non-stationary noise make it larger than 1). One band's ratio rests on few
+segments, so it is shrunk toward the mean over bands, with weight
+``INFLATION_SHRINK`` (in segment x entry counts) against the band's own
+``weight``:
+
+    c_b = (w_b raw_b + S pooled) / (w_b + S),   pooled = mean_b raw_b,
+
+and floored at ``1e-3 pooled``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Shrinkage weight (in segment x entry counts) of a band's inflation factor
+#: toward the value pooled over bands.
+INFLATION_SHRINK = 50.0
+
+
+def shrunk_inflation(raw, weight, pooled_floor=-np.inf):
+    """Per-band inflation ``c_b`` (B,) from the measured ratios ``raw`` (B,)
+    and their weights ``weight`` (scalar or (B,), segment x entry counts).
+
+    Parameters
+    ----------
+    raw : (B,) measured ratio of residual scatter to its independent-bin value.
+    weight : scalar or (B,) how many segment entries each ratio rests on.
+    pooled_floor : lower bound on the pooled value in the floor
+        ``1e-3 * max(pooled, pooled_floor)`` (a model whose residuals can
+        vanish, a noise-free simulation, sets it above 0).
+
+    Returns
+    -------
+    (B,) the shrunk, floored inflation factors.
+    """
+    pooled = raw.mean()
+    c = (weight * raw + INFLATION_SHRINK * pooled) / (weight + INFLATION_SHRINK)
+    return np.maximum(c, 1e-3 * max(pooled, pooled_floor))

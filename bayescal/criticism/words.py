@@ -1,0 +1,57 @@
+"""The effects the criticism can name, in plain words: each one's label
+(how the verdict names it) and what the user can do about it."""
+from __future__ import annotations
+
+#: What the user can do about each named effect (the option to pass, or the
+#: change to make in the metadata).
+ADVICE = {
+    "response_parameters": "fit the period and damping with --fit-response all",
+    "timing_offset": "correct the SUT's clock, and the time stamps of the recordings it "
+                     "made: a clock offset is a time correction of the data (shift each SUT "
+                     "trace's start time by {shift:+.3g} s), not a response change; the "
+                     "corrected StationXML records it in a stage delay, which ObsPy's "
+                     "remove_response does not apply",
+    "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
+    "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
+                  "include its high-frequency poles)",
+    "gain_error": "correct the channel's sensitivity in its metadata (or leave the gains free, "
+                  "the default, which measures it as the relative gain)",
+    "polarity_reversal": "correct the channel's polarity (dip or azimuth sign) in its metadata",
+    "channel_swap": "correct the channel names or wiring",
+    "tilt_noise": "nothing to correct: it is noise; a quieter site or a longer record "
+                  "narrows the long-period intervals",
+}
+
+
+def advice(effect):
+    """:data:`ADVICE` for a named effect; a timing offset's with its signed
+    time correction (minus the offset: + = the SUT's samples late)."""
+    text = ADVICE.get(effect["name"], "")
+    if effect["name"] == "timing_offset":
+        seconds = effect.get("parameters", {}).get("seconds", {}).get("median")
+        text = text.format(shift=-float(seconds)) if seconds is not None else \
+            text.replace(" (shift each SUT trace's start time by {shift:+.3g} s)", "")
+    return text
+
+
+def label(effect):
+    """An effect's name in plain words."""
+    name = effect["name"]
+    if name == "extra_pole":
+        who = "reference" if effect.get("parameters", {}).get("which") == "ref" else "SUT"
+        return f"a pole missing from the {who}'s metadata"
+    return {"response_parameters": "the SUT's period and damping off their metadata values",
+            "timing_offset": "a timing offset between the digitizers",
+            "clock_drift": "a drifting SUT clock", "gain_error": "a sensitivity off its metadata",
+            "polarity_reversal": "a reversed channel", "channel_swap": "exchanged channels",
+            "tilt_noise": "long-period tilt noise"}.get(name, name.replace("_", " "))
+
+
+def names(effects):
+    """The labels of ``effects``, each once, joined as a sentence says them."""
+    out = []
+    for e in effects:
+        lab = label(e)
+        if lab not in out:
+            out.append(lab)
+    return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
