@@ -5,7 +5,8 @@ The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
     version, errors,     leaves: the version, every exception and warning,
-    lazy                 the lazy public face of every subpackage
+    lazy, atomic         the lazy public face of every subpackage, files
+                         and folders written atomically
     result               a fit's saved result: its frozen record, meta and
                          schema (numpy and the standard library only)
     core                 plain numpy: geometry, responses, spectra, likelihood,

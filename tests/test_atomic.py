@@ -1,5 +1,5 @@
 """Files and output folders are never seen half written
-(:mod:`bayescal.io.atomic`), and a report's pages are written by one loop
+(:mod:`bayescal.atomic`), and a report's pages are written by one loop
 (:func:`bayescal.report.layout.write_pages`)."""
 import json
 import os
@@ -8,7 +8,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from bayescal.io.atomic import MANIFEST, atomic_path, replace_folder, staging, write_json
+from bayescal.atomic import MANIFEST, atomic_path, replace_folder, staging, write_json
 
 
 class Boom(Exception):

@@ -56,7 +56,7 @@ def test_diagnosis_page_rebuilt_from_its_json(late_fit, tmp_path):
     from bayescal.io.result import write_json
     from bayescal.report.diagnosis import build_figure
 
-    d = diagnose(late_fit, mcmc=False)
+    d = diagnose(late_fit.state, mcmc=False)
     path = tmp_path / "diagnosis.json"
     write_json(str(path), d.summary())
     live = build_figure(d)

@@ -1,12 +1,12 @@
 """What several sub-commands share: the arguments of a sensor pair, the page size, messages
 on stderr, and the output folder written in a staging folder and published when complete
-(:func:`bayescal.io.atomic.staging`)."""
+(:func:`bayescal.atomic.staging`)."""
 from __future__ import annotations
 
 import contextlib
 import sys
 
-from ..io.atomic import staging  # noqa: F401  (the sub-commands' one output rule)
+from ..atomic import staging  # noqa: F401  (the sub-commands' one output rule)
 
 
 def parse_time(text):

@@ -36,7 +36,7 @@ import os
 import numpy as np
 
 from ..errors import InputError
-from ..io.atomic import atomic_path
+from ..atomic import atomic_path
 from ..io.read import read_metadata
 from .common import (add_paper_argument, add_sampling_argument, add_tolerance_arguments,
                      convergence_exit, priors_from, quiet_convergence_warnings, staging)

@@ -15,7 +15,7 @@ import copy
 import numpy as np
 from obspy.core.util.obspy_types import ComplexWithUncertainties
 
-from ..io.atomic import atomic_path
+from ..atomic import atomic_path
 from ..io.stationxml import find_channel, pole_with_errors, prior_text, update_response
 
 

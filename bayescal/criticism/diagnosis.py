@@ -140,15 +140,20 @@ def misfit_change(edges, before, after):
 
 class SavedFit:
     """A fit as ``diagnosis.json`` holds it (its ``result.json`` content):
-    :meth:`summary` and ``convergence`` (the smallest ESS and the largest
-    R-hat, as one-element arrays)."""
+    :meth:`summary` and ``convergence`` (a
+    :class:`~bayescal.result.convergence.Convergence` of the slowest
+    parameter's figures: the smallest ESS, the largest tau and R-hat)."""
 
     def __init__(self, summary):
+        from ..result.convergence import Convergence
+
         self.saved = summary
         c = summary.get("convergence", {})
-        self.convergence = {"converged": c.get("converged", True), "n_steps": c.get("n_steps", 0),
-                            "ess": np.array([c.get("ess_min")], float),
-                            "rhat": np.array([c.get("rhat_max")], float)}
+        self.convergence = Convergence(
+            tau=np.array([c.get("tau_max")], float), ess=np.array([c.get("ess_min")], float),
+            rhat=np.array([c.get("rhat_max")], float), acceptance=c.get("acceptance"),
+            n_steps=c.get("n_steps", 0), n_walkers=c.get("n_walkers", 0), burn=0,
+            converged=c.get("converged", True))
 
     def summary(self):
         return self.saved

@@ -12,7 +12,6 @@
 * :mod:`.result`      a fit's result.json / samples.npz written and read back,
                       with the corrected StationXML beside them
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
-* :mod:`.atomic`      files and output folders written so that none is seen half written
 
 May import :mod:`bayescal.core` and :mod:`bayescal.result`; never criticism,
 pair, coil, report, network or cli.

@@ -35,7 +35,7 @@ import numpy as np
 from obspy.core.inventory.util import Azimuth, Dip
 from obspy.core.util.obspy_types import ComplexWithUncertainties, FloatWithUncertaintiesAndUnit
 
-from .atomic import atomic_path
+from ..atomic import atomic_path
 from ..errors import InputError
 
 

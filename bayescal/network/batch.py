@@ -37,7 +37,7 @@ import uuid
 import warnings
 from dataclasses import replace
 
-from ..io.atomic import replace_folder, staging
+from ..atomic import replace_folder, staging
 from ..io.result import save_posterior, write_json
 
 LOG = "batch_log.jsonl"

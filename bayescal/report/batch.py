@@ -25,7 +25,7 @@ import os
 
 import numpy as np
 
-from ..io.atomic import atomic_path
+from ..atomic import atomic_path
 from .layout import page_size, write_pages
 
 COLUMNS = ("label", "station", "day", "channel", "kind",

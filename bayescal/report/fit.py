@@ -18,8 +18,7 @@ figures in :mod:`.fit_pages` and :mod:`.corner_pages`.
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
+from functools import partial
 
 from ..errors import InputError
 from .tables import load_truth
@@ -75,8 +74,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
 
     Returns the list of written paths (PDF first).
     """
-    from matplotlib.backends.backend_pdf import PdfPages
-
+    from ..atomic import move_files, staging
     from ..version import __version__
     from . import corner_pages, fit_pages, layout, pair_noise
 
@@ -86,40 +84,20 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     summary = post.summary()
     out_pdf = os.fspath(out_pdf) if out_pdf else os.path.join(folder, "report.pdf")
     out_dir = os.path.dirname(os.path.abspath(out_pdf))
-    ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
-                           tolerance_deg=float(nominal_tolerance_deg),
-                           page=layout.page_size(paper))
-    tmp = tempfile.mkdtemp(prefix=".report-", dir=out_dir)
-    try:
-        with layout.style():
-            figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise)(ctx)) for name in PAGES]
-            figures = [(n, f) for n, f in figures if f is not None]
-            meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
-                    "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",
-                    "Keywords": "seismometer calibration; orientation; Bayesian"}
-            with PdfPages(os.path.join(tmp, "report.pdf"), metadata=meta) as pdf:
-                for name, fig in figures:
-                    layout.save_pdf_page(pdf, fig, ctx.page)
-                    layout.save_png(fig, os.path.join(tmp, f"{name}.png"))
-        return _publish(tmp, out_pdf, [name for name, _ in figures])
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _publish(tmp, out_pdf, names):
-    """Move the PDF and the PNGs ``names`` drawn in ``tmp`` into place
-    beside ``out_pdf`` and remove PNGs of an earlier report that no longer
-    apply; returns the paths written (PDF first)."""
-    out_dir = os.path.dirname(os.path.abspath(out_pdf))
     stem = os.path.splitext(os.path.basename(out_pdf))[0]
-    os.replace(os.path.join(tmp, "report.pdf"), out_pdf)
-    written = [out_pdf]
-    for name in names:
-        dest = os.path.join(out_dir, f"{stem}_{name}.png")
-        os.replace(os.path.join(tmp, f"{name}.png"), dest)
-        written.append(dest)
-    for name in PAGES:
-        stale = os.path.join(out_dir, f"{stem}_{name}.png")
-        if stale not in written and os.path.exists(stale):
-            os.remove(stale)
-    return written
+    ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
+                               tolerance_deg=float(nominal_tolerance_deg),
+                               page=layout.page_size(paper))
+    stale = [f"{stem}_{name}.png" for name in PAGES]     # an earlier report's, if not redrawn
+    with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale),
+                                 within=out_dir) as tmp:
+        figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise)(ctx))
+                   for name in PAGES]
+        meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
+                "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",
+                "Keywords": "seismometer calibration; orientation; Bayesian"}
+        written = layout.write_pages(
+            [(os.path.join(tmp, f"{stem}_{name}.png"), fig) for name, fig in figures
+             if fig is not None],
+            os.path.join(tmp, os.path.basename(out_pdf)), page=ctx.page, metadata=meta)
+    return [out_pdf] + [os.path.join(out_dir, os.path.basename(p)) for p in written]

@@ -107,7 +107,7 @@ def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=
     """Write a report's pages: each figure on one page of the PDF
     ``pdf_path`` and, when it has a PNG path, as that PNG. Each figure is
     closed once written; each file is written under a temporary name and
-    renamed when complete (:func:`bayescal.io.atomic.atomic_path`).
+    renamed when complete (:func:`bayescal.atomic.atomic_path`).
 
     Parameters
     ----------
@@ -129,7 +129,7 @@ def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=
 
     from matplotlib.backends.backend_pdf import PdfPages
 
-    from ..io.atomic import atomic_path
+    from ..atomic import atomic_path
 
     pngs = []
     with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:

@@ -16,6 +16,7 @@ from .convergence import Convergence
 from .meta import Meta
 from .record import Result, jsonable
 
+
 def save(result, folder):
     """Write ``result.json`` and ``samples.npz`` (and ``diagnostics.npz``
     when ``result`` holds diagnostics) into ``folder`` (created when
@@ -29,13 +30,13 @@ def save(result, folder):
         arrays["trace"] = result.trace
     extra = {"channel_ids": result.channel_ids, "kinds": result.kinds, "names": result.names,
              "convergence": jsonable(result.convergence.to_dict())}
-    tmp = os.path.join(folder, ".samples.tmp.npz")
-    np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
-    os.replace(tmp, os.path.join(folder, "samples.npz"))
+    from ..atomic import atomic_path     # here: reading a result needs none of it
+
+    with atomic_path(os.path.join(folder, "samples.npz")) as tmp:
+        np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
     if result.diagnostics:
-        tmp = os.path.join(folder, ".diagnostics.tmp.npz")
-        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.diagnostics.items()})
-        os.replace(tmp, os.path.join(folder, "diagnostics.npz"))
+        with atomic_path(os.path.join(folder, "diagnostics.npz")) as tmp:
+            np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.diagnostics.items()})
     write_json(os.path.join(folder, "result.json"), result.summary())
 
 
@@ -66,11 +67,11 @@ def load(folder):
 
 
 def write_json(path, obj):
-    """Write ``obj`` as JSON atomically (temporary file, then rename)."""
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        json.dump(jsonable(obj), fh, indent=2)
-    os.replace(tmp, path)
+    """Write ``obj`` as JSON (:func:`jsonable` values) atomically
+    (:func:`bayescal.atomic.write_json`)."""
+    from .. import atomic
+
+    atomic.write_json(path, jsonable(obj))
 
 
 #: The name :func:`bayescal.load_posterior` gives :func:`load`.
