@@ -69,3 +69,19 @@ def test_saved_result_reads_back_the_same(tmp_path):
 def test_result_is_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         _result().meta = Meta()
+
+
+@pytest.mark.parametrize("schema", ["bayescal.fit/2", "bayescal.cal/1", None])
+def test_a_result_of_another_schema_is_refused(tmp_path, schema):
+    """A result.json of a later version of the schema, of another kind of
+    result, or of none is refused with one message naming the folder and the
+    schema (an earlier version would be read)."""
+    from bayescal.errors import InputError
+
+    save(_result(), str(tmp_path))
+    path = tmp_path / "result.json"
+    saved = json.loads(path.read_text())
+    saved["schema"] = schema
+    path.write_text(json.dumps(saved))
+    with pytest.raises(InputError, match=f"{tmp_path}.*schema {schema!r}"):
+        load(str(tmp_path))

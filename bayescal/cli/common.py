@@ -35,7 +35,7 @@ def _percent_or_zero(text):
 
 
 def priors_from(args):
-    """The fit's :class:`bayescal.core.model.likelihood.Priors` from the options."""
+    """The fit's :class:`bayescal.core.priors.Priors` from the options."""
     from ..core.priors import Priors
     return Priors(period_tolerance=args.period_tolerance / 100.0,
                   damping_tolerance=args.damping_tolerance / 100.0,

@@ -54,7 +54,9 @@ def run(args):
     say("bayescal diagnose: base fit ...")
     with quiet_convergence_warnings():
         base, d = _run_diagnosis(args, say)
-    final = d.final.replace(sut_inventory=base.sut_inventory).to_result()
+    # nothing modelled: the final fit is the base fit as bayescal fit reports it
+    final = (base if d.final is base.state
+             else d.final.replace(sut_inventory=base.sut_inventory).to_result())
     with staging(out) as tmp:
         write_results(final, tmp)
         # the base fit as bayescal fit reports it (its self-noise included)

@@ -292,7 +292,7 @@ def calibrate_uvw(runs, m, *, coil_constant=None, band=None, z_only=False, seed=
     coil_constant : m/s^2 per input count, or None (gains then relative).
     band : (fmin, fmax) Hz; default ``(0.5 / T_nom, min(25 / T_nom, fs / 4))``.
     z_only : use only each run's Z output (the seed's procedure).
-    priors : :class:`bayescal.core.model.likelihood.Priors` (the tolerances of
+    priors : :class:`bayescal.core.priors.Priors` (the tolerances of
         period and damping; the gain's range).
     """
     missing = [e for e in ELEMENTS if e not in runs]

@@ -35,7 +35,6 @@ import socket
 import time
 import uuid
 import warnings
-from dataclasses import replace
 
 from ..atomic import replace_folder, staging
 from ..io.result import save_posterior, write_json
@@ -73,14 +72,14 @@ def run_item(item, out):
 
     t, cpu = time.time(), time.thread_time()
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
-            "fit_response": item["fit_response"], "seed": item["seed"], "progress": False}
+            "fit_response": item["fit_response"], "seed": item["seed"], "progress": False,
+            "label": item["label"]}
     try:
         with _item_folder(out, item) as tmp:
             with warnings.catch_warnings():      # both recorded in the batch's table instead
                 warnings.filterwarnings("ignore", category=ModelMisfitWarning)
                 warnings.filterwarnings("ignore", category=NotConvergedWarning)
                 post, sut_inv = _fit_item(item, opts)
-            post = replace(post, meta=post.meta.replace(batch_label=item["label"]))
             save_posterior(post, tmp)
             if sut_inv is not None and not isinstance(sut_inv, str):
                 write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))

@@ -34,13 +34,15 @@ def _tolerated(state, data, tolerance, seed):
     the tolerance is 0."""
     if not tolerance:
         return state.response, state.meta
-    response = widen_responses(state.response, state.channel_ids, sut_vectors=data.sut_vectors,
+    rows = {str(cid): k for k, cid in enumerate(data.fitted.sut_ids)}
+    sut_vectors = [data.sut_vectors[rows[cid]] for cid in state.channel_ids]
+    response = widen_responses(state.response, state.channel_ids, sut_vectors=sut_vectors,
                                ref_vectors=data.ref_vectors, ref_families=data.ref_families,
                                tolerance=tolerance, seed=seed)
     return response, state.meta.replace(reference_tolerance=meta_entry(tolerance))
 
 
-def choose(state, criticism, *, data, fit_response="gain", tolerance=0.0, seed=0):
+def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0):
     """The :class:`~bayescal.result.record.Result` of a pair fit.
 
     Parameters
@@ -51,10 +53,12 @@ def choose(state, criticism, *, data, fit_response="gain", tolerance=0.0, seed=0
         From :func:`bayescal.pair.criticism.criticise`.
     data : PairData
         What the fit was made from (:func:`bayescal.pair.preparation.prepare`).
-    fit_response : str
-        What of the response was asked to be fitted.
-    tolerance : float
-        The reference's metadata tolerance (``Priors.reference_tolerance``):
+    fit_response : str or None
+        What of the response was asked to be fitted; None: what the fit
+        fitted (``state.meta.free_response``).
+    tolerance : float or None
+        The reference's metadata tolerance (``Priors.reference_tolerance``;
+        None: the fit's priors'):
         both the fit's and the improved model's responses carry it (the
         criticism judged the move between them on the data's own intervals,
         which the reference's error moves alike); the fit's flags on what
@@ -62,6 +66,9 @@ def choose(state, criticism, *, data, fit_response="gain", tolerance=0.0, seed=0
     seed : int
         Seed of the self-noise draws and of the tolerance's.
     """
+    fit_response = fit_response or state.meta.free_response or "none"
+    if tolerance is None:
+        tolerance = getattr(getattr(state.model, "priors", None), "reference_tolerance", 0.0)
     noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
     improved = None
     if criticism.improved is not None:

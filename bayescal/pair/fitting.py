@@ -1,5 +1,5 @@
 """The second step of a pair fit: the model, its least-squares point, the
-posterior samples and their convergence, from a :class:`~.prepare.PairData`
+posterior samples and their convergence, from a :class:`~.preparation.PairData`
 (:func:`bayescal.core.fit.run.fit_spectra`).
 
 What of the response is fitted (``fit_response``): "gain" (the default:
@@ -37,7 +37,7 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
         From :func:`bayescal.pair.preparation.prepare`.
     fit_response : {"gain", "none", "all"}
         What of the response is fitted (module docstring).
-    priors : bayescal.core.model.likelihood.Priors
+    priors : bayescal.core.priors.Priors
         The priors; with ``fit_response="all"`` its ``period_tolerance`` and
         ``damping_tolerance`` (relative standard deviations of the log-normal
         priors on period and damping, default 0.05) are the manufacturer's

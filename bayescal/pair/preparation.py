@@ -74,7 +74,8 @@ def _describe_files(side):
 
 
 def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nperseg=None,
-            transients="drop", sut_source="SUT", ref_source="reference", ref_noise_psd=None):
+            transients="drop", sut_source="SUT", ref_source="reference", ref_noise_psd=None,
+            label=None):
     """The :class:`PairData` of two co-located recordings.
 
     Parameters
@@ -88,14 +89,12 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
         ``--ref-xml`` and ``--sut-xml``).
     band : (float, float) or None
         (fmin, fmax) in Hz, or None: chosen from the data (module docstring).
-    start, end : obspy.UTCDateTime or None
-        Limits of the analysis window.
-    nperseg : int or None
-        Samples per Welch segment (None: the spectra's default).
+    start, end, nperseg : obspy.UTCDateTime, obspy.UTCDateTime, int; or None
+        Limits of the analysis window; samples per Welch segment (None: the default).
     transients : {"drop", "keep"}
         Leave out segments a transient spoils, or keep them (module docstring).
-    sut_source, ref_source : str
-        How messages name each side's metadata.
+    sut_source, ref_source, label : str (label: or None)
+        How messages name each side's metadata; a name the meta keeps (``batch_label``).
     ref_noise_psd : str, dict or None
         The reference's self-noise as known: a path (``bayescal noise``'s noise.json,
         a period / dB text file) or :func:`~bayescal.io.refnoise_file.read_reference_noise`'s table.
@@ -121,8 +120,8 @@ def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nper
         spectra, dropped = _drop_transients(
             spectra, keep if low else None, t0,
             redo=lambda exclude: _welch(s, r, fs, band, nperseg, files, exclude=exclude))
-    meta = _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory)
-    meta["data_used"].update({"transients": dropped} if dropped else {})
+    meta = _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory,
+                  transients=dropped, label=label)
     fitted = spectra.select(keep) if low else spectra
     families = s.families()
     known = None
@@ -192,8 +191,10 @@ def _nominal(s):
     return out
 
 
-def _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory):
-    """The meta entries a pair fit's result records of its data."""
+def _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory, *, transients=None,
+           label=None):
+    """The meta entries a pair fit's result records of its data (with the
+    segments left out for ``transients``, and the fit's ``label``)."""
     duration = s.data.shape[1] / fs
     used_s = (spectra.n_segments * spectra.step + spectra.nperseg - spectra.step) / fs
     return {"nominal": _nominal(s),
@@ -203,13 +204,15 @@ def _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory):
             "data_used": {"segments": spectra.n_segments,
                           "segments_possible": spectra.n_segments_possible,
                           "fraction": spectra.fraction_used,
-                          "approx_seconds": min(used_s, duration), "note": SEGMENT_NOTE},
+                          "approx_seconds": min(used_s, duration), "note": SEGMENT_NOTE,
+                          **({"transients": transients} if transients else {})},
             "record_length": record_length(min(used_s, duration),
                                            float(spectra.band_edges[0])),
             "band_choice": band_note,
             "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
                                      "reference": placeholder_channels(ref_inventory, r.ids)},
-            "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))}}
+            "files": {"sut": sorted(set(s.sources)), "reference": sorted(set(r.sources))},
+            **({"batch_label": label} if label is not None else {})}
 
 
 def _known_reference_noise(psd, spectra):

@@ -16,6 +16,7 @@ From ObsPy objects::
 from __future__ import annotations
 
 from ..core.priors import Priors
+from ..criticism.verdict import DEFAULT_BUDGET_S
 from ..io.channels import select_channels
 from ..io.inventory import load_inventory
 from ..io.read import read_waveforms
@@ -38,8 +39,8 @@ def _keywords_only(name, args):
 def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
               fit_response="gain", seed=0, priors=Priors(), nperseg=None, start=None, end=None,
               progress=True, sut_source="SUT", ref_source="reference", ref_noise=None,
-              ref_noise_psd=None, diagnose=True, diagnose_budget_s=60.0, transients="drop",
-              **sample_kw):
+              ref_noise_psd=None, diagnose=True, diagnose_budget_s=DEFAULT_BUDGET_S,
+              transients="drop", label=None, **sample_kw):
     """Posterior over the SUT's orientation (and response) from co-located
     recordings: what ``bayescal fit`` computes, from ObsPy objects:
     :func:`~bayescal.pair.preparation.prepare`, :func:`~bayescal.pair.fitting.fit`,
@@ -51,7 +52,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     ref, ref_xml, sut, sut_xml : obspy.Stream; obspy.Inventory, str or "flat"
         The two sensors' recordings and metadata (keywords only, as
         ``--ref``, ``--ref-xml``, ``--sut`` and ``--sut-xml``).
-    band, start, end, nperseg, transients, ref_noise_psd, sut_source, ref_source
+    band, start, end, nperseg, transients, ref_noise_psd, sut_source, ref_source, label
         What of the recordings is fitted: :func:`~bayescal.pair.preparation.prepare`.
     fit_response, seed, priors, ref_noise, progress, **sample_kw
         How it is fitted: :func:`~bayescal.pair.fitting.fit` (``priors``'s
@@ -81,7 +82,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
     fit_response = {None: "gain", False: "none", True: "all"}.get(fit_response, fit_response)
     data = prepare(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, band=band, start=start,
                    end=end, nperseg=nperseg, transients=transients, sut_source=sut_source,
-                   ref_source=ref_source, ref_noise_psd=ref_noise_psd)
+                   ref_source=ref_source, ref_noise_psd=ref_noise_psd, label=label)
     state = fit(data, fit_response=fit_response, priors=priors, seed=seed, ref_noise=ref_noise,
                 progress=progress, **sample_kw)
     criticism = criticise(state, budget_s=diagnose_budget_s, seed=seed, enabled=diagnose,

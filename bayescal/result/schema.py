@@ -14,7 +14,7 @@ import numpy as np
 
 from .convergence import Convergence
 from .meta import Meta
-from .record import Result, jsonable
+from .record import SCHEMA, Result, jsonable
 
 
 def save(result, folder):
@@ -45,6 +45,7 @@ def load(folder):
     into ``folder`` (its summaries as ``result.json`` holds them)."""
     with open(os.path.join(folder, "result.json")) as fh:
         s = json.load(fh)
+    _check_schema(s.get("schema"), folder)
     with np.load(os.path.join(folder, "samples.npz")) as z:
         extra = json.loads(str(z["extra"]))
         response = {k.split("::", 1)[1]: z[k] for k in z.files if k.startswith("response::")}
@@ -64,6 +65,19 @@ def load(folder):
                   trace=trace, diagnostics=diagnostics, self_noise=s.get("self_noise", {}),
                   sensor_order=s.get("sensor_order", {}), criticism=s.get("criticism", {}),
                   **arrays)
+
+
+def _check_schema(name, folder):
+    """Refuse a ``result.json`` of another kind or of a later version of the
+    schema than :data:`~bayescal.result.record.SCHEMA` (an earlier one is
+    read as far as it goes)."""
+    kind, _, version = str(name).partition("/")
+    ours, _, current = SCHEMA.partition("/")
+    if kind != ours or not version.isdigit() or int(version) > int(current):
+        from ..errors import InputError
+
+        raise InputError(f"{folder}: result.json is of schema {name!r}; this version of "
+                         f"bayescal reads {SCHEMA!r} and earlier")
 
 
 def write_json(path, obj):

@@ -18,7 +18,7 @@ the uniform prior on ``log gain``):
   ``BOUND_FRACTION`` of the prior's width from a bound (a gain pinned at 10
   times nominal: the data want a value the prior excludes).
 
-Either way the parameter is listed in ``posterior.meta["set_by_prior"]`` and
+Either way the parameter is listed in ``result.meta.set_by_prior`` and
 the corrected StationXML keeps its nominal value.
 """
 from __future__ import annotations

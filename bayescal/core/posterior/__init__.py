@@ -6,8 +6,8 @@
 * :mod:`.modes`       the modes a fit reported: which intervals they lie outside
 * :mod:`.convergence` the NOT CONVERGED line and how a chain is told to a user
 
-May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`
-and :mod:`bayescal.core.checks`.
+May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
+:mod:`bayescal.core.checks` and :mod:`bayescal.result` (the Result it builds).
 
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.

@@ -1,5 +1,5 @@
-"""How a chain's convergence and its sampler are told to a user: the
-warning class, the one NOT CONVERGED line and the sampler in words.
+"""How a chain's convergence and its sampler are told to a user: the one
+NOT CONVERGED line and the sampler in words.
 
 Light on purpose (no emcee, no model): the console, the reports and a
 stored result's readers use it without importing the sampling code
