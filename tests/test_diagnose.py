@@ -140,6 +140,25 @@ def test_cli_end_to_end(tmp_path):
     assert np.isfinite(doc["final"]["convergence"]["ess_min"])
 
 
+def test_cli_clean_pair_writes_the_base_fit(tmp_path):
+    """When nothing is modelled, the result.json that ``bayescal diagnose``
+    writes is the base fit as ``bayescal fit`` reports it (diagnosis.json's
+    ``base``), its self-noise and sensor order included."""
+    from bayescal.cli import main
+
+    p = simulate_pair(duration=1800, fs=10, seed=4, coherence=0.99).write(tmp_path / "in")
+    out = tmp_path / "out"
+    code = main(["diagnose", "--ref", p["ref.mseed"], "--ref-xml", p["ref.xml"], "--sut",
+                 p["sut.mseed"], "--sut-xml", p["sut.xml"], "--out", str(out), "--band", "0.05",
+                 "3", "--quiet", "--no-report"])
+    assert code == 0
+    doc = json.loads((out / "diagnosis.json").read_text())
+    result = json.loads((out / "result.json").read_text())
+    assert doc["effects"] == []
+    assert "self_noise" in result and "sensor_order" in result
+    assert result == doc["base"]
+
+
 @pytest.mark.parametrize("side", ["--sut", "--ref"])
 def test_cli_bad_input_one_line_naming_the_file(sim_files, tmp_path, capsys, side):
     """An unreadable waveform file on either side (the other side's files
