@@ -5,8 +5,7 @@ The public API is re-exported here. The package is layered; each layer may
 import only the layers listed before it:
 
     version, errors,     leaves: the version, every exception and warning,
-    lazy, atomic         the lazy public face of every subpackage, files
-                         and folders written atomically
+    atomic               files and folders written atomically
     result               a fit's saved result: its frozen record, meta and
                          schema (numpy and the standard library only)
     core                 plain numpy: geometry, responses, spectra, likelihood,
@@ -21,25 +20,24 @@ import only the layers listed before it:
     report               PDF/PNG pages of every result kind
     network, cli         shells: batches on Dask, the ``bayescal`` command
 """
-from .lazy import attach
+import lazy_loader
+
 from .version import __version__
 
-#: Public name -> module defining it. Imported on first use (PEP 562), so that
+#: Public names, each loaded from its module on first use (PEP 562), so that
 #: ``bayescal --help`` or a sub-command pays only for what it uses.
-_LAZY = {"Result": "bayescal.result.record", "Posterior": "bayescal.result.record",
-         "calibrate": "bayescal.pair.workflow", "calibrate_files": "bayescal.pair.workflow",
-         "write_results": "bayescal.io.result", "load_posterior": "bayescal.result.schema",
-         "simulate_calibration": "bayescal.simulate", "simulate_pair": "bayescal.simulate",
-         "write_network": "bayescal.simulate",
-         **dict.fromkeys(("InputError", "InputWarning", "SpectraError", "ResponseError", "FitError",
-                          "ModelMisfitWarning", "NotConvergedWarning"), "bayescal.errors")}
-
-__all__ = ["calibrate", "calibrate_files", "write_results", "load_posterior", "Result",
-           "Posterior",
-           "simulate_pair",
-           "simulate_calibration", "write_network", "InputError", "InputWarning", "SpectraError",
-           "ResponseError", "FitError", "ModelMisfitWarning", "NotConvergedWarning", "__version__"]
+__getattr__, _, _LAZY_NAMES = lazy_loader.attach(__name__, submod_attrs={
+    "result.record": ["Result", "Posterior"],
+    "result.schema": ["load_posterior"],
+    "pair.workflow": ["calibrate", "calibrate_files"],
+    "io.result": ["write_results"],
+    "simulate": ["simulate_calibration", "simulate_pair", "write_network"],
+    "errors": ["InputError", "InputWarning", "SpectraError", "ResponseError", "FitError",
+               "ModelMisfitWarning", "NotConvergedWarning"],
+})
+__all__ = [*_LAZY_NAMES, "__version__"]
 
 
-__getattr__, __dir__, _ = attach(__name__, {module: [n for n, m in _LAZY.items() if m == module]
-                                     for module in set(_LAZY.values())})
+def __dir__():
+    """The public names, those defined here included."""
+    return list(__all__)

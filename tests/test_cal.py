@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from obspy import read_inventory
 
+import bayescal.coil.runs  # noqa: F401 - coil.runs below: the module, not a face name
 from bayescal import cli, coil
 from bayescal.coil.hf import PZSpec, hf_items
 from bayescal.coil.random import fit_random

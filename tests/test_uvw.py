@@ -13,6 +13,7 @@ from scipy.stats import norm
 
 from tests.tolerance import LEVEL, Z_001, coverage_band, interval_bounds, median_mc_error
 
+import bayescal.coil.uvw  # noqa: F401 - coil.uvw below: the module, not a face name
 from bayescal import cli, coil
 from bayescal.simulate.coil import STS2_NOMINAL, simulate_calibration
 from bayescal.core.response import pendulum

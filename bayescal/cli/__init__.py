@@ -9,7 +9,7 @@ nothing imports it. Errors a user can fix (bad files, no overlap, too little
 data...) end with one line on stderr and exit code 2, never a traceback.
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
 from __future__ import annotations
 
@@ -17,16 +17,22 @@ import argparse
 import importlib
 import sys
 
-from ..lazy import attach
+import lazy_loader
+
 from ..version import __version__
 
 #: The sub-commands, in the order ``bayescal --help`` lists them.
 COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
 
-__getattr__, __dir__, _LAZY_NAMES = attach(__name__, {
-    ".fit": ["print_summary", "response_lines"],
+__getattr__, _, _LAZY_NAMES = lazy_loader.attach(__name__, submod_attrs={
+    "fit": ["print_summary", "response_lines"],
 })
 __all__ = sorted([*_LAZY_NAMES, "COMMANDS", "build_parser", "main"])
+
+
+def __dir__():
+    """The public names, those defined here included."""
+    return list(__all__)
 
 
 def _user_errors():

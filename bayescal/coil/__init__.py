@@ -15,25 +15,24 @@ May import :mod:`bayescal.core` and :mod:`bayescal.io`; nothing above them
 (no reports, no command line).
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".element": ["ElementFit", "RunModel", "fit_run", "least_squares_run", "run_spectra"],
-    ".hf": ["PZSpec", "hf_items"],
-    ".random": ["PZModel", "default_cal_band", "fit_random"],
-    ".sine": ["SineFit", "fit_sine", "sine_frequency"],
-    ".step": ["StepModel", "fit_step", "least_squares_step"],
-    ".result": ["CalFit"],
-    ".runs": ["CalRun", "default_band", "read_run"],
-    ".triaxial": ["ELEMENTS", "PARAMS", "SENSORS", "XYZ", "cross_talk", "load_matrix",
-                  "output_axis", "response_matrix", "seed_xyz_diagonal", "sensor_matrix",
-                  "uvw_to_xyz", "xyz_to_uvw"],
-    ".uvw": ["AGREEMENT_Z", "SCHEMA", "UVWResult", "agreement", "calibrate_uvw", "derive_xyz",
-             "element_ratios", "equivalent_two_pole"],
-    ".bounded": ["BoundedPosterior"],
-    ".calxml": ["corrected_cal_inventory", "write_corrected_cal"],
-    ".timedomain": ["Predictor", "ar_fit", "coil_transfer", "padding"],
-    "bayescal.core.orientation": ["STS2_UVW", "TRILLIUM_UVW"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "element": ["ElementFit", "RunModel", "fit_run", "least_squares_run", "run_spectra"],
+    "hf": ["PZSpec", "hf_items"],
+    "random": ["PZModel", "default_cal_band", "fit_random"],
+    "sine": ["SineFit", "fit_sine", "sine_frequency"],
+    "step": ["StepModel", "fit_step", "least_squares_step"],
+    "result": ["CalFit"],
+    "runs": ["CalRun", "default_band", "read_run"],
+    "triaxial": ["ELEMENTS", "PARAMS", "SENSORS", "STS2_UVW", "TRILLIUM_UVW", "XYZ",
+                 "cross_talk", "load_matrix", "output_axis", "response_matrix",
+                 "seed_xyz_diagonal", "sensor_matrix", "uvw_to_xyz", "xyz_to_uvw"],
+    "uvw": ["AGREEMENT_Z", "SCHEMA", "UVWResult", "agreement", "calibrate_uvw", "derive_xyz",
+            "element_ratios", "equivalent_two_pole"],
+    "bounded": ["BoundedPosterior"],
+    "calxml": ["corrected_cal_inventory", "write_corrected_cal"],
+    "timedomain": ["Predictor", "ar_fit", "coil_transfer", "padding"],
 })

@@ -23,7 +23,7 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,
 threadpoolctl, ObsPy's response evaluation, :mod:`bayescal.version`,
-:mod:`bayescal.errors` and :mod:`bayescal.lazy`; never another bayescal subpackage.
+:mod:`bayescal.errors` and :mod:`lazy_loader`; never another bayescal subpackage.
 
 Outside the core, a name of the core is imported from the face of its group
 (``from bayescal.core.spectra import cross_spectra``), or from this face for
@@ -31,13 +31,13 @@ the core's top-level modules (``from bayescal.core import Priors``); never
 from a group's modules (the layout test rejects ``bayescal.core.<group>.<module>``
 imports from outside the core). Inside the core, a group imports the modules
 of the groups it may import. Every face lists its public names in
-``__all__`` and loads each on first use (:func:`bayescal.lazy.attach`), so
+``__all__`` and loads each on first use (:func:`lazy_loader.attach`), so
 importing a face costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".budget": ["Budget"],
-    ".priors": ["Priors"],
-    ".threads": ["single_threaded_blas"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "budget": ["Budget"],
+    "priors": ["Priors"],
+    "threads": ["single_threaded_blas"],
 })

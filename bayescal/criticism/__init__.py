@@ -20,20 +20,20 @@
 May import :mod:`bayescal.core`; never io, report, network or cli.
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".tilt": ["ALPHA_RANGE", "base_fit", "nsr_data", "tilt_test"],
-    ".effects": ["ClockDrift"],
-    ".verdict": ["DEFAULT_BUDGET_S", "WORK_PER_SECOND", "check_orientation", "criticise",
-                 "criticism_budget", "failed", "lines"],
-    ".diagnose": ["posterior_of"],
-    ".diagnosis": ["EQUAL_SHAPE_CAVEAT", "REFERENCE_SHAPE_CAVEAT", "misfit_change",
-                   "reference_shape_caveat"],
-    ".naming": ["weak_effects"],
-    ".locate": ["band_coherence", "block_timing"],
-    ".search": ["held_orientation_loglik", "with_effects"],
-    ".wiring": ["swaps_with_unfitted"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "tilt": ["ALPHA_RANGE", "base_fit", "nsr_data", "tilt_test"],
+    "effects": ["ClockDrift"],
+    "verdict": ["DEFAULT_BUDGET_S", "WORK_PER_SECOND", "check_orientation", "criticise",
+                "criticism_budget", "failed", "lines"],
+    "diagnose": ["posterior_of"],
+    "diagnosis": ["EQUAL_SHAPE_CAVEAT", "REFERENCE_SHAPE_CAVEAT", "misfit_change",
+                  "reference_shape_caveat"],
+    "naming": ["weak_effects"],
+    "locate": ["band_coherence", "block_timing"],
+    "search": ["held_orientation_loglik", "with_effects"],
+    "wiring": ["swaps_with_unfitted"],
 })

@@ -17,20 +17,20 @@ May import :mod:`bayescal.core` and :mod:`bayescal.result`; never criticism,
 pair, coil, report, network or cli.
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".read": ["CODE_ORIENTATION", "channel_meta", "flat_inventory", "metadata_format",
-              "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
-              "read_waveforms", "two_pole_inventory"],
-    ".align": ["align_sensors"],
-    ".band": ["MIN_COHERENCE", "choose_band"],
-    ".inventory": ["assumed_flat", "load_inventory", "placeholder_channels"],
-    ".result": ["load_posterior", "save_posterior", "write_results"],
-    ".noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
-    ".refnoise_file": ["for_channels", "read_reference_noise"],
-    ".stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",
-                    "update_response", "write_corrected"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "read": ["CODE_ORIENTATION", "channel_meta", "flat_inventory", "metadata_format",
+             "orientation_from_code", "paz_inventory", "read_gse2_paz", "read_metadata",
+             "read_waveforms", "two_pole_inventory"],
+    "align": ["align_sensors"],
+    "band": ["MIN_COHERENCE", "choose_band"],
+    "inventory": ["assumed_flat", "load_inventory", "placeholder_channels"],
+    "result": ["load_posterior", "save_posterior", "write_results"],
+    "noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
+    "refnoise_file": ["for_channels", "read_reference_noise"],
+    "stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",
+                   "update_response", "write_corrected"],
 })

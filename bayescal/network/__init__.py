@@ -6,11 +6,11 @@
 A shell: may import every layer below it (core, io, criticism, report).
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".plan": ["default_options", "read_csv_plan", "sds_plan"],
-    ".batch": ["item_seed", "read_log", "run_batch"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "plan": ["default_options", "read_csv_plan", "sds_plan"],
+    "batch": ["item_seed", "read_log", "run_batch"],
 })

@@ -16,19 +16,19 @@ May import :mod:`bayescal.core`, :mod:`bayescal.io`, :mod:`bayescal.criticism`
 and :mod:`bayescal.result`.
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`)::
+(:func:`lazy_loader.attach`)::
 
     from bayescal.pair import prepare, fit, criticise, choose
     data = prepare(ref=ref_stream, ref_xml="ref.xml", sut=sut_stream, sut_xml="sut.xml")
     state = fit(data)
     result = choose(state, criticise(state), data=data)
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".preparation": ["PairData", "prepare"],
-    ".fitting": ["fit"],
-    ".criticism": ["criticise"],
-    ".choice": ["choose"],
-    ".workflow": ["calibrate", "calibrate_files"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "preparation": ["PairData", "prepare"],
+    "fitting": ["fit"],
+    "criticism": ["criticise"],
+    "choice": ["choose"],
+    "workflow": ["calibrate", "calibrate_files"],
 })

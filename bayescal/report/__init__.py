@@ -18,16 +18,16 @@
 May import core, io, criticism and coil; never network or cli.
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".fit": ["load_result", "write_report"],
-    ".layout": ["A4", "ReportContext"],
-    ".batch": ["COLUMNS", "find_flags", "read_results", "results_table"],
-    ".diagnosis": ["build_figure", "write_page"],
-    ".fit_pages": ["page_convergence", "page_data_fit", "page_summary"],
-    ".noise": ["figure_component", "write_figures"],
-    ".tables": ["angle_rows", "response_rows"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "fit": ["load_result", "write_report"],
+    "layout": ["A4", "ReportContext"],
+    "batch": ["COLUMNS", "find_flags", "read_results", "results_table"],
+    "diagnosis": ["build_figure", "write_page"],
+    "fit_pages": ["page_convergence", "page_data_fit", "page_summary"],
+    "noise": ["figure_component", "write_figures"],
+    "tables": ["angle_rows", "response_rows"],
 })

@@ -15,11 +15,11 @@ so reading a result loads no model, sampler, plotting or ObsPy module.
 Imports no other part of bayescal but the leaf :mod:`bayescal.atomic`, and that
 only to write.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".record": ["SCHEMA", "Posterior", "Result", "jsonable"],
-    ".meta": ["Meta", "by_channel"],
-    ".convergence": ["Convergence"],
-    ".schema": ["load", "load_posterior", "save", "write_json"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "record": ["SCHEMA", "Posterior", "Result", "jsonable"],
+    "meta": ["Meta", "by_channel"],
+    "convergence": ["Convergence"],
+    "schema": ["load", "load_posterior", "save", "write_json"],
 })

@@ -14,19 +14,19 @@ its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` al
 a pair's cross-spectra with :mod:`bayescal.io.align` (neither is imported here).
 
 Its public names (``__all__``) are loaded on first use
-(:func:`bayescal.lazy.attach`): importing this package costs no import time.
+(:func:`lazy_loader.attach`): importing this package costs no import time.
 """
-from ..lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".selfnoise": ["DIGITIZER", "STS1", "T240", "estimate_and_truth", "simulate_colocated"],
-    ".pair": ["DIGITIZER_GAIN", "NORM_FREQ", "self_noise_psd", "simulate_pair",
-              "velocity_response"],
-    ".cal": ["HF_NOMINAL", "LP_NOMINAL", "simulate_random_cal", "simulate_sine_cal",
-             "simulate_step_cal"],
-    ".harness": ["KINDS", "REGIMES", "band_noise_truth", "coherences", "concealed_pair",
-                 "draw_truth", "tilt_pair_spectra"],
-    ".coverage": ["binomial_band", "coverage_checks", "draw_case", "run_case", "summarise"],
-    ".coil": ["STS2_NOMINAL", "simulate_calibration"],
-    ".network": ["sds_path", "write_network"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "selfnoise": ["DIGITIZER", "STS1", "T240", "estimate_and_truth", "simulate_colocated"],
+    "pair": ["DIGITIZER_GAIN", "NORM_FREQ", "self_noise_psd", "simulate_pair",
+             "velocity_response"],
+    "cal": ["HF_NOMINAL", "LP_NOMINAL", "simulate_random_cal", "simulate_sine_cal",
+            "simulate_step_cal"],
+    "harness": ["KINDS", "REGIMES", "band_noise_truth", "coherences", "concealed_pair",
+                "draw_truth", "tilt_pair_spectra"],
+    "coverage": ["binomial_band", "coverage_checks", "draw_case", "run_case", "summarise"],
+    "coil": ["STS2_NOMINAL", "simulate_calibration"],
+    "network": ["sds_path", "write_network"],
 })

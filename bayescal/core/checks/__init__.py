@@ -13,11 +13,11 @@ May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".adequacy": ["ALPHA", "band_p_values", "describe", "from_diagnostics", "mismatch_flags"],
-    ".record_length": ["MIN_PERIODS"],
-    ".repeatability": ["reduced_chi_square", "sd_from_ci68"],
-    ".separation": ["WIDE_RATIO", "gain_separation"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "adequacy": ["ALPHA", "band_p_values", "describe", "from_diagnostics", "mismatch_flags"],
+    "record_length": ["MIN_PERIODS"],
+    "repeatability": ["reduced_chi_square", "sd_from_ci68"],
+    "separation": ["WIDE_RATIO", "gain_separation"],
 })

@@ -17,13 +17,13 @@ May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".run": ["SPAN_TOLERANCE_DEG", "build_model", "fit_spectra", "judged_response_flags",
-             "least_squares_fit", "span_basis"],
-    ".leastsq": ["TIGHT", "jacobian", "refine", "solve"],
-    ".assemble": ["assemble_posterior", "plugin_meta"],
-    ".unconstrained": ["BOUND_FRACTION", "describe_late", "information", "late_flags",
-                       "prior_bounds"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "run": ["SPAN_TOLERANCE_DEG", "build_model", "fit_spectra", "judged_response_flags",
+            "least_squares_fit", "span_basis"],
+    "leastsq": ["TIGHT", "jacobian", "refine", "solve"],
+    "assemble": ["assemble_posterior", "plugin_meta"],
+    "unconstrained": ["BOUND_FRACTION", "describe_late", "information", "late_flags",
+                      "prior_bounds"],
 })

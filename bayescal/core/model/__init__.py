@@ -22,16 +22,16 @@ and :mod:`bayescal.core.spectra`.
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".likelihood": ["MIN_TIME_BLOCKS", "Model"],
-    ".channel": ["ChannelBlock"],
-    ".inflation": ["INFLATION_SHRINK", "shrunk_inflation"],
-    ".protocol": ["PosteriorModel"],
-    ".effect": ["Effect"],
-    ".eiv": ["EIVModel", "EIVNoise"],
-    ".misfit_scale": ["MISFIT_SHAPE", "band_loglik", "band_scale"],
-    ".refnoise": ["band_sums_of_psd", "recommended_mode", "treatment_meta"],
-    ".jacobian": ["forward_jacobian", "least_squares_objective"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "likelihood": ["MIN_TIME_BLOCKS", "Model"],
+    "channel": ["ChannelBlock"],
+    "inflation": ["INFLATION_SHRINK", "shrunk_inflation"],
+    "protocol": ["PosteriorModel"],
+    "effect": ["Effect"],
+    "eiv": ["EIVModel", "EIVNoise"],
+    "misfit_scale": ["MISFIT_SHAPE", "band_loglik", "band_scale"],
+    "refnoise": ["band_sums_of_psd", "recommended_mode", "treatment_meta"],
+    "jacobian": ["forward_jacobian", "least_squares_objective"],
 })

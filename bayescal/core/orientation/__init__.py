@@ -8,11 +8,11 @@ Imports no other part of :mod:`bayescal.core`.
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".geometry": ["Circle", "Fixed", "Sphere", "NEAR_VERTICAL_DIP_DEG", "STS2_UVW", "TRILLIUM_UVW",
-                  "azimuth_dip", "tilt_components", "tilt_from_vertical", "unit_vector",
-                  "unwrap_azimuths"],
-    ".tilt_region": ["REGION_NOTE", "lean_region", "tilt_intervals"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "geometry": ["Circle", "Fixed", "Sphere", "NEAR_VERTICAL_DIP_DEG", "STS2_UVW", "TRILLIUM_UVW",
+                 "azimuth_dip", "tilt_components", "tilt_from_vertical", "unit_vector",
+                 "unwrap_azimuths"],
+    "tilt_region": ["REGION_NOTE", "lean_region", "tilt_intervals"],
 })

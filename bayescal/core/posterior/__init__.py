@@ -12,12 +12,12 @@ May import :mod:`bayescal.core.orientation`, :mod:`bayescal.core.response`,
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".samples": ["channel_summaries", "describe_treatment", "interval_summary", "orthogonality",
-                 "sampled_azimuth_dip"],
-    ".state": ["FitState"],
-    ".modes": ["describe", "multimodal_line"],
-    ".convergence": ["describe_sampler", "not_converged_line"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "samples": ["channel_summaries", "describe_treatment", "interval_summary", "orthogonality",
+                "sampled_azimuth_dip"],
+    "state": ["FitState"],
+    "modes": ["describe", "multimodal_line"],
+    "convergence": ["describe_sampler", "not_converged_line"],
 })

@@ -14,14 +14,14 @@ Imports no other part of :mod:`bayescal.core`.
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".family": ["TwoPoleFamily", "evaluate_velocity_response", "gain_prior_factor",
-                "paz_velocity_response", "pendulum_coefficients", "pendulum_denominator",
-                "pendulum_poles", "response_family", "units_label"],
-    ".evalresp": ["velocity_response"],
-    ".paz": ["normalization_factor", "transfer"],
-    ".reference_tolerance": ["meta_entry", "widen_responses"],
-    ".pendulum": ["DAMPING_TOLERANCE", "PERIOD_TOLERANCE", "damping_over_period"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "family": ["TwoPoleFamily", "evaluate_velocity_response", "gain_prior_factor",
+               "paz_velocity_response", "pendulum_coefficients", "pendulum_denominator",
+               "pendulum_poles", "response_family", "units_label"],
+    "evalresp": ["velocity_response"],
+    "paz": ["normalization_factor", "transfer"],
+    "reference_tolerance": ["meta_entry", "widen_responses"],
+    "pendulum": ["DAMPING_TOLERANCE", "PERIOD_TOLERANCE", "damping_over_period"],
 })

@@ -8,8 +8,8 @@ May import :mod:`bayescal.core.posterior` (how convergence is told).
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".mcmc": ["default_walkers", "sample"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "mcmc": ["default_walkers", "sample"],
 })

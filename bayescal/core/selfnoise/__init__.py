@@ -9,9 +9,9 @@ May import :mod:`bayescal.core.spectra`.
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".sleeman": ["SelfNoise", "below_resolution", "db"],
-    ".pair_noise": ["for_fit"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "sleeman": ["SelfNoise", "below_resolution", "db"],
+    "pair_noise": ["for_fit"],
 })

@@ -13,13 +13,13 @@ Imports no other part of :mod:`bayescal.core`.
 Its public names (``__all__``) are loaded on first use; outside the core,
 import them from here, not from its modules.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".welch": ["CrossSpectra", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
-               "hann", "make_bands"],
-    ".dof": ["band_dof"],
-    ".bandfold": ["fold"],
-    ".coherence": ["welch_multiple_coherence"],
-    ".transients": ["find", "summary"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "welch": ["CrossSpectra", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
+              "hann", "make_bands"],
+    "dof": ["band_dof"],
+    "bandfold": ["fold"],
+    "coherence": ["welch_multiple_coherence"],
+    "transients": ["find", "summary"],
 })

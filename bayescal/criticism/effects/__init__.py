@@ -29,16 +29,16 @@ a :class:`.base.CriticismEffect`, listed in :data:`.catalogue.CATALOGUE`, and it
 candidates (where the search tries it, with its starting grid) in
 :mod:`bayescal.criticism.search`.
 """
-from ...lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    ".base": ["CriticismEffect"],
-    ".catalogue": ["CATALOGUE"],
-    ".drift": ["ClockDrift", "CorrectedDrift", "drift_corrected", "drift_signature"],
-    ".gain": ["GainError"],
-    ".pole": ["IDENTIFIABLE_RATIO", "ExtraPole"],
-    ".response_parameters": ["ResponseParameters", "measured"],
-    ".screens": ["signatures"],
-    ".tilt_ratio": ["TILT_RATIO", "tilt_signature"],
-    ".timing": ["TimingOffset"],
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+    "base": ["CriticismEffect"],
+    "catalogue": ["CATALOGUE"],
+    "drift": ["ClockDrift", "CorrectedDrift", "drift_corrected", "drift_signature"],
+    "gain": ["GainError"],
+    "pole": ["IDENTIFIABLE_RATIO", "ExtraPole"],
+    "response_parameters": ["ResponseParameters", "measured"],
+    "screens": ["signatures"],
+    "tilt_ratio": ["TILT_RATIO", "tilt_signature"],
+    "timing": ["TimingOffset"],
 })
