@@ -12,6 +12,7 @@ from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit import refine
 from ..core.model import shrunk_inflation
+from ..core.model.inflation import lag_one_scatter, overlapping_segments
 from ..core.priors import Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import cross_spectra
@@ -190,10 +191,10 @@ class RunModel(BoundedPosterior):
         mu_b = (mu * saa[:, None]).T @ self.band_membership / self.band_input_power       # (no, B)
         seg = sp.per_segment                                          # (K, B, n, n)
         r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
-        q0 = np.einsum("kbi,bij,kbj->b", r_k.conj(), s_inv, r_k).real
-        adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
-        q1 = np.einsum("kbi,bij,kbj->b", r_k[adj + 1].conj(), s_inv, r_k[adj]).real
-        c = shrunk_inflation((q0 + 2.0 * q1) / (no * self.band_input_power), sp.n_segments * no,
+        scatter = lag_one_scatter(lambda x, y: np.einsum("kbi,bij,kbj->b", x.conj(), s_inv,
+                                                         y).real,
+                                  r_k, overlapping_segments(sp.segment_starts, sp.nperseg))
+        c = shrunk_inflation(scatter / (no * self.band_input_power), sp.n_segments * no,
                              pooled_floor=1e-12)
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self.band_input_power)[:, None, None]

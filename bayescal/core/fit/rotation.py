@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.inflation import overlapping_segments
 from ..orientation.geometry import azimuth_dip, unit_vector
 
 #: Nominal axes closer than this to horizontal count as horizontal, and the
@@ -89,7 +90,7 @@ def _inflation(per_segment, segment_starts, nperseg, bins, w):
     mean = p.mean(axis=0)
     d = p - mean
     var = (d ** 2).mean(axis=0)
-    adjacent = np.flatnonzero(np.diff(segment_starts) < nperseg)
+    adjacent = overlapping_segments(segment_starts, nperseg)
     cov1 = (d[adjacent] * d[adjacent + 1]).sum(axis=0) / max(p.shape[0], 1)
     ratio = (var + 2.0 * cov1) * bins / np.maximum(mean ** 2, 1e-300)
     return float(np.median(np.clip(ratio, 0.5, 20.0)))
