@@ -69,3 +69,15 @@ def test_saved_result_reads_back_the_same(tmp_path):
 def test_result_is_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         _result().meta = Meta()
+
+
+def test_convergence_figures_one_line_everywhere():
+    """The slowest parameter's figures in words, as the console, the reports
+    and the NOT CONVERGED line print them: ESS to the draw, R-hat to 1e-4."""
+    from bayescal.core.posterior.convergence import not_converged_line
+
+    c = dataclasses.replace(_result().convergence, converged=False).summary()
+    assert Convergence.figures(c) == "ESS min 900, R-hat max 1.0040"
+    line = not_converged_line(c)
+    assert line.startswith("NOT CONVERGED: the sampler stopped at 400 steps")
+    assert "(ESS min 900, R-hat max 1.0040)" in line

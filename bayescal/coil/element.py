@@ -285,7 +285,7 @@ class ElementFit:
     samples: np.ndarray          # (N, 3) period_s, damping, gain
     theta_ls: np.ndarray
     cov: np.ndarray
-    convergence: dict
+    convergence: object          # a Convergence (Chain.convergence())
     misfit: dict
     apparent: dict
     inflation: np.ndarray
@@ -308,7 +308,7 @@ class ElementFit:
         out["outputs_used"] = self.outputs
         out["misfit"] = self.misfit
         out["apparent_coefficient"] = self.apparent
-        out["convergence"] = self.convergence
+        out["convergence"] = self.convergence.summary()
         return out
 
 
@@ -365,7 +365,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     app = model.apparent_coefficients(med)
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
-        convergence=chain.summary(), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
+        convergence=chain.convergence(), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
         apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
                   for a, v, c in zip(run.axes, app, coef)},
         inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..model.inflation import overlapping_segments
 from ..orientation.geometry import azimuth_dip, unit_vector
+from ...result import Convergence
 
 #: Nominal axes closer than this to horizontal count as horizontal, and the
 #: nominal angle between the two SUT horizontals must be 90 within it.
@@ -150,7 +151,7 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
                    "sut_ids": np.array(ids), "ref_ids": np.array(sub.ref_ids)}
     return FitState(channel_ids=ids, kinds=["circle", "circle"], vectors=vectors, response={},
                     samples=alpha[:, None], names=["rotation_deg"], log_prob=np.zeros(N_SAMPLES),
-                    convergence={"tau": np.ones(1), "ess": np.array([float(N_SAMPLES)]),
-                                 "rhat": np.ones(1), "acceptance": 1.0, "n_steps": 0,
-                                 "n_walkers": 0, "burn": 0, "converged": True},
+                    convergence=Convergence(tau=np.ones(1), ess=np.array([float(N_SAMPLES)]),
+                                            rhat=np.ones(1), acceptance=1.0, n_steps=0,
+                                            n_walkers=0, burn=0, converged=True),
                     meta=meta, not_estimable=others, diagnostics=diagnostics)
