@@ -140,3 +140,18 @@ def test_independence_move_accepts_everything_when_the_target_is_its_proposal():
     s.run_mcmc(state, 38)
     assert np.all(s.acceptance_fraction == 1.0)
     assert len(np.unique(s.get_chain()[:, 0, 0])) == 39      # a new point every step
+
+
+def test_chain_convergence_is_the_result_container():
+    """A chain's convergence is the frozen container a result holds: the
+    same arrays and run size, and its summary is the chain's."""
+    from bayescal.result.convergence import Convergence
+
+    ch = mcmc.Chain(samples=np.zeros((4, 2)), log_prob=np.zeros(4), tau=np.array([2.0, 5.0]),
+                    ess=np.array([700.0, 300.0]), rhat=np.array([1.01, 1.002]), acceptance=0.3,
+                    n_steps=900, n_walkers=8, burn=120, converged=True, trace=np.zeros((1, 8, 2)))
+    conv = ch.convergence()
+    assert isinstance(conv, Convergence)
+    assert (conv.burn, conv.n_steps, conv.n_walkers, conv.ess_min) == (120, 900, 8, 300.0)
+    assert ch.summary() == {"ess_min": 300.0, "tau_max": 5.0, "rhat_max": 1.01, "n_steps": 900,
+                            "n_walkers": 8, "acceptance": 0.3, "converged": True}

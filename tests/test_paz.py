@@ -37,3 +37,17 @@ def test_digital_first_difference():
     h = transfer(np.exp(1j * theta), [1.0], [])
     assert np.abs(h) == pytest.approx(2 * np.sin(theta / 2), rel=1e-12)
     assert np.angle(h) == pytest.approx((np.pi + theta) / 2, rel=1e-12)
+
+
+def test_one_set_of_roots_per_row():
+    """Roots (W, n), one set per row (a posterior's draws): row w is the
+    transfer of its own roots, each a closed form here. A real pole moved
+    from -a to -b changes H by (s + a) / (s + b); a zero at -c gives s + c."""
+    s = 2j * np.pi * np.array([0.1, 1.0, 10.0])
+    a, b = np.array([3.0, 5.0]), np.array([4.0, 9.0])
+    moved = transfer(s, -a[:, None], -b[:, None])
+    assert moved.shape == (2, 3)
+    np.testing.assert_allclose(moved, (s + a[:, None]) / (s + b[:, None]), rtol=1e-15)
+    c = np.array([[2.0], [6.0]])
+    both = transfer(s, -c, np.zeros((2, 0)))
+    np.testing.assert_allclose(both, s[None] + c, rtol=1e-15)

@@ -85,3 +85,15 @@ def test_a_result_of_another_schema_is_refused(tmp_path, schema):
     path.write_text(json.dumps(saved))
     with pytest.raises(InputError, match=f"{tmp_path}.*schema {schema!r}"):
         load(str(tmp_path))
+
+
+def test_convergence_figures_one_line_everywhere():
+    """The slowest parameter's figures in words, as the console, the reports
+    and the NOT CONVERGED line print them: ESS to the draw, R-hat to 1e-4."""
+    from bayescal.core.posterior.convergence import not_converged_line
+
+    c = dataclasses.replace(_result().convergence, converged=False).summary()
+    assert Convergence.figures(c) == "ESS min 900, R-hat max 1.0040"
+    line = not_converged_line(c)
+    assert line.startswith("NOT CONVERGED: the sampler stopped at 400 steps")
+    assert "(ESS min 900, R-hat max 1.0040)" in line

@@ -150,6 +150,7 @@ def test_relative_gain_summary():
     """Without a coil constant every gain (elements, Z-only, XYZ) is reported
     over the elements' geometric mean, sample by sample."""
     from bayescal.core.response.family import TwoPoleFamily
+    from bayescal.result import Convergence
     from bayescal.simulate.pair import velocity_response
     fam = TwoPoleFamily.from_response(velocity_response(*STS2_NOMINAL, sample_rate=1.0))
     rng = np.random.default_rng(8)
@@ -160,7 +161,10 @@ def test_relative_gain_summary():
                                rng.normal(el[2] * c_unknown, 0.5, 4000)])
         app = {"Z": {"estimate": STS2_UVW[coil.ELEMENTS.index(e), 2],
                      "expected": STS2_UVW[coil.ELEMENTS.index(e), 2], "imag": 0.0}}
-        return coil.ElementFit(e, ["Z"], smp, None, None, {}, {"Z": 1.0}, app, None, (0.004, 0.2))
+        conv = Convergence(tau=np.ones(3), ess=np.full(3, 4000.0), rhat=np.ones(3),
+                           acceptance=1.0, n_steps=0, n_walkers=0, burn=0, converged=True)
+        return coil.ElementFit(e, ["Z"], smp, None, None, conv, {"Z": 1.0}, app, None,
+                               (0.004, 0.2))
 
     fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}
     z_fits = {e: fake_fit(e, el) for e, el in zip(coil.ELEMENTS, TRUE)}

@@ -138,6 +138,7 @@ def print_summary(summary, stream=None):
     it says so before any number), then medians and 95 % intervals."""
     from ..core.checks import describe
     from ..core.posterior import multimodal_line
+    from ..result import Convergence
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     crit = summary.get("criticism") or {}
@@ -187,8 +188,8 @@ def print_summary(summary, stream=None):
               "the data want a gain further from the metadata than the prior allows. Check the "
               "metadata gain, and whether --ref and --sut are swapped", file=stream)
     c = summary["convergence"]
-    print(f"convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}, "
-          f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
+    print(f"convergence: {Convergence.figures(c)}, tau max {c['tau_max']:.1f}, "
+          f"{c['n_steps']} steps", file=stream)
     if crit:
         print_criticism(crit, stream)
 

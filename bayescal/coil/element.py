@@ -11,7 +11,7 @@ from ..core.response import pendulum, pendulum_coefficients, pendulum_denominato
 from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit import refine
-from ..core.model import shrunk_inflation
+from ..core.model import lag_one_scatter, overlapping_segments, shrunk_inflation
 from ..core.priors import Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import cross_spectra
@@ -190,10 +190,10 @@ class RunModel(BoundedPosterior):
         mu_b = (mu * saa[:, None]).T @ self.band_membership / self.band_input_power       # (no, B)
         seg = sp.per_segment                                          # (K, B, n, n)
         r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
-        q0 = np.einsum("kbi,bij,kbj->b", r_k.conj(), s_inv, r_k).real
-        adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
-        q1 = np.einsum("kbi,bij,kbj->b", r_k[adj + 1].conj(), s_inv, r_k[adj]).real
-        c = shrunk_inflation((q0 + 2.0 * q1) / (no * self.band_input_power), sp.n_segments * no,
+        scatter = lag_one_scatter(lambda x, y: np.einsum("kbi,bij,kbj->b", x.conj(), s_inv,
+                                                         y).real,
+                                  r_k, overlapping_segments(sp.segment_starts, sp.nperseg))
+        c = shrunk_inflation(scatter / (no * self.band_input_power), sp.n_segments * no,
                              pooled_floor=1e-12)
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self.band_input_power)[:, None, None]
@@ -284,7 +284,7 @@ class ElementFit:
     samples: np.ndarray          # (N, 3) period_s, damping, gain
     theta_ls: np.ndarray
     cov: np.ndarray
-    convergence: dict
+    convergence: object          # a Convergence (Chain.convergence())
     misfit: dict
     apparent: dict
     inflation: np.ndarray
@@ -307,7 +307,7 @@ class ElementFit:
         out["outputs_used"] = self.outputs
         out["misfit"] = self.misfit
         out["apparent_coefficient"] = self.apparent
-        out["convergence"] = self.convergence
+        out["convergence"] = self.convergence.summary()
         return out
 
 
@@ -364,7 +364,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
     app = model.apparent_coefficients(med)
     return ElementFit(
         element=run.element, outputs=list(run.axes), samples=phys, theta_ls=theta, cov=cov,
-        convergence=chain.summary(), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
+        convergence=chain.convergence(), misfit=dict(zip(run.axes, model.misfit(med).tolist())),
         apparent={a: {"estimate": float(v.real), "expected": float(c), "imag": float(v.imag)}
                   for a, v, c in zip(run.axes, app, coef)},
         inflation=model.inflation, band_hz=(float(sp.band_edges[0]), float(sp.band_edges[-1])),

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.response import pendulum, TwoPoleFamily, pendulum_coefficients
+from ..core.response import pendulum, TwoPoleFamily, pendulum_coefficients, transfer
 from ..core.priors import Priors
 from ..errors import FitError, InputError
 
@@ -195,18 +195,20 @@ class PZSpec:
         return np.stack(out, axis=1) if out else np.zeros((theta.shape[0], 0), complex)
 
     def free_factors(self, s, q):
-        """Product of the free factors at ``s`` (F,) for roots ``q`` (W, K): (W, F)."""
-        out = np.ones((q.shape[0], s.size), complex)
+        """Product of the free factors at ``s`` (F,) for roots ``q`` (W, K): (W, F),
+        each root moved from its nominal value to ``q``
+        (:func:`bayescal.core.response.transfer` with one set of roots per row)."""
+        w = q.shape[0]
+        moved = {"pole": ([], []), "zero": ([], [])}     # (nominal, free) columns
         for k, it in enumerate(self.items):
-            q0, qk = it.nominal, q[:, k][:, None]
-            num = s - q0
-            den = s[None] - qk
-            if it.complex_pair:
-                num = num * (s - np.conj(q0))
-                den = den * (s[None] - np.conj(qk))
-            f = num[None] / den
-            out *= f if it.kind == "pole" else 1.0 / f
-        return out
+            nominal, free = moved[it.kind]
+            pairs = [(it.nominal, q[:, k])] + ([(np.conj(it.nominal), np.conj(q[:, k]))]
+                                               if it.complex_pair else [])
+            for q0, qk in pairs:
+                nominal.append(np.full(w, q0, complex))
+                free.append(qk)
+        (p_nom, p_free), (z_nom, z_free) = moved["pole"], moved["zero"]
+        return transfer(s, _columns(p_nom + z_free, w), _columns(p_free + z_nom, w))
 
     def ratio(self, freqs, theta):
         """``H(f; theta) / H_nom(f)``, shape (W, F)."""
@@ -259,12 +261,10 @@ class PZSpec:
         if self.has_lp:
             fam = self.family
             out = out * fam.denominator(s, 2 * np.pi / fam.period_s, fam.damping)
+        nominal = {"pole": [], "zero": []}
         for it in self.items:
-            f = s - it.nominal
-            if it.complex_pair:
-                f = f * (s - np.conj(it.nominal))
-            out = out * f if it.kind == "pole" else out / f
-        return out
+            nominal[it.kind] += [it.nominal] + ([np.conj(it.nominal)] if it.complex_pair else [])
+        return out * transfer(s, nominal["pole"], nominal["zero"])
 
     def physical(self, theta):
         """Samples in physical units: dict name -> (N,) (period_s, damping,
@@ -325,3 +325,8 @@ def scale_start(run, spec, theta0, scale):
                        f"more than {spec.priors.gain_factor:g}x from nominal "
                        f"{spec.family.gain:.4g}: check --coil-constant")
     return theta0
+
+
+def _columns(roots, w):
+    """(w, n) complex: the ``roots`` (each (w,)) as columns."""
+    return np.stack(roots, axis=1) if roots else np.zeros((w, 0), complex)

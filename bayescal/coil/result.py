@@ -33,7 +33,7 @@ class CalFit:
     channel: str
     spec: object                 # PZSpec
     theta: np.ndarray            # (N, ndim) samples
-    convergence: dict
+    convergence: object          # a Convergence (Chain.convergence())
     adequacy: dict
     band_hz: tuple
     response: object             # the channel's nominal ObsPy Response
@@ -54,7 +54,7 @@ class CalFit:
             meta.update({"prior_sensitivity": sensitivity[run.ids[0]],
                          "set_by_prior": pendulum.set_by_prior_entries(sensitivity),
                          "response_prior": prior_meta(spec.priors)})
-        return cls(kind, run.ids[0], spec, chain.samples, chain.summary(), adequacy,
+        return cls(kind, run.ids[0], spec, chain.samples, chain.convergence(), adequacy,
                    (float(band[0]), float(band[1])), run.responses[0], meta, model)
 
     def physical(self):
@@ -133,7 +133,7 @@ class CalFit:
                                  if isinstance(v, dict) and v.get("set_by_prior")},
                 "units": {"gain": f"{fam.gain_units} (first stage) at {fam.norm_freq:g} Hz",
                           "damping_over_period": "1/s", "hf_poles": "rad/s"},
-                "band_hz": list(self.band_hz), "convergence": self.convergence,
+                "band_hz": list(self.band_hz), "convergence": self.convergence.summary(),
                 "adequacy": self.adequacy, "meta": self.meta}
 
     def curves(self, n_freqs=150, n_samples=400, seed=0):

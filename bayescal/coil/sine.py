@@ -95,7 +95,7 @@ class SineFit:
     freq_hz: float
     nominal: complex            # nominal response at f0 (counts per m/s)
     theta: np.ndarray           # (N, 2) ln A, phi
-    convergence: dict
+    convergence: object         # a Convergence (Chain.convergence())
     adequacy: dict
     response: object
     meta: dict = field(default_factory=dict)
@@ -133,7 +133,8 @@ class SineFit:
                             "response_phase_deg": float(np.degrees(np.angle(self.nominal)))},
                 "units": {"response_amplitude": "counts per m/s (velocity, whole response)",
                           "phase": "degrees"},
-                "convergence": self.convergence, "adequacy": self.adequacy, "meta": self.meta}
+                "convergence": self.convergence.summary(), "adequacy": self.adequacy,
+                "meta": self.meta}
 
 
 def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
@@ -177,5 +178,5 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
             "duration_s": x.size / run.fs, "settle_s": skip / run.fs,
             "sine_fraction_of_input": frac, "sampler": chain.sampler}
-    return SineFit(run.ids[0], f0, nominal, chain.samples, chain.summary(),
+    return SineFit(run.ids[0], f0, nominal, chain.samples, chain.convergence(),
                    model.adequacy(med), run.responses[0], meta, model)

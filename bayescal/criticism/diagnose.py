@@ -41,6 +41,7 @@ from ..core.fit import (assemble_posterior, plugin_meta, least_squares_fit, desc
 from ..core.orientation import unit_vector
 from ..core.response import pendulum
 from ..core.posterior import interval_summary
+from ..result import Convergence
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
                      orientation_score, search)
 from .locate import band_ratio, block_timing, locate, ratio_weights, segment_timing
@@ -74,8 +75,8 @@ def posterior_of(model, theta, cov, meta, not_estimable, free, *, seed=0, mcmc=T
             meta = dict(meta, posterior_failed="no draw of its Gaussian approximation lies "
                                                "inside the prior's support")
         one = np.ones(model.ndim)
-        conv = {"tau": one, "ess": one * len(samples), "rhat": one, "acceptance": 1.0,
-                "n_steps": 0, "n_walkers": 0, "burn": 0, "converged": True}
+        conv = Convergence(tau=one, ess=one * len(samples), rhat=one, acceptance=1.0,
+                           n_steps=0, n_walkers=0, burn=0, converged=True)
         trace = None
         meta = dict(meta, approximation="Laplace (Gaussian at the least-squares point), no MCMC",
                     sampler={"library": None, "draws": int(len(samples)),

@@ -21,6 +21,7 @@ from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
 from ..core.posterior import multimodal_line, sampled_azimuth_dip
 from ..core.orientation import tilt_from_vertical
+from ..result import Convergence
 from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
 from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
@@ -382,8 +383,8 @@ def _convergence_table(fig, ctx, table_top, table_h):
              for n in names]
     ax.set_title(
         f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
-        f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; ESS min {conv['ess_min']:.0f};"
-        f" R-hat max {conv['rhat_max']:.4f}; converged: {'yes' if conv['converged'] else 'NO'}",
+        f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; {Convergence.figures(conv)};"
+        f" converged: {'yes' if conv['converged'] else 'NO'}",
         loc="left", fontsize=7.5)
     tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
                    loc="upper left", cellLoc="left", colLoc="left", edges="horizontal",

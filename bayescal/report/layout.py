@@ -11,6 +11,7 @@ from datetime import datetime, timezone
 
 import matplotlib
 
+from ..result import Convergence
 from ..version import __version__
 
 
@@ -276,8 +277,8 @@ def header_lines(ctx):
     if m.method:
         lines.append(f"Posterior: {m.method}, {conv['ess_min']:.0f} independent draws")
     else:
-        lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps, ESS min"
-                     f" {conv['ess_min']:.0f}, R-hat max {conv['rhat_max']:.4f},"
+        lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps,"
+                     f" {Convergence.figures(conv)},"
                      f" converged: {'yes' if conv['converged'] else 'NO'}")
     return lines
 

@@ -25,8 +25,8 @@ class Convergence:
 
     @classmethod
     def from_dict(cls, d):
-        """From :meth:`bayescal.core.sampling.mcmc.Chain.convergence`'s dict
-        (or :meth:`to_dict`'s, as stored in ``samples.npz``)."""
+        """From :meth:`to_dict`'s dict, as stored in ``samples.npz`` (a
+        Convergence is returned as it is)."""
         if isinstance(d, cls):
             return d
         return cls(tau=np.asarray(d["tau"], float), ess=np.asarray(d["ess"], float),
@@ -44,6 +44,13 @@ class Convergence:
     def ess_min(self):
         """The smallest effective sample size over the parameters."""
         return float(np.min(self.ess))
+
+    @staticmethod
+    def figures(summary):
+        """``"ESS min 812, R-hat max 1.0031"``: the slowest parameter's figures
+        of a ``convergence`` entry (:meth:`summary`'s dict, as ``result.json``
+        and ``cal.json`` hold it), as the console and every report print them."""
+        return f"ESS min {summary['ess_min']:.0f}, R-hat max {summary['rhat_max']:.4f}"
 
     def summary(self, names=None):
         """The ``convergence`` entry of ``result.json``: the slowest

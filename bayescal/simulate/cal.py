@@ -19,12 +19,10 @@ from __future__ import annotations
 import numpy as np
 from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
-from obspy.core.inventory.response import (CoefficientsTypeResponseStage, InstrumentSensitivity,
-                                           PolesZerosResponseStage, Response)
 
-from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
+from ..core.response import paz_velocity_response
 from .coil import CalibrationSimulation, white_rfft, prbs
-from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code
+from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 #: Nominal STS-2-like channel: period (s), damping, gain (V per m/s).
 LP_NOMINAL = (120.0, 0.707, 1500.0)
@@ -44,21 +42,10 @@ def _expand(poles):
 
 def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_freq=NORM_FREQ):
     """ObsPy ``Response``: pendulum pair, two zeros at 0, ``hf_poles`` (Im >= 0,
-    conjugates added), gain at ``norm_freq``, a flat digitizer."""
-    poles = list(pendulum_poles(period_s, damping)) + _expand(hf_poles)
-    st1 = PolesZerosResponseStage(
-        stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,
-        input_units="M/S", output_units="V", pz_transfer_function_type="LAPLACE (RADIANS/SECOND)",
-        normalization_frequency=norm_freq, zeros=[0j, 0j], poles=poles,
-        normalization_factor=normalization_factor([0j, 0j], poles, norm_freq))
-    st2 = CoefficientsTypeResponseStage(
-        stage_sequence_number=2, stage_gain=DIGITIZER_GAIN, stage_gain_frequency=norm_freq,
-        input_units="V", output_units="COUNTS", cf_transfer_function_type="DIGITAL",
-        numerator=[1.0], denominator=[], decimation_input_sample_rate=sample_rate,
-        decimation_factor=1, decimation_offset=0, decimation_delay=0.0, decimation_correction=0.0)
-    sens = InstrumentSensitivity(value=gain * DIGITIZER_GAIN, frequency=norm_freq,
-                                 input_units="M/S", output_units="COUNTS")
-    return Response(instrument_sensitivity=sens, response_stages=[st1, st2])
+    conjugates added), gain at ``norm_freq``, a flat digitizer
+    (:func:`bayescal.simulate.pair.velocity_response`)."""
+    return velocity_response(period_s, damping, gain, norm_freq=norm_freq,
+                             sample_rate=sample_rate, extra_poles=_expand(hf_poles))
 
 
 def simulate_random_cal(*, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),

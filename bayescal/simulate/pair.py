@@ -62,10 +62,13 @@ def ground_spectrum(f):
 
 
 def velocity_response(period_s, damping, gain, norm_freq=NORM_FREQ, digitizer_gain=DIGITIZER_GAIN,
-                      sample_rate=20.0, input_units="M/S"):
+                      sample_rate=20.0, input_units="M/S", extra_poles=()):
     """ObsPy ``Response`` of a broadband: two pendulum poles, two zeros at 0,
-    gain ``gain`` (V per m/s) at ``norm_freq``, a flat digitizer."""
-    poles = list(pendulum_poles(period_s, damping))
+    ``extra_poles`` (rad/s, each conjugate listed), gain ``gain`` (V per m/s)
+    at ``norm_freq``, a flat digitizer of ``digitizer_gain`` counts per volt.
+    The pendulum stage is normalised to 1 at ``norm_freq``
+    (:func:`bayescal.core.response.normalization_factor`)."""
+    poles = list(pendulum_poles(period_s, damping)) + list(extra_poles)
     a0 = normalization_factor([0j, 0j], poles, norm_freq)
     st1 = PolesZerosResponseStage(
         stage_sequence_number=1, stage_gain=gain, stage_gain_frequency=norm_freq,

@@ -20,7 +20,8 @@ def assemble_posterior(model, samples, log_prob, convergence, meta, free, *, nam
     the model's coordinates (None: ``samples``; it differs when parameters
     were held). Axes and responses (when ``free`` is not "none") are read
     from ``full``, the diagnostics at its median. ``convergence``:
-    :meth:`bayescal.core.sampling.mcmc.Chain.convergence`'s dict; ``meta``
+    a :class:`~bayescal.result.convergence.Convergence`
+    (:meth:`bayescal.core.sampling.mcmc.Chain.convergence`); ``meta``
     a dict or a :class:`~bayescal.result.meta.Meta`.
     """
     full = samples if full is None else full

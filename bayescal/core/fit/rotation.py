@@ -30,7 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.inflation import overlapping_segments
 from ..orientation.geometry import azimuth_dip, unit_vector
+from ...result import Convergence
 
 #: Nominal axes closer than this to horizontal count as horizontal, and the
 #: nominal angle between the two SUT horizontals must be 90 within it.
@@ -89,7 +91,7 @@ def _inflation(per_segment, segment_starts, nperseg, bins, w):
     mean = p.mean(axis=0)
     d = p - mean
     var = (d ** 2).mean(axis=0)
-    adjacent = np.flatnonzero(np.diff(segment_starts) < nperseg)
+    adjacent = overlapping_segments(segment_starts, nperseg)
     cov1 = (d[adjacent] * d[adjacent + 1]).sum(axis=0) / max(p.shape[0], 1)
     ratio = (var + 2.0 * cov1) * bins / np.maximum(mean ** 2, 1e-300)
     return float(np.median(np.clip(ratio, 0.5, 20.0)))
@@ -149,7 +151,7 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
                    "sut_ids": np.array(ids), "ref_ids": np.array(sub.ref_ids)}
     return FitState(channel_ids=ids, kinds=["circle", "circle"], vectors=vectors, response={},
                     samples=alpha[:, None], names=["rotation_deg"], log_prob=np.zeros(N_SAMPLES),
-                    convergence={"tau": np.ones(1), "ess": np.array([float(N_SAMPLES)]),
-                                 "rhat": np.ones(1), "acceptance": 1.0, "n_steps": 0,
-                                 "n_walkers": 0, "burn": 0, "converged": True},
+                    convergence=Convergence(tau=np.ones(1), ess=np.array([float(N_SAMPLES)]),
+                                            rhat=np.ones(1), acceptance=1.0, n_steps=0,
+                                            n_walkers=0, burn=0, converged=True),
                     meta=meta, not_estimable=others, diagnostics=diagnostics)

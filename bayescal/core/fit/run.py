@@ -269,7 +269,7 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))
-    sensitivity = _prior_sensitivity(model, full, n_eff=np.min(chain.convergence()["ess"]))
+    sensitivity = _prior_sensitivity(model, full, n_eff=chain.convergence().ess_min)
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     return _Run(model=model, theta_ls=theta_ls, target=target, chain=chain, full=full,
                 multimodal=multimodal, separation=separation, set_by_prior=set_by_prior,

@@ -27,7 +27,8 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "likelihood": ["MIN_TIME_BLOCKS", "Model"],
     "channel": ["ChannelBlock"],
-    "inflation": ["INFLATION_SHRINK", "shrunk_inflation"],
+    "inflation": ["INFLATION_SHRINK", "lag_one_scatter", "overlapping_segments",
+                  "shrunk_inflation"],
     "protocol": ["PosteriorModel"],
     "effect": ["Effect"],
     "eiv": ["EIVModel", "EIVNoise"],

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
-from .inflation import shrunk_inflation
+from .inflation import lag_one_scatter, overlapping_segments, shrunk_inflation
 from .likelihood import Model
 from ..priors import Priors
 
@@ -271,10 +271,9 @@ class EIVModel(Model):
             x_k = np.stack([refnoise.as_real(self._segment_statistic(seg[:, b], t, along, None)
                                              + t * d[b][None, :])
                             for b in range(sp.n_bands)], axis=1)
-        q0 = np.einsum("kbi,bij,kbj->b", x_k, w, x_k)
-        adj = np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg)
-        q1 = np.einsum("kbi,bij,kbj->b", x_k[adj + 1], w, x_k[adj])
-        c = shrunk_inflation((q0 + 2.0 * q1) / rank, x_k.shape[0] * rank)
+        scatter = lag_one_scatter(lambda x, y: np.einsum("kbi,bij,kbj->b", x, w, y), x_k,
+                                  overlapping_segments(sp.segment_starts, sp.nperseg))
+        c = shrunk_inflation(scatter / rank, x_k.shape[0] * rank)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
                               weight=plugin.band_weights(band_dof(sp), nu + nr))

@@ -41,3 +41,34 @@ def shrunk_inflation(raw, weight, pooled_floor=-np.inf):
     pooled = raw.mean()
     c = (weight * raw + INFLATION_SHRINK * pooled) / (weight + INFLATION_SHRINK)
     return np.maximum(c, 1e-3 * max(pooled, pooled_floor))
+
+
+def overlapping_segments(segment_starts, nperseg):
+    """Indices ``k`` of the segments that overlap the next one (their starts
+    closer than ``nperseg`` samples): the pairs ``(k, k + 1)`` whose
+    residuals are correlated."""
+    return np.flatnonzero(np.diff(segment_starts) < nperseg)
+
+
+def lag_one_scatter(quadratic, residuals, adjacent):
+    """Per-band scatter of per-segment residuals with its lag-one term,
+    ``q0 + 2 q1``: ``q0 = quadratic(r, r)`` summed over the segments,
+    ``q1 = quadratic(r[k + 1], r[k])`` summed over the overlapping pairs
+    ``adjacent`` (:func:`overlapping_segments`; empty for independent
+    segments), so that the ratio to its independent-bin value is the raw
+    inflation :func:`shrunk_inflation` shrinks.
+
+    Parameters
+    ----------
+    quadratic : callable ``(x, y) -> (B,)``, the quadratic form of two stacks
+        of per-segment residuals (K', B, ...) summed over the segments.
+    residuals : (K, B, ...) per-segment residuals.
+    adjacent : int array, the first segment of each overlapping pair.
+
+    Returns
+    -------
+    (B,) ``q0 + 2 q1``.
+    """
+    q0 = quadratic(residuals, residuals)
+    q1 = quadratic(residuals[adjacent + 1], residuals[adjacent])
+    return q0 + 2.0 * q1

@@ -63,7 +63,7 @@ from ..spectra.bandfold import fold
 from ..spectra.dof import band_dof
 from .channel import ChannelBlock  # noqa: F401  (re-exported: a Model is built of them)
 from .effect import Effect  # noqa: F401  (the extension hook, re-exported)
-from .inflation import shrunk_inflation
+from .inflation import lag_one_scatter, overlapping_segments, shrunk_inflation
 from .nodes import NODES_PER_DECADE, interpolation_nodes
 from ..response.family import gain_prior_factor
 from ..priors import Priors
@@ -387,11 +387,10 @@ class Model:
         b_inv = np.linalg.inv(self.reference_band_sums)
         b_inv_g = np.linalg.inv(self._srr_g)                         # (G, B, nr, nr)
         r_k, adjacent, dof = self._scatter_residuals(theta0, t, rho_g, b_inv)
-        q0 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k, b_inv, r_k.conj()).real
-        q1 = np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, r_k[adjacent + 1], b_inv,
-                       r_k[adjacent].conj()).real
+        scatter = lag_one_scatter(lambda x, y: np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, x,
+                                                         b_inv, y.conj()).real, r_k, adjacent)
         p = nu * sp.n_r
-        c = shrunk_inflation(dof * (q0 + 2.0 * q1) / p, r_k.shape[0] * p)
+        c = shrunk_inflation(dof * scatter / p, r_k.shape[0] * p)
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
                                 inflation=c, scale0=scale0,
@@ -447,7 +446,7 @@ class Model:
         seg = sp.per_segment
         r_k = rho_b[None, :, :, None] * seg[:, :, :nu, nu:] - np.einsum(
             "ij,kbjl->kbil", t, seg[:, :, nu:, nu:])
-        return r_k, np.flatnonzero(np.diff(sp.segment_starts) < sp.nperseg), 1.0
+        return r_k, overlapping_segments(sp.segment_starts, sp.nperseg), 1.0
 
     def adopt_noise(self, noise):
         """Set the noise model to ``noise`` (from a model on the same

@@ -6,6 +6,8 @@ stored result's readers use it without importing the sampling code
 (:mod:`bayescal.core.sampling.mcmc`)."""
 from __future__ import annotations
 
+from ...result import Convergence
+
 
 def not_converged_line(convergence, what="the sampler", option="--max-steps"):
     """The one line said for a chain that stopped at ``max_steps`` (None when
@@ -15,9 +17,8 @@ def not_converged_line(convergence, what="the sampler", option="--max-steps"):
     if convergence.get("converged", True):
         return None
     return (f"NOT CONVERGED: {what} stopped at {convergence['n_steps']} steps before meeting "
-            f"its convergence rule (ESS min {convergence['ess_min']:.0f}, R-hat max "
-            f"{convergence['rhat_max']:.3f}): the intervals are provisional; rerun with a "
-            f"larger {option}")
+            f"its convergence rule ({Convergence.figures(convergence)}): the intervals are "
+            f"provisional; rerun with a larger {option}")
 
 
 def describe_sampler(record):

@@ -15,22 +15,34 @@ import numpy as np
 
 
 def transfer(x, zeros, poles, a0=1.0):
-    """``A0 prod(x - z) / prod(x - p)`` at the complex points ``x`` (any
-    shape; the result has ``x``'s shape).
+    """``A0 prod(x - z) / prod(x - p)`` at the complex points ``x``.
 
     Parameters
     ----------
-    x : complex array, e.g. ``2j * np.pi * freqs``.
-    zeros, poles : sequences of complex roots, in ``x``'s units (none: a
-        product of 1).
+    x : complex array (any shape), e.g. ``2j * np.pi * freqs``.
+    zeros, poles : complex roots in ``x``'s units: a sequence (none: a product
+        of 1), or sets of roots (..., n), one set per leading index (e.g. one
+        per posterior draw), the same leading shape for both.
     a0 : the normalisation factor.
+
+    Returns
+    -------
+    Complex array of ``x``'s shape, preceded by the roots' leading shape.
     """
     x = np.asarray(x, dtype=complex)
-    zeros = np.asarray(zeros, dtype=complex).ravel()
-    poles = np.asarray(poles, dtype=complex).ravel()
-    num = np.prod(x[..., None] - zeros, axis=-1) if zeros.size else 1.0
-    den = np.prod(x[..., None] - poles, axis=-1) if poles.size else 1.0
+    num, den = (_product(x, roots) for roots in (zeros, poles))
     return a0 * num / den * np.ones_like(x)
+
+
+def _product(x, roots):
+    """``prod_k (x - r_k)`` over the last axis of ``roots`` (1.0 for none)."""
+    roots = np.asarray(roots, dtype=complex)
+    if roots.ndim < 2:
+        roots = roots.ravel()
+    if not roots.size:
+        return 1.0
+    shaped = roots.reshape(roots.shape[:-1] + (1,) * x.ndim + roots.shape[-1:])
+    return np.prod(x[..., None] - shaped, axis=-1)
 
 
 def normalization_factor(zeros, poles, norm_freq):

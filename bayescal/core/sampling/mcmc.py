@@ -213,15 +213,17 @@ class Chain:
 
     def convergence(self):
         """Every parameter's convergence figures and the run's size: a
-        posterior's ``convergence``."""
-        return {"tau": self.tau, "ess": self.ess, "rhat": self.rhat,
-                "acceptance": self.acceptance, "n_steps": self.n_steps,
-                "n_walkers": self.n_walkers, "burn": self.burn, "converged": self.converged}
+        :class:`~bayescal.result.convergence.Convergence`, a posterior's
+        ``convergence``."""
+        return Convergence(tau=self.tau, ess=self.ess, rhat=self.rhat, acceptance=self.acceptance,
+                           n_steps=self.n_steps, n_walkers=self.n_walkers, burn=self.burn,
+                           converged=self.converged)
 
     def summary(self):
         """The ``convergence`` entry of a result file: the slowest parameter's
-        figures, the run's size, whether the rule held, and the sampler."""
-        return Convergence.from_dict(self.convergence()).summary()
+        figures, the run's size and whether the rule held
+        (:meth:`~bayescal.result.convergence.Convergence.summary`)."""
+        return self.convergence().summary()
 
 
 class _Phases:
