@@ -113,7 +113,7 @@ def test_rarer_console_lines():
     record, from the functions the console prints them with."""
     from bayescal.core.checks.adequacy import adequacy, describe
     from bayescal.core.posterior.modes import describe as modes_line
-    from bayescal.core.checks.record_length import record_length
+    from bayescal.core.checks import record_length_entry
 
     misfit = np.ones((6, 3))
     misfit[-1, 1] = 40.0
@@ -126,7 +126,7 @@ def test_rarer_console_lines():
               "modes": [{"mass_fraction": 0.69}, {"mass_fraction": 0.31}]}
     multi = modes_line(report, {"A.B.10.BH1": ["azimuth_deg"]})
     assert multi.startswith("MULTIMODAL POSTERIOR: 2 modes") and "docs/" in multi
-    short = record_length(900.0, 0.02)["note"]
+    short = record_length_entry(900.0, 0.02)["note"]
     assert "short record for the band" in short
     for text, what in [(failed, "failed model check"), (multi, "multimodal line"),
                        (short, "short-record note")]:

@@ -7,16 +7,16 @@ from __future__ import annotations
 import pytest
 
 import bayescal
-from bayescal.core.checks.record_length import MIN_PERIODS, record_length
+from bayescal.core.checks import MIN_PERIODS, record_length_entry
 from bayescal.simulate import simulate_pair
 
 
 def test_threshold_in_periods_of_the_lower_edge():
-    assert "note" in record_length(614.0, 0.02)            # 12 periods: measured too narrow
-    assert "note" in record_length(1536.0, 0.02)           # 31: dips too narrow
-    assert "note" not in record_length(768.0, 0.05)        # 38: measured inside the bands
-    assert "note" not in record_length(3379.0, 0.02)       # 68
-    assert record_length(1536.0, 0.02)["periods_of_lower_edge"] == pytest.approx(30.72)
+    assert "note" in record_length_entry(614.0, 0.02)      # 12 periods: measured too narrow
+    assert "note" in record_length_entry(1536.0, 0.02)     # 31: dips too narrow
+    assert "note" not in record_length_entry(768.0, 0.05)  # 38: measured inside the bands
+    assert "note" not in record_length_entry(3379.0, 0.02)  # 68
+    assert record_length_entry(1536.0, 0.02)["periods_of_lower_edge"] == pytest.approx(30.72)
     assert MIN_PERIODS == 35.0
 
 
@@ -39,8 +39,8 @@ def test_batch_table_carries_the_note():
     """``results.csv``'s ``notes`` column (bayescal batch): the short record
     in a few words, with one decimal (34.8 periods is not "35")."""
     from bayescal.report.batch import _notes
-    meta = {"record_length": record_length(1740.0, 0.02)}
+    meta = {"record_length": record_length_entry(1740.0, 0.02)}
     assert meta["record_length"]["periods_of_lower_edge"] == pytest.approx(34.8)
     assert "34.8 periods" in meta["record_length"]["note"]
     assert _notes(meta) == "short record (34.8 periods of 0.02 Hz)"
-    assert _notes({"record_length": record_length(3600.0, 0.02)}) == ""
+    assert _notes({"record_length": record_length_entry(3600.0, 0.02)}) == ""

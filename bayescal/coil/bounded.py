@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.response import pendulum
+from ..core.response import (log_prior as pendulum_log_prior,
+                             prior_residual as pendulum_prior_residual, reweighted_sensitivity)
 from ..core.priors import Priors
 
 
@@ -34,7 +35,7 @@ class BoundedPosterior:
         lp = np.where(np.all((theta > lo) & (theta < hi), axis=1), 0.0, -np.inf)
         i = self.pendulum_index
         if i is not None:
-            lp = lp + pendulum.log_prior(theta[:, i], theta[:, i + 1],
+            lp = lp + pendulum_log_prior(theta[:, i], theta[:, i + 1],
                                          self.priors.period_tolerance,
                                          self.priors.damping_tolerance)
         return lp
@@ -60,7 +61,7 @@ class BoundedPosterior:
         if i is None:
             return np.zeros(0)
         pr = self.priors
-        return pendulum.prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
+        return pendulum_prior_residual(theta[i], theta[i + 1], pr.period_tolerance,
                                        pr.damping_tolerance)[0] / np.sqrt(self.LIKELIHOOD_SCALE)
 
     def information(self, theta):
@@ -81,11 +82,11 @@ class BoundedPosterior:
         i = self.pendulum_index
         if i is None:
             return {}
-        return pendulum.reweighted_sensitivity(samples, {channel: (i, i + 1)},
-                                               self.priors.period_tolerance,
-                                               self.priors.damping_tolerance,
-                                               information=self.information,
-                                               n_eff=n_eff)
+        return reweighted_sensitivity(samples, {channel: (i, i + 1)},
+                                      self.priors.period_tolerance,
+                                      self.priors.damping_tolerance,
+                                      information=self.information,
+                                      n_eff=n_eff)
 
 
 def prior_meta(priors):

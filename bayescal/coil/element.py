@@ -7,7 +7,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum, pendulum_coefficients, pendulum_denominator
+from ..core.response import (NAMES as PENDULUM_NAMES, damping_over_period, set_by_prior_entries,
+                             to_physical as pendulum_to_physical, pendulum_coefficients,
+                             pendulum_denominator)
 from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit import refine
@@ -78,7 +80,7 @@ class RunModel(BoundedPosterior):
     deconvolved by (ones at first). Vectorised: ``log_prob(theta (W, 3))``.
     """
 
-    names = (*pendulum.NAMES, "log_gain")
+    names = (*PENDULUM_NAMES, "log_gain")
     ndim = 3
     pendulum_index = 0
     #: ``-log L`` is the whitened residual's squared norm.
@@ -299,8 +301,8 @@ class ElementFit:
         out = {p: interval_summary(self.samples[:, j]) for j, p in enumerate(PARAMS)}
         # what a band above the corner fixes (bayescal.core.response.pendulum)
         out["damping_over_period"] = interval_summary(
-            pendulum.damping_over_period(self.samples[:, 0], self.samples[:, 1]))
-        mark_set_by_prior(out, pendulum.set_by_prior_entries(self.prior_sensitivity),
+            damping_over_period(self.samples[:, 0], self.samples[:, 1]))
+        mark_set_by_prior(out, set_by_prior_entries(self.prior_sensitivity),
                           self.element)
         out["prior_sensitivity"] = self.prior_sensitivity.get(self.element, {})
         out["response_prior"] = self.response_prior
@@ -349,7 +351,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
         return theta0
 
     def ratio_at(f, t):
-        period, damping = pendulum.to_physical(t[0], t[1], nominal.period_s, nominal.damping)
+        period, damping = pendulum_to_physical(t[0], t[1], nominal.period_s, nominal.damping)
         return np.stack([fam.ratio(f, period, damping, np.exp(t[2]))[0]
                          for fam in run.families])
 
@@ -357,7 +359,7 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
                                                 ratio_at, seed=seed, progress=progress,
                                                 **sample_kw)
     s = chain.samples
-    phys = np.column_stack([*pendulum.to_physical(s[:, 0], s[:, 1], nominal.period_s,
+    phys = np.column_stack([*pendulum_to_physical(s[:, 0], s[:, 1], nominal.period_s,
                                                   nominal.damping), np.exp(s[:, 2])])
     med = np.median(s, axis=0)
     sensitivity = model.prior_sensitivity(s, run.element, n_eff=float(np.min(chain.ess)))

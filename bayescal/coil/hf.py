@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.response import pendulum, TwoPoleFamily, pendulum_coefficients, transfer
+from ..core.response import (NAMES as PENDULUM_NAMES, to_physical as pendulum_to_physical,
+                             TwoPoleFamily, pendulum_coefficients, transfer)
 from ..core.priors import Priors
 from ..errors import FitError, InputError
 
@@ -146,7 +147,7 @@ class PZSpec:
 
     @property
     def names(self):
-        out = list(pendulum.NAMES) if self.has_lp else []
+        out = list(PENDULUM_NAMES) if self.has_lp else []
         out.append("log_gain")
         for k, it in enumerate(self.items):
             out += [f"{it.kind}{k}_re"] + ([f"{it.kind}{k}_im"] if it.complex_pair else [])
@@ -279,7 +280,7 @@ class PZSpec:
     def period_damping(self, theta):
         """(W,) period and damping of ``theta`` (W, ndim) with the pair fitted."""
         theta = np.atleast_2d(theta)
-        return pendulum.to_physical(theta[:, 0], theta[:, 1], self.family.period_s,
+        return pendulum_to_physical(theta[:, 0], theta[:, 1], self.family.period_s,
                                     self.family.damping)
 
 

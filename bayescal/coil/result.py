@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
-from ..core.response import pendulum, evaluate_velocity_response
+from ..core.response import damping_over_period, set_by_prior_entries, evaluate_velocity_response
 from ..core.posterior import interval_summary
 from .bounded import mark_set_by_prior, prior_meta
 
@@ -52,7 +52,7 @@ class CalFit:
                                               n_eff=float(np.min(chain.ess)))
         if sensitivity:
             meta.update({"prior_sensitivity": sensitivity[run.ids[0]],
-                         "set_by_prior": pendulum.set_by_prior_entries(sensitivity),
+                         "set_by_prior": set_by_prior_entries(sensitivity),
                          "response_prior": prior_meta(spec.priors)})
         return cls(kind, run.ids[0], spec, chain.samples, chain.convergence(), adequacy,
                    (float(band[0]), float(band[1])), run.responses[0], meta, model)
@@ -111,7 +111,7 @@ class CalFit:
                 params[p] = interval_summary(phys[p])
         if "period_s" in phys:      # what a band above the corner fixes (core.response.pendulum)
             params["damping_over_period"] = interval_summary(
-                pendulum.damping_over_period(phys["period_s"], phys["damping"]))
+                damping_over_period(phys["period_s"], phys["damping"]))
             mark_set_by_prior(params, self.meta.get("set_by_prior", {}), self.channel)
         for kind in ("pole", "zero"):
             entries = []

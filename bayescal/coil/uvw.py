@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import pendulum, TwoPoleFamily
+from ..core.response import damping_over_period, TwoPoleFamily
 from ..core.priors import Priors
 from ..errors import FitError, InputError
 from ..core.posterior import interval_summary
@@ -180,7 +180,7 @@ class UVWResult:
             xyz[name] = {"period_s": interval_summary(eq[:, 0]),
                          "damping": interval_summary(eq[:, 1]),
                          "damping_over_period": interval_summary(
-                             pendulum.damping_over_period(eq[:, 0], eq[:, 1])),
+                             damping_over_period(eq[:, 0], eq[:, 1])),
                          "gain": interval_summary(eq[:, 2] / scale),
                          "gain_at_norm_freq": interval_summary(self.xyz["gain_at_norm"][:, ax]
                                                                / scale),

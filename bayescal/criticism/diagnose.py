@@ -39,7 +39,7 @@ from ..core.sampling import default_walkers, sample
 from ..core.fit import (assemble_posterior, plugin_meta, least_squares_fit, describe_late,
                         information, late_flags)
 from ..core.orientation import unit_vector
-from ..core.response import pendulum
+from ..core.response import prior_sensitivity, set_by_prior_entries
 from ..core.posterior import interval_summary
 from ..result import Convergence
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
@@ -106,9 +106,9 @@ def prior_set(model, samples):
     sens = {}
     if blocks:
         pr = model.priors
-        sens = pendulum.prior_sensitivity(information(model, med), med, blocks,
-                                          pr.period_tolerance, pr.damping_tolerance)
-        out.update(pendulum.set_by_prior_entries(sens))
+        sens = prior_sensitivity(information(model, med), med, blocks,
+                                 pr.period_tolerance, pr.damping_tolerance)
+        out.update(set_by_prior_entries(sens))
     return {"set_by_prior": out, **({"prior_sensitivity": sens} if sens else {})}
 
 

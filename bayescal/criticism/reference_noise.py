@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model import refnoise, EIVModel, Model
+from ..core.model import as_real, EIVModel, Model
 from ..core.fit import least_squares_fit
 
 
@@ -35,7 +35,7 @@ class _QuietUnderEIV(EIVModel):
     def _estimate_statistic(self, theta, w):
         theta = np.atleast_2d(theta)
         vecs, ratio = self.unpack(theta)
-        x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
+        x0 = as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
         f = self._row_factor(ratio)
         if f is not None:
             x0 = x0 * f

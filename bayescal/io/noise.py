@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.selfnoise import sleeman as core
+from ..core.selfnoise import (SelfNoise, acceleration_band_matrices, below_resolution, db,
+                              estimate_self_noise, period_band_weights)
 from ..core.spectra import band_dof, cross_spectra
 from ..errors import InputError
 from .read import read_waveforms
@@ -67,13 +68,13 @@ class ComponentNoise:
 
     component: str
     ids: list
-    estimate: core.SelfNoise           # PSD in (m/s^2)^2/Hz
+    estimate: SelfNoise                # PSD in (m/s^2)^2/Hz
     nperseg: int
     n_segments: int
     fraction_used: float
     band_hz: tuple
     matrices: np.ndarray = None        # (B, n, n) acceleration PSD matrices
-    period_bands: core.SelfNoise = None   # means over the period bands
+    period_bands: SelfNoise = None     # means over the period bands
     period_ranges: list = field(default_factory=list)   # (shortest, longest) s per band
 
 
@@ -144,16 +145,16 @@ def self_noise_spectra(spectra, level=0.9, n_boot=1000, seed=0, method="wishart"
     (s) returns a third and a fourth item: the estimates averaged over those
     period bands (:func:`bayescal.core.selfnoise.sleeman.period_band_weights`) and
     the bands' (shortest, longest) periods."""
-    C, fc = core.acceleration_band_matrices(spectra)
+    C, fc = acceleration_band_matrices(spectra)
     dof = band_dof(spectra)
     kw = dict(level=level, n_boot=n_boot, seed=seed, per_segment=spectra.per_segment,
               method=method, block=block, axis_mismatch=axis_mismatch, ids=spectra.sut_ids)
-    est = core.estimate_self_noise(C, dof, fc, **kw)
+    est = estimate_self_noise(C, dof, fc, **kw)
     if period_edges is None:
         return est, C
     edges = spectra.band_edges
-    W, ranges = core.period_band_weights(fc, period_edges, (1.0 / edges[-1], 1.0 / edges[0]))
-    bands = core.estimate_self_noise(C, dof, fc, combine=W, **kw) if len(ranges) else None
+    W, ranges = period_band_weights(fc, period_edges, (1.0 / edges[-1], 1.0 / edges[0]))
+    bands = estimate_self_noise(C, dof, fc, combine=W, **kw) if len(ranges) else None
     return est, C, bands, ranges
 
 
@@ -268,9 +269,9 @@ def to_json(result):
         e = comp.estimate
         order = np.argsort(e.period_s)
         psd, ci = e.psd_db()[:, order], e.ci_db()[:, :, order]
-        amb = core.db(e.signal)[:, order]
-        pr = core.db(e.pair_range)[:, order]
-        below = core.below_resolution(e.lo)[:, order]
+        amb = db(e.signal)[:, order]
+        pr = db(e.pair_range)[:, order]
+        below = below_resolution(e.lo)[:, order]
         bands = period_band_summary(comp)
         for i, cid in enumerate(comp.ids):
             sensors[cid] = {
@@ -310,8 +311,8 @@ def period_band_summary(comp):
     if e is None:
         return {}
     key = f"ci{round(100 * e.level)}_db"
-    psd, ci, rec = e.psd_db(), e.ci_db(), core.db(e.signal)
-    below = core.below_resolution(e.lo)
+    psd, ci, rec = e.psd_db(), e.ci_db(), db(e.signal)
+    below = below_resolution(e.lo)
     order = np.argsort([r[0] for r in comp.period_ranges])
     out = {}
     for i, cid in enumerate(comp.ids):

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.checks.record_length import record_length
+from ..core.checks import record_length_entry
 from ..core.spectra import find as find_transients, summary as transient_summary
 from ..core.spectra import cross_spectra
 from ..errors import SpectraError
@@ -206,8 +206,8 @@ def _facts(s, r, spectra, t0, fs, band_note, sut_inventory, ref_inventory, *, tr
                           "fraction": spectra.fraction_used,
                           "approx_seconds": min(used_s, duration), "note": SEGMENT_NOTE,
                           **({"transients": transients} if transients else {})},
-            "record_length": record_length(min(used_s, duration),
-                                           float(spectra.band_edges[0])),
+            "record_length": record_length_entry(min(used_s, duration),
+                                                 float(spectra.band_edges[0])),
             "band_choice": band_note,
             "placeholder_response": {"sut": placeholder_channels(sut_inventory, s.ids),
                                      "reference": placeholder_channels(ref_inventory, r.ids)},

@@ -10,8 +10,8 @@
 
 The generators import only :mod:`bayescal.core` (:mod:`.selfnoise` builds
 its StationXML with :func:`bayescal.io.read.paz_inventory`); :mod:`.coverage` also runs
-:mod:`bayescal.pair` on what it simulates, and :mod:`.harness` computes
-a pair's cross-spectra with :mod:`bayescal.io.align` (neither is imported here).
+:mod:`bayescal.pair` on what it simulates, and :mod:`.harness` prepares
+a pair's cross-spectra with :func:`bayescal.pair.prepare` (neither is imported here).
 
 Its public names (``__all__``) are loaded on first use
 (:func:`lazy_loader.attach`): importing this package costs no import time.

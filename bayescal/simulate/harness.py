@@ -7,7 +7,7 @@ same pairs:
 * the diagnosis harness's concealed effects: :data:`KINDS`, :data:`REGIMES`,
   :func:`regime_kw`, :func:`draw_effect`, :func:`concealed_pair`
   (``diagnose_harness.py``);
-* a tilted pair's cross-spectra as the pipeline computes them:
+* a tilted pair's cross-spectra as a fit prepares them:
   :func:`tilt_pair_spectra` (``tilt_power.py``);
 * each channel's true self-noise per band as the pair-noise estimator
   defines it: :func:`band_noise_truth` (``pair_noise_study.py``).
@@ -139,16 +139,15 @@ def concealed_pair(seed, p_clean, regime="default", gain_off=0.0):
 
 def tilt_pair_spectra(seed, coherence, azimuth, level, band=(0.02, 3.0), **effects):
     """Cross-spectra of one simulated pair (3600 s at 10 Hz, SUT turned by
-    ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), computed as
-    the pipeline does; ``effects`` go to :func:`simulate_pair`."""
-    from ..core.spectra import cross_spectra
-    from ..io.align import align
+    ``azimuth``, tilt noise ``level`` on SUT channels 0 and 1), as a fit
+    prepares them (:func:`bayescal.pair.prepare`, every segment kept);
+    ``effects`` go to :func:`simulate_pair`."""
+    from ..pair import prepare
 
     sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence,
                         sut_azimuth=(azimuth, azimuth + 90, 0.0), tilt_noise=level, **effects)
-    s, r, fs, _ = align(sim.sut, sim.sut_inventory, sim.ref, sim.ref_inventory)
-    return cross_spectra(s.data, r.data, fs, s.response_fn(), r.response_fn(), band,
-                         sut_ids=s.ids, ref_ids=r.ids)
+    return prepare(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
+                   sut_xml=sim.sut_inventory, band=band, transients="keep").spectra
 
 
 def band_noise_truth(spectra, kw):

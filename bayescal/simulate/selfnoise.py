@@ -178,17 +178,17 @@ def estimate_and_truth(sim, band=None, *, n_boot=400, level=0.9, method="wishart
     self-noise and the (B, 3, 3) acceleration matrices. ``band`` defaults to
     0.01 Hz up to 0.8 of Nyquist.
     """
-    from ..core.selfnoise import sleeman as core
+    from ..core.selfnoise import acceleration_band_matrices, estimate_self_noise
     from ..core.spectra import band_dof, cross_spectra
 
     n = sim.data.shape[1]
     band = band or (0.01, 0.4 * sim.fs)
     sp = cross_spectra(sim.data, np.empty((0, n)), sim.fs, sim.response_fn(), None, band,
                        bands_per_decade=bands_per_decade, min_bins=min_bins)
-    C, fc = core.acceleration_band_matrices(sp)
+    C, fc = acceleration_band_matrices(sp)
     dof = band_dof(sp)
-    est = core.estimate_self_noise(C, dof, fc, level=level, n_boot=n_boot,
-                                   seed=sim.seed if seed is None else seed,
-                                   per_segment=sp.per_segment, method=method,
-                                   axis_mismatch=axis_mismatch)
+    est = estimate_self_noise(C, dof, fc, level=level, n_boot=n_boot,
+                              seed=sim.seed if seed is None else seed,
+                              per_segment=sp.per_segment, method=method,
+                              axis_mismatch=axis_mismatch)
     return est, true_band_noise(sp), C

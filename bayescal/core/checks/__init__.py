@@ -17,7 +17,7 @@ import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "adequacy": ["ALPHA", "band_p_values", "describe", "from_diagnostics", "mismatch_flags"],
-    "record_length": ["MIN_PERIODS"],
+    "record_length": ["MIN_PERIODS", "record_length_entry"],
     "repeatability": ["reduced_chi_square", "sd_from_ci68"],
     "separation": ["WIDE_RATIO", "gain_separation"],
 })

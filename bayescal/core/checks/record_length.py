@@ -36,7 +36,7 @@ from __future__ import annotations
 MIN_PERIODS = 35.0
 
 
-def record_length(seconds, lower_edge_hz):
+def record_length_entry(seconds, lower_edge_hz):
     """``meta["record_length"]``: the record used (s), the band's lower edge
     (Hz), the periods of it the record holds, and, when fewer than
     :data:`MIN_PERIODS`, a ``note`` in plain words."""

@@ -33,6 +33,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "effect": ["Effect"],
     "eiv": ["EIVModel", "EIVNoise"],
     "misfit_scale": ["MISFIT_SHAPE", "band_loglik", "band_scale"],
-    "refnoise": ["band_sums_of_psd", "recommended_mode", "treatment_meta"],
+    "refnoise": ["as_real", "band_sums_of_psd", "recommended_mode", "treatment_meta"],
     "jacobian": ["forward_jacobian", "least_squares_objective"],
 })

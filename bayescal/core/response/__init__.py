@@ -23,5 +23,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "evalresp": ["velocity_response"],
     "paz": ["normalization_factor", "transfer"],
     "reference_tolerance": ["meta_entry", "widen_responses"],
-    "pendulum": ["DAMPING_TOLERANCE", "PERIOD_TOLERANCE", "damping_over_period"],
+    "pendulum": ["DAMPING_TOLERANCE", "NAMES", "PERIOD_TOLERANCE", "damping_over_period",
+                 "from_physical", "log_prior", "prior_residual", "prior_sensitivity",
+                 "reweighted_sensitivity", "set_by_prior_entries", "to_physical"],
 })

@@ -12,6 +12,7 @@ import them from here, not from its modules.
 import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
-    "sleeman": ["SelfNoise", "below_resolution", "db"],
+    "sleeman": ["SelfNoise", "acceleration_band_matrices", "below_resolution", "db",
+                "estimate_self_noise", "period_band_weights"],
     "pair_noise": ["for_fit"],
 })

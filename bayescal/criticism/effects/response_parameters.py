@@ -6,7 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.response import pendulum
+from ...core.response import (NAMES as PENDULUM_NAMES, damping_over_period,
+                              from_physical as pendulum_from_physical,
+                              log_prior as pendulum_log_prior,
+                              prior_residual as pendulum_prior_residual, prior_sensitivity,
+                              set_by_prior_entries, to_physical as pendulum_to_physical)
 from .base import CriticismEffect
 
 
@@ -35,7 +39,7 @@ class ResponseParameters(CriticismEffect):
         pr = priors if priors is not None else Priors()
         self.tolerances = (pr.period_tolerance, pr.damping_tolerance)
         self.param_names = tuple(f"{c.split('.')[-1]}:{n}" for c in self.channel_ids
-                                 for n in pendulum.NAMES)
+                                 for n in PENDULUM_NAMES)
         self._cache = (None, None)
 
     def grid(self, steps):
@@ -45,7 +49,7 @@ class ResponseParameters(CriticismEffect):
         for a, b in steps:
             row = []
             for fam in self.families:
-                row += [float(x) for x in pendulum.from_physical(
+                row += [float(x) for x in pendulum_from_physical(
                     fam.period_s * np.exp(a), fam.damping + b, fam.period_s, fam.damping)]
             out.append(row)
         return np.array(out)
@@ -58,7 +62,7 @@ class ResponseParameters(CriticismEffect):
     def _physical(self, p, k):
         fam = self.families[k]
         with np.errstate(invalid="ignore", divide="ignore"):
-            return pendulum.to_physical(p[:, 2 * k], p[:, 2 * k + 1], fam.period_s, fam.damping)
+            return pendulum_to_physical(p[:, 2 * k], p[:, 2 * k + 1], fam.period_s, fam.damping)
 
     def factor(self, f, p):
         out = np.empty((p.shape[0], len(self.rows), np.size(f)), dtype=complex)
@@ -69,7 +73,7 @@ class ResponseParameters(CriticismEffect):
         return out
 
     def log_prior(self, p):
-        return sum(pendulum.log_prior(p[:, 2 * k], p[:, 2 * k + 1], *self.tolerances)
+        return sum(pendulum_log_prior(p[:, 2 * k], p[:, 2 * k + 1], *self.tolerances)
                    for k in range(len(self.rows)))
 
     def prior_residual(self, p):
@@ -78,7 +82,7 @@ class ResponseParameters(CriticismEffect):
         n = len(self.rows)
         r, jac = np.zeros(2 * n), np.zeros((2 * n, 2 * n))
         for k in range(n):
-            rk, jk = pendulum.prior_residual(p[2 * k], p[2 * k + 1], *self.tolerances)
+            rk, jk = pendulum_prior_residual(p[2 * k], p[2 * k + 1], *self.tolerances)
             r[2 * k:2 * k + 2], jac[2 * k:2 * k + 2, 2 * k:2 * k + 2] = rk, jk
         return r, jac
 
@@ -89,7 +93,7 @@ class ResponseParameters(CriticismEffect):
         effect's slice in it."""
         blocks = {cid: (sl.start + 2 * k, sl.start + 2 * k + 1)
                   for k, cid in enumerate(self.channel_ids)}
-        return pendulum.prior_sensitivity(fisher, theta, blocks, *self.tolerances)
+        return prior_sensitivity(fisher, theta, blocks, *self.tolerances)
 
     def physical(self, p):
         out = {}
@@ -97,7 +101,7 @@ class ResponseParameters(CriticismEffect):
             period, damping = self._physical(p, k)
             out[f"period_s:{cid}"] = period
             out[f"damping:{cid}"] = damping
-            out[f"damping_over_period:{cid}"] = pendulum.damping_over_period(period, damping)
+            out[f"damping_over_period:{cid}"] = damping_over_period(period, damping)
         return out
 
     def nominal(self):
@@ -106,7 +110,7 @@ class ResponseParameters(CriticismEffect):
         for fam, cid in zip(self.families, self.channel_ids):
             out[f"period_s:{cid}"] = fam.period_s
             out[f"damping:{cid}"] = fam.damping
-            out[f"damping_over_period:{cid}"] = float(pendulum.damping_over_period(
+            out[f"damping_over_period:{cid}"] = float(damping_over_period(
                 fam.period_s, fam.damping))
         return out
 
@@ -142,7 +146,7 @@ def measured(params, sensitivity):
     :meth:`ResponseParameters.prior_sensitivity`), and without
     damping/period where the period and the damping are both measured (it
     adds nothing then). Returns (kept, the ``set_by_prior`` entries)."""
-    sbp = pendulum.set_by_prior_entries(sensitivity)
+    sbp = set_by_prior_entries(sensitivity)
     out = {}
     for key, v in params.items():
         name, cid = key.split(":", 1)
