@@ -87,8 +87,9 @@ def test_killed_run_resumes_without_redoing_or_losing(killed_then_resumed):
     assert set(done) | set(r["before"]) == set(r["labels"])
     assert set(done[len([e for e in r["log_before"] if e["event"] == "done"]):]).isdisjoint(
         r["before"])
-    for lb in r["labels"]:
-        assert os.path.exists(os.path.join(r["out"], lb, "result.json"))
+    for lb in r["labels"]:     # each item's result names its item
+        with open(os.path.join(r["out"], lb, "result.json")) as fh:
+            assert json.load(fh)["meta"]["batch_label"] == lb
     assert not os.path.exists(os.path.join(r["out"], ".tmp"))
 
 

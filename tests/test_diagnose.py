@@ -156,7 +156,7 @@ def test_cli_clean_pair_writes_the_base_fit(tmp_path):
     result = json.loads((out / "result.json").read_text())
     assert doc["effects"] == []
     assert "self_noise" in result and "sensor_order" in result
-    assert result == doc["base"]
+    assert result == doc["base"] == doc["final"]
 
 
 @pytest.mark.parametrize("side", ["--sut", "--ref"])

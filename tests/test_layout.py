@@ -431,8 +431,8 @@ def test_no_private_attribute_of_another_object_is_read():
 
 
 def test_private_read_rule_sees_a_reintroduced_read():
-    """The rule catches a model's private array read from outside (as the
-    calibration report once did), by attribute, by ``getattr``/``setattr``/
+    """The rule catches a model's private array read from outside (a
+    report reading the coil model's arrays), by attribute, by ``getattr``/``setattr``/
     ``hasattr`` with a literal name and by ``vars``, and a ``cls`` that is
     not a method's first parameter; it passes the object's own reads."""
     src = ("from . import likelihood\n"

@@ -59,8 +59,9 @@ def run(args):
              else d.final.replace(sut_inventory=base.sut_inventory).to_result())
     with staging(out) as tmp:
         write_results(final, tmp)
-        # the base fit as bayescal fit reports it (its self-noise included)
-        write_json(os.path.join(tmp, "diagnosis.json"), {**d.summary(), "base": base.summary()})
+        # both fits as their result.json hold them (the base's self-noise included)
+        write_json(os.path.join(tmp, "diagnosis.json"),
+                   {**d.summary(), "base": base.summary(), "final": final.summary()})
         if not args.no_report:
             from ..report.diagnosis import write_page
             try:

@@ -58,7 +58,7 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         fitted (``state.meta.free_response``).
     tolerance : float or None
         The reference's metadata tolerance (``Priors.reference_tolerance``;
-        None: the fit's priors'):
+        None: the fit's model's priors', 0 for a fit without a model):
         both the fit's and the improved model's responses carry it (the
         criticism judged the move between them on the data's own intervals,
         which the reference's error moves alike); the fit's flags on what

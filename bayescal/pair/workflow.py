@@ -53,7 +53,8 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         The two sensors' recordings and metadata (keywords only, as
         ``--ref``, ``--ref-xml``, ``--sut`` and ``--sut-xml``).
     band, start, end, nperseg, transients, ref_noise_psd, sut_source, ref_source, label
-        What of the recordings is fitted: :func:`~bayescal.pair.preparation.prepare`.
+        What of the recordings is fitted, and a name the result's meta keeps:
+        :func:`~bayescal.pair.preparation.prepare`.
     fit_response, seed, priors, ref_noise, progress, **sample_kw
         How it is fitted: :func:`~bayescal.pair.fitting.fit` (``priors``'s
         ``reference_tolerance``: :func:`~bayescal.pair.choice.choose`).

@@ -12,8 +12,8 @@ schema that writes them to a folder and reads them from it.
 
 Light on purpose: its modules import only numpy and the standard library,
 so reading a result loads no model, sampler, plotting or ObsPy module.
-Imports no other part of bayescal but the leaf :mod:`bayescal.atomic`, and that
-only to write.
+Imports no other part of bayescal but the leaves :mod:`bayescal.atomic` (to
+write) and :mod:`bayescal.errors` (to refuse a file of another schema).
 """
 import lazy_loader
 

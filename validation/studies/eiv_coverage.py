@@ -49,8 +49,8 @@ def run_pair(seed, ratio, pair_coherence, fit, mode, duration=3600.0, fs=10.0,
     return {"seed": seed, "ratio": ratio, "pair_coherence": pair_coherence, "fit": fit,
             "mode": mode, "noise": "counts" if noise_in_counts else "signal",
             "duration_s": duration, "sut_coherence": cu, "ref_coherence": cr, "cpu_s": cpu,
-            "converged": bool(conv["converged"]), "ess_min": float(np.min(conv["ess"])),
-            "rhat_max": float(np.max(conv["rhat"])),
+            "converged": bool(conv.converged), "ess_min": conv.ess_min,
+            "rhat_max": float(np.max(conv.rhat)),
             "checks": {k: {"z": c90[k][1], "in90": c90[k][0], "in68": c68[k][0]} for k in c90}}
 
 

@@ -47,7 +47,7 @@ def one(seed, duration, band, modes, nperseg=None):
                           seed=seed)
         dt = time.perf_counter() - t
         s = fit.summary()
-        out[mode] = {"time_s": dt, "element": e, "steps": fit.convergence["n_steps"],
+        out[mode] = {"time_s": dt, "element": e, "steps": fit.convergence.n_steps,
                      "samples": fit.samples,
                      **{p: {"truth": truth[p], "median": s[p]["median"], "sd": s[p]["sd"],
                             **{lv: bool(s[p][lv][0] <= truth[p] <= s[p][lv][1]) for lv in LEVELS}}
