@@ -135,16 +135,14 @@ def response_lines(entry, fmt=_fmt):
 
 def print_summary(summary, stream=None):
     """A short table of the result: the model check first (a fit that fails
-    it says so before any number), then medians and 95 % intervals."""
-    from ..core.checks import describe
+    it says so before any number), under which model the estimates are when
+    it is the criticism's improved model, then medians and 95 % intervals."""
     from ..core.posterior import multimodal_line
     from ..result import Convergence
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     crit = summary.get("criticism") or {}
-    if "adequacy" in summary:
-        print(describe(summary["adequacy"], next_step=crit.get("verdict_text") and
-                       "What it means: see the verdict below the table."), file=stream)
+    _print_check(summary, stream)
     modes = multimodal_line(summary)
     if modes:
         print(modes, file=stream)
@@ -192,6 +190,22 @@ def print_summary(summary, stream=None):
           f"{c['n_steps']} steps", file=stream)
     if crit:
         print_criticism(crit, stream)
+
+
+def _print_check(summary, stream):
+    """The fit's own model check (the rejected fit's when the criticism's
+    improved model heads the result), then under which model the estimates
+    are when it is the improved model."""
+    from ..core.checks import describe
+    from ..criticism.words import headline
+
+    crit = summary.get("criticism") or {}
+    check = (summary.get("rejected_fit") or {}).get("adequacy") or summary.get("adequacy")
+    if check:
+        print(describe(check, next_step=crit.get("verdict_text") and
+                       "What it means: see the verdict below the table."), file=stream)
+    if headline(summary):
+        print(headline(summary), file=stream)
 
 
 def print_criticism(crit, stream=None):

@@ -10,8 +10,10 @@ levels:
 * ``usable``: it misfits, but modelling the cause moves no estimate by more
   than :data:`MOVE_SD` of its standard deviation: the estimates are usable
   as they are;
-* ``improved``: it misfits and modelling the cause moves the estimates: use
-  the improved model's (the corrected StationXML holds them);
+* ``improved``: it misfits and modelling the cause moves the estimates:
+  the improved model's head the result (:func:`bayescal.pair.choice.choose`:
+  the table, result.json's ``channels``, the report and the corrected
+  StationXML), the fit's are kept as the rejected fit;
 * ``unexplained``: a misfit stays once every candidate has been tried (or
   the budget ran out): where, and what to try.
 
@@ -222,8 +224,9 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
             advice.append(e["advice"])
     if degenerate:
         moves, biggest = {}, 0.0
-    stationxml = "improved model" if verdict in ("usable", "improved") and \
-        d.final is not post else "fit"
+    improved = d.final if d.final is not post and not degenerate else None
+    # what heads the result (pair.choice.choose), and so the corrected StationXML
+    stationxml = "improved model" if verdict == "improved" and improved is not None else "fit"
     conditional = verdict == "unexplained"
     for e in effects:
         e["size_is_measurement"] = not conditional
@@ -239,7 +242,6 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         **_search_record(d, budget, budget_s, seconds),
         "sentences": d.sentences(),
     }
-    improved = d.final if d.final is not post and not degenerate else None
     return Criticism(summary, improved, d)
 
 
@@ -343,9 +345,8 @@ def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free):
     else:
         verdict = "improved"
         text = (f"the model misfits the recordings because of {names}; modelling it moves the "
-                f"estimates (by up to {biggest:.2g} standard deviations): use the improved "
-                "model's estimates (the criticism lists those that move; the corrected "
-                "StationXML holds them all)")
+                f"estimates (by up to {biggest:.2g} standard deviations): the estimates "
+                "reported are the improved model's (the fit's are kept as the rejected fit)")
     return verdict, text, size_note, advice
 
 
@@ -462,8 +463,7 @@ def lines(c):
     for a in c.get("advice", []):
         out.append(f"  to do: {a}")
     if c.get("stationxml"):
-        out.append("  corrected StationXML: holds "
-                   + ("the improved model's estimates, the effect named in each channel's "
-                      "comment" if c["stationxml"] == "improved model"
-                      else "the fit's estimates (the table above)"))
+        out.append("  corrected StationXML: holds the estimates of the table above ("
+                   + ("the improved model's, the effect named in each channel's comment)"
+                      if c["stationxml"] == "improved model" else "the fit's)"))
     return out

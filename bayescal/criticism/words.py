@@ -55,3 +55,20 @@ def names(effects):
         if lab not in out:
             out.append(lab)
     return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
+
+
+def headline(summary):
+    """The line that says a result's estimates are the improved model's
+    (``summary``: result.json's content; its ``meta.headline``), with the
+    improved model's own model check; None when the fit heads the result."""
+    head = (summary.get("meta") or {}).get("headline") or {}
+    if head.get("model") != "improved":
+        return None
+    check = summary.get("adequacy") or {}
+    w = check.get("worst")
+    text = f"estimates under the improved model ({head.get('label') or 'the named effects'})"
+    if w:
+        text += (f", whose model check {'passed' if check.get('ok') else 'failed'}: largest "
+                 f"standardised misfit {w['misfit']:.3g} in {w['band_hz'][0]:.4g}-"
+                 f"{w['band_hz'][1]:.4g} Hz on {w['channel']}")
+    return text + "; the fit without it: result.json's rejected_fit"

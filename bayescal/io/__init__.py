@@ -28,7 +28,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "align": ["align_sensors"],
     "band": ["MIN_COHERENCE", "choose_band"],
     "inventory": ["assumed_flat", "load_inventory", "placeholder_channels"],
-    "result": ["load_posterior", "save_posterior", "write_results"],
+    "result": ["load_posterior", "save_posterior", "write_corrected_result", "write_results"],
     "noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
     "refnoise_file": ["for_channels", "read_reference_noise"],
     "stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",

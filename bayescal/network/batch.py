@@ -68,7 +68,7 @@ def run_item(item, out):
     raises for a problem of the item itself.
     """
     from ..errors import ModelMisfitWarning, NotConvergedWarning
-    from ..io.stationxml import write_corrected
+    from ..io.result import write_corrected_result
 
     t, cpu = time.time(), time.thread_time()
     opts = {"band": None if item["band"] is None else tuple(item["band"]),
@@ -82,7 +82,7 @@ def run_item(item, out):
                 post, sut_inv = _fit_item(item, opts)
             save_posterior(post, tmp)
             if sut_inv is not None and not isinstance(sut_inv, str):
-                write_corrected(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
+                write_corrected_result(sut_inv, post, os.path.join(tmp, "sut_corrected.xml"))
             seconds, cpu = time.time() - t, time.thread_time() - cpu
             write_json(os.path.join(tmp, "item.json"),
                        {**item, "seconds": seconds, "cpu_seconds": cpu})

@@ -1,12 +1,16 @@
 """The last step of a pair fit: the frozen
 :class:`~bayescal.result.record.Result`. The sensors' self-noise, the
 reference's metadata tolerance and the flags on what the prior set are
-applied to the fit's values here, before the Result is built.
+applied to the headline's values here, before the Result is built.
 
-Which estimates are reported: the fit's (its model, not the criticism's
-improved model, heads the result); the improved model's are kept beside
-them (``result.improved``; the corrected StationXML takes them when the
-criticism says so).
+Which estimates are reported (the headline, ``result.meta.headline``): the
+criticism's improved model's when its verdict is ``improved`` (the fit's
+model misfits the recordings and modelling the named effects moves the
+estimates); the fit's otherwise (it fits, its misfit moves nothing, or the
+misfit stays unexplained). A fit the verdict rejects is kept in one place,
+``result.rejected`` (result.json's ``rejected_fit``: its channels,
+convergence and model check); the improved model's Result, when the
+criticism made one, is ``result.improved`` either way.
 """
 from __future__ import annotations
 
@@ -42,6 +46,38 @@ def _tolerated(state, data, tolerance, seed):
     return response, state.meta.replace(reference_tolerance=meta_entry(tolerance))
 
 
+def headline_is_improved(criticism):
+    """Whether the verdict of ``criticism`` (a
+    :class:`~bayescal.criticism.verdict.Criticism`) chooses its improved
+    model's estimates for the headline: verdict ``improved`` and an
+    improved model that was sampled."""
+    return criticism.improved is not None and criticism.summary.get("verdict") == "improved"
+
+
+def headline_entry(criticism):
+    """``meta.headline``: under which model the reported estimates are,
+    ``{"model": "fit"}`` or ``{"model": "improved", "effects": [names],
+    "label": the effects in words, "why": the verdict}``."""
+    if not headline_is_improved(criticism):
+        return {"model": "fit"}
+    from ..criticism import words
+    effects = list(criticism.improved.meta.effects or [])
+    named = [e for e in criticism.summary.get("effects", []) if e["name"] in effects]
+    return {"model": "improved", "effects": effects,
+            "label": words.names(named) or ", ".join(e.replace("_", " ") for e in effects),
+            "why": criticism.summary.get("verdict_text", "")}
+
+
+def rejected_entry(result):
+    """result.json's ``rejected_fit``: what the verdict rejected (the fit
+    under its own model): its channels, orthogonality, model check and
+    convergence."""
+    return {"model": "fit", "channels": result.channels,
+            "orthogonality_deg": result.orthogonality_deg, "adequacy": result.adequacy,
+            "convergence": result.convergence.summary(result.names),
+            "not_estimable": result.not_estimable}
+
+
 def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0):
     """The :class:`~bayescal.result.record.Result` of a pair fit.
 
@@ -50,7 +86,8 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     state : FitState
         From :func:`bayescal.pair.fitting.fit`.
     criticism : Criticism
-        From :func:`bayescal.pair.criticism.criticise`.
+        From :func:`bayescal.pair.criticism.criticise`: its verdict decides
+        which model heads the Result (:func:`headline_is_improved`).
     data : PairData
         What the fit was made from (:func:`bayescal.pair.preparation.prepare`).
     fit_response : str or None
@@ -65,17 +102,35 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         the prior set are then judged on the responses it reports.
     seed : int
         Seed of the self-noise draws and of the tolerance's.
+
+    Returns
+    -------
+    Result
+        The headline's: its channels, samples, responses, convergence, model
+        check, meta (``headline`` says under which model) and self-noise;
+        ``rejected`` the fit the verdict rejected (empty when the fit is the
+        headline); ``improved`` the improved model's Result or None;
+        ``state`` the live fit ``state`` (the fit the criticism started
+        from, also when the improved model heads the Result: the improved
+        model's live state is ``improved.state``).
     """
     fit_response = fit_response or state.meta.free_response or "none"
     if tolerance is None:
         tolerance = getattr(getattr(state.model, "priors", None), "reference_tolerance", 0.0)
-    noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
-    improved = None
+    improved = rejected = None
     if criticism.improved is not None:
         response, meta = _tolerated(criticism.improved, data, tolerance, seed)
         improved = criticism.improved.to_result(response=response, meta=meta)
-    response, meta = _tolerated(state, data, tolerance, seed)
+    head = state
+    if headline_is_improved(criticism):
+        response, meta = _tolerated(state, data, tolerance, seed)
+        rejected = rejected_entry(state.to_result(response=response, meta=meta))
+        head = criticism.improved
+    noise, order = self_noise(head, data, fit_response=fit_response, seed=seed)
+    response, meta = _tolerated(head, data, tolerance, seed)
     if tolerance:
-        meta = meta.replace(**judged_response_flags(state, response))
-    return state.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
-                           criticism=criticism.summary, improved=improved)
+        meta = meta.replace(**judged_response_flags(head, response))
+    meta = meta.replace(headline=headline_entry(criticism))
+    return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
+                          criticism=criticism.summary, improved=improved,
+                          rejected=rejected or {}, state=state)

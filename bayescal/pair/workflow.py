@@ -95,15 +95,17 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 
 
 def _warn_on_misfit(result):
-    """A failed model check as a Python warning (:class:`ModelMisfitWarning`),
-    so a script sees it as the console does."""
+    """A failed model check of the fit as a Python warning
+    (:class:`ModelMisfitWarning`), so a script sees it as the console does
+    (also when the verdict puts the improved model in the headline)."""
     import warnings
 
     from ..core.checks import describe
     from ..errors import ModelMisfitWarning
-    if result.adequacy.get("ok") is False:
+    adequacy = result.rejected.get("adequacy") or result.adequacy   # the fit's own check
+    if adequacy.get("ok") is False:
         c = result.criticism.get("verdict_text") if result.criticism else None
-        warnings.warn(describe(result.adequacy, next_step=c and f"Criticism: {c}."),
+        warnings.warn(describe(adequacy, next_step=c and f"Criticism: {c}."),
                       ModelMisfitWarning, stacklevel=3)
 
 

@@ -51,7 +51,7 @@ def _rows_for(item, folder):
         res = json.load(fh)
     conv = res.get("convergence", {})
     day = item.get("day") or str(res.get("meta", {}).get("starttime", ""))[:10]
-    effects = res.get("effects") or res.get("diagnosis", {}).get("effects", [])
+    effects = [e["name"] for e in (res.get("criticism") or {}).get("effects", [])]
     notes = _notes(res.get("meta", {}))
     rows = []
     for cid, ch in res["channels"].items():
@@ -76,9 +76,13 @@ def _rows_for(item, folder):
 
 def _notes(meta):
     """The fit's cautions in a few words for the ``notes`` column (the full
-    sentences are in the item's result.json): a short record, a reference
-    noise poorly separated from the ground motion."""
+    sentences are in the item's result.json): estimates under the
+    criticism's improved model, a short record, a reference noise poorly
+    separated from the ground motion."""
     out = []
+    head = meta.get("headline") or {}
+    if head.get("model") == "improved":
+        out.append(f"estimates under the improved model ({';'.join(head.get('effects', []))})")
     rl = meta.get("record_length", {})
     if rl.get("note"):
         out.append(f"short record ({rl['periods_of_lower_edge']:.1f} periods of "

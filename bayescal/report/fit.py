@@ -9,7 +9,8 @@ Pages: (1) summary table with flags, (2) angle credible intervals against
 nominal, (3) corner plots of the angles (and of the response parameters when
 fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
 (5) self-noise of both sensors against the NLNM and NHNM, (6) convergence
-(traces, tau, ESS, R-hat, acceptance). The numbers on the
+(traces, tau, ESS, R-hat, acceptance), and (8) when the criticism's
+improved model heads the result, the rejected fit's table. The numbers on the
 pages are real PDF text, so they can be searched and extracted.
 
 This module holds the file handling; the numbers are in :mod:`.tables`, the
@@ -26,7 +27,7 @@ from .tables import load_truth
 
 #: Figures, in page order.
 PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "self_noise",
-         "convergence")
+         "convergence", "rejected_fit")
 
 
 def _builder(name, *modules):

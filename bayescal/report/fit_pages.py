@@ -19,10 +19,12 @@ from scipy import stats
 
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
+from ..criticism.words import headline
 from ..core.posterior import multimodal_line, sampled_azimuth_dip
 from ..core.orientation import tilt_from_vertical
 from ..result import Convergence
-from .tables import angle_rows, response_rows, truth_values, two_pole_nominal, wrap180
+from .tables import (interval_row, angle_rows, response_rows, truth_values, two_pole_nominal,
+                     wrap180)
 from .axes import frequency_ticks, psd_label, trace_in_user_units
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
 
@@ -31,10 +33,12 @@ def _page_top(fig, ctx):
     """Page 1's title, model check, modes line and header; returns where
     the tables start and the modes line (None without modes)."""
     fig.text(0.06, 0.965, "bayescal calibration report", fontsize=14, fontweight="bold")
-    verdict = ctx.summary.get("adequacy") or {"ok": None}
+    verdict = fit_check(ctx.summary)
     crit = ctx.summary.get("criticism") or {}
     check = textwrap.wrap(describe(verdict, next_step=crit.get("verdict_text") and
                                    f"Verdict: {crit['verdict_text']}."), 92)
+    if headline(ctx.summary):
+        check += textwrap.wrap(f"Reported: {headline(ctx.summary)}.", 92)
     fig.text(0.06, 0.945, "\n".join(check), va="top", fontsize=9 if verdict["ok"] is False else 8,
              fontweight="bold" if verdict["ok"] is False else "normal", linespacing=1.5)
     top = 0.945 - 0.0155 * len(check) - 0.008
@@ -81,13 +85,24 @@ def page_summary(ctx):
     return fig
 
 
+def fit_check(summary):
+    """The fit's own model check: the rejected fit's when the improved model
+    heads the result, else the result's."""
+    return ((summary.get("rejected_fit") or {}).get("adequacy") or summary.get("adequacy")
+            or {"ok": None})
+
+
 def _flag_lines(ctx, flags, modes):
     """Page 1's flags: the model check and criticism, modes, angles off
     nominal, what the prior set, the reference's noise, the record, the
     sensor order and the sampler."""
-    verdict = ctx.summary.get("adequacy") or {"ok": None}
+    verdict = fit_check(ctx.summary)
     crit = ctx.summary.get("criticism") or {}
     text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
+    if headline(ctx.summary):
+        text += textwrap.wrap(f"  ESTIMATES UNDER THE IMPROVED MODEL: {headline(ctx.summary)} "
+                              "(the rejected fit's table: page \"rejected fit\")", 130,
+                              subsequent_indent="      ")
     if verdict["ok"] is False and crit:
         text.append("  MODEL CHECK FAILED; what the criticism found (the verdict is in the first "
                     "lines):")
@@ -395,3 +410,56 @@ def _convergence_table(fig, ctx, table_top, table_h):
 
 
 __all__ = ["page_summary", "page_intervals", "page_data_fit", "page_convergence"]
+
+
+def _rejected_angle_rows(channels, truth):
+    """Summary-table rows of the angles of the rejected fit's ``channels``
+    (result.json's ``rejected_fit``), deviations from nominal."""
+    rows = []
+    for cid, ch in channels.items():
+        nom, tru = ch.get("nominal") or {}, truth_values(truth, cid)
+        az, dip = ch.get("azimuth_deg", {}), ch.get("dip_deg", {})
+        if "tilt_deg" in ch:
+            ntilt = None if nom.get("dip_deg") is None else 90.0 - abs(nom["dip_deg"])
+            t = ch["tilt_deg"]
+            rows.append(interval_row(cid, "tilt", t, ntilt, None if ntilt is None else
+                                      t["median"] - ntilt, "", None if "dip_deg" not in tru
+                                      else 90.0 - abs(tru["dip_deg"])))
+        elif "ci95" in az and not az.get("undefined"):
+            naz = nom.get("azimuth_deg")
+            rows.append(interval_row(cid, "azimuth", az, naz, None if naz is None else
+                                      float(wrap180(az["median"] - naz)), "",
+                                      tru.get("azimuth_deg")))
+        if "ci95" in dip:
+            ndip = nom.get("dip_deg")
+            rows.append(interval_row(cid, "dip", dip, ndip, None if ndip is None else
+                                      dip["median"] - ndip, "", tru.get("dip_deg")))
+    return rows
+
+
+def page_rejected_fit(ctx):
+    """The fit the criticism's verdict rejected (result.json's
+    ``rejected_fit``), when the improved model heads the result: its table,
+    model check and convergence; None otherwise."""
+    rejected = ctx.summary.get("rejected_fit")
+    if not rejected:
+        return None
+    nxt = "The criticism's verdict, on page 1, chose the improved model."
+    fig = Figure(figsize=ctx.page)
+    fig.text(0.06, 0.965, "The rejected fit (not the estimates reported)", fontsize=14,
+             fontweight="bold")
+    head = textwrap.wrap(f"Reported instead: {headline(ctx.summary)}. This fit, under the model "
+                         f"without those effects: {describe(rejected['adequacy'], next_step=nxt)}", 100)
+    fig.text(0.06, 0.94, "\n".join(head), va="top", fontsize=8, linespacing=1.5)
+    top = 0.94 - 0.0145 * len(head) - 0.02
+    y = summary_table(fig, top, _rejected_angle_rows(rejected["channels"], ctx.truth),
+                      "Orientation under the rejected fit (deviation = estimate - nominal)",
+                      bool(ctx.truth))
+    resp = response_rows({"channels": rejected["channels"]}, ctx.truth)
+    if resp:
+        y = summary_table(fig, y, resp, "Response under the rejected fit", bool(ctx.truth))
+    c = rejected.get("convergence") or {}
+    if c:
+        fig.text(0.06, y, f"Its sampler: {Convergence.figures(c)}, tau max {c['tau_max']:.1f}, "
+                 f"{c['n_steps']} steps.", va="top", fontsize=8)
+    return fig

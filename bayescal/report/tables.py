@@ -70,7 +70,7 @@ def _axis_angle(vectors, nominal):
     return float(np.degrees(np.arccos(np.clip(v @ n, -1.0, 1.0))))
 
 
-def _interval_row(cid, quantity, entry, nominal, deviation, note="", truth=None):
+def interval_row(cid, quantity, entry, nominal, deviation, note="", truth=None):
     if entry.get("multimodal"):       # one mode's interval: core.posterior.modes.mark
         note = "multimodal: see modes" + (f"; {note}" if note else "")
     return Row(cid, quantity, entry.get("median"), entry.get("ci68"), entry.get("ci95"),
@@ -108,19 +108,19 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
             lean = ("vertical within the 95 % region" if tilt.get("holds_zero")
                     else f"toward az {ch['tilt_toward_azimuth_deg']:.1f}")
-            rows.append(_interval_row(cid, "tilt", tilt, ntilt, dev, lean, ttilt))
+            rows.append(interval_row(cid, "tilt", tilt, ntilt, dev, lean, ttilt))
             if dev is not None and abs(dev) > tolerance_deg and not msgs:
                 msgs.append(f"TILT OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         else:
             dev = None if naz is None else float(wrap180(az["median"] - naz))
             note = "fixed (not estimable)" if az.get("fixed") else ""
-            rows.append(_interval_row(cid, "azimuth", az, naz, dev, note, tru.get("azimuth_deg")))
+            rows.append(interval_row(cid, "azimuth", az, naz, dev, note, tru.get("azimuth_deg")))
             if dev is not None and abs(dev) > tolerance_deg and not msgs and not az.get("fixed"):
                 msgs.append(f"AZIMUTH OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         if post.kinds[k] != "fixed":
             ddev = None if ndip is None else dip["median"] - ndip
             note = "fixed (reference plane)" if dip.get("fixed") else ""
-            rows.append(_interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
+            rows.append(interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
             if ("tilt_deg" not in ch and ddev is not None and abs(ddev) > tolerance_deg
                     and not msgs and not dip.get("fixed")):
                 msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
@@ -128,7 +128,7 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             flags[cid] = msgs
     for pair, e in summary.get("orthogonality_deg", {}).items():   # ASL's orthogonality
         note = "assumed (one reference channel)" if e.get("assumed") else "angle between axes"
-        rows.append(_interval_row(pair, "orthogonality", e, 90.0, e["median"] - 90.0, note))
+        rows.append(interval_row(pair, "orthogonality", e, 90.0, e["median"] - 90.0, note))
     return rows, flags
 
 
@@ -172,7 +172,7 @@ def response_rows(summary, truth=None):
                 # the prior's value is not a measurement: no number is shown
                 rows.append(Row(cid, name, None, None, None, n, None, note, true))
                 continue
-            rows.append(_interval_row(cid, name, entry, n, dev, note, truth=true))
+            rows.append(interval_row(cid, name, entry, n, dev, note, truth=true))
     return rows
 
 

@@ -47,6 +47,8 @@ FIELDS = {
     "sampler": "what sampled the posterior: library, walkers, moves, steps",
     "reference_tolerance": "the reference's metadata tolerance carried into the response",
     "batch_label": "the batch item's label",
+    "headline": "under which model the reported estimates are: the fit's, or the criticism's "
+                "improved model (its effects, and the verdict that chose it)",
 }
 
 
@@ -93,6 +95,7 @@ class Meta:
     sampler: dict | None = None
     reference_tolerance: dict | None = None
     batch_label: str | None = None
+    headline: dict | None = None
     nulls: frozenset = field(default=frozenset(), repr=False)
     extra: dict = field(default_factory=dict, repr=False)
 

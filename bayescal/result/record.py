@@ -33,6 +33,10 @@ class Result:
         azimuth, dip or tilt, response, with credible intervals).
     orthogonality_deg, adequacy : ``result.json``'s entries of the same names.
     not_estimable, self_noise, sensor_order, criticism : the same.
+    rejected : the fit the criticism's verdict rejected when the improved
+        model heads the result (``meta.headline``), as ``result.json``'s
+        ``rejected_fit`` holds it (its channels, orthogonality, model check
+        and convergence); empty when the fit is the headline.
     diagnostics : arrays a report or a model check needs (``diagnostics.npz``).
     trace : the chain's per-step trace, when kept.
 
@@ -40,7 +44,10 @@ class Result:
     from disk): ``improved``, the :class:`Result` of the criticism's
     improved model, and ``state``, the live fit
     (:class:`bayescal.core.posterior.state.FitState`: its model,
-    least-squares point, full samples, spectra and the SUT's metadata).
+    least-squares point, full samples, spectra and the SUT's metadata). When
+    the improved model heads the result, ``state`` stays the fit the
+    criticism started from (its model is not the headline's: the improved
+    model's live state is ``improved.state``).
     """
 
     channel_ids: list
@@ -61,6 +68,7 @@ class Result:
     self_noise: dict = field(default_factory=dict)
     sensor_order: dict = field(default_factory=dict)
     criticism: dict = field(default_factory=dict)
+    rejected: dict = field(default_factory=dict)
     improved: object = field(default=None, repr=False, compare=False)
     state: object = field(default=None, repr=False, compare=False)
 
@@ -84,6 +92,7 @@ class Result:
             **({"self_noise": self.self_noise} if self.self_noise else {}),
             **({"sensor_order": self.sensor_order} if self.sensor_order else {}),
             **({"criticism": self.criticism} if self.criticism else {}),
+            **({"rejected_fit": self.rejected} if self.rejected else {}),
             "convergence": self.convergence.summary(self.names),
             "meta": self.meta.to_dict(multimodal=False),
         })

@@ -64,6 +64,7 @@ def load(folder):
                   adequacy=s.get("adequacy", {}), not_estimable=s.get("not_estimable", {}),
                   trace=trace, diagnostics=diagnostics, self_noise=s.get("self_noise", {}),
                   sensor_order=s.get("sensor_order", {}), criticism=s.get("criticism", {}),
+                  rejected=s.get("rejected_fit", {}),
                   **arrays)
 
 

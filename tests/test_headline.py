@@ -1,0 +1,166 @@
+"""The headline is the model the verdict chooses: on the README's clock
+example (the SUT's digitizer 0.3 s late), the console table, result.json's
+``channels``, the report, a batch's results.csv and flags.csv and the
+corrected StationXML all carry the improved model's estimates, say so, and
+keep the rejected fit in one place (result.json's ``rejected_fit``, one
+report page)."""
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import os
+import re
+
+import numpy as np
+import pytest
+
+from bayescal.cli import main
+from bayescal.simulate import simulate_pair
+
+BAND = ("0.03", "1")
+SIDES = ("XX.SIM.10.BH1", "XX.SIM.10.BH2")
+
+
+@pytest.fixture(scope="module")
+def late(tmp_path_factory):
+    """The README's clock example simulated, fitted once through the CLI:
+    ``(data folder, result folder, console text, result.json, truth)``."""
+    root = tmp_path_factory.mktemp("late")
+    data = root / "late"
+    simulate_pair(duration=1800, fs=10, seed=2, timing_offset_s=0.3).write(str(data))
+    out = root / "fit_late"
+    console = io.StringIO()
+    with contextlib.redirect_stdout(console):
+        code = main(["fit", "--ref", str(data / "ref.mseed"), "--ref-xml", str(data / "ref.xml"),
+                     "--sut", str(data / "sut.mseed"), "--sut-xml", str(data / "sut.xml"),
+                     "--band", *BAND, "--out", str(out), "--no-report", "--quiet"])
+    assert code == 0
+    result = json.loads((out / "result.json").read_text())
+    truth = json.loads((data / "truth.json").read_text())["channels"]
+    return data, out, console.getvalue(), result, truth
+
+
+def _improved(result, cid, key):
+    """The improved model's estimate as the criticism lists it."""
+    return result["criticism"]["improved_estimates"][cid][key]
+
+
+def test_result_json_channels_are_the_improved_models_and_hold_the_truth(late):
+    _, _, _, result, truth = late
+    assert result["criticism"]["verdict"] == "improved"
+    head = result["meta"]["headline"]
+    assert head["model"] == "improved" and head["effects"] == ["timing_offset"]
+    assert "timing offset" in head["label"] and head["why"] == result["criticism"]["verdict_text"]
+    for cid in SIDES:
+        for key in ("azimuth_deg", "dip_deg"):
+            entry, improved = result["channels"][cid][key], _improved(result, cid, key)
+            assert entry["median"] == pytest.approx(improved["median"], abs=1e-9)
+            assert entry["ci95"] == pytest.approx(improved["ci95"], abs=1e-9)
+            lo, hi = entry["ci95"]
+            assert lo <= truth[cid][key] <= hi, (cid, key, entry["ci95"], truth[cid][key])
+    rejected = result["rejected_fit"]
+    assert rejected["model"] == "fit" and rejected["adequacy"]["ok"] is False
+    assert result["adequacy"]["ok"] is True          # the headline's model fits
+    dip = rejected["channels"]["XX.SIM.10.BH1"]["dip_deg"]
+    assert dip["median"] == pytest.approx(_improved(result, "XX.SIM.10.BH1", "dip_deg")
+                                          ["fit_median"], abs=1e-9)
+    assert not dip["ci95"][0] <= 0.0 <= dip["ci95"][1]      # the fit's, which misses the truth
+    assert set(rejected) >= {"channels", "convergence", "adequacy"}
+
+
+def _table_rows(console):
+    """{channel: (azimuth, dip)} medians and 95 % bounds of the console table."""
+    num = r"(-?[\d.]+) \[(-?[\d.]+), (-?[\d.]+)\]"
+    rows = {}
+    for line in console.splitlines():
+        m = re.match(rf"(XX\.SIM\.10\.BH[12])\s+{num}\s+{num}", line)
+        if m:
+            rows[m.group(1)] = [float(x) for x in m.groups()[1:]]
+    return rows
+
+
+def test_console_table_is_result_json_and_says_under_which_model(late):
+    _, _, console, result, _ = late
+    lines = console.splitlines()
+    table = next(k for k, line in enumerate(lines) if line.startswith("channel "))
+    above = "\n".join(lines[:table])
+    assert "estimates under the improved model (a timing offset between the digitizers)" in above
+    rows = _table_rows(console)
+    assert set(rows) == set(SIDES)
+    for cid in SIDES:
+        ch = result["channels"][cid]
+        want = [ch[k][q] for k in ("azimuth_deg", "dip_deg") for q in ("median", "ci95")]
+        want = [want[0], *want[1], want[2], *want[3]]
+        assert rows[cid] == pytest.approx(want, abs=6e-4)
+        assert rows[cid][0] == pytest.approx(_improved(result, cid, "azimuth_deg")["median"],
+                                             abs=6e-4)
+
+
+def test_report_shows_the_headline_and_the_rejected_fit_on_its_own_page(late):
+    from pypdf import PdfReader
+
+    _, out, _, result, _ = late
+    assert main(["report", str(out)]) == 0
+    pages = [p.extract_text() for p in PdfReader(str(out / "report.pdf")).pages]
+    first = " ".join(pages[0].split())
+    assert "Reported: estimates under the improved model" in first
+    assert "ESTIMATES UNDER THE IMPROVED MODEL" in first
+    for cid in SIDES:
+        for key, name in (("azimuth_deg", "azimuth"), ("dip_deg", "dip")):
+            e = _improved(result, cid, key)
+            row = (f"{cid} {name} (deg) {e['median']:.2f} ")
+            assert row in first, row
+            assert f"[{e['ci95'][0]:.2f}, {e['ci95'][1]:.2f}]" in first
+    assert "DIP OFF" not in first
+    rejected = [p for p in pages if "The rejected fit" in p]
+    assert len(rejected) == 1
+    fit_dip = result["rejected_fit"]["channels"]["XX.SIM.10.BH1"]["dip_deg"]["median"]
+    assert f"XX.SIM.10.BH1 dip (deg) {fit_dip:.2f}" in " ".join(rejected[0].split())
+
+
+def test_batch_csvs_carry_the_headline_and_its_effects(late, tmp_path):
+    from bayescal.report.batch import read_results
+
+    data, _, _, _, truth = late
+    plan = tmp_path / "plan.csv"
+    plan.write_text("label,ref,ref_xml,sut,sut_xml,band_min,band_max\n"
+                    f"late,{data / 'ref.mseed'},{data / 'ref.xml'},{data / 'sut.mseed'},"
+                    f"{data / 'sut.xml'},{BAND[0]},{BAND[1]}\n")
+    out = tmp_path / "out"
+    assert main(["batch", "--plan", str(plan), "--out", str(out), "--workers", "1",
+                 "--quiet", "--seed", "1"]) == 0
+    item = json.loads((out / "late" / "result.json").read_text())
+    assert item["meta"]["headline"]["model"] == "improved"
+    rows = {r["channel"]: r for r in read_results(out / "results.csv")}
+    for cid in SIDES:
+        row = rows[cid]
+        assert "timing_offset" in row["effects"].split(";")
+        assert "improved model" in row["notes"]
+        for key, col in (("azimuth_deg", "azimuth"), ("dip_deg", "dip")):
+            e = _improved(item, cid, key)
+            assert row[col] == pytest.approx(e["median"], abs=1e-9)
+            assert [row[f"{col}_lo95"], row[f"{col}_hi95"]] == pytest.approx(e["ci95"], abs=1e-9)
+            assert row[f"{col}_lo95"] <= truth[cid][key] <= row[f"{col}_hi95"]
+    with open(out / "flags.csv", newline="") as fh:
+        flags = [f for f in csv.DictReader(fh) if f["channel"] in SIDES]
+    assert flags == []      # the rejected fit's dips (5-7 deg off) would be flagged
+
+
+def test_corrected_stationxml_holds_the_headline(late):
+    from obspy import read_inventory
+
+    _, out, _, result, _ = late
+    inv = read_inventory(str(out / "sut_corrected.xml"))
+    for cid in SIDES:
+        net, sta, loc, cha = cid.split(".")
+        ch = inv.select(network=net, station=sta, location=loc, channel=cha)[0][0][0]
+        az = _improved(result, cid, "azimuth_deg")["median"]
+        assert float(ch.azimuth) == pytest.approx(az % 360.0, abs=1e-6)
+        assert float(ch.azimuth) == pytest.approx(
+            result["channels"][cid]["azimuth_deg"]["median"] % 360.0, abs=1e-6)
+        assert float(ch.dip) == pytest.approx(_improved(result, cid, "dip_deg")["median"],
+                                              abs=1e-6)
+        assert any("improved model" in c.value for c in ch.comments)
+    assert np.isfinite(result["criticism"]["max_moved_sd"])
