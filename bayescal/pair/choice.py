@@ -61,7 +61,7 @@ def headline_entry(criticism):
     if not headline_is_improved(criticism):
         return {"model": "fit"}
     from ..criticism import words
-    effects = list(criticism.improved.meta.effects or [])
+    effects = list(dict.fromkeys(criticism.improved.meta.effects or []))   # each once
     named = [e for e in criticism.summary.get("effects", []) if e["name"] in effects]
     return {"model": "improved", "effects": effects,
             "label": words.names(named) or ", ".join(e.replace("_", " ") for e in effects),
