@@ -164,3 +164,18 @@ def test_corrected_stationxml_holds_the_headline(late):
                                               abs=1e-6)
         assert any("improved model" in c.value for c in ch.comments)
     assert np.isfinite(result["criticism"]["max_moved_sd"])
+
+
+def test_one_misfit_definition_printed_the_same_way(late):
+    """The criticism's misfit before and after is each model's own check's
+    (the rejected fit's, then the headline's), and the console prints each
+    number once, in the same format, wherever it appears."""
+    _, _, console, result, _ = late
+    c = result["criticism"]
+    before = result["rejected_fit"]["adequacy"]["worst"]["misfit"]
+    after = result["adequacy"]["worst"]["misfit"]
+    assert c["misfit_before"] == pytest.approx(before, rel=1e-12)
+    assert c["misfit_after"] == pytest.approx(after, rel=1e-12)
+    assert f"largest standardised misfit {before:.3g} -> {after:.3g} with it modelled" in console
+    assert f"standardised misfit {before:.3g} in" in console
+    assert f"largest standardised misfit {after:.3g} in" in console

@@ -130,7 +130,8 @@ def test_a_failed_model_check_is_a_python_warning():
         post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
                          sut_xml=sim.sut_inventory,
                          band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
-    assert post.summary()["adequacy"]["ok"] is False
+    s = post.summary()      # the fit's check: the rejected fit's when the improved model heads
+    assert (s.get("rejected_fit") or s)["adequacy"]["ok"] is False
     effect = post.criticism["effects"][0]
     for tr in sim.sut:
         lo, hi = effect["size"][f"damping_over_period:{tr.id}"]["ci95"]

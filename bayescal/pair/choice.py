@@ -1,7 +1,9 @@
 """The last step of a pair fit: the frozen
 :class:`~bayescal.result.record.Result`. The sensors' self-noise, the
 reference's metadata tolerance and the flags on what the prior set are
-applied to the headline's values here, before the Result is built.
+applied here, before the Result is built (the tolerance and the flags to
+the headline's values; the self-noise split to the fit's, the pair model
+it is made for).
 
 Which estimates are reported (the headline, ``result.meta.headline``): the
 criticism's improved model's when its verdict is ``improved`` (the fit's
@@ -57,7 +59,8 @@ def headline_is_improved(criticism):
 def headline_entry(criticism):
     """``meta.headline``: under which model the reported estimates are,
     ``{"model": "fit"}`` or ``{"model": "improved", "effects": [names],
-    "label": the effects in words, "why": the verdict}``."""
+    "label": the effects in words, "why": the verdict, "self_noise": whose
+    self-noise the result gives}``."""
     if not headline_is_improved(criticism):
         return {"model": "fit"}
     from ..criticism import words
@@ -65,7 +68,9 @@ def headline_entry(criticism):
     named = [e for e in criticism.summary.get("effects", []) if e["name"] in effects]
     return {"model": "improved", "effects": effects,
             "label": words.names(named) or ", ".join(e.replace("_", " ") for e in effects),
-            "why": criticism.summary.get("verdict_text", "")}
+            "why": criticism.summary.get("verdict_text", ""),
+            "self_noise": "the fit's: the self-noise split and the sensor order are made for "
+                          "the pair model without the improved model's effects"}
 
 
 def rejected_entry(result):
@@ -107,7 +112,9 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     -------
     Result
         The headline's: its channels, samples, responses, convergence, model
-        check, meta (``headline`` says under which model) and self-noise;
+        check and meta (``headline`` says under which model); the
+        self-noise and sensor order are the fit's (their split is made for
+        the pair model without effects);
         ``rejected`` the fit the verdict rejected (empty when the fit is the
         headline); ``improved`` the improved model's Result or None;
         ``state`` the live fit ``state`` (the fit the criticism started
@@ -126,7 +133,9 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         response, meta = _tolerated(state, data, tolerance, seed)
         rejected = rejected_entry(state.to_result(response=response, meta=meta))
         head = criticism.improved
-    noise, order = self_noise(head, data, fit_response=fit_response, seed=seed)
+    # the split is made for the pair model without effects (an improved model's
+    # gain terms take up the incoherent power it reads, e.g. a noisier reference's)
+    noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
     response, meta = _tolerated(head, data, tolerance, seed)
     if tolerance:
         meta = meta.replace(**judged_response_flags(head, response))
