@@ -18,7 +18,8 @@ When the model check fails, the fit looks for the cause (unless
 --no-diagnose): it names what the model leaves out, models it, shows the
 misfit before and after and how far each estimate moves, and ends with a
 verdict: the estimates are usable as they are, or the improved model's
-should be used (sut_corrected.xml then holds them), or the misfit stays
+head the result (the table, result.json, the report and sut_corrected.xml
+give them; the fit's are kept as "rejected_fit"), or the misfit stays
 unexplained (where, and what to try). result.json keeps it under
 "criticism".
 

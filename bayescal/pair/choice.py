@@ -75,9 +75,9 @@ def headline_entry(criticism):
 
 def rejected_entry(result):
     """result.json's ``rejected_fit``: what the verdict rejected (the fit
-    under its own model): its channels, orthogonality, model check and
-    convergence."""
-    return {"model": "fit", "channels": result.channels,
+    under its own model): its channels, modes, orthogonality, model check
+    and convergence."""
+    return {"model": "fit", "channels": result.channels, "multimodal": result.meta.multimodal,
             "orthogonality_deg": result.orthogonality_deg, "adequacy": result.adequacy,
             "convergence": result.convergence.summary(result.names),
             "not_estimable": result.not_estimable}
@@ -113,8 +113,7 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     Result
         The headline's: its channels, samples, responses, convergence, model
         check and meta (``headline`` says under which model); the
-        self-noise and sensor order are the fit's (their split is made for
-        the pair model without effects);
+        self-noise and sensor order are the fit's (made for its model);
         ``rejected`` the fit the verdict rejected (empty when the fit is the
         headline); ``improved`` the improved model's Result or None;
         ``state`` the live fit ``state`` (the fit the criticism started
@@ -139,7 +138,8 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     response, meta = _tolerated(head, data, tolerance, seed)
     if tolerance:
         meta = meta.replace(**judged_response_flags(head, response))
-    meta = meta.replace(headline=headline_entry(criticism))
+    meta = meta.replace(headline=headline_entry(criticism),   # the fit's modes and LS point
+                        **({"multimodal": None, "least_squares": None} if rejected else {}))
     return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
                           criticism=criticism.summary, improved=improved,
                           rejected=rejected or {}, state=state)

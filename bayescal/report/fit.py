@@ -9,7 +9,7 @@ Pages: (1) summary table with flags, (2) angle credible intervals against
 nominal, (3) corner plots of the angles (and of the response parameters when
 fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
 (5) self-noise of both sensors against the NLNM and NHNM, (6) convergence
-(traces, tau, ESS, R-hat, acceptance), and (8) when the criticism's
+(traces, tau, ESS, R-hat, acceptance), and (7) when the criticism's
 improved model heads the result, the rejected fit's table. The numbers on the
 pages are real PDF text, so they can be searched and extracted.
 
