@@ -138,8 +138,7 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     response, meta = _tolerated(head, data, tolerance, seed)
     if tolerance:
         meta = meta.replace(**judged_response_flags(head, response))
-    meta = meta.replace(headline=headline_entry(criticism),   # the fit's modes and LS point
-                        **({"multimodal": None, "least_squares": None} if rejected else {}))
+    meta = meta.replace(headline=headline_entry(criticism))
     return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
                           criticism=criticism.summary, improved=improved,
                           rejected=rejected or {}, state=state)
