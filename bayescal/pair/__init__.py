@@ -9,6 +9,9 @@
 * :mod:`.choice`    :func:`choose`: FitState and Criticism -> the frozen
                     :class:`~bayescal.result.record.Result` (self-noise,
                     the reference's tolerance, the prior flags applied first)
+* :mod:`.response_curve` :func:`relative_response`: the headline's
+                    SUT response relative to the reference's metadata
+                    (result.json's ``response_curve``), called by ``choose``
 * :mod:`.workflow`  the four in a row: :func:`calibrate` and
                     :func:`calibrate_files`
 
@@ -30,5 +33,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "fitting": ["fit"],
     "criticism": ["criticise"],
     "choice": ["choose"],
+    "response_curve": ["relative_response"],
     "workflow": ["calibrate", "calibrate_files"],
 })

@@ -19,6 +19,7 @@ from __future__ import annotations
 from ..core.fit import judged_response_flags
 from ..core.response import meta_entry, widen_responses
 from ..core.selfnoise import for_fit
+from .response_curve import relative_response
 
 
 def self_noise(state, data, *, fit_response, seed=0):
@@ -141,4 +142,5 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
     meta = meta.replace(headline=headline_entry(criticism))
     return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
                           criticism=criticism.summary, improved=improved,
-                          rejected=rejected or {}, state=state)
+                          rejected=rejected or {}, state=state,
+                          response_curve=relative_response(head, data))

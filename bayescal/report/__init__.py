@@ -8,6 +8,8 @@
 * :mod:`.fit_pages`  its pages
 * :mod:`.corner_pages` its corner plots (angles; response parameters per channel)
 * :mod:`.pair_noise` its self-noise page: both sensors of the pair
+* :mod:`.response_curve` its page of the SUT's response relative to the
+                     reference's metadata (result.json's ``response_curve``)
 * :mod:`.diagnosis`  the diagnosis page
 * :mod:`.uvw`        the UVW calibration report
 * :mod:`.cal`        the coil calibration report of one channel (random, step)

@@ -7,9 +7,11 @@ from a saved result folder (``result.json``, ``samples.npz``,
 
 Pages: (1) summary table with flags, (2) angle credible intervals against
 nominal, (3) corner plots of the angles (and of the response parameters when
-fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit),
-(5) self-noise of both sensors against the NLNM and NHNM, (6) convergence
-(traces, tau, ESS, R-hat, acceptance), and (7) when the criticism's
+fitted), (4) data and fit (PSDs, coherence, per-band standardised misfit), (5)
+the SUT's response relative to the reference's metadata under the headline
+model, beside the metadata's (:mod:`.response_curve`), (6) self-noise of
+both sensors against the NLNM and NHNM, (7) convergence (traces, tau, ESS,
+R-hat, acceptance), and (8) when the criticism's
 improved model heads the result, the rejected fit's table. The numbers on the
 pages are real PDF text, so they can be searched and extracted.
 
@@ -26,8 +28,8 @@ from .tables import load_truth
 
 
 #: Figures, in page order.
-PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit", "self_noise",
-         "convergence", "rejected_fit")
+PAGES = ("summary", "intervals", "corner_angles", "corner_response", "data_fit",
+         "response_curve", "self_noise", "convergence", "rejected_fit")
 
 
 def _builder(name, *modules):
@@ -77,7 +79,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     """
     from ..atomic import move_files, staging
     from ..version import __version__
-    from . import corner_pages, fit_pages, layout, pair_noise
+    from . import corner_pages, fit_pages, layout, pair_noise, response_curve
 
     folder = os.fspath(folder)
     post = load_result(folder)
@@ -92,7 +94,8 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     stale = [f"{stem}_{name}.png" for name in PAGES]     # an earlier report's, if not redrawn
     with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale),
                                  within=out_dir) as tmp:
-        figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise)(ctx))
+        figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise,
+                                        response_curve)(ctx))
                    for name in PAGES]
         meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
                 "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",

@@ -33,6 +33,12 @@ class Result:
         azimuth, dip or tilt, response, with credible intervals).
     orthogonality_deg, adequacy : ``result.json``'s entries of the same names.
     not_estimable, self_noise, sensor_order, criticism : the same.
+    response_curve : each SUT channel's response relative to the
+        reference's metadata under the headline model, with the metadata's
+        ratio beside it and the clock effects as a time correction
+        (``result.json``'s ``response_curve``,
+        :func:`bayescal.pair.response_curve.relative_response`); empty when
+        not computed.
     rejected : the fit the criticism's verdict rejected when the improved
         model heads the result (``meta.headline``), as ``result.json``'s
         ``rejected_fit`` holds it (its channels, orthogonality, model check
@@ -69,6 +75,7 @@ class Result:
     sensor_order: dict = field(default_factory=dict)
     criticism: dict = field(default_factory=dict)
     rejected: dict = field(default_factory=dict)
+    response_curve: dict = field(default_factory=dict)
     improved: object = field(default=None, repr=False, compare=False)
     state: object = field(default=None, repr=False, compare=False)
 
@@ -93,6 +100,7 @@ class Result:
             **({"sensor_order": self.sensor_order} if self.sensor_order else {}),
             **({"criticism": self.criticism} if self.criticism else {}),
             **({"rejected_fit": self.rejected} if self.rejected else {}),
+            **({"response_curve": self.response_curve} if self.response_curve else {}),
             "convergence": self.convergence.summary(self.names),
             "meta": self.meta.to_dict(multimodal=False),
         })

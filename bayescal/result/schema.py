@@ -65,6 +65,7 @@ def load(folder):
                   trace=trace, diagnostics=diagnostics, self_noise=s.get("self_noise", {}),
                   sensor_order=s.get("sensor_order", {}), criticism=s.get("criticism", {}),
                   rejected=s.get("rejected_fit", {}),
+                  response_curve=s.get("response_curve", {}),
                   **arrays)
 
 

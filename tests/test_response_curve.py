@@ -1,0 +1,122 @@
+"""The response as the data see it (result.json's ``response_curve``): on a
+simulated pair whose reference has a pole its metadata lack, and on the
+README's clock example (the SUT's clock 0.3 s late), each SUT channel's
+curve under the headline model holds the simulator's true response ratio
+H_sut / H_ref (closed form, :func:`bayescal.core.response.paz_velocity_response`)
+within its band, where the metadata's ratio does not; the clock is left out
+of the curve and stated as a time correction; the report rebuilt from the
+files draws the page."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import bayescal
+from bayescal.core.response import paz_velocity_response
+from bayescal.io.result import write_results
+from bayescal.simulate.pair import DIGITIZER_GAIN, simulate_pair
+from tests.tolerance import Z_001
+
+SUT, REF = (30.0, 0.707, 750.0), (120.0, 0.707, 1500.0)
+POLE_HZ = 0.8
+
+
+def _fit(band, **sim):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        s = simulate_pair(**sim)
+        return bayescal.calibrate(sut=s.sut, sut_xml=s.sut_inventory, ref=s.ref,
+                                  ref_xml=s.ref_inventory, band=band, progress=False,
+                                  min_ess=200, n_tau=20)
+
+
+@pytest.fixture(scope="module")
+def ref_pole():
+    """A pair whose reference has a real pole at 0.8 Hz its metadata lack."""
+    return _fit((0.05, 3.0), duration=3600, fs=10, seed=1, sut_azimuth=(5.0, 95.0, 0.0),
+                nominal_azimuth=(3.0, 93.0, 0.0), extra_pole=("ref", POLE_HZ))
+
+
+@pytest.fixture(scope="module")
+def late():
+    """The README's clock example: the SUT's samples 0.3 s late."""
+    return _fit((0.03, 1.0), duration=1800, fs=10, seed=2, timing_offset_s=0.3)
+
+
+def true_ratio(f, ref_poles=()):
+    """The simulator's H_sut / H_ref (counts over counts), closed form."""
+    return (paz_velocity_response(f, *SUT, digitizer_gain=DIGITIZER_GAIN)
+            / paz_velocity_response(f, *REF, extra_poles=ref_poles, digitizer_gain=DIGITIZER_GAIN))
+
+
+def _within(entry, truth):
+    """|median - truth| within Z_001 standard deviations of the 95 % band
+    (sd = half its width / 1.96; level 0.001 per point), at every frequency."""
+    med = np.asarray(entry["median"])
+    lo, hi = (np.asarray(x) for x in entry["ci95"])
+    sd = (hi - lo) / (2 * 1.96)
+    return np.abs(med - truth) <= Z_001 * sd + 1e-12 * np.abs(truth)
+
+
+def test_curve_holds_the_true_ratio_of_a_reference_pole_the_metadata_lack(ref_pole):
+    curve = ref_pole.summary()["response_curve"]
+    assert ref_pole.meta.headline["model"] == "improved"
+    assert curve["effects"] == ["extra_pole"] and curve["left_out"] == []
+    assert "time_correction" not in curve
+    f = np.asarray(curve["freq_hz"])
+    lo, hi = ref_pole.meta.band_hz
+    assert lo <= f[0] < 1.1 * lo and 0.95 * hi < f[-1] <= hi       # the band's first and last bins
+    assert np.allclose(np.diff(np.log10(f)), np.log10(f[-1] / f[0]) / (f.size - 1), rtol=0.1)
+    truth = true_ratio(f, [-2 * np.pi * POLE_HZ])
+    pairs = {"XX.SIM.10.BH1": "XX.SIM.00.BHN", "XX.SIM.10.BH2": "XX.SIM.00.BHE",
+             "XX.SIM.10.BHZ": "XX.SIM.00.BHZ"}
+    for cid, entry in curve["channels"].items():
+        assert entry["reference"] == pairs[cid]
+        assert _within(entry["amplitude"], np.abs(truth)).all(), cid
+        assert _within(entry["phase_rad"], np.angle(truth)).all(), cid
+        # the metadata alone miss the pole (normalised at 1 Hz): |1 + i f / 0.8| over its 1 Hz value
+        meta = np.asarray(entry["metadata"]["amplitude"])
+        missed = np.hypot(1, f / POLE_HZ) / np.hypot(1, 1 / POLE_HZ)
+        assert np.allclose(np.abs(truth) / meta, missed, rtol=1e-6)
+        assert not _within(entry["amplitude"], meta).all()
+
+
+def test_clock_is_a_time_correction_not_response(late):
+    curve = late.summary()["response_curve"]
+    assert late.meta.headline["model"] == "improved"
+    assert curve["effects"] == [] and curve["left_out"] == ["timing_offset"]
+    clock = curve["time_correction"]
+    lo, hi = clock["seconds"]["ci95"]
+    assert lo <= 0.3 <= hi
+    assert f"correct the SUT data's start time by {-clock['seconds']['median']:+.4g} s" in \
+        clock["text"] and "s late" in clock["text"]
+    f = np.asarray(curve["freq_hz"])
+    truth = true_ratio(f)
+    for cid, entry in curve["channels"].items():
+        assert _within(entry["amplitude"], np.abs(truth)).all(), cid
+        # no delay in the phase: 0.3 s would turn it by 2 pi f 0.3 (1.9 rad at 1 Hz)
+        assert np.allclose(entry["phase_rad"]["median"], np.angle(truth), atol=1e-6), cid
+
+
+def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
+    import pypdf
+
+    write_results(late, str(tmp_path))
+    saved = json.loads((tmp_path / "result.json").read_text())["response_curve"]
+    assert saved["channels"].keys() == late.response_curve["channels"].keys()
+    subprocess.run([sys.executable, "-m", "bayescal.cli", "report", str(tmp_path)], check=True,
+                   capture_output=True, text=True)
+    assert (tmp_path / "report_response_curve.png").exists()
+    from bayescal.report.fit import PAGES
+    pdf = pypdf.PdfReader(str(tmp_path / "report.pdf"))
+    drawn = [name for name in PAGES if (tmp_path / f"report_{name}.png").exists()]
+    page = pdf.pages[drawn.index("response_curve")].extract_text()
+    text = " ".join(page.split())
+    assert "response as the data see it" in text
+    assert "relative to the reference's metadata" in text
+    assert "correct the SUT data's start time by" in text
