@@ -44,11 +44,11 @@ def test_fit_report_one_page_size(gain_result, tmp_path):
     # the command line: A4 unless told
     assert main(["report", str(gain_result)]) == 0
     boxes = mediaboxes(gain_result / "report.pdf")
-    assert len(boxes) == 7 and set(boxes) == {A4_PT}, boxes   # with the self-noise page
+    assert len(boxes) == 8 and set(boxes) == {A4_PT}, boxes   # with the self-noise page
     out = tmp_path / "report.pdf"
     write_report(str(gain_result), out_pdf=str(out), paper="letter")
     boxes = mediaboxes(out)
-    assert len(boxes) == 7 and set(boxes) == {LETTER_PT}, boxes
+    assert len(boxes) == 8 and set(boxes) == {LETTER_PT}, boxes
 
 
 def _stub_diagnosis(n_ch=4, n_b=8):
@@ -114,7 +114,8 @@ def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
     texts = [p.extract_text() for p in pypdf.PdfReader(paths[0]).pages]
     assert not any("Angle credible intervals" in t for t in texts)
     assert not (folder / "report_intervals.png").exists()
-    # summary, response corner, data and fit, self-noise (not identifiable from
-    # one channel a side, said on the page), convergence; all one size
-    assert len(texts) == 5 and set(mediaboxes(paths[0])) == {A4_PT}
+    # summary, response corner, data and fit, the response as the data see it,
+    # self-noise (not identifiable from one channel a side, said on the page),
+    # convergence; all one size
+    assert len(texts) == 6 and set(mediaboxes(paths[0])) == {A4_PT}
     assert any("not identifiable" in t for t in texts)

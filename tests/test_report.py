@@ -83,13 +83,14 @@ def _row(text, cid, quantity):
 def test_pages_pngs_and_metadata(flagged):
     folder, paths = flagged
     reader, pages = _pages(folder)
-    # summary, intervals, corner (angles), data and fit, self-noise, convergence
-    assert len(pages) == 6
+    # summary, intervals, corner (angles), data and fit, the response as the data
+    # see it, self-noise, convergence
+    assert len(pages) == 7
     assert paths[0] == os.path.join(folder, "report.pdf")
     names = sorted(os.path.basename(p) for p in paths[1:])
     assert names == sorted(f"report_{n}.png" for n in
-                           ("summary", "intervals", "corner_angles", "data_fit", "self_noise",
-                            "convergence"))
+                           ("summary", "intervals", "corner_angles", "data_fit",
+                            "response_curve", "self_noise", "convergence"))
     for p in paths[1:]:
         with open(p, "rb") as fh:
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
@@ -100,8 +101,9 @@ def test_pages_pngs_and_metadata(flagged):
     assert "Angle credible intervals" in pages[1]
     assert "Posterior of the orientation angles" in pages[2]
     assert "Data and fit" in pages[3]
-    assert "Self-noise of both sensors" in pages[4]
-    assert "Convergence of the sampler" in pages[5]
+    assert "The SUT's response as the data see it" in pages[4]
+    assert "Self-noise of both sensors" in pages[5]
+    assert "Convergence of the sampler" in pages[6]
     assert not [f for f in os.listdir(folder) if f.startswith(".report")]
 
 
@@ -268,7 +270,7 @@ def test_convergence_page_numbers(flagged):
 def test_response_rows_and_not_estimable(gain_fit):
     folder, paths = gain_fit
     reader, pages = _pages(folder)
-    assert len(pages) == 7                       # response corner page added
+    assert len(pages) == 8                       # response corner page added
     assert any(p.endswith("report_corner_response.png") for p in paths)
     assert "Posterior of the response parameters" in pages[3]
     res = _result(folder)
@@ -321,7 +323,7 @@ def test_single_channel_reference(tmp_path):
     names = [os.path.basename(p) for p in paths[1:]]
     assert "report_corner_angles.png" not in names and "report_corner_response.png" in names
     assert "report_intervals.png" not in names
-    assert len(pages) == len(names) == 5          # self-noise page: not identifiable
+    assert len(pages) == len(names) == 6          # self-noise page: not identifiable
     assert "not identifiable from one channel per sensor" in pages[-2]
     tok = _row(pages[0], "XX.SIM.10.BHZ", "dip")
     assert tok[3:5] == ["-90.00", "-"]
@@ -342,8 +344,8 @@ def test_renders_without_display(flagged, tmp_path):
             f"p = write_report({flagged[0]!r}, out_pdf={out!r}); print(len(p))")
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "7"
-    assert len(pypdf.PdfReader(out).pages) == 6
+    assert run.stdout.strip() == "8"
+    assert len(pypdf.PdfReader(out).pages) == 7
 
 
 def test_reading_a_result_imports_no_model(flagged, tmp_path):

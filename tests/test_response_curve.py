@@ -24,15 +24,19 @@ from tests.tolerance import Z_001
 
 SUT, REF = (30.0, 0.707, 750.0), (120.0, 0.707, 1500.0)
 POLE_HZ = 0.8
+#: The simulated reference's metadata of each fit (by the Result's id).
+REF_METADATA = {}
 
 
 def _fit(band, **sim):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = simulate_pair(**sim)
-        return bayescal.calibrate(sut=s.sut, sut_xml=s.sut_inventory, ref=s.ref,
+        post = bayescal.calibrate(sut=s.sut, sut_xml=s.sut_inventory, ref=s.ref,
                                   ref_xml=s.ref_inventory, band=band, progress=False,
                                   min_ess=200, n_tau=20)
+    REF_METADATA[id(post)] = s.ref_inventory     # for the StationXML's check
+    return post
 
 
 @pytest.fixture(scope="module")
@@ -120,3 +124,46 @@ def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
     assert "response as the data see it" in text
     assert "relative to the reference's metadata" in text
     assert "correct the SUT data's start time by" in text
+
+
+def test_stationxml_writes_the_response_as_the_data_see_it(ref_pole, tmp_path):
+    """The corrected StationXML read back with ObsPy: the reference's
+    missing pole is the SUT's zero in a stage of its own (unit gain at 1 Hz,
+    the sensor's and the digitizer's stages as they were), and the SUT's
+    response it gives, over the reference's metadata response, is the
+    closed form of what was written (the metadata ratio times the fitted
+    gain over the metadata gain times the zero's factor) and the curve's
+    median (to 0.5 % and 0.005 rad: the curve's median against the curve
+    at the parameters' medians) at every grid frequency."""
+    from obspy import UTCDateTime, read_inventory
+
+    from bayescal.core.response import evaluate_velocity_response
+
+    write_results(ref_pole, str(tmp_path))
+    inv = read_inventory(str(tmp_path / "sut_corrected.xml"))
+    curve = ref_pole.response_curve
+    f = np.asarray(curve["freq_hz"])
+    corner = ref_pole.summary()["criticism"]["effects"][0]["size"]["corner_hz"]["median"]
+    time = UTCDateTime(ref_pole.meta.starttime)
+    s, sn = 2j * np.pi * f, 2j * np.pi * 1.0
+    for cid, entry in curve["channels"].items():
+        net, sta, loc, cha = cid.split(".")
+        ch = inv.select(network=net, station=sta, location=loc, channel=cha)[0][0][0]
+        stages = ch.response.response_stages
+        assert [st.stage_sequence_number for st in stages] == [1, 2, 3]
+        (zero,) = stages[1].zeros
+        assert stages[1].poles == [] and stages[1].stage_gain == 1.0
+        assert complex(zero) == pytest.approx(-2 * np.pi * corner, rel=0.02)
+        assert any(entry["reference"] in c.value and "relative to the reference's metadata"
+                   in c.value for c in ch.comments)
+        h = ch.response.get_evalresp_response_for_frequencies(f, output="VEL")
+        h_ref = evaluate_velocity_response(
+            REF_METADATA[id(ref_pole)].get_response(entry["reference"], time), f)
+        ratio = h / h_ref
+        gain = ref_pole.channels[cid]["response"]["gain"]["median"]
+        meta = entry["metadata"]
+        written = (np.asarray(meta["amplitude"]) * np.exp(1j * np.asarray(meta["phase_rad"]))
+                   * gain / SUT[2] * (s - complex(zero)) / abs(sn - complex(zero)))
+        np.testing.assert_allclose(ratio, written, rtol=1e-6)
+        np.testing.assert_allclose(np.abs(ratio), entry["amplitude"]["median"], rtol=5e-3)
+        np.testing.assert_allclose(np.angle(ratio), entry["phase_rad"]["median"], atol=5e-3)

@@ -12,6 +12,8 @@
 * :mod:`.result`      a fit's result.json / samples.npz written and read back,
                       with the corrected StationXML beside them
 * :mod:`.stationxml`  the SUT's StationXML with the posterior's values
+* :mod:`.relative_response` the headline model's response effects written
+                      into it: the SUT's response relative to the reference's metadata
 
 May import :mod:`bayescal.core` and :mod:`bayescal.result`; never criticism,
 pair, coil, report, network or cli.
@@ -32,5 +34,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "noise": ["AXIS_MISMATCH", "self_noise_files", "self_noise_streams", "to_json"],
     "refnoise_file": ["for_channels", "read_reference_noise"],
     "stationxml": ["corrected_inventory", "find_channel", "pole_with_errors", "prior_text",
-                   "update_response", "write_corrected"],
+                   "update_response", "write_corrected", "write_pendulum"],
+    "relative_response": ["change", "effect_changes"],
 })

@@ -22,6 +22,15 @@ For every fitted SUT channel, :func:`corrected_inventory` replaces
   damping/period but neither separately, the period stays nominal and the
   damping carries the measured damping/period (:func:`written_period_damping`);
 * a tilted vertical's azimuth by the azimuth its axis leans toward;
+* when the criticism's improved model heads the result, the response as
+  the data see it relative to the reference's metadata: each response
+  effect of that model written in (a pole missing from the reference's
+  metadata as the SUT's equivalent zero, in a stage of its own; a natural
+  period and damping as the pendulum poles; a sensitivity error in the
+  gain; :mod:`bayescal.io.relative_response`), with a Comment naming the
+  reference channel; a clock offset is a time correction of the data, said
+  in the comments (and kept in the digitizer stage's delay, which no
+  response evaluation applies), never a response change;
 * and adds to every changed channel a Comment saying where the values come
   from (:func:`provenance_comment`).
 
@@ -84,34 +93,47 @@ def written_period_damping(summary, family):
     return period, family.damping if "damping" in prior else summary["damping"]["median"]
 
 
+def write_pendulum(stage, family, period, damping, pole_samples=None):
+    """Replace the two long-period poles of the sensor ``stage`` by the
+    pendulum pair of ``period`` and ``damping`` (errors from
+    ``pole_samples``, (N, 2) complex, when given), and its normalization
+    factor so that the stage's gain keeps its meaning at ``family``'s
+    normalization frequency."""
+    from ..core.response import pendulum_coefficients, pendulum_denominator, pendulum_poles
+
+    hertz = "HERTZ" in str(getattr(stage, "pz_transfer_function_type", "")).upper()
+    scale = 1.0 / (2 * np.pi) if hertz else 1.0
+    new = pendulum_poles([period], [damping])[0]
+    current = [complex(p) / scale for p in stage.poles]
+    pair = sorted(np.argsort(np.abs(current))[:2], key=lambda i: -current[i].imag)
+    for k, idx in enumerate(pair):
+        if pole_samples is None:
+            stage.poles[idx] = ComplexWithUncertainties(new[k] * scale)
+            continue
+        err = pole_with_errors(pole_samples[:, k])
+        stage.poles[idx] = ComplexWithUncertainties(
+            new[k] * scale, lower_uncertainty=err.lower_uncertainty * scale,
+            upper_uncertainty=err.upper_uncertainty * scale)
+    sn = 2j * np.pi * family.norm_freq
+    a0_ratio = (abs(pendulum_denominator(sn, *pendulum_coefficients(period, damping)))
+                / abs(pendulum_denominator(sn, *pendulum_coefficients(family.period_s,
+                                                                      family.damping))))
+    stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
+
+
 def update_response(channel, samples, free, summary):
     """Write fitted period, damping, gain into the channel's response."""
-    from ..core.response import (pendulum_coefficients, pendulum_denominator, pendulum_poles,
-                                 response_family)
+    from ..core.response import pendulum_poles, response_family
 
     resp = channel.response
     stage = resp.response_stages[0]
     fam = response_family(resp)     # a ScaleFamily ('flat') has only its gain fitted
-    hertz = "HERTZ" in str(getattr(stage, "pz_transfer_function_type", "")).upper()
-    scale = 1.0 / (2 * np.pi) if hertz else 1.0
     # a parameter set by the prior keeps its nominal value (the comment says why)
     prior = {name for name, e in summary.items() if isinstance(e, dict) and e.get("set_by_prior")}
     period, damping = written_period_damping(summary, fam) if free == "all" else (None, None)
     if period is not None:
-        new = pendulum_poles([period], [damping])[0]
-        pole_samples = pendulum_poles(samples[:, 0], samples[:, 1])
-        current = [complex(p) / scale for p in stage.poles]
-        pair = sorted(np.argsort(np.abs(current))[:2], key=lambda i: -current[i].imag)
-        for k, idx in enumerate(pair):
-            err = pole_with_errors(pole_samples[:, k])
-            stage.poles[idx] = ComplexWithUncertainties(
-                new[k] * scale, lower_uncertainty=err.lower_uncertainty * scale,
-                upper_uncertainty=err.upper_uncertainty * scale)
-        sn = 2j * np.pi * fam.norm_freq
-        a0_ratio = (abs(pendulum_denominator(sn, *pendulum_coefficients(period, damping)))
-                    / abs(pendulum_denominator(sn, *pendulum_coefficients(fam.period_s,
-                                                                          fam.damping))))
-        stage.normalization_factor = float(stage.normalization_factor * a0_ratio)
+        write_pendulum(stage, fam, period, damping,
+                       pendulum_poles(samples[:, 0], samples[:, 1]))
     if "gain" in prior:
         if free != "all" or period is None:
             return                          # nothing fitted is written: response untouched
@@ -127,8 +149,15 @@ def update_response(channel, samples, free, summary):
                          f"stage gain fitted by bayescal: {gain:.6g}, 68 % interval "
                          f"[{g_lo:.6g}, {g_hi:.6g}] (StationXML has no field for a gain's "
                          "uncertainty; see also the channel's bayescal comment)")
+    recalculate_sensitivity(channel, fam.norm_freq)
+
+
+def recalculate_sensitivity(channel, norm_freq):
+    """The channel's overall sensitivity recalculated at its own frequency
+    (``norm_freq`` when it has none) from its response stages."""
+    resp = channel.response
     sens = resp.instrument_sensitivity
-    freq = sens.frequency if sens is not None and sens.frequency else fam.norm_freq
+    freq = sens.frequency if sens is not None and sens.frequency else norm_freq
     if sens is not None and str(sens.input_units).upper() in ("M/S", "M/SEC"):
         # ObsPy's recalculation in numpy (bayescal.core.response.evalresp; no obspy.signal import)
         from ..errors import NotHandled
@@ -150,11 +179,17 @@ def corrected_inventory(inventory, posterior, criticism=None):
     """A copy of ``inventory`` with the posterior's fitted values written in
     (see the module docstring). ``criticism``: when the values are the
     improved model's (result.json's ``criticism``), each channel's comment
-    names the effects modelled, and a timing offset of the SUT's digitizer
-    is added to its last decimating stage's delay."""
+    names the effects modelled, a timing offset of the SUT's digitizer
+    is added to its last decimating stage's delay, and the headline model's
+    response effects are written in as the SUT's response relative to the
+    reference's metadata (:mod:`bayescal.io.relative_response`), with a
+    Comment that says so and gives a clock effect's time correction."""
     from obspy import UTCDateTime
 
+    from .relative_response import effect_changes
+
     inv = copy.deepcopy(inventory)
+    changes, missing = effect_changes(headline_state(posterior)) if criticism else ({}, [])
     summary = posterior.summary()
     time = UTCDateTime(posterior.meta.starttime) if posterior.meta.starttime else None
     free = posterior.meta.free_response or "none"
@@ -175,7 +210,37 @@ def corrected_inventory(inventory, posterior, criticism=None):
         ch.comments.append(provenance_comment(posterior, entry))
         if criticism:
             ch.comments.append(criticism_comment(ch, cid, criticism))
+            ch.comments.append(_relative(ch, cid, changes.get(cid, []), missing, posterior))
     return inv
+
+
+def headline_state(posterior):
+    """The live fit of the model heading ``posterior`` (its improved
+    model's when ``meta.headline`` says so), or None when read from disk."""
+    improved = getattr(posterior, "improved", None)
+    if (posterior.meta.headline or {}).get("model") == "improved" and improved is not None:
+        return improved.state
+    return posterior.state
+
+
+def _relative(channel, cid, changes, missing, posterior):
+    """Write the headline model's response ``changes`` of channel ``cid``
+    (:func:`bayescal.io.relative_response.effect_changes`) into ``channel``
+    and return the Comment that says the response is relative to the
+    reference's metadata."""
+    from ..core.response import response_family
+    from .relative_response import relative_comment, write_changes
+
+    curve = posterior.response_curve or {}
+    if changes:
+        fam = response_family(channel.response)
+        write_changes(channel, changes, lambda st, period, damping: write_pendulum(
+            st, fam, period, damping))
+        recalculate_sensitivity(channel, fam.norm_freq)
+    ref = (curve.get("channels", {}).get(cid) or {}).get("reference") or ", ".join(
+        posterior.meta.reference or {})
+    return relative_comment(changes, ref, missing,
+                            (curve.get("time_correction") or {}).get("text"))
 
 
 def _timing_offset(criticism):

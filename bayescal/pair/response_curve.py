@@ -35,13 +35,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.model import is_clock
+
 #: Grid density of the curve (points per decade of frequency).
 POINTS_PER_DECADE = 20
 #: Most posterior draws the curve's quantiles are taken over.
 MAX_DRAWS = 2000
-#: Effects that are a clock, not a response (by name; an effect may also
-#: say so itself with ``time_correction = True``).
-CLOCK_EFFECTS = ("timing_offset", "clock_drift")
 #: What the curve is, in result.json's words.
 DEFINITION = ("R(f) = H_sut(f) / H_ref,metadata(f), counts over counts: the SUT's response "
               "under the headline model over the reference's metadata response (a pair sees "
@@ -49,13 +48,6 @@ DEFINITION = ("R(f) = H_sut(f) / H_ref,metadata(f), counts over counts: the SUT'
               "of the SUT's); phase in radians, evalresp's sign (s = 2 pi i f); medians and "
               "95 % bands over the posterior draws; 'metadata': the same ratio from the two "
               "metadata alone; clock effects are left out (time_correction)")
-
-
-def is_clock(effect):
-    """Whether ``effect`` is a clock (a time correction of the data), not a
-    response: its own ``time_correction`` flag, else its name in
-    :data:`CLOCK_EFFECTS`."""
-    return bool(getattr(effect, "time_correction", effect.name in CLOCK_EFFECTS))
 
 
 def grid_indices(nodes, per_decade=POINTS_PER_DECADE):
@@ -70,7 +62,8 @@ def response_factor(model, theta, index=None):
     """``H_fit(f) / H_nom(f)`` of the SUT channels, (W, n_u, Q) at the
     model's nodes ``model.nodes[index]``: the reciprocal of the likelihood's
     deconvolution factor (:meth:`~bayescal.core.model.likelihood.Model.unpack`)
-    with the clock effects' factors taken out (:func:`is_clock`; the
+    with the clock effects' factors taken out
+    (:func:`bayescal.core.model.effect.is_clock`; the
     time-dependent ones are not in it)."""
     theta = np.atleast_2d(theta)
     _, ratio = model.unpack(theta)

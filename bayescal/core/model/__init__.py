@@ -30,7 +30,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "inflation": ["INFLATION_SHRINK", "lag_one_scatter", "overlapping_segments",
                   "shrunk_inflation"],
     "protocol": ["PosteriorModel"],
-    "effect": ["Effect"],
+    "effect": ["CLOCK_EFFECTS", "Effect", "is_clock"],
     "eiv": ["EIVModel", "EIVNoise"],
     "misfit_scale": ["MISFIT_SHAPE", "band_loglik", "band_scale"],
     "refnoise": ["as_real", "band_sums_of_psd", "recommended_mode", "treatment_meta"],

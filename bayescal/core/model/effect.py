@@ -16,6 +16,10 @@ class Effect:
     pole missing from its metadata, its clock) is expressed on the SUT side as
     the reciprocal factor applied to every row. ``factor`` must be 1 at the
     effect's null value, so the extended model nests the base model.
+    An effect that is a clock (the SUT's timing against the reference's),
+    not a response, sets ``time_correction = True`` (:func:`is_clock`): the
+    response as the data see it leaves its factor out and reports it as a
+    time correction of the data.
     Subclasses set ``name``, ``param_names``, ``rows`` and implement
     ``factor`` and ``log_prior`` (vectorised, -inf outside the support).
     An effect with a proper prior may give its least-squares rows,
@@ -44,3 +48,15 @@ class Effect:
 
     def log_prior(self, p):
         return np.zeros(p.shape[0])
+
+
+#: Effects that are a clock, not a response, by name (an effect may also say
+#: so itself: ``time_correction``).
+CLOCK_EFFECTS = ("timing_offset", "clock_drift")
+
+
+def is_clock(effect):
+    """Whether ``effect`` is a clock (a time correction of the data), not a
+    response: its own ``time_correction`` flag when it sets one, else its
+    name in :data:`CLOCK_EFFECTS`."""
+    return bool(getattr(effect, "time_correction", effect.name in CLOCK_EFFECTS))
