@@ -107,6 +107,20 @@ def test_clock_is_a_time_correction_not_response(late):
         assert np.allclose(entry["phase_rad"]["median"], np.angle(truth), atol=1e-6), cid
 
 
+def test_console_gives_the_time_correction(late):
+    import contextlib
+    import io
+
+    from bayescal.cli.fit import print_summary
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        print_summary(late.summary())
+    clock = late.response_curve["time_correction"]
+    assert f"time correction: {clock['text']}" in out.getvalue()
+    assert out.getvalue().count("time correction: the SUT's clock is 0.") == 1
+
+
 def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
     import pypdf
 

@@ -186,6 +186,9 @@ def print_summary(summary, stream=None):
         print(f"WARNING: the gain of {', '.join(pinned)} is pinned at the bound of its prior: "
               "the data want a gain further from the metadata than the prior allows. Check the "
               "metadata gain, and whether --ref and --sut are swapped", file=stream)
+    clock = (summary.get("response_curve") or {}).get("time_correction")
+    if clock:
+        print(f"time correction: {clock['text']}", file=stream)
     c = summary["convergence"]
     print(f"convergence: {Convergence.figures(c)}, tau max {c['tau_max']:.1f}, "
           f"{c['n_steps']} steps", file=stream)
