@@ -181,3 +181,44 @@ def test_stationxml_writes_the_response_as_the_data_see_it(ref_pole, tmp_path):
         np.testing.assert_allclose(ratio, written, rtol=1e-6)
         np.testing.assert_allclose(np.abs(ratio), entry["amplitude"]["median"], rtol=5e-3)
         np.testing.assert_allclose(np.angle(ratio), entry["phase_rad"]["median"], atol=5e-3)
+
+
+@pytest.mark.parametrize("kind", ["zero", "pole", "pendulum", "gain"])
+def test_each_change_written_is_its_closed_form(kind):
+    """Each change of the SUT's response the corrected StationXML writes,
+    evaluated by ObsPy, is the closed form of that change on the metadata
+    response: a zero or a pole at 5 Hz (normalised at 1 Hz) in a stage of
+    its own, a pendulum of 60 s and damping 0.5, a sensitivity 3 % high."""
+    import copy
+
+    from bayescal.core.response import response_family
+    from bayescal.io.relative_response import change, write_changes
+    from bayescal.io.stationxml import recalculate_sensitivity, write_pendulum
+    from bayescal.simulate.pair import NORM_FREQ, velocity_response
+
+    resp = velocity_response(*SUT)
+    f = np.geomspace(0.01, 8.0, 25)
+    w = -2 * np.pi * 5.0
+    s, sn = 2j * np.pi * f, 2j * np.pi * NORM_FREQ
+    before = resp.get_evalresp_response_for_frequencies(f, output="VEL")
+    c, want = {
+        "zero": (change(zeros=[w], norm_freq=NORM_FREQ), before * (s - w) / abs(sn - w)),
+        "pole": (change(poles=[w], norm_freq=NORM_FREQ), before * abs(sn - w) / (s - w)),
+        "pendulum": (change(pendulum=(60.0, 0.5)),
+                     paz_velocity_response(f, 60.0, 0.5, SUT[2], digitizer_gain=DIGITIZER_GAIN)),
+        "gain": (change(gain_factor=1.03), before * 1.03)}[kind]
+
+    class Channel:
+        response = copy.deepcopy(resp)
+        code = "BHZ"
+
+    fam = response_family(resp)
+    assert write_changes(Channel, [c], lambda st, t, h: write_pendulum(st, fam, t, h))
+    recalculate_sensitivity(Channel, fam.norm_freq)
+    got = Channel.response.get_evalresp_response_for_frequencies(f, output="VEL")
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+    n_stages = 3 if kind in ("zero", "pole") else 2
+    assert len(Channel.response.response_stages) == n_stages
+    sens = Channel.response.instrument_sensitivity
+    assert sens.value == pytest.approx(abs(Channel.response.get_evalresp_response_for_frequencies(
+        [sens.frequency], output="VEL")[0]), rel=1e-9)
