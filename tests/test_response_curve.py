@@ -9,6 +9,7 @@ files draws the page."""
 from __future__ import annotations
 
 import json
+import pathlib
 import subprocess
 import sys
 import warnings
@@ -127,8 +128,9 @@ def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
     write_results(late, str(tmp_path))
     saved = json.loads((tmp_path / "result.json").read_text())["response_curve"]
     assert saved["channels"].keys() == late.response_curve["channels"].keys()
+    root = pathlib.Path(__file__).resolve().parents[1]
     subprocess.run([sys.executable, "-m", "bayescal.cli", "report", str(tmp_path)], check=True,
-                   capture_output=True, text=True)
+                   capture_output=True, text=True, cwd=str(root))
     assert (tmp_path / "report_response_curve.png").exists()
     from bayescal.report.fit import PAGES
     pdf = pypdf.PdfReader(str(tmp_path / "report.pdf"))
