@@ -127,7 +127,12 @@ def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
 
     write_results(late, str(tmp_path))
     saved = json.loads((tmp_path / "result.json").read_text())["response_curve"]
-    assert saved["channels"].keys() == late.response_curve["channels"].keys()
+    live = late.summary()["response_curve"]
+    assert saved["channels"].keys() == live["channels"].keys()
+    for cid, entry in saved["channels"].items():
+        for key in ("amplitude", "phase_rad"):
+            np.testing.assert_array_equal(entry[key]["ci95"], live["channels"][cid][key]["ci95"])
+    assert bayescal.load_posterior(str(tmp_path)).response_curve == saved
     root = pathlib.Path(__file__).resolve().parents[1]
     subprocess.run([sys.executable, "-m", "bayescal.cli", "report", str(tmp_path)], check=True,
                    capture_output=True, text=True, cwd=str(root))

@@ -62,7 +62,9 @@ def _response_parameters(effect, p, row):
     cid = effect.channel_ids[k]
     period, damping = float(phys[f"period_s:{cid}"][0]), float(phys[f"damping:{cid}"][0])
     return change(pendulum=(period, damping),
-                  label=f"natural period {period:.5g} s, damping {damping:.4g}")
+                  label=f"natural period {period:.5g} s, damping {damping:.4g} (the response "
+                        "they make is what the data fix; apart, the sensor's prior may set them: "
+                        "result.json's criticism says which)")
 
 
 _TRANSLATIONS = {"extra_pole": _extra_pole, "gain_error": _gain_error,
