@@ -116,13 +116,23 @@ def test_console_table_is_result_json_and_says_under_which_model(late):
                                              abs=6e-4)
 
 
-def test_report_shows_the_headline_and_the_rejected_fit_on_its_own_page(late):
+def _pages(folder):
+    """``bayescal report`` of ``folder``: each page's text, spaces folded."""
     from pypdf import PdfReader
 
+    assert main(["report", str(folder)]) == 0
+    return [" ".join(p.extract_text().split()) for p in PdfReader(str(folder / "report.pdf")).pages]
+
+
+@pytest.fixture(scope="module")
+def pages(late):
+    """The clock example's report, each page's text (spaces folded)."""
+    return _pages(late[1])
+
+
+def test_report_shows_the_headline_and_the_rejected_fit_on_its_own_page(late, pages):
     _, out, _, result, _ = late
-    assert main(["report", str(out)]) == 0
-    pages = [p.extract_text() for p in PdfReader(str(out / "report.pdf")).pages]
-    first = " ".join(pages[0].split())
+    first = pages[0]
     assert "Reported: estimates under the improved model" in first
     assert "ESTIMATES UNDER THE IMPROVED MODEL" in first
     for cid in SIDES:
@@ -135,7 +145,7 @@ def test_report_shows_the_headline_and_the_rejected_fit_on_its_own_page(late):
     rejected = [p for p in pages if "The rejected fit" in p]
     assert len(rejected) == 1
     fit_dip = result["rejected_fit"]["channels"]["XX.SIM.10.BH1"]["dip_deg"]["median"]
-    assert f"XX.SIM.10.BH1 dip (deg) {fit_dip:.2f}" in " ".join(rejected[0].split())
+    assert f"XX.SIM.10.BH1 dip (deg) {fit_dip:.2f}" in rejected[0]
 
 
 def test_batch_csvs_carry_the_headline_and_its_effects(late, tmp_path):
@@ -197,3 +207,147 @@ def test_one_misfit_definition_printed_the_same_way(late):
     assert f"largest standardised misfit {before:.3g} -> {after:.3g} with it modelled" in console
     assert f"standardised misfit {before:.3g} in" in console
     assert f"largest standardised misfit {after:.3g} in" in console
+
+
+SELF_NOISE = "self-noise and sensor order are the fit's"
+
+
+def test_self_noise_said_to_be_the_fits_under_the_improved_model(late, pages):
+    """The self-noise and the sensor order are made for the fit's pair
+    model: with the improved model in the headline, the console, page 1 and
+    the self-noise page say so (result.json: meta.headline.self_noise)."""
+    _, _, console, result, _ = late
+    assert result["self_noise"] and result["meta"]["headline"]["self_noise"].startswith("the fit's")
+    assert SELF_NOISE in console
+    assert SELF_NOISE in pages[0]
+    noise = [p for p in pages if "Self-noise of both sensors" in p]
+    assert len(noise) == 1 and f"Model: {SELF_NOISE}" in noise[0]
+
+
+def test_criticism_sentences_quote_each_models_check(late):
+    """The criticism's sentences (those ``bayescal diagnose`` prints) quote
+    the fit's and the improved model's own check misfits, as the console's
+    check and the headline's adequacy give them; the search's common scale
+    stays in result.json's ``misfit_search``."""
+    _, _, _, result, _ = late
+    before = result["rejected_fit"]["adequacy"]["worst"]["misfit"]
+    after = result["adequacy"]["worst"]["misfit"]
+    text = " ".join(result["criticism"]["sentences"])
+    assert f"(largest {before:.3g}) to median" in text and f"(largest {after:.3g}), each" in text
+    search = result["criticism"]["misfit_search"]
+    assert f"{search['before']:.3g}" not in text
+
+
+def _laplace_copy(late, tmp_path):
+    """The clock example's result folder with its headline posterior made a
+    Laplace approximation, as the criticism's improved model falls back to
+    when its chain does not converge (meta.approximation; ESS = the draws,
+    R-hat 1, no walkers)."""
+    import shutil
+
+    folder = tmp_path / "laplace"
+    shutil.copytree(late[1], folder)
+    res = json.loads((folder / "result.json").read_text())
+    res["meta"]["approximation"] = "Laplace (Gaussian at the least-squares point), no MCMC"
+    res["meta"]["sampler"] = {"library": None, "draws": 4000,
+                              "approximation": "Laplace (Gaussian at the least-squares point)"}
+    res["convergence"].update(ess_min=4000.0, rhat_max=1.0, tau_max=1.0, n_steps=0,
+                              n_walkers=0, converged=True)
+    (folder / "result.json").write_text(json.dumps(res))
+    return folder, res
+
+
+def test_laplace_headline_prints_no_chain_figures(late, tmp_path):
+    from bayescal.cli.fit import print_summary
+
+    folder, res = _laplace_copy(late, tmp_path)
+    out = io.StringIO()
+    print_summary(res, out)
+    line = next(x for x in out.getvalue().splitlines() if x.startswith("convergence:"))
+    assert line.startswith("convergence: Laplace approximation (no chain)")
+    assert "ESS" not in line.replace("no ESS or R-hat", "") and "steps" not in line
+    pages = _pages(folder)
+    assert "Posterior: Laplace approximation (no chain)" in pages[0]
+    assert "Sampler:" not in pages[0]
+    conv = [p for p in pages if "Convergence of the sampler" in p]
+    assert conv and "split R-hat" not in conv[0] and "Laplace approximation (no chain)" in conv[0]
+
+
+class _Improved:
+    """A stand-in for the improved model's state: the effects it models."""
+
+    def __init__(self, effects):
+        self.meta = type("Meta", (), {"effects": effects})()
+
+
+def _criticism(verdict, effects, improved=None, reference_noise=False):
+    from bayescal.criticism.verdict import Criticism
+    return Criticism({"verdict": verdict, "verdict_text": f"the verdict {verdict}",
+                      "effects": [{"name": n, "channels": list(SIDES)} for n in effects],
+                      "reference_noise_modelled": reference_noise}, improved)
+
+
+def _results_row(late, tmp_path, headline):
+    """results.csv's row of XX.SIM.10.BH1 for the clock example's result with
+    ``headline`` as its meta.headline (its criticism names the timing offset)."""
+    from bayescal.report.batch import read_results, results_table
+
+    res = dict(late[3], meta=dict(late[3]["meta"], headline=headline))
+    (tmp_path / "item").mkdir()
+    (tmp_path / "item" / "result.json").write_text(json.dumps(res))
+    rows = read_results(results_table([{"label": "item"}], str(tmp_path)))
+    return next(r for r in rows if r["channel"] == "XX.SIM.10.BH1")
+
+
+@pytest.mark.parametrize("verdict", ["usable", "unexplained"])
+def test_batch_effects_are_the_headlines_when_the_fit_heads(late, tmp_path, verdict):
+    """Verdict usable or unexplained: the fit heads, and the effects column
+    lists none of the named effects; they go to effects_not_heading."""
+    from bayescal.pair.choice import headline_entry
+
+    head = headline_entry(_criticism(verdict, ["timing_offset"], _Improved(["timing_offset"])))
+    assert head["model"] == "fit" and head["effects"] == []
+    assert head["not_heading"] == ["timing_offset"] and head["verdict"] == verdict
+    row = _results_row(late, tmp_path, head)
+    assert row["effects"] == "" and row["effects_not_heading"] == "timing_offset"
+    assert "improved model" not in row["notes"]
+
+
+def test_improved_model_of_the_reference_noise_alone_has_a_label(late, tmp_path):
+    """An improved model that adds only the reference's self-noise (no
+    catalogue effect): its headline label and the batch's notes name it,
+    and the effects column lists it."""
+    from bayescal.pair.choice import headline_entry
+
+    head = headline_entry(_criticism("improved", [], _Improved([]), reference_noise=True))
+    assert head["model"] == "improved" and head["label"] == "the reference's own self-noise"
+    row = _results_row(late, tmp_path, head)
+    assert row["effects"] == "reference_noise"
+    assert "estimates under the improved model (the reference's own self-noise)" in row["notes"]
+
+
+def test_usable_stationxml_comment_says_the_fit_heads_and_why(late, tmp_path):
+    """Verdict usable: the corrected StationXML holds the fit's values and
+    each channel's comment says that the fit's model heads, and the
+    verdict's words why."""
+    import dataclasses
+
+    from obspy import read_inventory
+
+    from bayescal.io.result import load_posterior, write_corrected_result
+    from bayescal.pair.choice import headline_entry
+
+    data, out, _, _, _ = late
+    result = load_posterior(str(out))
+    head = headline_entry(_criticism("usable", ["timing_offset"], _Improved(["timing_offset"])))
+    result = dataclasses.replace(result, meta=result.meta.replace(headline=head))
+    path = write_corrected_result(read_inventory(str(data / "sut.xml")), result,
+                                  str(tmp_path / "sut_corrected.xml"))
+    inv = read_inventory(path)
+    for cid in SIDES:
+        net, sta, loc, cha = cid.split(".")
+        ch = inv.select(network=net, station=sta, location=loc, channel=cha)[0][0][0]
+        said = [c.value for c in ch.comments if c.subject == "bayescal headline"]
+        assert said == ["Values under the fit's model (without the effects the criticism "
+                        "named), which heads the result: the verdict usable."]
+        assert not any(c.subject == "bayescal criticism" for c in ch.comments)

@@ -71,9 +71,10 @@ def test_diagnosis_page_rebuilt_from_its_json(late_fit, tmp_path):
     assert len(lines) == len(live_lines)
     for a, b in zip(lines, live_lines):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
-    # the first curve is the first channel's misfit before, as the file holds it
+    # the first curve is the first channel's misfit before (the fit's own
+    # check), as the file holds it
     np.testing.assert_array_equal(
-        lines[0], np.asarray(doc["per_band"]["before_under_final_noise"]["misfit"])[:, 0])
+        lines[0], np.asarray(doc["per_band"]["check_before"]["misfit"])[:, 0])
     # and the page written by a fresh interpreter states the file's BIC gain
     _fresh("import json, sys\n"
            "from bayescal.criticism.diagnosis import SavedDiagnosis\n"

@@ -139,7 +139,6 @@ def print_summary(summary, stream=None):
     it says so before any number), under which model the estimates are when
     it is the criticism's improved model, then medians and 95 % intervals."""
     from ..core.posterior import multimodal_line
-    from ..result import Convergence
 
     stream = stream or sys.stdout       # looked up now, not at import (redirection works)
     crit = summary.get("criticism") or {}
@@ -164,6 +163,18 @@ def print_summary(summary, stream=None):
         print(f"assumed: {summary['meta']['assumption']}", file=stream)
     for cid, why in summary.get("not_estimable", {}).items():
         print(f"{cid:22s}  not estimable: {why}", file=stream)
+    _print_notes(summary, stream)
+    if crit:
+        print_criticism(crit, stream)
+
+
+def _print_notes(summary, stream):
+    """The lines below the table: the reference's noise, the record, the
+    sensor order, pinned gains, whose self-noise, and the convergence (or
+    the Laplace approximation that stands for a chain)."""
+    from ..criticism.words import posterior_text, self_noise_text
+    from ..result import Convergence
+
     rn = summary.get("meta", {}).get("reference_noise", {})
     if rn:
         from ..core.posterior import describe_treatment
@@ -181,6 +192,8 @@ def print_summary(summary, stream=None):
         print(f"WARNING: {order['message']}", file=stream)
     elif order.get("caution"):
         print(f"sensor order: {order['caution']}", file=stream)
+    if self_noise_text(summary) and (summary.get("self_noise") or order):
+        print(self_noise_text(summary), file=stream)
     pinned = pinned_gains(summary)
     if pinned and not order.get("message"):
         print(f"WARNING: the gain of {', '.join(pinned)} is pinned at the bound of its prior: "
@@ -190,10 +203,9 @@ def print_summary(summary, stream=None):
     if clock:
         print(f"time correction: {clock['text']}", file=stream)
     c = summary["convergence"]
-    print(f"convergence: {Convergence.figures(c)}, tau max {c['tau_max']:.1f}, "
-          f"{c['n_steps']} steps", file=stream)
-    if crit:
-        print_criticism(crit, stream)
+    laplace = posterior_text(summary)
+    print(f"convergence: {laplace}" if laplace else f"convergence: {Convergence.figures(c)}, "
+          f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
 
 
 def _print_check(summary, stream):

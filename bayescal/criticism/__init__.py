@@ -12,6 +12,8 @@
                     its finding in plain words
 * :mod:`.verdict`   the criticism of a fit that failed its model check
 * :mod:`.words`     the named effects in plain words: their labels and advice
+* :mod:`.advice`    advice that leads somewhere: options the run accepts, a
+                    narrower band only where it helps
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the

@@ -42,11 +42,24 @@ class Diagnosis:
     def names(self):
         return [e["name"] for e in self.effects]
 
+    def checks(self):
+        """:func:`check_misfits` of this diagnosis."""
+        return check_misfits(self)
+
     def unexplained(self):
-        """Sentences for mismatch that remains after the final model."""
-        return [f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz "
-                f"on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}, misfit up to "
-                f"{m['misfit_max']:.2g} times its expectation)" for m in self.after["mismatch"]]
+        """Sentences for mismatch that remains after the final model, with
+        the final model's own check misfit (:meth:`checks`) there."""
+        after = self.checks()[1]
+        edges = np.asarray(self.band_edges)
+        out = []
+        for m in self.after["mismatch"]:
+            inside = (edges[:-1] >= m["band_hz"][0] * (1 - 1e-9)) & \
+                (edges[1:] <= m["band_hz"][1] * (1 + 1e-9))
+            worst = float(after[inside].max()) if inside.any() else m["misfit_max"]
+            out.append(f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g}"
+                       f" Hz on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}; "
+                       f"largest standardised misfit there {worst:.3g}, the final model's check)")
+        return out
 
     def movements(self):
         """How each channel's orientation (and response) moved from the
@@ -76,17 +89,16 @@ class Diagnosis:
             if e.get("score_gain") is not None and "BIC" not in s:
                 s += f" (BIC gain {e['score_gain']:.0f})"
             out.append(s)
-        fixed = self.before_common["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
+        before, after = self.checks()
+        fixed = self.before["flag"].any(axis=1) & ~self.after["flag"].any(axis=1)
         if fixed.any() and any(e.get("score_gain") for e in self.effects):
-            before = self.before_common["misfit"][fixed].max()
-            after = self.after["misfit"][fixed].max()
             where = ", ".join(f"{edges[a]:.3g}-{edges[b]:.3g}" for a, b in true_runs(fixed))
             out.append(f"modelling {'it' if len(self.effects) == 1 else 'them'} removes the "
                        f"misfit in {where} Hz (largest standardised misfit there "
-                       f"{before:.3g} -> {after:.3g}, both under the final model's noise model)")
+                       f"{before[fixed].max():.3g} -> {after[fixed].max():.3g}, each model's "
+                       "check)")
         if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
-            out.append(misfit_change(edges, self.before_common["misfit"],
-                                     self.after["misfit"]))
+            out.append(misfit_change(edges, before, after))
         moves = self.movements()
         big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
                if k == "azimuth_deg" and abs(v) > 0.05]
@@ -112,6 +124,8 @@ class Diagnosis:
                 "per_band": {"band_edges_hz": self.band_edges, "channels": self.ids,
                              "before": cells(self.before), "after": cells(self.after),
                              "before_under_final_noise": cells(self.before_common),
+                             "check_before": {"misfit": self.checks()[0]},
+                             "check_after": {"misfit": self.checks()[1]},
                              "ratio_amplitude_before": np.abs(self.ratio_before),
                              "ratio_phase_deg_before": np.degrees(np.angle(self.ratio_before)),
                              "ratio_amplitude_after": np.abs(self.ratio_after),
@@ -121,6 +135,26 @@ class Diagnosis:
                 "criteria": {"alpha_familywise": ALPHA, "bic_keep": BIC_KEEP,
                              "score": "BIC difference under the extended model's noise model"},
                 "base": self.base.summary(), "final": self.final.summary()}
+
+
+def check_misfits(d):
+    """``(before, after)``: the (B, n_u) standardised misfit per band and
+    SUT channel of the fit's and of the final model's own model check in
+    the diagnosis ``d`` (each at its posterior median under its own noise
+    model, as result.json's ``adequacy`` and the console's check give it),
+    the one misfit its sentences and page quote; the search's
+    (:func:`.locate.locate`) for a fit that kept none (one read back from
+    diagnosis.json)."""
+    saved = getattr(d, "saved_checks", None)
+    if saved is not None:
+        return saved
+
+    def of(fit, fallback):
+        m = (getattr(fit, "diagnostics", None) or {}).get("band_misfit")
+        return np.asarray(fallback if m is None else m, float).reshape(np.shape(fallback))
+    before = d.before.get("misfit")
+    return (of(d.base, d.before_common["misfit"] if before is None else before),
+            of(d.final, d.after["misfit"]))
 
 
 def _difference(a, b):
@@ -135,7 +169,7 @@ def misfit_change(edges, before, after):
     verb = "falls" if ma < mb else "rises" if ma > mb else "stays"
     return (f"over the whole {edges[0]:.3g}-{edges[-1]:.3g} Hz band the standardised misfit "
             f"{verb} from median {mb:.3g} (largest {np.max(before):.3g}) to median {ma:.3g} "
-            f"(largest {np.max(after):.3g}); 1 means a fit within the noise")
+            f"(largest {np.max(after):.3g}), each model's check; 1 means a fit within the noise")
 
 
 class SavedFit:
@@ -187,6 +221,9 @@ class SavedDiagnosis(Diagnosis):
             ratio_before=ratio("before"), ratio_after=ratio("after"),
             signatures=summary["signatures"], steps=summary["search"])
         self.saved = summary
+        if "check_before" in pb:        # each model's own check, as the live page draws it
+            self.saved_checks = (np.asarray(pb["check_before"]["misfit"], float),
+                                 np.asarray(pb["check_after"]["misfit"], float))
 
     def sentences(self):
         return list(self.saved["summary"])

@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from . import words
+from .advice import accepted, band
 
 #: An estimate "moves" when the improved model shifts it by more than this
 #: many of its standard deviations (the fit's 68 % half-width).
@@ -156,18 +157,6 @@ def _held_response_moves(effect):
     return out
 
 
-def _good_band(edges, flag):
-    """(lo, hi) of the widest run of bands without a mismatch (the whole
-    band's edges when every band misfits or none does)."""
-    from .locate import true_runs
-    ok = ~flag.any(axis=1)
-    runs = true_runs(ok)
-    if not runs or ok.all():
-        return None
-    a, b = max(runs, key=lambda r: np.log(edges[r[1]] / edges[r[0]]))
-    return float(edges[a]), float(edges[b])
-
-
 def _where(mismatch):
     return "; ".join(f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on "
                      f"{', '.join(m['channels'])}" for m in mismatch)
@@ -184,7 +173,7 @@ def criticism_budget(budget_s=DEFAULT_BUDGET_S):
 
 
 def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budget=None,
-              **sample_kw):
+              band_given=False, **sample_kw):
     """Criticise the fit ``post`` (a :class:`~bayescal.core.posterior.state.FitState`,
     with its ``model`` and ``theta_ls``). Returns a :class:`Criticism`.
 
@@ -194,7 +183,9 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     effects; once spent the criticism is incomplete and the verdict is
     ``unexplained``); ``budget`` (a :class:`bayescal.core.budget.Budget`)
     replaces it. ``mcmc``: sample the improved model (else its Laplace
-    approximation). ``sample_kw`` go to the sampler."""
+    approximation). ``band_given``: the band was given (``--band``), so
+    no narrower one is advised (:mod:`.advice`, whose rules every advice
+    passes). ``sample_kw`` go to the sampler."""
     from .diagnose import diagnose
 
     t0 = time.monotonic()
@@ -208,7 +199,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
                      **_sampler_options(sample_kw))
     seconds = time.monotonic() - t0
-    named = [e for e in d.effects]
+    named = list(d.effects)
     moves = _moves(d, post, base_sum, named)
     biggest = max((abs(v["moved_sd"]) for c in moves.values() for v in c.values()), default=0.0)
     left = d.after["mismatch"]
@@ -216,12 +207,10 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     effects = [_effect_entry(e) for e in named]
     names = words.names(named) or ("the reference's own self-noise" if ref.get("kept") else "")
     degenerate = _degenerate(d, post, effects)
-    verdict, text, size_note, advice = _verdict(d, names=names, degenerate=degenerate,
-                                                biggest=biggest, budget=budget,
-                                                budget_s=budget_s, free=free)
-    for e in effects:
-        if e["advice"] and verdict != "unexplained" or e["name"] == "response_parameters":
-            advice.append(e["advice"])
+    verdict, text, size_note, advice = _verdict(
+        d, names=names, degenerate=degenerate, biggest=biggest, budget=budget,
+        budget_s=budget_s, free=free, band_given=band_given)
+    advice = _all_advice(advice, effects, verdict, getattr(post, "model", None))
     if degenerate:
         moves, biggest = {}, 0.0
     improved = d.final if d.final is not post and not degenerate else None
@@ -243,6 +232,15 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         "sentences": d.sentences(),
     }
     return Criticism(summary, improved, d)
+
+
+def _all_advice(advice, effects, verdict, model):
+    """The verdict's ``advice`` and the named effects' (their advice is for
+    effects the verdict stands by; a response to fit always), less any the
+    run of ``model`` would refuse (:func:`.advice.accepted`)."""
+    advice = advice + [e["advice"] for e in effects if e["advice"] and verdict != "unexplained"
+                       or e["name"] == "response_parameters"]
+    return accepted(advice, model)
 
 
 def _budget(budget, budget_s):
@@ -323,7 +321,7 @@ def _moves(d, post, base_sum, named):
     return moves
 
 
-def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free):
+def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free, band_given=False):
     """``(verdict, text, size_note, advice)`` of the diagnosis ``d``:
     unexplained (a degenerate improved model, an incomplete search or a
     misfit left), usable (nothing moves by more than :data:`MOVE_SD`) or
@@ -351,11 +349,13 @@ def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free):
         advice.append(f"a larger budget, e.g. --diagnose-budget {4 * budget_s:g}")
     elif left:
         verdict = "unexplained"
+        more, why_no_band = _misfit_advice(d, free, band_given)
         text = (f"the model does not fit the recordings in {_where(left)}"
                 + (f", even with {names} modelled" if names else "")
-                + ": no effect the criticism knows explains it; treat the estimates with "
-                  "caution")
-        advice += _misfit_advice(d, free)
+                + f": no effect the criticism knows explains it (tried: {words.tried(d.tried)})"
+                + (f"; the mismatch stays unexplained inside the band ({why_no_band})"
+                   if why_no_band else "") + "; treat the estimates with caution")
+        advice += more
     elif biggest <= MOVE_SD:
         verdict = "usable"
         text = (f"the model misfits the recordings because of {names or 'an effect it leaves out'}"
@@ -369,21 +369,20 @@ def _verdict(d, *, names, degenerate, biggest, budget, budget_s, free):
     return verdict, text, size_note, advice
 
 
-def _misfit_advice(d, free):
-    """What to try when a misfit is left that no known effect explains."""
+def _misfit_advice(d, free, band_given):
+    """What to try when a misfit is left that no known effect explains, and
+    why no narrower band is advised (None when one is): ``(advice, why)``."""
     advice = []
-    edges = np.asarray(d.band_edges)
-    good = _good_band(edges, d.after["flag"]) or _good_band(edges, d.before["flag"])
-    if good:
-        advice.append(f"--band {good[0]:.3g} {good[1]:.3g} (the widest band where the "
-                      "model holds) if the misfit is not physics to model")
+    narrower, why = band(d, band_given=band_given)
+    if narrower:
+        advice.append(narrower)
     if free != "all" and "response_parameters" not in d.tried:
         advice.append("--fit-response all (period and damping fitted)")
     caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
         d.sentences()[-1] else None
     if caveat:
         advice.append(caveat)
-    return advice
+    return advice, why
 
 
 def _search_record(d, budget, budget_s, seconds):
@@ -432,7 +431,7 @@ def check_orientation(post):
             "usable as they are, and the metadata need correcting (the corrected StationXML "
             "holds the fitted orientation)", "effects": effects, "complete": True,
             "tried": ["polarity_reversal", "channel_swap"], "not_tried": [],
-            "advice": [e["advice"] for e in effects], "unexplained": [],
+            "advice": accepted([e["advice"] for e in effects], model), "unexplained": [],
             "improved_estimates": {}, "stationxml": "fit", "seconds": time.monotonic() - t0}
 
 

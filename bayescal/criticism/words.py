@@ -57,6 +57,17 @@ def names(effects):
     return " and ".join(out) if len(out) < 3 else ", ".join(out[:-1]) + " and " + out[-1]
 
 
+def tried(keys):
+    """The effects a search tried (its candidate keys, e.g.
+    ``extra_pole:ref#2``), each in plain words once, as a sentence lists
+    them; "none" for none."""
+    effects = []
+    for key in keys:
+        name, _, which = key.partition(":")
+        effects.append({"name": name, "parameters": {"which": which.split("#")[0]}})
+    return names(effects) or "none"
+
+
 def headline(summary):
     """The line that says a result's estimates are the improved model's
     (``summary``: result.json's content; its ``meta.headline``), with the
@@ -72,3 +83,31 @@ def headline(summary):
                  f"standardised misfit {w['misfit']:.3g} in {w['band_hz'][0]:.4g}-"
                  f"{w['band_hz'][1]:.4g} Hz on {w['channel']}")
     return text + "; the fit without it: result.json's rejected_fit"
+
+
+#: How a posterior that is the improved model's Laplace approximation is
+#: named wherever a chain's convergence figures would stand.
+LAPLACE = "Laplace approximation (no chain)"
+
+
+def posterior_text(summary):
+    """How the headline's posterior was computed when it is no chain
+    (``summary``: result.json's content): :data:`LAPLACE`, with its draws,
+    when the improved model fell back to its Gaussian approximation at the
+    least-squares point (``meta.approximation``); None for a chain, whose
+    convergence figures are printed instead."""
+    meta = summary.get("meta") or {}
+    if not meta.get("approximation") or meta.get("method"):
+        return None
+    draws = (meta.get("sampler") or {}).get("draws")
+    return (f"{LAPLACE}: the improved model's posterior is a Gaussian at its least-squares "
+            "point" + (f", {draws} draws" if draws else "") + "; no ESS or R-hat applies")
+
+
+def self_noise_text(summary):
+    """Whose self-noise and sensor order a result gives when they are not
+    the headline model's (``meta.headline.self_noise``), or None."""
+    head = (summary.get("meta") or {}).get("headline") or {}
+    if head.get("model") != "improved" or not head.get("self_noise"):
+        return None
+    return f"self-noise and sensor order are {head['self_noise']}"

@@ -7,8 +7,8 @@ import os
 
 from ..result.schema import load as load_posterior, save as save_posterior, write_json
 
-__all__ = ["load_posterior", "save_posterior", "write_corrected_result", "write_json",
-           "write_results"]
+__all__ = ["headline_text", "load_posterior", "save_posterior", "write_corrected_result",
+           "write_json", "write_results"]
 
 
 def write_results(result, folder):
@@ -44,11 +44,39 @@ def write_results(result, folder):
 
 def write_corrected_result(inventory, result, path):
     """The SUT's corrected StationXML (``inventory`` with ``result``'s
-    values written in, :func:`bayescal.io.stationxml.write_corrected`) at
-    ``path``: the headline's values, result.json's ``channels``; when the
-    criticism's improved model heads the result (``result.meta.headline``),
-    each channel's comment says so and names the effects it models."""
-    from .stationxml import write_corrected
+    values written in, :func:`bayescal.io.stationxml.corrected_inventory`)
+    at ``path``, atomically: the headline's values, result.json's
+    ``channels``; when the criticism ran, each channel's comment says
+    under which model the values are and why (:func:`headline_text`), and
+    when its improved model heads the result, names the effects it models.
+    Returns ``path``."""
+    from obspy import UTCDateTime
+    from obspy.core.inventory.util import Comment
 
-    improved = (result.meta.headline or {}).get("model") == "improved"
-    write_corrected(inventory, result, path, criticism=result.criticism if improved else None)
+    from ..atomic import atomic_path
+    from .stationxml import corrected_inventory, find_channel
+
+    head = result.meta.headline or {}
+    improved = head.get("model") == "improved"
+    inv = corrected_inventory(inventory, result, criticism=result.criticism if improved else None)
+    text = headline_text(head)
+    if text:
+        time = UTCDateTime(result.meta.starttime) if result.meta.starttime else None
+        for cid in result.channels:
+            find_channel(inv, cid, time).comments.append(
+                Comment(value=text, subject="bayescal headline"))
+    with atomic_path(path) as tmp:
+        inv.write(tmp, format="STATIONXML", validate=False)
+    return path
+
+
+def headline_text(head):
+    """The corrected StationXML's words on which model's values it holds
+    and why (``head``: ``meta.headline``), or None when no criticism ran."""
+    if not head.get("why"):
+        return None
+    if head.get("model") == "improved":
+        return (f"Values under the improved model of bayescal's model criticism "
+                f"({head.get('label')}), which heads the result: {head['why']}.")
+    return ("Values under the fit's model (without the effects the criticism named), which "
+            f"heads the result: {head['why']}.")

@@ -58,18 +58,35 @@ def headline_is_improved(criticism):
 
 
 def headline_entry(criticism):
-    """``meta.headline``: under which model the reported estimates are,
-    ``{"model": "fit"}`` or ``{"model": "improved", "effects": [names],
-    "label": the effects in words, "why": the verdict, "self_noise": whose
-    self-noise the result gives}``."""
-    if not headline_is_improved(criticism):
-        return {"model": "fit"}
+    """``meta.headline``: under which model the reported estimates are and
+    why: ``model`` ("fit" or "improved"), ``effects`` (the effects the
+    headline's model holds: none for the fit), ``label`` (them in words,
+    never empty for the improved model), ``not_heading`` (effects the
+    criticism named that the headline's model leaves out), ``verdict`` and
+    ``why`` (the criticism's verdict and its words, when it ran) and, for
+    the improved model, ``self_noise`` (whose self-noise the result gives)
+    and ``reference_noise`` (True when it models the reference's noise)."""
     from ..criticism import words
+
+    summary = criticism.summary or {}
+    named = summary.get("effects", [])
+    why = {"verdict": summary["verdict"], "why": summary.get("verdict_text", "")} \
+        if summary.get("verdict") else {}
+    if not headline_is_improved(criticism):
+        # a verdict "fits" names what the fitted orientation already holds
+        held = list(dict.fromkeys(e["name"] for e in named))
+        fits = summary.get("verdict") == "fits"
+        return {"model": "fit", "effects": held if fits else [], "label": "the fit's model",
+                "not_heading": [] if fits else held, **why}
     effects = list(dict.fromkeys(criticism.improved.meta.effects or []))   # each once
-    named = [e for e in criticism.summary.get("effects", []) if e["name"] in effects]
-    return {"model": "improved", "effects": effects,
-            "label": words.names(named) or ", ".join(e.replace("_", " ") for e in effects),
-            "why": criticism.summary.get("verdict_text", ""),
+    held = [e for e in named if e["name"] in effects]
+    ref = bool(summary.get("reference_noise_modelled"))
+    label = (words.names(held) or ("the reference's own self-noise" if ref else "")
+             or words.names(named) or "effects the criticism modelled")
+    return {"model": "improved", "effects": effects, "label": label,
+            "not_heading": list(dict.fromkeys(e["name"] for e in named
+                                              if e["name"] not in effects)),
+            **why, "reference_noise": ref,
             "self_noise": "the fit's: the self-noise split and the sensor order are made for "
                           "the pair model without the improved model's effects"}
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from ..core.checks import from_diagnostics
 from ..criticism.verdict import DEFAULT_BUDGET_S, Criticism
+from .preparation import USER_BAND
 
 
 def criticise(state, *, budget_s=DEFAULT_BUDGET_S, seed=0, enabled=True, **sample_kw):
@@ -51,6 +52,7 @@ def criticise(state, *, budget_s=DEFAULT_BUDGET_S, seed=0, enabled=True, **sampl
     if ok:      # the orientation is fitted freely: a reversed channel fits, but say so
         return Criticism(check_orientation(state) or {})
     try:
-        return run(state, budget_s=budget_s, seed=seed, **sample_kw)
+        return run(state, budget_s=budget_s, seed=seed,
+                   band_given=state.meta.band_choice == USER_BAND, **sample_kw)
     except Exception as exc:   # noqa: BLE001 - the fit's results stand without it
         return Criticism(failed(exc))

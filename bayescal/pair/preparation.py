@@ -73,6 +73,10 @@ def _describe_files(side):
     return ", ".join(files)
 
 
+#: ``meta.band_choice`` of a band the user gave (``band``, ``--band``).
+USER_BAND = "band given by the user"
+
+
 def prepare(*, ref, ref_xml, sut, sut_xml, band=None, start=None, end=None, nperseg=None,
             transients="drop", sut_source="SUT", ref_source="reference", ref_noise_psd=None,
             label=None):
@@ -175,7 +179,7 @@ def _spectra(s, r, fs, band, nperseg, files):
             raise InputError(f"{files}{exc}") from None
         band, band_note = choice.band, choice.describe()
     else:
-        band_note = "band given by the user"
+        band_note = USER_BAND
     return _welch(s, r, fs, band, nperseg, files), band, band_note
 
 

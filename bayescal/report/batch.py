@@ -26,6 +26,7 @@ import os
 import numpy as np
 
 from ..atomic import atomic_path
+from ..criticism.words import LAPLACE, posterior_text
 from .layout import page_size, write_pages
 
 COLUMNS = ("label", "station", "day", "channel", "kind",
@@ -33,7 +34,8 @@ COLUMNS = ("label", "station", "day", "channel", "kind",
            "dip", "dip_lo95", "dip_hi95", "nominal_dip",
            "tilt", "tilt_lo95", "tilt_hi95",
            "gain", "gain_lo95", "gain_hi95", "nominal_gain",
-           "ess_min", "tau_max", "rhat_max", "converged", "effects", "notes", "error")
+           "ess_min", "tau_max", "rhat_max", "converged", "effects", "effects_not_heading",
+           "notes", "error")
 FLAG_COLUMNS = ("station", "channel", "quantity", "flag", "day", "previous_day", "value",
                 "lo95", "hi95", "reference", "threshold", "unit")
 
@@ -50,8 +52,10 @@ def _rows_for(item, folder):
     with open(os.path.join(folder, "result.json")) as fh:
         res = json.load(fh)
     conv = res.get("convergence", {})
+    if posterior_text(res):        # the improved model's Laplace approximation: no chain
+        conv = {"converged": conv.get("converged")}
     day = item.get("day") or str(res.get("meta", {}).get("starttime", ""))[:10]
-    effects = [e["name"] for e in (res.get("criticism") or {}).get("effects", [])]
+    effects, not_heading = _effects(res.get("meta", {}))
     notes = _notes(res.get("meta", {}))
     rows = []
     for cid, ch in res["channels"].items():
@@ -70,8 +74,20 @@ def _rows_for(item, folder):
                      "nominal_gain": None if gain is None else nom.get("gain"),
                      "ess_min": conv.get("ess_min"), "tau_max": conv.get("tau_max"),
                      "rhat_max": conv.get("rhat_max"), "converged": conv.get("converged"),
-                     "effects": ";".join(map(str, effects)), "notes": notes, "error": ""})
+                     "effects": effects, "effects_not_heading": not_heading, "notes": notes,
+                     "error": ""})
     return rows
+
+
+def _effects(meta):
+    """The ``effects`` and ``effects_not_heading`` columns (";"-joined):
+    the effects the headline's model holds (``meta.headline``: the improved
+    model's, the reference's noise included; none for a fit that misfits),
+    and those the criticism named that it leaves out."""
+    head = meta.get("headline") or {}
+    held = list(head.get("effects", [])) + (["reference_noise"] if head.get("reference_noise")
+                                            else [])
+    return ";".join(map(str, held)), ";".join(map(str, head.get("not_heading", [])))
 
 
 def _notes(meta):
@@ -82,7 +98,9 @@ def _notes(meta):
     out = []
     head = meta.get("headline") or {}
     if head.get("model") == "improved":
-        out.append(f"estimates under the improved model ({';'.join(head.get('effects', []))})")
+        out.append(f"estimates under the improved model ({head.get('label') or 'its effects'})")
+    if posterior_text({"meta": meta}):
+        out.append(LAPLACE)
     rl = meta.get("record_length", {})
     if rl.get("note"):
         out.append(f"short record ({rl['periods_of_lower_edge']:.1f} periods of "
@@ -125,8 +143,8 @@ def read_results(path):
         rows = list(csv.DictReader(fh))
     for r in rows:
         for k, v in r.items():
-            if k not in ("label", "station", "day", "channel", "kind", "effects", "notes",
-                         "error", "converged"):
+            if k not in ("label", "station", "day", "channel", "kind", "effects",
+                         "effects_not_heading", "notes", "error", "converged"):
                 r[k] = float(v) if v != "" else None
     return rows
 
@@ -235,12 +253,14 @@ def _text_page(rows, flags, threshold_deg, gain_threshold_pct, page):
     labels = sorted({r["label"] for r in rows})
     errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
     ok = [r for r in rows if not r.get("error")]
+    chains = [r for r in ok if r["ess_min"] is not None]      # a Laplace approximation has none
     lines = [f"bayescal batch: {len(labels)} items, {len(labels) - len(errors)} calibrated, "
              f"{len(errors)} failed",
-             (f"convergence: min ESS {min(r['ess_min'] for r in ok):.0f}, max R-hat "
-              f"{max(r['rhat_max'] for r in ok):.4f}, max tau {max(r['tau_max'] for r in ok):.0f};"
+             (f"convergence: min ESS {min(r['ess_min'] for r in chains):.0f}, max R-hat "
+              f"{max(r['rhat_max'] for r in chains):.4f}, max tau "
+              f"{max(r['tau_max'] for r in chains):.0f};"
               f" not converged: {sorted({r['label'] for r in ok if r['converged'] != 'True'})}"
-              if ok else "convergence: no result"),
+              if chains else "convergence: no chain"),
              f"thresholds: {threshold_deg:g} deg (angles), {gain_threshold_pct:g} % (gain); "
              "flag = beyond threshold AND beyond the 95 % uncertainty", "",
              f"Flagged stations ({len({f['station'] for f in flags})}):"]

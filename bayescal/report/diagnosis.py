@@ -6,6 +6,7 @@ import textwrap
 
 import numpy as np
 
+from ..criticism.diagnosis import check_misfits
 from .layout import page_size, write_pages
 
 
@@ -57,12 +58,13 @@ def _draw_curves(d, ax1, ax2, centres):
     from matplotlib.lines import Line2D
 
     after = d.final is not d.base
+    before_check, after_check = check_misfits(d)       # each model's own check
     colours = []
     for i, cid in enumerate(d.ids):
-        line, = ax1.loglog(centres, d.before_common["misfit"][:, i], "o--")
+        line, = ax1.loglog(centres, before_check[:, i], "o--")
         c = line.get_color()
         colours.append(Line2D([], [], color=c, lw=2, label=cid))
-        ax1.loglog(centres, d.after["misfit"][:, i], "s-", color=c)
+        ax1.loglog(centres, after_check[:, i], "s-", color=c)
         ax2.semilogx(centres, np.degrees(np.angle(d.ratio_before[:, i])), "o--", color=c)
         ax2.semilogx(centres, 100 * (np.abs(d.ratio_before[:, i]) - 1), "^:", color=c)
         if after:
@@ -85,8 +87,8 @@ def _label_panels(ax1, ax2, colours, after):
     """Reference lines, axis labels, titles and legends of the two panels."""
     ax1.axhline(1.0, color="k", lw=0.8)
     ax1.set_ylabel("standardised misfit per band\n(1 = fits)", fontsize=8)
-    ax1.set_title("misfit before and after modelling the effects (both under the final "
-                  "model's noise model)", fontsize=8, loc="left")
+    ax1.set_title("misfit before and after modelling the effects (each model's own check)",
+                  fontsize=8, loc="left")
     ax1.legend(handles=colours + [_style("o--", "base model"), _style("s-", "with the effects")],
                fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax2.axhline(0.0, color="k", lw=0.8)

@@ -19,7 +19,7 @@ from scipy import stats
 
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
-from ..criticism.words import headline
+from ..criticism.words import headline, posterior_text, self_noise_text
 from ..core.posterior import multimodal_line, sampled_azimuth_dip
 from ..core.orientation import tilt_from_vertical
 from ..result import Convergence
@@ -102,6 +102,9 @@ def _flag_lines(ctx, flags, modes):
     if headline(ctx.summary):
         text += textwrap.wrap(f"  ESTIMATES UNDER THE IMPROVED MODEL: {headline(ctx.summary)} "
                               "(the rejected fit's table: page \"rejected fit\")", 130,
+                              subsequent_indent="      ")
+    if self_noise_text(ctx.summary):
+        text += textwrap.wrap(f"  {self_noise_text(ctx.summary)}", 130,
                               subsequent_indent="      ")
     if verdict["ok"] is False and crit:
         text.append("  MODEL CHECK FAILED; what the criticism found (the verdict is in the first "
@@ -333,6 +336,10 @@ def page_convergence(ctx):
     nd = len(post.names)
     fig = Figure(figsize=ctx.page)
     fig.text(0.5, 0.97, "Convergence of the sampler", ha="center", fontsize=11, fontweight="bold")
+    if posterior_text(ctx.summary):      # no chain: no traces, no ESS or R-hat
+        fig.text(0.06, 0.9, "\n".join(textwrap.wrap(posterior_text(ctx.summary), 100)),
+                 va="top", fontsize=9)
+        return fig
     n_rows = int(np.ceil(nd / 2))
     trace_h = min(0.55, 0.16 * n_rows + 0.03)
     table_h = 0.0135 * (nd + 1)

@@ -11,6 +11,7 @@ from datetime import datetime, timezone
 
 import matplotlib
 
+from ..criticism.words import posterior_text
 from ..result import Convergence
 from ..version import __version__
 
@@ -274,13 +275,18 @@ def header_lines(ctx):
         from ..core.posterior import describe_treatment
         lines += textwrap.wrap(f"Reference's self-noise: {describe_treatment(m.reference_noise)}",
                                120)
+    return lines + _posterior_lines(ctx.summary, m, conv)
+
+
+def _posterior_lines(summary, m, conv):
+    """The header's line on how the posterior was computed: the method that
+    is no chain, the Laplace approximation, or the sampler's figures."""
     if m.method:
-        lines.append(f"Posterior: {m.method}, {conv['ess_min']:.0f} independent draws")
-    else:
-        lines.append(f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps,"
-                     f" {Convergence.figures(conv)},"
-                     f" converged: {'yes' if conv['converged'] else 'NO'}")
-    return lines
+        return [f"Posterior: {m.method}, {conv['ess_min']:.0f} independent draws"]
+    if posterior_text(summary):
+        return textwrap.wrap(f"Posterior: {posterior_text(summary)}", 120)
+    return [f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps,"
+            f" {Convergence.figures(conv)}, converged: {'yes' if conv['converged'] else 'NO'}"]
 
 
 def page_header(fig, title, note, width):

@@ -45,6 +45,8 @@ def page_self_noise(ctx):
     """The self-noise page, or None when result.json has no ``self_noise``."""
     from matplotlib.figure import Figure
 
+    from ..criticism.words import self_noise_text
+
     entry = ctx.summary.get("self_noise")
     if not entry:
         return None
@@ -52,6 +54,8 @@ def page_self_noise(ctx):
     fig.text(0.06, 0.965, "Self-noise of both sensors", fontsize=13, fontweight="bold")
     est, ids = _as_estimate(entry["channels"])
     lines = textwrap.wrap(f"How: {entry['basis']}.", 110)
+    if self_noise_text(ctx.summary):
+        lines += textwrap.wrap(f"Model: {self_noise_text(ctx.summary)}.", 110)
     lines += textwrap.wrap(f"Units: {entry.get('units', '')}.", 110)
     order = ctx.summary.get("sensor_order", {})
     if order.get("message"):

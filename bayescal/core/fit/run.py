@@ -144,14 +144,25 @@ def _estimable(spectra, basis, v_hat, sut_nominal_vectors):
     return fitted, skipped
 
 
+def response_fit_refusal(families, free):
+    """Why a fit of ``free`` ("none", "gain" or "all") refuses channels of
+    these response ``families`` (one per fitted SUT channel), or None when
+    it accepts them: the one rule :func:`build_model` applies, which the
+    criticism's advice is checked against."""
+    if free != "none" and any(f is None for f in families):
+        return "gain fitting needs a response with a gain on every fitted channel"
+    if free == "all" and any(not np.isfinite(f.period_s) for f in families):
+        return ("fitting period and damping (--fit-response all) needs a poles-and-zeros "
+                "first stage with a pendulum pair on every fitted channel ('flat' has "
+                "none: use the default, which fits each channel's gain)")
+    return None
+
+
 def _check_families(families, fitted, free):
     """Refuse a response fit the fitted channels' metadata cannot carry."""
-    if free != "none" and any(families[i] is None for i in fitted):
-        raise FitError("gain fitting needs a response with a gain on every fitted channel")
-    if free == "all" and any(not np.isfinite(families[i].period_s) for i in fitted):
-        raise FitError("fitting period and damping (--fit-response all) needs a poles-and-zeros "
-                       "first stage with a pendulum pair on every fitted channel ('flat' has "
-                       "none: use the default, which fits each channel's gain)")
+    why = response_fit_refusal([families[i] for i in fitted], free)
+    if why:
+        raise FitError(why)
 
 
 def least_squares_fit(model, theta0, iterations=2, jac=None):

@@ -16,7 +16,7 @@ import them from here, not from its modules.
 import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
-    "welch": ["CrossSpectra", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
+    "welch": ["CrossSpectra", "band_refusal", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
               "hann", "make_bands"],
     "dof": ["band_dof"],
     "bandfold": ["fold"],

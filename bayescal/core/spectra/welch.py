@@ -360,12 +360,24 @@ def _checked_inputs(sut, ref, fs, band):
     ref = np.atleast_2d(np.asarray(ref, dtype=float))
     if sut.shape[1] != ref.shape[1]:
         raise SpectraError("SUT and reference arrays differ in length")
+    why = band_refusal(band, fs)
+    if why:
+        raise SpectraError(why)
+    fmin, fmax = map(float, band)
+    return sut, ref, fmin, fmax
+
+
+def band_refusal(band, fs):
+    """Why the spectra refuse the band ``(fmin, fmax)`` (Hz) of a record
+    sampled at ``fs``, or None when they accept it: the one rule
+    :func:`cross_spectra` applies, which the criticism's advice is checked
+    against."""
     fmin, fmax = map(float, band)
     if not 0 < fmin < fmax:
-        raise SpectraError(f"band {band} is not a positive interval")
+        return f"band {tuple(band)} is not a positive interval"
     if fmax > fs / 2:
-        raise SpectraError(f"band upper edge {fmax} Hz is above Nyquist ({fs / 2} Hz)")
-    return sut, ref, fmin, fmax
+        return f"band upper edge {fmax} Hz is above Nyquist ({fs / 2} Hz)"
+    return None
 
 
 def _band_grid(fs, nperseg, fmin, fmax, bands_per_decade, min_bins):
