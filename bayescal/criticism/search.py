@@ -23,6 +23,12 @@ BIC_KEEP = 10.0
 MAX_EFFECTS = 3
 #: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
 N_STARTS = 3
+#: Effects kept before the others whenever their BIC gain passes
+#: :data:`BIC_KEEP`: the SUT's low-frequency corner, which the band's long
+#: periods alone carry, while a delay and poles near the band's top trade
+#: with each other there (the strongest of those, fitted first, would take
+#: up what the others leave and fill the steps; see docs/diagnose.md).
+FIRST = ("sut_corner",)
 #: |t| of the per-segment timing trend above which clock drift is a candidate
 #: (a cheap screen; the BIC decides).
 DRIFT_T = 3.0
@@ -63,6 +69,11 @@ def _candidates(model, free, current, drift=None):
                                          [model.blocks[i].channel_id for i in pendulum],
                                          model.priors)
         out.append(("response_parameters", e, e.grid(steps)))
+    held = [i for i, b in enumerate(model.blocks) if b.free != "all" and b.family is not None]
+    if held:
+        e = catalogue.SutCorner(held, [model.blocks[i].family for i in held],
+                                [model.blocks[i].channel_id for i in held], fmin)
+        out.append(("sut_corner", e, e.grid()))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
@@ -312,7 +323,8 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
             if log:
                 log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
         good = [t for t in tried if t.get("delta_bic") is not None]
-        best = max(good, key=lambda t: t["delta_bic"], default=None)
+        best = max(good, key=lambda t: (t["effect"] in FIRST and t["delta_bic"] > BIC_KEEP,
+                                        t["delta_bic"]), default=None)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
         if best is None or best["delta_bic"] <= BIC_KEEP:
             break
