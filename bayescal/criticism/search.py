@@ -29,6 +29,11 @@ N_STARTS = 3
 #: with each other there (the strongest of those, fitted first, would take
 #: up what the others leave and fill the steps; see docs/diagnose.md).
 FIRST = ("sut_corner",)
+#: Alternatives the evidence chooses between when both pass :data:`BIC_KEEP`
+#: (the same parameters under the sensor's stated prior and under a wide
+#: one: the BIC, blind to priors, would always take the wider):
+#: :func:`log_evidence_gain`.
+BY_EVIDENCE = ("response_parameters", "sut_corner")
 #: |t| of the per-segment timing trend above which clock drift is a candidate
 #: (a cheap screen; the BIC decides).
 DRIFT_T = 3.0
@@ -278,6 +283,91 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
             "n_data": n, "n_extra_params": k}
 
 
+def log_evidence_gain(fit, score_entry, new_index):
+    """The Laplace approximation to the log evidence a candidate adds to
+    the current model: its log-likelihood gain (``score_entry``, under the
+    candidate's noise model), its prior's log density at the least-squares
+    point and the log volume of its posterior, ``k/2 ln 2 pi + 1/2 ln det
+    C`` (``C`` the candidate's parameters' Laplace covariance). The Occam
+    factor, prior density times posterior volume, holds each prior's width:
+    a wide prior pays for the values it allows. ``fit``: the candidate's
+    (model, theta, cov); its effect at ``new_index`` needs
+    ``log_prior_density``."""
+    model, theta, cov = fit
+    effect, sl = model.effects[new_index], model.effect_slices[new_index]
+    c = np.atleast_2d(cov[sl, sl])
+    sign, logdet = np.linalg.slogdet(c)
+    if sign <= 0:
+        return -np.inf
+    lp = float(effect.log_prior_density(np.asarray(theta)[sl][None])[0])
+    return float(score_entry["delta_loglik"] + lp + 0.5 * c.shape[0] * np.log(2 * np.pi)
+                 + 0.5 * logdet)
+
+
+def _by_evidence(good):
+    """``good`` (tried candidates with a score) less the alternatives of
+    :data:`BY_EVIDENCE` that the evidence does not prefer, when more than
+    one of them passes :data:`BIC_KEEP`."""
+    alt = [t for t in good if t["effect"] in BY_EVIDENCE and t["delta_bic"] > BIC_KEEP]
+    if len(alt) < 2:
+        return good
+    best = max(alt, key=lambda t: t["log_evidence_gain"])
+    return [t for t in good if t["effect"] not in BY_EVIDENCE or t is best]
+
+
+#: What a pair of recordings can never tell a named effect from (its
+#: response relative to the reference's metadata is the same).
+NEVER_APART = {
+    "extra_pole:sut": "a zero missing from the reference's metadata",
+    "extra_pole:ref": "a zero missing from the SUT's metadata",
+    "sut_corner": "the reference's long-period corner off its metadata",
+}
+
+
+def indistinguishable(model, theta, index):
+    """What the recordings cannot tell effect ``index`` of ``model`` (at
+    ``theta``, its noise model set) from: ``{"indistinguishable_from":
+    [...], "evidence": ...}``, or ``{}``. A missing pole on one sensor is
+    a zero missing on the other, and the SUT's corner the reference's
+    (:data:`NEVER_APART`: a pair never can). A timing offset ``tau`` is
+    compared with the minimum-phase pole whose phase starts as the delay's
+    (``1 / corner = 2 pi |tau|``: a pole on the SUT for a late clock, on the
+    reference for an early one), re-fitted in its place: when the BIC of
+    the two differs by no more than :data:`BIC_KEEP`, the evidence does not
+    separate them."""
+    e = model.effects[index]
+    key = effect_key(e)
+    if key.split("#")[0] in NEVER_APART:
+        return {"indistinguishable_from": [NEVER_APART[key.split("#")[0]]],
+                "evidence": "a pair of recordings never separates them"}
+    if e.name != "timing_offset":
+        return {}
+    tau = float(np.asarray(theta)[model.effect_slices[index]][0])
+    which = "sut" if tau > 0 else "ref"
+    norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
+    pole = catalogue.ExtraPole(e.rows, which, norm)
+    pole.index = 1 + sum(1 for x in model.effects if x.name == "extra_pole" and x.which == which)
+    if pole.index > 1:
+        pole.param_names = (f"inverse_corner_s_{pole.index}",)
+    effects = [x if k != index else pole for k, x in enumerate(model.effects)]
+    alt = with_effects(model, effects)
+    alt.adopt_noise(model.noise)
+    start = np.array(theta, float)
+    start[model.effect_slices[index]] = 2 * np.pi * abs(tau)
+    ll_alt, th_alt = best_refit(alt, (start,))
+    if th_alt is None or not np.isfinite(alt.log_prior(th_alt)[0]):
+        return {}
+    d_bic = 2.0 * (float(model.log_likelihood(np.asarray(theta, float))[0]) - ll_alt)
+    if d_bic > BIC_KEEP:
+        return {"evidence": f"the delay is preferred over a pole on the "
+                            f"{'SUT' if which == 'sut' else 'reference'} (BIC {d_bic:.3g})"}
+    corner = 1.0 / max(float(th_alt[model.effect_slices[index]][0]), 1e-12)
+    return {"indistinguishable_from": [
+        f"a pole near {corner:.3g} Hz on the {'SUT' if which == 'sut' else 'reference'} "
+        "(a minimum-phase response, not a clock)"],
+        "evidence": f"BIC difference {d_bic:.3g}, within {BIC_KEEP:g}"}
+
+
 def search(model, theta, free, log=None, drift=None, budget=None, eiv=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
@@ -319,10 +409,12 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
                           "note": "left the prior support or not identifiable in the band"})
                 continue
             s = score(cur, th, fit[0], fit[1])
+            if key in BY_EVIDENCE:
+                s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
             tried.append({"effect": key, **s, "fit": fit})
             if log:
                 log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
-        good = [t for t in tried if t.get("delta_bic") is not None]
+        good = _by_evidence([t for t in tried if t.get("delta_bic") is not None])
         best = max(good, key=lambda t: (t["effect"] in FIRST and t["delta_bic"] > BIC_KEEP,
                                         t["delta_bic"]), default=None)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])

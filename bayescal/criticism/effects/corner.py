@@ -62,6 +62,12 @@ class SutCorner(CriticismEffect):
     #: model of a start far from the corner the long periods weigh little,
     #: and one start can end on a ridge short of the optimum.
     multimodal = True
+    #: Not dropped by the backward elimination: its evidence lies in the
+    #: band's long periods, which the overdispersion a model leaves over the
+    #: whole band (set where it misses most, often at the band's top) does
+    #: not describe; its absence is judged by its posterior
+    #: (:func:`bayescal.criticism.naming.weak_effects`).
+    prunable = False
 
     def __init__(self, rows, families, channel_ids, fmin):
         self.rows = list(rows)
@@ -105,6 +111,11 @@ class SutCorner(CriticismEffect):
     def log_prior(self, p):
         inside = np.all(np.abs(p.reshape(p.shape[0], -1, 2)) <= self.half_width, axis=(1, 2))
         return np.where(inside, -float(np.sum(np.log(2 * self.half_width))), -np.inf)
+
+    #: Its box prior is normalised: ``log_prior`` is the density.
+    def log_prior_density(self, p):
+        """The normalised log prior density at ``p`` (the box's)."""
+        return self.log_prior(p)
 
     def physical(self, p):
         """Per channel: ``damping_over_period`` (1/s, what a band above the
