@@ -46,7 +46,11 @@ class Diagnosis:
         """Sentences for mismatch that remains after the final model."""
         return [f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz "
                 f"on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}, misfit up to "
-                f"{m['misfit_max']:.2g} times its expectation)" for m in self.after["mismatch"]]
+                f"{m['misfit_max']:.2g} times its expectation"
+                + (f"; what the SUT recorded is off the model's prediction by up to "
+                   f"{100 * m['amplitude_off']:.2g} % in amplitude and {m['phase_off_rad']:.2g} "
+                   "rad in phase there" if "amplitude_off" in m else "") + ")"
+                for m in self.after["mismatch"]]
 
     def movements(self):
         """How each channel's orientation (and response) moved from the

@@ -34,6 +34,12 @@ FIRST = ("sut_corner",)
 #: one: the BIC, blind to priors, would always take the wider):
 #: :func:`log_evidence_gain`.
 BY_EVIDENCE = ("response_parameters", "sut_corner")
+#: Effects under a wide prior, kept only when their log evidence gain
+#: (:func:`log_evidence_gain`) passes ``BIC_KEEP / 2`` as well (``2 ln B >
+#: 10``, the same "very strong" on Kass and Raftery's scale): the BIC charges
+#: the same for a parameter whatever the prior allows it, the evidence
+#: charges for the prior's width.
+WIDE_PRIOR = ("sut_corner",)
 #: |t| of the per-segment timing trend above which clock drift is a candidate
 #: (a cheap screen; the BIC decides).
 DRIFT_T = 3.0
@@ -305,9 +311,12 @@ def log_evidence_gain(fit, score_entry, new_index):
 
 
 def _by_evidence(good):
-    """``good`` (tried candidates with a score) less the alternatives of
-    :data:`BY_EVIDENCE` that the evidence does not prefer, when more than
+    """``good`` (tried candidates with a score) less the effects of
+    :data:`WIDE_PRIOR` whose evidence does not pass, and the alternatives of
+    :data:`BY_EVIDENCE` that the evidence does not prefer when more than
     one of them passes :data:`BIC_KEEP`."""
+    good = [t for t in good if t["effect"] not in WIDE_PRIOR
+            or 2.0 * t["log_evidence_gain"] > BIC_KEEP]
     alt = [t for t in good if t["effect"] in BY_EVIDENCE and t["delta_bic"] > BIC_KEEP]
     if len(alt) < 2:
         return good
