@@ -23,12 +23,6 @@ BIC_KEEP = 10.0
 MAX_EFFECTS = 3
 #: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
 N_STARTS = 3
-#: Effects kept before the others whenever their BIC gain passes
-#: :data:`BIC_KEEP`: the SUT's low-frequency corner, which the band's long
-#: periods alone carry, while a delay and poles near the band's top trade
-#: with each other there (the strongest of those, fitted first, would take
-#: up what the others leave and fill the steps; see docs/diagnose.md).
-FIRST = ("sut_corner",)
 #: Alternatives the evidence chooses between when both pass :data:`BIC_KEEP`
 #: (the same parameters under the sensor's stated prior and under a wide
 #: one: the BIC, blind to priors, would always take the wider):
@@ -420,11 +414,17 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
             s = score(cur, th, fit[0], fit[1])
             if key in BY_EVIDENCE:
                 s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
-            tried.append({"effect": key, **s, "fit": fit})
+            tried.append({"effect": key, **s, "fit": fit,
+                          **({"first": True} if getattr(effect, "first", False) else {})})
             if log:
                 log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
         good = _by_evidence([t for t in tried if t.get("delta_bic") is not None])
-        best = max(good, key=lambda t: (t["effect"] in FIRST and t["delta_bic"] > BIC_KEEP,
+        # an effect marked ``first`` (the SUT's corner on metadata that give
+        # none: a term of the response family the base model lacks) is kept
+        # before the others whenever it passes; a delay and poles near the
+        # band's top, which trade with each other there, would otherwise fill
+        # the steps first
+        best = max(good, key=lambda t: (t.get("first", False) and t["delta_bic"] > BIC_KEEP,
                                         t["delta_bic"]), default=None)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
         if best is None or best["delta_bic"] <= BIC_KEEP:

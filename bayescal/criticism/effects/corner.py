@@ -81,6 +81,10 @@ class SutCorner(CriticismEffect):
         self.null = self.nominal_ab.ravel()
         self.half_width = np.maximum(np.array([A_MAX, B_MAX]), 2.0 * np.abs(self.nominal_ab))
         self.flat = [not np.any(n) for n in nominal]
+        #: metadata without a corner (``flat``): the SUT's whole pendulum is
+        #: missing from the model, as a two-pole family's is not, so the
+        #: search keeps it first (its own term of the response family)
+        self.first = any(self.flat)
         self.param_names = tuple(f"{c.split('.')[-1]}:{n}" for c in self.channel_ids
                                  for n in ("a", "b"))
 
