@@ -11,7 +11,10 @@ ObsPy's ``rel_calib_stack`` shows its response flat down to 0.1 Hz). The
 prior on the period is log-uniform within a factor 10 of that nominal value.
 
 The fitted response is compared with ObsPy's ``rel_calib_stack`` over
-0.3-3 Hz.
+0.3-3 Hz. A second fit, on the default band with the default options and
+the SUT's metadata both nominal and ``flat``, compares the SUT's response
+relative to the reference's metadata as the criticism's improved model
+sees it (:func:`relative_comparison`) with ObsPy's ``unknown.resp``.
 
     python examples/real_huddle.py [--data DIR] [--out reports/real/huddle]
 """
@@ -76,6 +79,93 @@ def obspy_rel_calib(data, band=COMPARE_BAND, smooth=10):
     return float(np.median(amp[m]))
 
 
+#: Where the relative response is compared with ``unknown.resp`` (Hz).
+RELATIVE_FREQS = np.geomspace(0.15, 10.0, 30)
+
+
+def obspy_curve(data):
+    """``(freqs, unknown.resp as complex, gg)`` on the file's grid: ObsPy's
+    ``rel_calib_stack`` result (20 s windows at 200 Hz, ``smooth=10``) and
+    the STS-2's simplified response as ObsPy evaluates it
+    (``paz_to_freq_resp`` of ``STS2_simp.cal``)."""
+    from obspy.io.gse2.paz import read_paz
+    from obspy.signal.invsim import paz_to_freq_resp
+
+    f, amp, phase = np.loadtxt(data / "unknown.resp").T
+    poles, zeros, gain = read_paz(str(data / "STS2_simp.cal"))
+    gg, fr = paz_to_freq_resp(poles, zeros, gain, 1.0 / 200.0, 4096, freq=True)
+    if not np.allclose(fr[1:], f):
+        raise ValueError("unknown.resp is not on rel_calib_stack's 4096-point grid at 200 Hz")
+    return f, amp * np.exp(1j * phase), gg[1:]
+
+
+def fitted_ratio(state, data, ref_xml, sut_xml, freqs, draws=400):
+    """The SUT's response over the reference's metadata under the model of
+    ``state`` (counts over counts), posterior median of its real and
+    imaginary parts, at ``freqs``: :func:`bayescal.criticism.relative_response`
+    times the SUT's metadata response over the reference's."""
+    import obspy
+
+    from bayescal.core.response import evaluate_velocity_response
+    from bayescal.criticism import relative_response
+    from bayescal.io import load_inventory
+    ref = obspy.read(str(data / "ref_STS2"))
+    sut = obspy.read(str(data / "ref_unknown"))
+    h_ref = evaluate_velocity_response(load_inventory(ref_xml, ref, "reference")[0][0][0].response,
+                                       freqs)
+    h_sut = evaluate_velocity_response(load_inventory(sut_xml, sut, "SUT")[0][0][0].response,
+                                       freqs)
+    rel = relative_response(state, freqs, draws=draws)[:, 0]
+    return (np.median(rel.real, axis=0) + 1j * np.median(rel.imag, axis=0)) * h_sut / h_ref
+
+
+def relative_comparison(state, data, ref_xml, sut_xml):
+    """``conj(R_fit) * gg`` against ObsPy's ``unknown.resp`` at
+    :data:`RELATIVE_FREQS`: ``{"smoothed": (amplitude median, max, phase
+    median, max), "raw": (...)}`` of ``| |ratio| - 1 |`` and ``|phase
+    difference|`` (rad). ``unknown.resp`` is ``conj(H_sut / H_ref) * gg``
+    (mlab's cross-spectrum convention) with its real and imaginary parts
+    smoothed by Konno-Ohmachi's window (bandwidth 10, normalised; it scales
+    a constant by 0.980-0.984 on the file's grid), so ``smoothed`` passes the
+    fit's curve through the same smoothing on the file's grid (like for
+    like) and ``raw`` compares it unsmoothed."""
+    from obspy.signal.konnoohmachismoothing import konno_ohmachi_smoothing
+
+    f, obs, gg = obspy_curve(data)
+    curve = np.conj(fitted_ratio(state, data, ref_xml, sut_xml, f)) * gg
+    sm = konno_ohmachi_smoothing(np.vstack([curve.real, curve.imag]), f, bandwidth=10, count=1,
+                                 max_memory_usage=1024, normalize=True)
+    idx = [int(np.argmin(np.abs(f - x))) for x in RELATIVE_FREQS]
+    out = {}
+    for name, c in (("smoothed", sm[0] + 1j * sm[1]), ("raw", curve)):
+        r = c[idx] / obs[idx]
+        amp, ph = np.abs(np.abs(r) - 1), np.abs(np.angle(r))
+        out[name] = (float(np.median(amp)), float(amp.max()), float(np.median(ph)),
+                     float(ph.max()))
+    return out
+
+
+def improved_state(result):
+    """The criticism's improved model's live state (the headline's when it
+    heads the result), or None."""
+    if (result.meta.headline or {}).get("model") == "improved":
+        return result.state
+    return None if result.improved is None else result.improved.state
+
+
+def default_band_fit(data, ref_xml, sut_xml, seed=0):
+    """``bayescal.calibrate_files`` with the default options (band chosen
+    from the data, gains fitted, the criticism on)."""
+    import warnings
+
+    from bayescal.pair.workflow import calibrate_files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return calibrate_files(ref=str(data / "ref_STS2"), ref_xml=ref_xml,
+                               sut=str(data / "ref_unknown"), sut_xml=sut_xml, progress=False,
+                               seed=seed)
+
+
 def main(argv=None):
     a = parse_args(__doc__, DEFAULT_DATA, ROOT / "reports" / "real" / "huddle", argv)
 
@@ -104,6 +194,17 @@ def main(argv=None):
                   fh, indent=1)
     c = res["convergence"]
     print(f"  convergence: ESS min {c['ess_min']:.0f}, R-hat max {c['rhat_max']:.4f}")
+    for meta in (sut_xml, "flat"):
+        fit = default_band_fit(a.data, ref_xml, meta, a.seed)
+        state = improved_state(fit)
+        if state is None:
+            print(f"default band, SUT metadata {os.path.basename(meta)}: no improved model")
+            continue
+        cmp = relative_comparison(state, a.data, ref_xml, meta)
+        print(f"default band, SUT metadata {os.path.basename(meta)}: effects "
+              f"{', '.join(e.name for e in state.model.effects)}; relative response against "
+              "unknown.resp, 0.15-10 Hz: amplitude median {:.4f} max {:.4f}, phase median {:.4f} "
+              "max {:.4f} rad (smoothed like the file)".format(*cmp["smoothed"]))
 
 
 if __name__ == "__main__":

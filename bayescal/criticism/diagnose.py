@@ -43,7 +43,7 @@ from ..core.response import prior_sensitivity, set_by_prior_entries
 from ..core.posterior import interval_summary
 from ..result import Convergence
 from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
-                     orientation_score, search)
+                     indistinguishable, orientation_score, search)
 from .locate import band_ratio, block_timing, locate, ratio_weights, segment_timing
 from .naming import without_effects, prune_overdispersed, timing_consistency, weak_effects
 from .diagnosis import Diagnosis
@@ -238,7 +238,7 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     model, th, final, after, before_common = _final_fit(
         base, model, th, cov, (model0, th0, eiv, cov_e), sig=sig, dropped=dropped, free=free,
         seed=seed, mcmc=mcmc, progress=progress, log=log, budget=budget, sample_kw=sample_kw)
-    effects = _model_effects(model, final, steps, sig)
+    effects = _model_effects(model, final, steps, sig, th)
     effects += orientation_effects(base, model0, th0, ids, sig)
     effects += _tilt_effect(base, sp, ids, sig)
     return Diagnosis(base=base, final=final, before=before, after=after, effects=effects,
@@ -373,14 +373,21 @@ def _drop_weakest(model, th, weak, dropped, log):
     return m, th, cov
 
 
-def _model_effects(model, final, steps, sig):
+def _model_effects(model, final, steps, sig, th):
     """The entries of the final model's effects, each with its BIC gain
-    in the search and its signature."""
+    in the search, its signature and what the recordings cannot tell it
+    from (:func:`.search.indistinguishable`, at the final point ``th``)."""
     kept = {s["kept"]: s["delta_bic"] for step in steps for s in step if "kept" in s}
     effects = []
-    for e, sl in zip(model.effects, model.effect_slices):
+    for k, (e, sl) in enumerate(zip(model.effects, model.effect_slices)):
         entry = _effect_entry(model, e, sl, final.samples, kept.get(effect_key(e)))
         entry["signature"] = sig.get(effect_key(e), {})
+        apart = indistinguishable(model, th, k)
+        if apart.get("indistinguishable_from"):
+            entry.update(apart)
+        if apart.get("indistinguishable_from") and "cannot tell" not in entry["explanation"]:
+            entry["explanation"] += ("; the recordings cannot tell it from "
+                                     + " or ".join(apart["indistinguishable_from"]))
         effects.append(entry)
     return effects
 

@@ -48,7 +48,8 @@ class Diagnosis:
 
     def unexplained(self):
         """Sentences for mismatch that remains after the final model, with
-        the final model's own check misfit (:meth:`checks`) there."""
+        the final model's own check misfit (:meth:`checks`) there and how far
+        what the SUT recorded is off the model's prediction."""
         after = self.checks()[1]
         edges = np.asarray(self.band_edges)
         out = []
@@ -56,9 +57,13 @@ class Diagnosis:
             inside = (edges[:-1] >= m["band_hz"][0] * (1 - 1e-9)) & \
                 (edges[1:] <= m["band_hz"][1] * (1 + 1e-9))
             worst = float(after[inside].max()) if inside.any() else m["misfit_max"]
+            off = (f"; what the SUT recorded is off the model's prediction by up to "
+                   f"{100 * m['amplitude_off']:.2g} % in amplitude and {m['phase_off_rad']:.2g} "
+                   "rad in phase there" if "amplitude_off" in m else "")
             out.append(f"unexplained mismatch in band {m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g}"
                        f" Hz on channels {', '.join(m['channels'])} (p = {m['p_value']:.2g}; "
-                       f"largest standardised misfit there {worst:.3g}, the final model's check)")
+                       f"largest standardised misfit there {worst:.3g}, the final model's check"
+                       f"{off})")
         return out
 
     def movements(self):

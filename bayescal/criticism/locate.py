@@ -45,18 +45,25 @@ def locate(model, theta):
 
     Returns dict with ``misfit`` (B, n_u), ``p_value`` (B, n_u), ``flag``
     (B, n_u) booleans and ``mismatch``: contiguous runs of flagged bands as
-    ``{"band_hz", "channels", "p_value", "misfit_max"}``."""
+    ``{"band_hz", "channels", "p_value", "misfit_max", "amplitude_off",
+    "phase_off_rad"}``, the last two the size of what the model leaves
+    there: the largest ``| |q| - 1 |`` and ``|arg q|`` of the ratio
+    recorded/predicted (:func:`band_ratio`) over the run's flagged cells."""
     sp = model.spectra
     v = model.standardized_band_residuals(theta)
     p = band_p_values(v, sp.n_r)
     flag = mismatch_flags(p)
     ids = [b.channel_id for b in model.blocks]
     runs = []
+    q = band_ratio(model, theta) if flag.any() else None
     for b, e in true_runs(flag.any(axis=1)):
+        cells = q[b:e][flag[b:e]]
         runs.append({"band_hz": [float(sp.band_edges[b]), float(sp.band_edges[e])],
                      "channels": [ids[i] for i in np.flatnonzero(flag[b:e].any(axis=0))],
                      "p_value": float(p[b:e].min()),
-                     "misfit_max": float(v[b:e].max())})
+                     "misfit_max": float(v[b:e].max()),
+                     "amplitude_off": float(np.max(np.abs(np.abs(cells) - 1))),
+                     "phase_off_rad": float(np.max(np.abs(np.angle(cells))))})
     return {"misfit": v, "p_value": p, "flag": flag, "mismatch": runs}
 
 

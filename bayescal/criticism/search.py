@@ -23,6 +23,17 @@ BIC_KEEP = 10.0
 MAX_EFFECTS = 3
 #: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
 N_STARTS = 3
+#: Alternatives the evidence chooses between when both pass :data:`BIC_KEEP`
+#: (the same parameters under the sensor's stated prior and under a wide
+#: one: the BIC, blind to priors, would always take the wider):
+#: :func:`log_evidence_gain`.
+BY_EVIDENCE = ("response_parameters", "sut_corner")
+#: Effects under a wide prior, kept only when their log evidence gain
+#: (:func:`log_evidence_gain`) passes ``BIC_KEEP / 2`` as well (``2 ln B >
+#: 10``, the same "very strong" on Kass and Raftery's scale): the BIC charges
+#: the same for a parameter whatever the prior allows it, the evidence
+#: charges for the prior's width.
+WIDE_PRIOR = ("sut_corner",)
 #: |t| of the per-segment timing trend above which clock drift is a candidate
 #: (a cheap screen; the BIC decides).
 DRIFT_T = 3.0
@@ -63,6 +74,11 @@ def _candidates(model, free, current, drift=None):
                                          [model.blocks[i].channel_id for i in pendulum],
                                          model.priors)
         out.append(("response_parameters", e, e.grid(steps)))
+    held = [i for i, b in enumerate(model.blocks) if b.free != "all" and b.family is not None]
+    if held:
+        e = catalogue.SutCorner(held, [model.blocks[i].family for i in held],
+                                [model.blocks[i].channel_id for i in held], fmin)
+        out.append(("sut_corner", e, e.grid()))
     if free == "none":
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
@@ -267,6 +283,94 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
             "n_data": n, "n_extra_params": k}
 
 
+def log_evidence_gain(fit, score_entry, new_index):
+    """The Laplace approximation to the log evidence a candidate adds to
+    the current model: its log-likelihood gain (``score_entry``, under the
+    candidate's noise model), its prior's log density at the least-squares
+    point and the log volume of its posterior, ``k/2 ln 2 pi + 1/2 ln det
+    C`` (``C`` the candidate's parameters' Laplace covariance). The Occam
+    factor, prior density times posterior volume, holds each prior's width:
+    a wide prior pays for the values it allows. ``fit``: the candidate's
+    (model, theta, cov); its effect at ``new_index`` needs
+    ``log_prior_density``."""
+    model, theta, cov = fit
+    effect, sl = model.effects[new_index], model.effect_slices[new_index]
+    c = np.atleast_2d(cov[sl, sl])
+    sign, logdet = np.linalg.slogdet(c)
+    if sign <= 0:
+        return -np.inf
+    lp = float(effect.log_prior_density(np.asarray(theta)[sl][None])[0])
+    return float(score_entry["delta_loglik"] + lp + 0.5 * c.shape[0] * np.log(2 * np.pi)
+                 + 0.5 * logdet)
+
+
+def _by_evidence(good):
+    """``good`` (tried candidates with a score) less the effects of
+    :data:`WIDE_PRIOR` whose evidence does not pass, and the alternatives of
+    :data:`BY_EVIDENCE` that the evidence does not prefer when more than
+    one of them passes :data:`BIC_KEEP`."""
+    good = [t for t in good if t["effect"] not in WIDE_PRIOR
+            or 2.0 * t["log_evidence_gain"] > BIC_KEEP]
+    alt = [t for t in good if t["effect"] in BY_EVIDENCE and t["delta_bic"] > BIC_KEEP]
+    if len(alt) < 2:
+        return good
+    best = max(alt, key=lambda t: t["log_evidence_gain"])
+    return [t for t in good if t["effect"] not in BY_EVIDENCE or t is best]
+
+
+#: What a pair of recordings can never tell a named effect from (its
+#: response relative to the reference's metadata is the same).
+NEVER_APART = {
+    "extra_pole:sut": "a zero missing from the reference's metadata",
+    "extra_pole:ref": "a zero missing from the SUT's metadata",
+    "sut_corner": "the reference's long-period corner off its metadata",
+}
+
+
+def indistinguishable(model, theta, index):
+    """What the recordings cannot tell effect ``index`` of ``model`` (at
+    ``theta``, its noise model set) from: ``{"indistinguishable_from":
+    [...], "evidence": ...}``, or ``{}``. A missing pole on one sensor is
+    a zero missing on the other, and the SUT's corner the reference's
+    (:data:`NEVER_APART`: a pair never can). A timing offset ``tau`` is
+    compared with the minimum-phase pole whose phase starts as the delay's
+    (``1 / corner = 2 pi |tau|``: a pole on the SUT for a late clock, on the
+    reference for an early one), re-fitted in its place: when the BIC of
+    the two differs by no more than :data:`BIC_KEEP`, the evidence does not
+    separate them."""
+    e = model.effects[index]
+    key = effect_key(e)
+    if key.split("#")[0] in NEVER_APART:
+        return {"indistinguishable_from": [NEVER_APART[key.split("#")[0]]],
+                "evidence": "a pair of recordings never separates them"}
+    if e.name != "timing_offset":
+        return {}
+    tau = float(np.asarray(theta)[model.effect_slices[index]][0])
+    which = "sut" if tau > 0 else "ref"
+    norm = model.blocks[0].family.norm_freq if model.blocks[0].family is not None else 1.0
+    pole = catalogue.ExtraPole(e.rows, which, norm)
+    pole.index = 1 + sum(1 for x in model.effects if x.name == "extra_pole" and x.which == which)
+    if pole.index > 1:
+        pole.param_names = (f"inverse_corner_s_{pole.index}",)
+    effects = [x if k != index else pole for k, x in enumerate(model.effects)]
+    alt = with_effects(model, effects)
+    alt.adopt_noise(model.noise)
+    start = np.array(theta, float)
+    start[model.effect_slices[index]] = 2 * np.pi * abs(tau)
+    ll_alt, th_alt = best_refit(alt, (start,))
+    if th_alt is None or not np.isfinite(alt.log_prior(th_alt)[0]):
+        return {}
+    d_bic = 2.0 * (float(model.log_likelihood(np.asarray(theta, float))[0]) - ll_alt)
+    if d_bic > BIC_KEEP:
+        return {"evidence": f"the delay is preferred over a pole on the "
+                            f"{'SUT' if which == 'sut' else 'reference'} (BIC {d_bic:.3g})"}
+    corner = 1.0 / max(float(th_alt[model.effect_slices[index]][0]), 1e-12)
+    return {"indistinguishable_from": [
+        f"a pole near {corner:.3g} Hz on the {'SUT' if which == 'sut' else 'reference'} "
+        "(a minimum-phase response, not a clock)"],
+        "evidence": f"BIC difference {d_bic:.3g}, within {BIC_KEEP:g}"}
+
+
 def search(model, theta, free, log=None, drift=None, budget=None, eiv=None):
     """Greedy search: add the best-scoring catalogue effect while its BIC
     gain exceeds :data:`BIC_KEEP`. Returns (model, theta, cov, steps).
@@ -308,11 +412,20 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
                           "note": "left the prior support or not identifiable in the band"})
                 continue
             s = score(cur, th, fit[0], fit[1])
-            tried.append({"effect": key, **s, "fit": fit})
+            if key in BY_EVIDENCE:
+                s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
+            tried.append({"effect": key, **s, "fit": fit,
+                          **({"first": True} if getattr(effect, "first", False) else {})})
             if log:
                 log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
-        good = [t for t in tried if t.get("delta_bic") is not None]
-        best = max(good, key=lambda t: t["delta_bic"], default=None)
+        good = _by_evidence([t for t in tried if t.get("delta_bic") is not None])
+        # an effect marked ``first`` (the SUT's corner on metadata that give
+        # none: a term of the response family the base model lacks) is kept
+        # before the others whenever it passes; a delay and poles near the
+        # band's top, which trade with each other there, would otherwise fill
+        # the steps first
+        best = max(good, key=lambda t: (t.get("first", False) and t["delta_bic"] > BIC_KEEP,
+                                        t["delta_bic"]), default=None)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
         if best is None or best["delta_bic"] <= BIC_KEEP:
             break

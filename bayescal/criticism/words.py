@@ -11,6 +11,8 @@ ADVICE = {
                      "trace's start time by {shift:+.3g} s), not a response change; the "
                      "corrected StationXML records it in a stage delay, which ObsPy's "
                      "remove_response does not apply",
+    "sut_corner": "correct the SUT's metadata with the long-period corner measured (the "
+                  "response relative to the reference's: bayescal.criticism.relative_response)",
     "clock_drift": "check the SUT digitizer's time source (GNSS lock, drifting oscillator)",
     "extra_pole": "add the missing pole to the sensor's metadata (or take responses that "
                   "include its high-frequency poles)",
@@ -42,6 +44,7 @@ def label(effect):
         return f"a pole missing from the {who}'s metadata"
     return {"response_parameters": "the SUT's period and damping off their metadata values",
             "timing_offset": "a timing offset between the digitizers",
+            "sut_corner": "the SUT's long-period corner off its metadata",
             "clock_drift": "a drifting SUT clock", "gain_error": "a sensitivity off its metadata",
             "polarity_reversal": "a reversed channel", "channel_swap": "exchanged channels",
             "tilt_noise": "long-period tilt noise"}.get(name, name.replace("_", " "))

@@ -15,6 +15,8 @@ misfit located after the base fit looks like each.
 * :mod:`.gain`       a sensitivity off its metadata value (:class:`GainError`)
 * :mod:`.response_parameters`  the SUT's period and damping off their metadata
                      values (:class:`ResponseParameters`)
+* :mod:`.corner`     the SUT's low-frequency corner off its metadata, or where
+                     its metadata give none, with a wide prior (:class:`SutCorner`)
 * :mod:`.screens`    the screens of the response-side candidates from the
                      per-band ratio (timing offset, extra pole, gain error)
 * :mod:`.tilt_ratio` the coherence-ratio rule for tilt noise, the baseline of
@@ -34,6 +36,7 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "base": ["CriticismEffect"],
     "catalogue": ["CATALOGUE"],
+    "corner": ["SutCorner"],
     "drift": ["ClockDrift", "CorrectedDrift", "drift_corrected", "drift_signature"],
     "gain": ["GainError"],
     "pole": ["IDENTIFIABLE_RATIO", "ExtraPole"],

@@ -23,7 +23,7 @@ class CriticismEffect(Effect):
 
     A subclass sets ``name``, ``param_names`` and ``rows`` and implements
     ``factor``, ``log_prior``, :meth:`physical` and :meth:`explain`; it may
-    set :attr:`multimodal`, :attr:`prunable`, :attr:`null` and
+    set :attr:`multimodal`, :attr:`prunable`, :attr:`null`, :attr:`first` and
     :attr:`absence`, and give ``identifiable(p, fmin, fmax)`` (whether the
     parameters ``p`` are identifiable in the band, for an effect that can
     leave it) and ``prior_residual(p)`` (a proper prior's least-squares
@@ -37,6 +37,10 @@ class CriticismEffect(Effect):
     prunable = True
     #: The parameters' value with no effect.
     null = 0.0
+    #: The search keeps it before the others whenever its gain passes
+    #: (:func:`bayescal.criticism.search.search`): a term of the response
+    #: family the metadata leave out altogether.
+    first = False
 
     @property
     def absence(self):

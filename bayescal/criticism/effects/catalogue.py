@@ -2,6 +2,7 @@
 drift's by its per-block form). A new effect's class is added here."""
 from __future__ import annotations
 
+from .corner import SutCorner
 from .drift import ClockDrift
 from .gain import GainError
 from .pole import ExtraPole
@@ -10,4 +11,4 @@ from .timing import TimingOffset
 
 #: The effects by name (a clock drift's by its per-block form).
 CATALOGUE = {cls.name: cls for cls in (TimingOffset, ClockDrift, ExtraPole, GainError,
-                                       ResponseParameters)}
+                                       ResponseParameters, SutCorner)}

@@ -76,6 +76,14 @@ class ResponseParameters(CriticismEffect):
         return sum(pendulum_log_prior(p[:, 2 * k], p[:, 2 * k + 1], *self.tolerances)
                    for k in range(len(self.rows)))
 
+    def log_prior_density(self, p):
+        """The normalised log prior density at ``p`` (W, n_params): the
+        log-normal priors on period and damping, carried to the effect's
+        coordinates with their Jacobian (``log_prior`` up to its constant)."""
+        pt, dt = self.tolerances
+        const = -len(self.rows) * (np.log(2 * np.pi * pt * dt) + np.log(2.0))
+        return self.log_prior(p) + const
+
     def prior_residual(self, p):
         """The prior's least-squares rows ``(r, J)`` at ``p`` (n_params,)
         (:func:`bayescal.core.response.pendulum.prior_residual` per channel)."""
