@@ -315,11 +315,30 @@ def _final_fit(base, model, th, cov, origin, *, sig, dropped, free, seed, mcmc, 
             break
         final = _improved_posterior(base, model, th, cov, eiv=eiv, th0=th0, sig=sig, free=free,
                                     seed=seed, mcmc=mcmc, progress=progress, sample_kw=sample_kw)
-        weak = weak_effects(model, final.samples)
+        weak = weak_effects(model, final.samples) or misfit_not_lowered(base, final, model)
         if not weak:
             break
         model, th, cov = _drop_weakest(model, th, weak, dropped, log)
     return model, th, final, after, before_common
+
+
+def misfit_not_lowered(base, final, model):
+    """The last effect of ``model`` (the weakest the search kept) in
+    :func:`.naming.weak_effects`'s form when the improved model ``final``'s
+    own model check leaves a largest standardised misfit no lower than the
+    fit ``base``'s (the misfit the criticism prints before -> after): an
+    effect whose modelling does not lower the misfit is not named. Empty
+    when it is lower, when either has no check, or ``model`` has no
+    effect."""
+    from ..core.checks import from_diagnostics
+    before, after = (from_diagnostics(getattr(s, "diagnostics", None)).get("worst")
+                     for s in (base, final))
+    before, after = (None if w is None else float(w["misfit"]) for w in (before, after))
+    if not model.effects or before is None or after is None or after < before:
+        return []
+    return [(0.0, effect_key(model.effects[-1]), 0.0, model.effects[-1].n_params,
+             f"modelling it does not lower the misfit (largest standardised misfit "
+             f"{before:.3g} -> {after:.3g})")]
 
 
 def _chain_affordable(model, budget, sample_kw):
@@ -397,13 +416,21 @@ def _tilt_effect(base, sp, ids, sig):
     sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
     if not (t["applicable"] and t["kept"] and t["channels"]):
         return []
+    before, after = t["misfit_largest"]["base"], t["misfit_largest"]["tilt"]
+    if after >= before:       # its modelling does not lower the noise spectra's misfit
+        t["dropped"] = (f"modelling it does not lower the noise spectra's largest "
+                        f"standardised misfit ({before:.3g} -> {after:.3g})")
+        return []
     params = {"alpha": t["alpha"]}
     for i in t["channels"]:
         params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
             t["per_channel"][str(i)]["nsr_lowest_band"]
     return [{"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
              "parameters": params, "score_gain": t["delta_bic"],
-             "explanation": t["explanation"] + "; it is noise, not a response "
+             "misfit": {"before": before, "after": after,
+                        "of": "the noise-to-signal model of the SUT's channels"},
+             "explanation": t["explanation"] + f" (the noise spectra's largest standardised "
+             f"misfit {before:.3g} -> {after:.3g}); it is noise, not a response "
              "error: the per-band noise model carries it (those bands weigh "
              "less), so the orientation and response estimates do not move",
              "signature": sig["tilt_noise"]}]
