@@ -406,12 +406,9 @@ def test_huddle_misfit_left_unexplained_with_a_band_advice(huddle_data, tmp_path
                                progress=False, min_ess=200, n_tau=20)
     c = post.summary()["criticism"]
     assert c["verdict"] == "unexplained" and c["stationxml"] == "fit"
-    poles = [e for e in c["effects"] if e["name"] == "extra_pole"]
-    assert poles and all("reference's response" in e["explanation"] for e in poles)
-    # the misfit the model leaves pulls the sizes: they are not given as measurements
-    assert all(e["size_is_measurement"] is False for e in c["effects"])
-    from bayescal.criticism.verdict import lines
-    assert any(ln.startswith("  note: the sizes above are conditional") for ln in lines(c))
+    # the reference pole the search keeps does not lower the misfit under the
+    # improved model's own check (test_diagnose_real.py): nothing is named
+    assert c["effects"] == [] and c["misfit_after"] == c["misfit_before"]
     band = [a for a in c["advice"] if a.startswith("--band")]
     assert len(band) == 1
     hi = float(band[0].split()[2])

@@ -25,6 +25,7 @@ counts both).
 The seeds were written here before any result was seen.
 
     python validation/studies/false_alarms.py --out validation/results/diagnose/false_alarms.json
+    python validation/studies/false_alarms.py --noise-shapes signal --out validation/results/diagnose/false_alarms_signal_only.json
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ import numpy as np
 
 import study_results                          # the sibling module, run as a script
 
+from bayescal.criticism import tilt
 from bayescal.simulate.harness import concealed_pair
 
 #: Seeds fixed before the study was run.
@@ -137,7 +139,12 @@ def main(argv=None):
     ap.add_argument("--out", default="validation/results/diagnose/false_alarms.json")
     ap.add_argument("--first", type=int, default=0, help="skip this many pairs of each set")
     ap.add_argument("--pairs", type=int, default=60, help="pairs of each set")
+    ap.add_argument("--noise-shapes", nargs="+", choices=tilt.NOISE_SHAPES,
+                    default=list(tilt.NOISE_SHAPES),
+                    help="the self-noise shapes the tilt test judges against ('signal' "
+                         "alone: the test without the sensor's own noise shape)")
     args = ap.parse_args(argv)
+    tilt.NOISE_SHAPES = tuple(args.noise_shapes)
     sl = slice(args.first, args.first + args.pairs)
     jobs = [(s, True) for s in CLEAN_SEEDS[sl]] + [(s, False) for s in EFFECT_SEEDS[sl]]
     records, t0 = [], time.perf_counter()
@@ -164,6 +171,7 @@ def main(argv=None):
     print(text)
     study_results.write(args.out, {"runs": records, "design": rate, "table": text,
                                    "settings": {"band": BAND, "ground": GROUND,
+                                                "noise_shapes": list(tilt.NOISE_SHAPES),
                                                 "duration_s": DURATION, "fs": FS}})
 
 
