@@ -195,16 +195,22 @@ def test_corrected_stationxml_holds_the_headline(late):
 
 
 def test_one_misfit_definition_printed_the_same_way(late):
-    """The criticism's misfit before and after is each model's own check's
-    (the rejected fit's, then the headline's), and the console prints each
-    number once, in the same format, wherever it appears."""
+    """The criticism's misfit before -> after is the fit's and the
+    headline's, both against the improved model's noise estimate
+    (``misfit_search``), and it falls; each model's own check (the rejected
+    fit's, then the headline's) is printed beside it in the same format as
+    the check lines, wherever it appears."""
     _, _, console, result, _ = late
     c = result["criticism"]
     before = result["rejected_fit"]["adequacy"]["worst"]["misfit"]
     after = result["adequacy"]["worst"]["misfit"]
     assert c["misfit_before"] == pytest.approx(before, rel=1e-12)
     assert c["misfit_after"] == pytest.approx(after, rel=1e-12)
-    assert f"largest standardised misfit {before:.3g} -> {after:.3g} with it modelled" in console
+    s = c["misfit_search"]
+    assert s["after"] < 2.5 < s["before"]
+    assert (f"largest standardised misfit {s['before']:.3g} -> {s['after']:.3g} with it "
+            "modelled (both against the improved model's noise estimate; each model's own "
+            f"check: {before:.3g} and {after:.3g};") in console
     assert f"standardised misfit {before:.3g} in" in console
     assert f"largest standardised misfit {after:.3g} in" in console
 

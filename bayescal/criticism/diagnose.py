@@ -315,11 +315,30 @@ def _final_fit(base, model, th, cov, origin, *, sig, dropped, free, seed, mcmc, 
             break
         final = _improved_posterior(base, model, th, cov, eiv=eiv, th0=th0, sig=sig, free=free,
                                     seed=seed, mcmc=mcmc, progress=progress, sample_kw=sample_kw)
-        weak = weak_effects(model, final.samples)
+        weak = weak_effects(model, final.samples) or misfit_not_lowered(before_common, after,
+                                                                             model)
         if not weak:
             break
         model, th, cov = _drop_weakest(model, th, weak, dropped, log)
     return model, th, final, after, before_common
+
+
+def misfit_not_lowered(before, after, model):
+    """The last effect of ``model`` (the weakest the search kept) in
+    :func:`.naming.weak_effects`'s form when modelling leaves the largest
+    standardised misfit no lower: ``before`` and ``after`` are
+    :func:`.locate.locate` of the model without its effects and of
+    ``model``, both under ``model``'s noise model (one noise estimate for
+    both: a model's own estimate takes in part of the misfit it leaves, so
+    that two models' own checks do not compare). An effect whose modelling
+    does not lower the misfit is not named. Empty when it is lower, or
+    ``model`` has no effect."""
+    b, a = (float(np.max(x["misfit"])) for x in (before, after))
+    if not model.effects or a < b:
+        return []
+    return [(0.0, effect_key(model.effects[-1]), 0.0, model.effects[-1].n_params,
+             f"modelling it does not lower the misfit (largest standardised misfit "
+             f"{b:.3g} -> {a:.3g}, both under the improved model's noise estimate)")]
 
 
 def _chain_affordable(model, budget, sample_kw):
@@ -404,13 +423,21 @@ def _tilt_effect(base, sp, ids, sig):
     sig["tilt_noise"] = t     # with the noise-spectrum misfit before/after (misfit_base/_tilt)
     if not (t["applicable"] and t["kept"] and t["channels"]):
         return []
+    before, after = t["misfit_largest"]["base"], t["misfit_largest"]["tilt"]
+    if after >= before:       # its modelling does not lower the noise spectra's misfit
+        t["dropped"] = (f"modelling it does not lower the noise spectra's largest "
+                        f"standardised misfit ({before:.3g} -> {after:.3g})")
+        return []
     params = {"alpha": t["alpha"]}
     for i in t["channels"]:
         params[f"noise_to_signal_lowest_band:{ids[i]}"] = \
             t["per_channel"][str(i)]["nsr_lowest_band"]
     return [{"name": "tilt_noise", "channels": [ids[i] for i in t["channels"]],
              "parameters": params, "score_gain": t["delta_bic"],
-             "explanation": t["explanation"] + "; it is noise, not a response "
+             "misfit": {"before": before, "after": after,
+                        "of": "the noise-to-signal model of the SUT's channels"},
+             "explanation": t["explanation"] + f" (the noise spectra's largest standardised "
+             f"misfit {before:.3g} -> {after:.3g}); it is noise, not a response "
              "error: the per-band noise model carries it (those bands weigh "
              "less), so the orientation and response estimates do not move",
              "signature": sig["tilt_noise"]}]

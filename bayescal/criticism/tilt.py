@@ -9,11 +9,28 @@ cross-spectra (``T = S_ur S_rr^-1`` the band's transfer):
     P_coh[b, i] = diag(S_ur S_rr^-1 S_ru),  P_inc[b, i] = S_uu[i, i] - P_coh[b, i]
     y[b, i]     = log(P_inc / P_coh)
 
-Base model (no tilt): the NSR is separable, ``y = s_b + g_i`` (a common shape
-over bands, a level per channel, ``g_0 = 0``), fitted by weighted least
-squares. Tilt extension, on horizontal channels only:
+Base model (no tilt): a channel's self-noise has one of two shapes, and
+the test takes the one that fits better (:data:`NOISE_SHAPES`; equal
+parameter counts):
 
-    NSR[b, i] = exp(s_b + g_i) + exp(a_i) * tau_b(alpha)[i]
+* ``"signal"``: the NSR is separable, ``y = s_b + g_i`` (a common shape
+  over bands, a level per channel, ``g_0 = 0``): noise shaped like each
+  channel's own ground signal;
+* ``"sensor"``: the incoherent *power* is separable, ``log P_inc = s_b +
+  g_i``: one noise spectrum of the sensor (white in counts, say) on every
+  channel at its own level, whatever each axis's ground signal. The two
+  differ when the ground's power on the horizontals and on the vertical
+  differ in shape over frequency (microseism peaks arriving from different
+  directions, Love waves only on the horizontals): then the NSR of a noise
+  the sensor makes is not separable, and a horizontal's NSR rises where
+  its ground power falls faster than the vertical's. Judged against the
+  ``"signal"`` shape alone, that rise is taken for tilt noise.
+
+Both are fitted by weighted least squares (the ``"sensor"`` shape as ``y``
+with an offset ``log P_coh[b, 0] - log P_coh[b, i]``), with one error
+model for ``y`` (below). Tilt extension, on horizontal channels only:
+
+    NSR[b, i] = base NSR[b, i] + exp(a_i) * tau_b(alpha)[i]
 
 where the tilt noise's *power* (ground velocity PSD) falls as ``f^-alpha``
 (positive ``alpha``: rising toward long periods) with one level per
@@ -42,8 +59,9 @@ moves a share ``n_r / N`` of the incoherent power into the coherent one by
 chance; that is corrected (it matters where tilt noise dominates a band
 with few effective samples).
 
-Score: ``dBIC = (chi2_base - chi2_tilt) / phi - k ln n`` with
-``n = B n_u`` data, ``k = n_horizontal + 1`` added parameters and an
+Score: ``dBIC = (chi2_base - chi2_tilt) / phi - k ln n``, ``chi2_base`` the
+better base's and ``chi2_tilt`` the better tilt extension's (over the two
+noise shapes), with ``n = B n_u`` data, ``k = n_horizontal + 1`` added parameters and an
 overdispersion factor ``phi = max(1, chi2_tilt / dof_tilt)`` (quasi-
 likelihood guard against a base model that misfits for other reasons).
 """
@@ -69,6 +87,21 @@ ALPHA_RANGE = (1.0, 8.0)
 LEVEL_RANGE = (-15.0, 8.0)
 #: Finer bands for the test (bands per decade, minimum bins per band).
 FINE_BANDS = (10, 4)
+#: The self-noise shapes the base model allows (see the module docstring).
+NOISE_SHAPES = ("signal", "sensor")
+
+
+def base_offset(data, noise="signal"):
+    """(B, n_u) offset of the base model's ``y`` for a noise shape: 0 for
+    ``"signal"``; ``log P_coh[b, 0] - log P_coh[b, i]`` for ``"sensor"``
+    (so that ``y - offset`` is the log incoherent power up to a per-band
+    constant)."""
+    if noise == "signal":
+        return np.zeros_like(data["y"])
+    if noise == "sensor":
+        lcoh = np.log(data["p_coh"])
+        return lcoh[:, :1] - lcoh
+    raise ValueError(f"unknown noise shape {noise!r}; one of {NOISE_SHAPES}")
 
 
 def _var_of_mean(z, starts, nperseg):
@@ -186,9 +219,11 @@ def nsr_data(sp, pool=True, fine=FINE_BANDS, debias=True):
             "centres": np.sqrt(edges[:-1] * edges[1:]), "band_of": band_of}
 
 
-def base_fit(y, sd):
-    """Weighted least squares of ``y = s_b + g_i`` (``g_0 = 0``); returns
-    (prediction (B, n_u), chi2, parameter count)."""
+def base_fit(y, sd, offset=0.0):
+    """Weighted least squares of ``y = s_b + g_i + offset`` (``g_0 = 0``;
+    ``offset`` a noise shape's, :func:`base_offset`); returns (prediction
+    (B, n_u), chi2, parameter count)."""
+    y = y - offset
     nb, nu = y.shape
     cols = [np.kron(np.eye(nb)[:, [b]], np.ones((1, nu))).reshape(nb, nu) for b in range(nb)]
     cols += [np.tile(np.eye(nu)[i], (nb, 1)) for i in range(1, nu)]
@@ -196,17 +231,20 @@ def base_fit(y, sd):
     w = 1.0 / sd.ravel()
     coef, *_ = np.linalg.lstsq(x * w[:, None], y.ravel() * w, rcond=None)
     pred = (x @ coef).reshape(nb, nu)
-    return pred, float(np.sum(((y - pred) / sd) ** 2)), x.shape[1]
+    return pred + offset, float(np.sum(((y - pred) / sd) ** 2)), x.shape[1]
 
 
 class TiltModel:
-    """Base NSR model plus tilt terms on the horizontals ``hz`` (indices).
+    """Base NSR model (noise shape ``noise``, :data:`NOISE_SHAPES`) plus
+    tilt terms on the horizontals ``hz`` (indices).
 
     Parameters: ``s`` (B), ``g`` (n_u - 1), ``a`` (len(hz)), ``alpha``.
     ``log_template(alpha)`` gives (B, n_u) ``log tau``."""
 
-    def __init__(self, sp, data, hz, shape="psd"):
+    def __init__(self, sp, data, hz, shape="psd", noise="signal"):
         self.y, self.sd = data["y"], data["sd"]
+        self.noise = noise
+        self.offset = base_offset(data, noise)
         self.nb, self.nu = self.y.shape
         self.hz = list(hz)
         self._lf = np.log(sp.freqs / data["centres"][0])
@@ -230,7 +268,7 @@ class TiltModel:
 
     def predict(self, theta):
         s, g, a, alpha = self.split(theta)
-        pred = s[:, None] + g[None, :]
+        pred = s[:, None] + g[None, :] + self.offset
         if self.hz:
             lt = self.log_template(alpha)
             pred[:, self.hz] = np.logaddexp(pred[:, self.hz], a[None, :] + lt[:, self.hz])
@@ -268,9 +306,10 @@ class TiltModel:
         return best
 
 
-def _base_theta(y, sd):
+def _base_theta(y, sd, offset=0.0):
     """Base fit's parameters in :class:`TiltModel` layout (s, g)."""
-    pred, _, _ = base_fit(y, sd)
+    pred, _, _ = base_fit(y, sd, offset)
+    pred = pred - offset
     g = pred[0] - pred[0, 0]
     s = pred[:, 0]
     return np.r_[s, g[1:]]
@@ -311,16 +350,36 @@ def _horizontals(sp, horizontal):
     return hz, ""
 
 
-def _per_channel(sp, data, hz, shape, res, theta0, *, phi, dbic, chi2_tilt, n_base):
+def _fits(sp, data, hz, shape):
+    """The base and the tilt model under each noise shape
+    (:data:`NOISE_SHAPES`): ``(base, best)``, the entry whose base fits
+    better and the one whose tilt extension does, each a dict with
+    ``noise``, ``pred0``, ``chi2_base``, ``p_base``, ``model``, ``theta0``,
+    ``res`` and ``chi2_tilt``."""
+    y, sd = data["y"], data["sd"]
+    out = []
+    for noise in NOISE_SHAPES:
+        model = TiltModel(sp, data, hz, shape, noise)
+        pred0, chi2_base, p_base = base_fit(y, sd, model.offset)
+        theta0 = _base_theta(y, sd, model.offset)
+        res = model.fit(theta0)
+        out.append({"noise": noise, "pred0": pred0, "chi2_base": chi2_base, "p_base": p_base,
+                    "model": model, "theta0": theta0, "res": res,
+                    "chi2_tilt": min(2.0 * res.cost, chi2_base)})
+    return min(out, key=lambda f: f["chi2_base"]), min(out, key=lambda f: f["chi2_tilt"])
+
+
+def _per_channel(sp, data, hz, shapes, res, theta0, *, phi, dbic, chi2_tilt, n_base):
     """Each horizontal's own evidence: the BIC cost of dropping its tilt
-    term from the fit ``res`` and its noise-to-signal ratio in the lowest
-    band, by SUT index (as a string)."""
+    term from the fit ``res`` (``shapes``: the tilt's shape and the noise
+    shape of its base) and its noise-to-signal ratio in the lowest band, by
+    SUT index (as a string)."""
     n = data["y"].size
     per_channel = {}
     for j, i in enumerate(hz):
         others = [h for h in hz if h != i]
         if others:
-            sub = TiltModel(sp, data, others, shape)
+            sub = TiltModel(sp, data, others, *shapes)
             th = np.r_[res.x[:n_base], np.delete(res.x[n_base:n_base + len(hz)], j), res.x[-1]]
             r = sub.fit(theta0, extra_starts=[th])
             chi2_drop = max(2.0 * r.cost, chi2_tilt)
@@ -388,11 +447,10 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
         return _not_applicable(f"only {y.shape[0]} bands: at least 4 are needed to see a "
                                "noise-to-signal ratio rising toward long periods")
     nb, nu = y.shape
-    pred0, chi2_base, p_base = base_fit(y, sd)
-    model = TiltModel(sp, data, hz, shape)
-    theta0 = _base_theta(y, sd)
-    res = model.fit(theta0)
-    chi2_tilt = min(2.0 * res.cost, chi2_base)
+    base, best = _fits(sp, data, hz, shape)
+    pred0, chi2_base, p_base = base["pred0"], base["chi2_base"], base["p_base"]
+    model, res, theta0 = best["model"], best["res"], best["theta0"]
+    chi2_tilt = min(best["chi2_tilt"], chi2_base)
     n = nb * nu
     k = len(hz) + 1
     dof = n - p_base - k
@@ -401,8 +459,8 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
     phi = max(1.0, chi2_tilt / dof)
     dbic = (chi2_base - chi2_tilt) / phi - k * np.log(n)
     kept = bool(dbic > bic_keep)
-    per_channel = _per_channel(sp, data, hz, shape, res, theta0, phi=phi, dbic=dbic,
-                               chi2_tilt=chi2_tilt, n_base=nb + nu - 1)
+    per_channel = _per_channel(sp, data, hz, (shape, model.noise), res, theta0, phi=phi,
+                               dbic=dbic, chi2_tilt=chi2_tilt, n_base=nb + nu - 1)
     channels = _tilted(hz, per_channel, kept, channel_keep)
     out = {"applicable": True, "reason": "", "kept": kept, "delta_bic": float(dbic),
            "bic_keep": float(bic_keep), "channels": channels,
@@ -411,7 +469,9 @@ def tilt_test(sp, horizontal, bic_keep=10.0, channel_keep=2.0, shape="psd", fine
            "lowest_band_centre_hz": float(data["centres"][0]), "phi": float(phi), "chi2_base": float(chi2_base),
            "chi2_tilt": float(chi2_tilt), "n_data": int(n), "n_added_parameters": int(k),
            "dof_tilt": int(dof), "interval_method": "Laplace (least-squares covariance x phi)",
+           "noise_shape": {"base": base["noise"], "tilt": model.noise},
            "misfit_base": ((y - pred0) / sd).tolist(), "misfit_tilt": ((y - model.predict(res.x)) / sd).tolist()}
+    out["misfit_largest"] = {k: float(np.max(np.abs(out[f"misfit_{k}"]))) for k in ("base", "tilt")}
     out["explanation"] = explain(out)
     return out
 

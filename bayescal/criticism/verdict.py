@@ -287,6 +287,25 @@ def _misfits(d, post):
                                       "search compares effects on"}}
 
 
+def misfit_line(c):
+    """The criticism's misfit before -> after: the fit and the improved
+    model both judged against the improved model's noise estimate
+    (``misfit_search``), which the misfit the effects remove no longer
+    inflates, then each model's own check (``misfit_before``,
+    ``misfit_after``: a model's own noise estimate takes in part of the
+    misfit it leaves, so a fit that misfits by far reads lower there)."""
+    own = (f"each model's own check: {_g(c['misfit_before'], 3)} and "
+           f"{_g(c['misfit_after'], 3)}")
+    s = c.get("misfit_search")
+    if not s:
+        return (f"  largest standardised misfit {_g(c['misfit_before'], 3)} -> "
+                f"{_g(c['misfit_after'], 3)} with it modelled (each model's check; about 1 "
+                "is a fit within the noise)")
+    return (f"  largest standardised misfit {_g(s['before'], 3)} -> {_g(s['after'], 3)} with "
+            f"it modelled (both against the improved model's noise estimate; {own}; about 1 "
+            "is a fit within the noise)")
+
+
 def _pinned_parameters(base_sum):
     """``{channel id: [response parameter, ...]}`` of the parameters the fit
     pinned (gain aside), for the channels with any."""
@@ -460,9 +479,7 @@ def lines(c):
     if c.get("size_note"):
         out.append(f"  note: {c['size_note']}")
     if "misfit_before" in c and (c.get("effects") or c.get("reference_noise_modelled")):
-        out.append(f"  largest standardised misfit {_g(c['misfit_before'], 3)} -> "
-                   f"{_g(c['misfit_after'], 3)} with it modelled (each model's check; about 1 "
-                   "is a fit within the noise)")
+        out.append(misfit_line(c))
     moved = [(cid, k, v) for cid, d in c.get("improved_estimates", {}).items()
              for k, v in d.items() if k != "relative_gain"]
     big = [m for m in moved if m[2].get("moved_sd") is not None

@@ -1,6 +1,7 @@
 """Synthetic recordings with known truth.
 
 * :mod:`.pair`      a co-located pair (with concealed effects on request)
+* :mod:`.ground`    a second family of ground spectra for the pair
 * :mod:`.coil`      coil calibration runs of a triaxial sensor
 * :mod:`.cal`       a random, step or sine coil calibration run of one channel
 * :mod:`.network`   an SDS archive of pairs over stations and days
@@ -24,6 +25,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
              "velocity_response"],
     "cal": ["HF_NOMINAL", "LP_NOMINAL", "simulate_random_cal", "simulate_sine_cal",
             "simulate_step_cal"],
+    "ground": ["SteepMicroseism", "ground_family"],
     "harness": ["KINDS", "REGIMES", "band_noise_truth", "coherences", "concealed_pair",
                 "draw_truth", "tilt_pair_spectra"],
     "coverage": ["binomial_band", "coverage_checks", "draw_case", "run_case", "summarise"],

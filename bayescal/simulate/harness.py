@@ -113,13 +113,17 @@ def draw_effect(rng, p_clean):
     return kind, {"tilt_noise": level}, {"level": level}
 
 
-def concealed_pair(seed, p_clean, regime="default", gain_off=0.0):
+def concealed_pair(seed, p_clean, regime="default", gain_off=0.0, ground=None, duration=3600.0,
+                   fs=10.0, counts=None):
     """One seeded run of the diagnosis harness: a pair (3600 s at 10 Hz,
     coherence drawn in 0.9-0.995, random azimuth, metadata azimuths within 3
     degrees of the truth) with an effect drawn by :func:`draw_effect` hidden
     in it, in noise regime ``regime``; with ``gain_off`` each SUT gain is
     off its metadata by up to that fraction (its own generator, so the other
-    draws match ``gain_off = 0``). Returns a namespace with ``sim`` (the
+    draws match ``gain_off = 0``); ``ground``: the family of ground spectra
+    (:func:`simulate_pair`'s; None the default plane waves), ``duration`` (s)
+    and ``fs`` (Hz) the record's; ``counts`` (not None) sets whether both
+    sensors' self-noise is white in counts, whatever the regime. Returns a namespace with ``sim`` (the
     :func:`simulate_pair` result), ``kind``, ``kw`` (the effect's keyword
     arguments), ``truth`` and ``coherence``."""
     rng = np.random.default_rng(seed)
@@ -129,11 +133,14 @@ def concealed_pair(seed, p_clean, regime="default", gain_off=0.0):
     az, dip = (a, a + 90, 0.0), (0.0, 0.0, -90.0)
     nom_az = tuple(x + rng.uniform(-3, 3) for x in az[:2]) + (0.0,)
     extra = regime_kw(regime, coherence)
+    if counts is not None:
+        extra = dict(extra, noise_in_counts=bool(counts))
     if gain_off and "sut_response" not in kw:
         off = np.random.default_rng([seed, 7]).uniform(-gain_off, gain_off, 3)
         kw = dict(kw, sut_response=tuple((30.0, 0.707, 750.0 * (1 + o)) for o in off))
-    sim = simulate_pair(duration=3600, fs=10, seed=seed, coherence=coherence, sut_azimuth=az,
-                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip, **extra, **kw)
+    sim = simulate_pair(duration=duration, fs=fs, seed=seed, coherence=coherence, sut_azimuth=az,
+                        sut_dip=dip, nominal_azimuth=nom_az, nominal_dip=dip, ground=ground,
+                        **extra, **kw)
     return SimpleNamespace(sim=sim, kind=kind, kw=kw, truth=truth, coherence=coherence)
 
 

@@ -14,6 +14,10 @@ model-criticism issue): ``timing_offset_s``, ``clock_drift_ppm``,
 ``extra_pole`` (sensor, corner Hz), ``polarity_reversal`` (channel index),
 ``channel_swap`` (two indices), ``tilt_noise`` (relative level).
 
+``ground`` chooses another family of ground spectra (:mod:`.ground`: a
+steep fall below the microseism, peaks from several directions with Love
+waves, a three-dimensional background).
+
 Self-noise regimes (what real huddles vary): ``coherence`` and
 ``ref_coherence`` set each sensor's own noise, so the reference can be as
 noisy as the SUT or noisier; with ``noise_in_counts=True`` each channel's
@@ -37,6 +41,7 @@ from obspy.core.inventory.response import (CoefficientsTypeResponseStage, Instru
 
 from ..core.orientation import unit_vector
 from ..core.response import normalization_factor, paz_velocity_response, pendulum_poles
+from .ground import ground_family
 
 DIGITIZER_GAIN = 4.0e5   # counts per volt
 NORM_FREQ = 1.0          # Hz
@@ -181,7 +186,7 @@ def simulate_pair(*, duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coher
                   timing_offset_s=0.0, clock_drift_ppm=0.0, extra_pole=None,
                   polarity_reversal=None, channel_swap=None, tilt_noise=0.0,
                   noise_in_counts=False, network="XX", station="SIM", start=UTCDateTime(2026, 1, 1),
-                  wave_seed=None):
+                  wave_seed=None, ground=None):
     """Simulate a SUT/reference pair; see the module docstring.
 
     Angles in SEED degrees, responses as (period_s, damping, gain in V per
@@ -192,20 +197,20 @@ def simulate_pair(*, duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coher
     waves' directions, weights and kinds from a generator of their own, so
     records of any length share one ground field and one noise level
     (by default they come from ``seed``'s generator between the per-bin
-    draws: one seed at two durations is two ground fields).
+    draws: one seed at two durations is two ground fields). ``ground``: a
+    family of ground spectra (:mod:`.ground`), None for the plane waves above.
     """
-    rng = np.random.default_rng(seed)
-    n = int(round(duration * fs))
+    rng, n = np.random.default_rng(seed), int(round(duration * fs))
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
-    g, expected = _plane_waves(rng, freqs, n_waves, diffuse, wave_seed)
+    g, expected = _ground(rng, freqs, n_waves, diffuse, wave_seed, ground)
     v_sut = unit_vector(sut_azimuth, sut_dip)
     ref_az, ref_dip = (0.0, 90.0, 0.0), (0.0, 0.0, -90.0)
     v_ref = unit_vector(ref_az, ref_dip)
     pole_sut, pole_ref = _extra_poles(extra_pole)
-    ground = (rng, freqs, g, expected)
-    xs = _record(*ground, v_sut, sut_response, coherence=coherence, extra=pole_sut,
+    field_ = (rng, freqs, g, expected)
+    xs = _record(*field_, v_sut, sut_response, coherence=coherence, extra=pole_sut,
                  noise_in_counts=noise_in_counts)
-    xr = _record(*ground, v_ref, [ref_response] * 3, coherence=ref_coherence, extra=pole_ref,
+    xr = _record(*field_, v_ref, [ref_response] * 3, coherence=ref_coherence, extra=pole_ref,
                  noise_in_counts=noise_in_counts)
     if tilt_noise:
         _add_tilt_noise(xs, rng, freqs, expected, v_sut, sut_response, tilt_noise)
@@ -225,14 +230,23 @@ def simulate_pair(*, duration=7200.0, fs=20.0, seed=0, coherence=0.99, ref_coher
              "effects": {"timing_offset_s": timing_offset_s, "clock_drift_ppm": clock_drift_ppm,
                          "extra_pole": extra_pole, "polarity_reversal": polarity_reversal,
                          "channel_swap": channel_swap, "tilt_noise": tilt_noise}}
-    if wave_seed is not None:
-        truth["wave_seed"] = wave_seed
+    truth.update({} if wave_seed is None else {"wave_seed": wave_seed},
+                 **({} if ground_family(ground) is None else {"ground": ground_family(ground).name}))
     return SimulatedPair(
         sut=_stream(sut_t, "10", sut_codes, **where), ref=_stream(ref_t, "00", ref_codes, **where),
         sut_inventory=_inventory("10", sut_codes, nominal_azimuth, nominal_dip, nominal_response,
                                  **where),
         ref_inventory=_inventory("00", ref_codes, ref_az, ref_dip, ref_response, **where),
         truth=truth)
+
+
+def _ground(rng, freqs, n_waves, diffuse, wave_seed, ground):
+    """The ground field and its expected cross-spectra: the default plane
+    waves (:func:`_plane_waves`) or the family ``ground`` names."""
+    family = ground_family(ground)
+    if family is None:
+        return _plane_waves(rng, freqs, n_waves, diffuse, wave_seed)
+    return family.draw(rng, freqs, wave_seed)
 
 
 def _extra_poles(extra_pole):
@@ -322,7 +336,8 @@ def _inventory(loc, codes, az, dip, resp, *, network, station, fs, start):
 def self_noise_psd(freqs, *, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
                    ref_coherence=0.9999, sut_azimuth=(0.0, 90.0, 0.0), sut_dip=(0.0, 0.0, -90.0),
                    sut_response=((30.0, 0.707, 750.0),) * 3, ref_response=(120.0, 0.707, 1500.0),
-                   n_waves=6, diffuse=0.3, noise_in_counts=False, wave_seed=None, **_ignored):
+                   n_waves=6, diffuse=0.3, noise_in_counts=False, wave_seed=None, ground=None,
+                   **_ignored):
     """The true self-noise of every channel of :func:`simulate_pair` called
     with the same arguments: ``(sut, ref)``, each (3, len(freqs)) one-sided
     velocity PSD in (m/s)^2/Hz at ``freqs`` (Hz), interpolated from the
@@ -332,7 +347,7 @@ def self_noise_psd(freqs, *, duration=7200.0, fs=20.0, seed=0, coherence=0.99,
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
     grid = np.fft.rfftfreq(n, 1.0 / fs)
-    _, expected = _plane_waves(rng, grid, n_waves, diffuse, wave_seed)
+    _, expected = _ground(rng, grid, n_waves, diffuse, wave_seed, ground)
     mean_psd = np.real(np.einsum("fii->f", expected)) / 3.0
     k = np.argmin(np.abs(grid - NOISE_REFERENCE_HZ))
 
