@@ -229,3 +229,28 @@ def test_each_change_written_is_its_closed_form(kind):
     sens = Channel.response.instrument_sensitivity
     assert sens.value == pytest.approx(abs(Channel.response.get_evalresp_response_for_frequencies(
         [sens.frequency], output="VEL")[0]), rel=1e-9)
+
+
+def test_the_one_response_evaluation_is_the_likelihoods_own_factor(ref_pole, late):
+    """The fitted response (bayescal.criticism.relative_response.model_response,
+    which result.json's curve and the criticism's relative response both
+    use) at the model's nodes is the reciprocal of the likelihood's own
+    deconvolution factor (Model.unpack), a clock offset's delay taken out
+    of it: on the reference-pole pair's and the late clock's improved
+    models (an extra pole; a timing offset)."""
+    from bayescal.core.model import is_clock
+    from bayescal.criticism.relative_response import model_response, relative_response
+    from bayescal.pair.response_curve import response_factor
+
+    for post in (ref_pole, late):
+        st = post.improved.state
+        m, th = st.model, st.full_samples[::50]
+        assert m.effects, "no improved model"
+        _, ratio = m.unpack(th)
+        for e, sl in zip(m.effects, m.effect_slices):
+            if is_clock(e) and not e.blocked:
+                ratio[:, e.rows] /= e.factor(m.nodes, th[:, sl])
+        np.testing.assert_allclose(model_response(m, th, m.nodes), 1.0 / ratio, rtol=1e-10)
+        np.testing.assert_allclose(response_factor(m, th), 1.0 / ratio, rtol=1e-10)
+        np.testing.assert_allclose(relative_response(st, m.nodes, timing=False)[::50],
+                                   1.0 / ratio, rtol=1e-10)

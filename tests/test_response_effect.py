@@ -77,7 +77,7 @@ def test_laplace_evidence_of_a_gaussian_is_exact():
     Laplace evidence is exact: with a flat prior of density ``1 / V`` over
     a box much wider than the posterior (sd ``s`` per parameter, ``k`` of
     them), the evidence gain is ``dlogL + k/2 ln(2 pi) + sum ln s - ln V``."""
-    from bayescal.criticism.search import log_evidence_gain
+    from bayescal.criticism.prior_choice import log_evidence_gain
 
     fam = ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")
     e = SutCorner([0], [fam], ["c"], FMIN)
@@ -111,3 +111,71 @@ def test_relative_response_of_a_state_is_its_factors_inverse():
     np.testing.assert_allclose(relative_response(state, F, timing=False)[0, 0], want, rtol=1e-10)
     np.testing.assert_allclose(relative_response(state, F)[0, 0],
                                want * np.exp(-2j * np.pi * F * 0.002), rtol=1e-10)
+
+
+def test_prior_conflict_is_the_prior_predictive_chi_square():
+    """Box's prior-predictive test of the stated prior (5 % on period and
+    damping) at the wide corner's point: the metadata's own coefficients
+    give chi2 0; a damping 30 % up at the same period, measured exactly
+    (zero likelihood covariance), gives ``0.3^2 / damping_tol^2 = 36`` on
+    2 degrees of freedom (the period's tolerance drops out), and half that
+    when the likelihood's covariance equals the prior's."""
+    from scipy.stats import chi2
+
+    fam = TwoPoleFamily(period_s=120.0, damping=0.707, gain=1500.0, norm_freq=1.0,
+                        gain_units="counts/(m/s)")
+    e = SutCorner([0], [fam], ["c"], FMIN)
+    zero = np.zeros((2, 2))
+    assert e.prior_conflict(e.null, zero, (0.05, 0.05))["chi2"] == pytest.approx(0.0, abs=1e-12)
+    a, b = _ab(120.0, 0.707)
+    p = np.array([1.3 * a, b])
+    got = e.prior_conflict(p, zero, (0.05, 0.05))
+    assert got["chi2"] == pytest.approx(36.0, rel=1e-9) and got["dof"] == 2
+    assert got["p_value"] == pytest.approx(chi2.sf(36.0, 2), rel=1e-9)
+    jac = np.array([[-a, a], [-2 * b, 0.0]])
+    prior = jac @ np.diag([0.05 ** 2, 0.05 ** 2]) @ jac.T
+    assert e.prior_conflict(p, prior, (0.05, 0.05))["chi2"] == pytest.approx(18.0, rel=1e-9)
+    flat = SutCorner([0], [ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")],
+                     ["c"], FMIN)
+    assert flat.prior_conflict(np.zeros(2), zero, (0.05, 0.05)) is None
+
+
+def test_a_prior_the_data_conflict_with_gives_way_to_the_wide_corner():
+    """Both pass the BIC: the stated prior's larger evidence chooses it
+    unless the wide corner's prior-data conflict test rejects that prior;
+    a wide corner failing its evidence gate is kept on a conflict only."""
+    from bayescal.criticism.prior_choice import by_evidence
+
+    def entries(conflict, corner_evidence=400.0):
+        return [{"effect": "response_parameters", "delta_bic": 900.0, "log_evidence_gain": 437.0},
+                {"effect": "sut_corner", "delta_bic": 890.0, "log_evidence_gain": corner_evidence,
+                 "prior_conflict": {"conflict": conflict}},
+                {"effect": "timing_offset", "delta_bic": 3.0}]
+
+    assert [t["effect"] for t in by_evidence(entries(False), 10.0)] == [
+        "response_parameters", "timing_offset"]
+    assert [t["effect"] for t in by_evidence(entries(True), 10.0)] == ["sut_corner", "timing_offset"]
+    assert [t["effect"] for t in by_evidence(entries(False, 2.0), 10.0)] == [
+        "response_parameters", "timing_offset"]
+    assert [t["effect"] for t in by_evidence(entries(True, 2.0), 10.0)] == [
+        "sut_corner", "timing_offset"]
+
+
+def test_sut_response_is_the_pendulum_of_the_coordinates():
+    """What the corrected StationXML writes: on two-pole metadata at the
+    coordinates of a 40 s, 0.3 pendulum, that pendulum (period, damping);
+    on flat metadata at a 120 s, 0.707 one, a stage with two zeros at the
+    origin and the poles ``-h w0 +- i w0 sqrt(1 - h^2)``."""
+    fam = TwoPoleFamily(period_s=120.0, damping=0.707, gain=1500.0, norm_freq=1.0,
+                        gain_units="counts/(m/s)")
+    e = SutCorner([0], [fam], ["c"], FMIN)
+    got = e.sut_response(np.array(_ab(40.0, 0.3)), 0)
+    assert got["pendulum"] == pytest.approx((40.0, 0.3)) and not got["poles"]
+    flat = SutCorner([0], [ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")],
+                     ["c"], FMIN)
+    got = flat.sut_response(np.array(_ab(120.0, 0.707)), 0)
+    w0, h = 2 * np.pi / 120.0, 0.707
+    want = -h * w0 + 1j * w0 * np.sqrt(1 - h * h)
+    assert got["pendulum"] is None and np.allclose(got["zeros"], 0.0)
+    np.testing.assert_allclose(sorted(got["poles"], key=np.imag), [np.conj(want), want],
+                               rtol=1e-9)

@@ -4,6 +4,8 @@
                     each a nested extension of the likelihood
 * :mod:`.locate`    where the misfit is: per band and channel, with p-values
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
+* :mod:`.prior_choice`  whether to leave the sensor's stated prior for the wide
+                    corner: the prior-data conflict test, then the evidence
 * :mod:`.naming`    which kept effects are named: pruning, a timing offset's
                     consistency across the band, the posterior's exclusion of
                     each effect's absence

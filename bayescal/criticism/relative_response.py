@@ -14,15 +14,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.model import is_clock
 from ..core.response import to_physical
-
-#: Effects that are a time correction of the data rather than response.
-TIME_EFFECTS = ("timing_offset", "clock_drift")
 
 
 def _block_factor(block, r, freqs):
     """(W, F) ``H_nom / H`` of one channel block at ``freqs`` for its
-    response columns ``r`` (W, n)."""
+    response columns ``r`` (W, n): the families' functions the likelihood's
+    :meth:`~bayescal.core.model.likelihood.Model.unpack` evaluates at its
+    nodes."""
     w = r.shape[0]
     if block.free == "gain":
         return np.broadcast_to(1.0 / block.family.gain_only_ratio(np.exp(r[:, 0])),
@@ -34,9 +34,37 @@ def _block_factor(block, r, freqs):
     return np.ones((w, freqs.size), dtype=complex)
 
 
+def model_response(model, theta, freqs, timing=False):
+    """``H / H_meta`` (W, n_u, F) of ``model``'s SUT channels at the
+    parameters ``theta`` (W, ndim) and frequencies ``freqs`` (Hz): the
+    reciprocal of the likelihood's deconvolution factor (at the model's
+    nodes, :meth:`~bayescal.core.model.likelihood.Model.unpack`'s ratio),
+    each channel block's response times every effect's factor, with the
+    clock effects (:func:`bayescal.core.model.effect.is_clock`) left out,
+    or as the delay of their offset (a drift's at mid-record) where
+    ``timing``. The one evaluation of the fitted response: result.json's
+    ``response_curve`` (:mod:`bayescal.pair.response_curve`) is this at the
+    model's nodes."""
+    f = np.atleast_1d(np.asarray(freqs, float))
+    theta = np.atleast_2d(theta)
+    inverse = np.stack([_block_factor(b, theta[:, sr], f)
+                        for b, (_, sr) in zip(model.blocks, model.slices)], axis=1)
+    inverse = np.array(inverse, dtype=complex)
+    for e, sl in zip(getattr(model, "effects", ()), getattr(model, "effect_slices", ())):
+        if is_clock(e):
+            if timing:
+                tau = theta[:, sl][:, :1, None]
+                inverse[:, e.rows] *= np.exp(2j * np.pi * f[None, None, :] * tau)
+            continue
+        if not getattr(e, "blocked", False):
+            inverse[:, e.rows] *= e.factor(f, theta[:, sl])
+    return 1.0 / inverse
+
+
 def relative_response(state, freqs, *, draws=None, timing=True):
     """Each SUT channel's response under the model of ``state``, relative
-    to its metadata response: ``H(f) / H_meta(f)`` per posterior draw.
+    to its metadata response: ``H(f) / H_meta(f)`` per posterior draw
+    (:func:`model_response`).
 
     Parameters
     ----------
@@ -61,21 +89,8 @@ def relative_response(state, freqs, *, draws=None, timing=True):
         Times the SUT's metadata response over the reference's, it is the
         SUT's response over the reference's metadata (counts over counts).
     """
-    model = state.model
-    f = np.atleast_1d(np.asarray(freqs, float))
     theta = np.atleast_2d(state.full_samples if state.full_samples is not None
                           else state.theta_ls)
     if draws is not None and theta.shape[0] > draws:
         theta = theta[np.linspace(0, theta.shape[0] - 1, draws).astype(int)]
-    inverse = np.stack([_block_factor(b, theta[:, sr], f)
-                        for b, (_, sr) in zip(model.blocks, model.slices)], axis=1)
-    inverse = np.array(inverse, dtype=complex)
-    for e, sl in zip(getattr(model, "effects", ()), getattr(model, "effect_slices", ())):
-        if e.name in TIME_EFFECTS:
-            if timing:
-                tau = theta[:, sl][:, :1, None]
-                inverse[:, e.rows] *= np.exp(2j * np.pi * f[None, None, :] * tau)
-            continue
-        if not getattr(e, "blocked", False):
-            inverse[:, e.rows] *= e.factor(f, theta[:, sl])
-    return 1.0 / inverse
+    return model_response(state.model, theta, freqs, timing=timing)

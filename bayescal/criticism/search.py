@@ -15,6 +15,7 @@ from ..core.threads import single_threaded_blas
 from ..core.orientation import Fixed
 from ..core.response import TwoPoleFamily
 from .locate import overdispersion
+from .prior_choice import BY_EVIDENCE, by_evidence, log_evidence_gain, prior_conflict
 
 
 #: An effect is kept when it improves the BIC by more than this ("very
@@ -23,17 +24,6 @@ BIC_KEEP = 10.0
 MAX_EFFECTS = 3
 #: Least-squares starts (best grid maxima) for effects with a multimodal likelihood.
 N_STARTS = 3
-#: Alternatives the evidence chooses between when both pass :data:`BIC_KEEP`
-#: (the same parameters under the sensor's stated prior and under a wide
-#: one: the BIC, blind to priors, would always take the wider):
-#: :func:`log_evidence_gain`.
-BY_EVIDENCE = ("response_parameters", "sut_corner")
-#: Effects under a wide prior, kept only when their log evidence gain
-#: (:func:`log_evidence_gain`) passes ``BIC_KEEP / 2`` as well (``2 ln B >
-#: 10``, the same "very strong" on Kass and Raftery's scale): the BIC charges
-#: the same for a parameter whatever the prior allows it, the evidence
-#: charges for the prior's width.
-WIDE_PRIOR = ("sut_corner",)
 #: |t| of the per-segment timing trend above which clock drift is a candidate
 #: (a cheap screen; the BIC decides).
 DRIFT_T = 3.0
@@ -75,9 +65,14 @@ def _candidates(model, free, current, drift=None):
                                          model.priors)
         out.append(("response_parameters", e, e.grid(steps)))
     held = [i for i, b in enumerate(model.blocks) if b.free != "all" and b.family is not None]
-    if held:
-        e = catalogue.SutCorner(held, [model.blocks[i].family for i in held],
-                                [model.blocks[i].channel_id for i in held], fmin)
+    fitted = [i for i, b in enumerate(model.blocks)
+              if b.free == "all" and isinstance(b.family, TwoPoleFamily)]
+    if held or fitted:
+        rows = held or fitted
+        e = catalogue.SutCorner(rows, [model.blocks[i].family for i in rows],
+                                [model.blocks[i].channel_id for i in rows], fmin)
+        #: in place of blocks that fit the pendulum under the stated prior
+        e.releases = not held
         out.append(("sut_corner", e, e.grid()))
     if free == "none":
         for i, b in enumerate(model.blocks):
@@ -117,23 +112,39 @@ def effect_key(effect):
     return effect.name
 
 
-def with_effects(model, effects, per_block=False):
-    """``model`` with ``effects`` and its noise model. Once a time-dependent
-    effect is in, the likelihood is per time block (and stays so, so that the
-    models a search compares use the same data)."""
+def with_effects(model, effects, per_block=False, blocks=None):
+    """``model`` with ``effects`` (and channel ``blocks``, its own by
+    default) and its noise model. Once a time-dependent effect is in, the
+    likelihood is per time block (and stays so, so that the models a search
+    compares use the same data)."""
     per_block = per_block or model.per_block or any(e.blocked for e in effects)
+    blocks = model.blocks if blocks is None else blocks
     if isinstance(model, EIVModel) and not per_block:
-        m = EIVModel(model.spectra, model.ref_vectors, model.blocks, model.priors,
+        m = EIVModel(model.spectra, model.ref_vectors, blocks, model.priors,
                      ref_noise=model.ref_noise, effects=effects,
                      known_noise=getattr(model, "known_noise", None))
     else:   # the per-block likelihood exists for the base model only
-        m = Model(model.spectra, model.ref_vectors, model.blocks, model.priors, effects=effects,
+        m = Model(model.spectra, model.ref_vectors, blocks, model.priors, effects=effects,
                   per_block=per_block)
         if isinstance(model.noise, EIVNoise):   # no common noise model: estimated by the caller
             return m
     if model.noise is not None:
         m.adopt_noise(model.noise)
     return m
+
+
+def released(model, theta, rows):
+    """``model`` with its channel blocks ``rows`` holding their pendulum
+    (gain only: a :class:`.effects.SutCorner` on them takes it up) and
+    ``theta`` carried over (orientation, log gain and effects kept).
+    Returns (model, theta)."""
+    theta = np.asarray(theta, float)
+    blocks = [replace(b, free="gain") if i in rows else b for i, b in enumerate(model.blocks)]
+    pieces = []
+    for i, (so, sr) in enumerate(model.slices):
+        pieces += [theta[so], theta[sr][-1:] if i in rows else theta[sr]]
+    m = with_effects(model, model.effects, blocks=blocks)
+    return m, np.concatenate(pieces + [theta[sl] for sl in model.effect_slices])
 
 
 def theta_base(model, theta):
@@ -268,11 +279,18 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
     cur.adopt_noise(ext_model.noise)
     # start from the current optimum and from the extended optimum's shared
     # parameters (the plug-in noise moves the optimum), keep the better
-    ext_params = _effect_params(ext_model, ext_theta)
-    shared = np.concatenate([theta_base(ext_model, ext_theta)] + [
-        ext_params.get(effect_key(e), np.asarray(cur_theta)[sl])
-        for e, sl in zip(cur.effects, cur.effect_slices)])
-    ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
+    if [b.free for b in ext_model.blocks] != [b.free for b in cur.blocks]:
+        # in place of blocks fitted under the stated prior (:func:`released`):
+        # the current model at its own point, under that prior (re-optimised
+        # without it, as least squares here does, it would reach the
+        # extended model's optimum)
+        ll_cur = float(cur.log_likelihood(np.asarray(cur_theta, float)[None])[0])
+    else:
+        ext_params = _effect_params(ext_model, ext_theta)
+        shared = np.concatenate([theta_base(ext_model, ext_theta)] + [
+            ext_params.get(effect_key(e), np.asarray(cur_theta)[sl])
+            for e, sl in zip(cur.effects, cur.effect_slices)])
+        ll_cur = _best_loglik(cur, (np.asarray(cur_theta, float), shared))
     ll_ext = float(ext_model.log_likelihood(ext_theta)[0])
     # one sample size for every comparison: the band-summed residual's
     # entries (time blocks split the same data, they add none)
@@ -281,41 +299,6 @@ def score(cur_model, cur_theta, ext_model, ext_theta):
     k = ext_model.ndim - cur_model.ndim
     return {"delta_loglik": ll_ext - ll_cur, "delta_bic": 2 * (ll_ext - ll_cur) - k * np.log(n),
             "n_data": n, "n_extra_params": k}
-
-
-def log_evidence_gain(fit, score_entry, new_index):
-    """The Laplace approximation to the log evidence a candidate adds to
-    the current model: its log-likelihood gain (``score_entry``, under the
-    candidate's noise model), its prior's log density at the least-squares
-    point and the log volume of its posterior, ``k/2 ln 2 pi + 1/2 ln det
-    C`` (``C`` the candidate's parameters' Laplace covariance). The Occam
-    factor, prior density times posterior volume, holds each prior's width:
-    a wide prior pays for the values it allows. ``fit``: the candidate's
-    (model, theta, cov); its effect at ``new_index`` needs
-    ``log_prior_density``."""
-    model, theta, cov = fit
-    effect, sl = model.effects[new_index], model.effect_slices[new_index]
-    c = np.atleast_2d(cov[sl, sl])
-    sign, logdet = np.linalg.slogdet(c)
-    if sign <= 0:
-        return -np.inf
-    lp = float(effect.log_prior_density(np.asarray(theta)[sl][None])[0])
-    return float(score_entry["delta_loglik"] + lp + 0.5 * c.shape[0] * np.log(2 * np.pi)
-                 + 0.5 * logdet)
-
-
-def _by_evidence(good):
-    """``good`` (tried candidates with a score) less the effects of
-    :data:`WIDE_PRIOR` whose evidence does not pass, and the alternatives of
-    :data:`BY_EVIDENCE` that the evidence does not prefer when more than
-    one of them passes :data:`BIC_KEEP`."""
-    good = [t for t in good if t["effect"] not in WIDE_PRIOR
-            or 2.0 * t["log_evidence_gain"] > BIC_KEEP]
-    alt = [t for t in good if t["effect"] in BY_EVIDENCE and t["delta_bic"] > BIC_KEEP]
-    if len(alt) < 2:
-        return good
-    best = max(alt, key=lambda t: t["log_evidence_gain"])
-    return [t for t in good if t["effect"] not in BY_EVIDENCE or t is best]
 
 
 #: What a pair of recordings can never tell a named effect from (its
@@ -406,7 +389,9 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
                 if tau is not None:       # start at the offset found (no grid over it)
                     grid = np.array([[tau, grid[0, 1]]])
             effects.append(effect)
-            fit = fit_candidate(cur, th, effects, grid, len(effects) - 1)
+            on = released(cur, th, effect.rows) if getattr(effect, "releases", False) \
+                else (cur, th)
+            fit = fit_candidate(*on, effects, grid, len(effects) - 1)
             if fit is None:
                 tried.append({"effect": key, "delta_bic": None,
                           "note": "left the prior support or not identifiable in the band"})
@@ -414,11 +399,14 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
             s = score(cur, th, fit[0], fit[1])
             if key in BY_EVIDENCE:
                 s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
+            if key == "sut_corner":
+                s.update(prior_conflict(cur.priors, fit, len(effects) - 1))
             tried.append({"effect": key, **s, "fit": fit,
-                          **({"first": True} if getattr(effect, "first", False) else {})})
+                          **({"first": True} if getattr(effect, "first", False) else {}),
+                          **({"releases": True} if getattr(effect, "releases", False) else {})})
             if log:
                 log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
-        good = _by_evidence([t for t in tried if t.get("delta_bic") is not None])
+        good = by_evidence([t for t in tried if t.get("delta_bic") is not None], BIC_KEEP)
         # an effect marked ``first`` (the SUT's corner on metadata that give
         # none: a term of the response family the base model lacks) is kept
         # before the others whenever it passes; a delay and poles near the

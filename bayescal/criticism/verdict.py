@@ -252,10 +252,13 @@ def _budget(budget, budget_s):
 
 
 def _effect_entry(e):
-    """A named effect as the summary lists it."""
+    """A named effect as the summary lists it: with what the recordings
+    cannot tell it from and the evidence that says so, where the diagnosis
+    found any (:func:`bayescal.criticism.search.indistinguishable`)."""
     return {"name": e["name"], "channels": e["channels"], "size": _effect_sizes(e),
             "explanation": e["explanation"], "advice": words.advice(e),
-            **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {})}
+            **({"set_by_prior": e["set_by_prior"]} if e.get("set_by_prior") else {}),
+            **{k: e[k] for k in ("indistinguishable_from", "evidence") if e.get(k)}}
 
 
 def check_misfit(state):

@@ -15,11 +15,14 @@ appears here as a zero of the SUT's (a pair never tells them apart). The
 denominator is the reference channel whose nominal axis is closest to the
 SUT channel's (its ``reference``).
 
-The curve is the model's own: the likelihood's deconvolution factor
-``H_nom(f) / H_fit(f)`` at its interpolation nodes
-(:meth:`bayescal.core.model.likelihood.Model.unpack`: the channel blocks'
-response families and free parameters times every effect's factor), so an
-effect added to the model enters the curve as it enters the likelihood. It
+The curve is the model's own: the reciprocal of the likelihood's
+deconvolution factor ``H_nom(f) / H_fit(f)`` at its interpolation nodes
+(the channel blocks' response families and free parameters times every
+effect's factor, as :meth:`bayescal.core.model.likelihood.Model.unpack`
+forms it), evaluated by
+:func:`bayescal.criticism.relative_response.model_response`, the one
+evaluation of the fitted response, so an effect added to the model enters
+the curve as it enters the likelihood. It
 is evaluated at about :data:`POINTS_PER_DECADE` of those log-spaced nodes
 over the band and for at most :data:`MAX_DRAWS` posterior draws: medians
 and equal-tailed 95 % bands of the amplitude and of the phase (radians,
@@ -61,17 +64,13 @@ def grid_indices(nodes, per_decade=POINTS_PER_DECADE):
 def response_factor(model, theta, index=None):
     """``H_fit(f) / H_nom(f)`` of the SUT channels, (W, n_u, Q) at the
     model's nodes ``model.nodes[index]``: the reciprocal of the likelihood's
-    deconvolution factor (:meth:`~bayescal.core.model.likelihood.Model.unpack`)
-    with the clock effects' factors taken out
-    (:func:`bayescal.core.model.effect.is_clock`; the
-    time-dependent ones are not in it)."""
-    theta = np.atleast_2d(theta)
-    _, ratio = model.unpack(theta)
-    for e, sl in zip(model.effects, model.effect_slices):
-        if is_clock(e) and not e.blocked:
-            ratio[:, e.rows] /= e.factor(model.nodes, theta[:, sl])
-    index = slice(None) if index is None else index
-    return 1.0 / ratio[:, :, index]
+    deconvolution factor with the clock effects left out
+    (:func:`bayescal.criticism.relative_response.model_response`, the one
+    evaluation of the fitted response)."""
+    from ..criticism.relative_response import model_response
+
+    nodes = model.nodes if index is None else model.nodes[index]
+    return model_response(model, np.atleast_2d(theta), nodes, timing=False)
 
 
 def partners(sut_vectors, ref_vectors, ref_ids):

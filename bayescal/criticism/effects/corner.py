@@ -23,9 +23,26 @@ Uniform over the box ``|a| <= A_MAX``, ``|b| <= B_MAX`` (a corner up to
 ``sqrt(B_MAX)`` times the band's foot, any damping up to about 2 there),
 stretched to hold twice the metadata's own coefficients: wide beside the
 sensor's stated tolerance (:class:`.response_parameters.ResponseParameters`,
-5 % by default). The search offers both where both apply and keeps the one
-the evidence prefers (the Laplace evidence, whose Occam factor holds each
-prior's width: :func:`bayescal.criticism.search.log_evidence`). The box
+5 % by default). The search offers both where both apply. Whether to leave
+the stated prior is decided by the data: where they conflict with it
+(:meth:`SutCorner.prior_conflict`, Box's prior-predictive test at the wide
+corner's least-squares point, level
+:data:`bayescal.criticism.prior_choice.CONFLICT_P`) the wide corner is kept;
+otherwise the one the evidence prefers (the Laplace evidence, whose Occam
+factor holds each prior's width:
+:func:`bayescal.criticism.prior_choice.log_evidence_gain`). The evidence alone
+keeps a stated prior the data put in its tail: it rewards the narrow prior
+for the volume it spares, and the box's Occam factor, ``-ln(4 A_MAX
+B_MAX) = -9.7`` per channel, is large.
+
+The box is the wide prior by choice over one log-uniform in period and
+damping (whose Occam factor over, say, 1-1000 s and damping 0.05-2 is
+about 4 per channel): flat metadata's null (no corner, ``a = b = 0``) is
+an interior point of the box and lies outside any prior on a period; and
+the box's cost matters only where the data do not conflict with the
+stated prior, or for the wide corner's own evidence gate against no
+effect (:data:`bayescal.criticism.prior_choice.WIDE_PRIOR`), which a conflict
+passes as well. The box
 reaches slightly negative coefficients so that a null on its edge (flat
 metadata) is an interior point for least squares; a negative ``b`` has no
 period, and its period is reported as undefined.
@@ -58,6 +75,13 @@ class SutCorner(CriticismEffect):
     normalisation frequency is kept (the gain, free or held, carries it)."""
 
     name = "sut_corner"
+    #: In place of channel blocks that fit the pendulum under the stated
+    #: prior (``--fit-response all``): the search holds those blocks at their
+    #: metadata's pendulum (gain only) and this effect takes it up under its
+    #: wide prior (:func:`bayescal.criticism.search.released`), kept only
+    #: where the data conflict with the stated prior
+    #: (:mod:`bayescal.criticism.prior_choice`).
+    releases = False
     #: Least squares starts from several grid maxima: under the plug-in noise
     #: model of a start far from the corner the long periods weigh little,
     #: and one start can end on a ridge short of the optimum.
@@ -121,6 +145,38 @@ class SutCorner(CriticismEffect):
         """The normalised log prior density at ``p`` (the box's)."""
         return self.log_prior(p)
 
+    def prior_conflict(self, p, cov, tolerances):
+        """Whether the data conflict with the sensor's stated prior (log-normal
+        period and damping around the metadata's with relative widths
+        ``tolerances``): the prior-predictive test of Box (1980). At the
+        wide-prior least-squares point ``p`` (n_params,), nearly the
+        likelihood's maximum, with its covariance ``cov`` (the effect's
+        block), the distance of ``p`` from the metadata's coefficients under
+        the sum of the likelihood's covariance and the stated prior's
+        (carried linearly to ``(a, b)``: ``da = a (d ln h - d ln T)``,
+        ``db = -2 b d ln T``) is chi-square with one degree of freedom per
+        coefficient of the channels whose metadata give a pendulum when the
+        prior holds the truth. Returns ``{"chi2", "dof", "p_value"}`` (None
+        without such channels): a small p-value is a prior the data put in
+        its tail, whatever the Occam factor of the wider prior costs."""
+        from scipy.stats import chi2 as chi2_dist
+
+        pt, dt = tolerances
+        two_pole = [k for k, flat in enumerate(self.flat) if not flat]
+        if not two_pole:
+            return None
+        idx = np.ravel([[2 * k, 2 * k + 1] for k in two_pole])
+        d = (np.asarray(p, float) - self.null)[idx]
+        prior = np.zeros((idx.size, idx.size))
+        for j, k in enumerate(two_pole):
+            a, b = self.nominal_ab[k]
+            jac = np.array([[-a, a], [-2.0 * b, 0.0]])              # d(a, b) / d(ln T, ln h)
+            prior[2 * j:2 * j + 2, 2 * j:2 * j + 2] = jac @ np.diag([pt ** 2, dt ** 2]) @ jac.T
+        total = np.asarray(cov, float)[np.ix_(idx, idx)] + prior
+        chi2 = float(d @ np.linalg.solve(total, d))
+        return {"chi2": chi2, "dof": int(idx.size),
+                "p_value": float(chi2_dist.sf(chi2, idx.size))}
+
     def physical(self, p):
         """Per channel: ``damping_over_period`` (1/s, what a band above the
         corner fixes), ``corner_hz`` (the natural frequency, 0 for no
@@ -136,6 +192,34 @@ class SutCorner(CriticismEffect):
                 out[f"period_s:{cid}"] = 2 * np.pi / w0
                 out[f"damping:{cid}"] = a * self.w1 / (2 * w0)
         return out
+
+    def sut_response(self, p, row):
+        """The change of channel ``row``'s response at parameters ``p``
+        (the effect's, medians), as :func:`bayescal.io.relative_response.change`
+        takes it (a dict): on two-pole metadata with a corner (``b > 0``)
+        the pendulum ``(period, damping)`` replacing the metadata's; else
+        (``flat`` metadata, or no real period) a stage of its own, ``H /
+        H_meta = D_meta(s) / D(s)``: zeros at the metadata's pendulum poles
+        (two at the origin for ``flat``) and poles at the fitted pendulum's
+        (rad/s), unit amplitude at the normalisation frequency."""
+        k = self.rows.index(row)
+        a, b = (float(x) for x in np.asarray(p, float)[2 * k:2 * k + 2])
+        fam, cid = self.families[k], self.channel_ids[k]
+        phys = {n: float(v[0]) for n, v in self.physical(np.asarray(p, float)[None]).items()}
+        label = (f"the SUT's pendulum as the data see it: damping/period "
+                 f"{phys['damping_over_period:' + cid]:.4g} 1/s")
+        if not self.flat[k] and b > 0 and a > 0:
+            period, damping = phys[f"period_s:{cid}"], phys[f"damping:{cid}"]
+            return {"zeros": [], "poles": [], "norm_freq": float(fam.norm_freq),
+                    "gain_factor": 1.0, "pendulum": (period, damping),
+                    "label": label + f", natural period {period:.5g} s, damping {damping:.4g}"}
+        an, bn = self.nominal_ab[k]
+        zeros = np.roots([1.0, an * self.w1, bn * self.w1 ** 2])
+        poles = np.roots([1.0, a * self.w1, b * self.w1 ** 2])
+        return {"zeros": [complex(z) for z in zeros], "poles": [complex(q) for q in poles],
+                "norm_freq": float(fam.norm_freq), "gain_factor": 1.0, "pendulum": None,
+                "label": label + (f", corner {phys['corner_hz:' + cid]:.4g} Hz" if b > 0 else "")
+                + " (two poles and two zeros relative to its metadata)"}
 
     def nominal(self):
         """The metadata values, keyed as :meth:`physical` (no period or
