@@ -41,3 +41,8 @@ def test_fitted_pendulum_under_a_wrong_prior_gives_way_to_the_wide_corner(wrong_
         lo, hi = named[0]["size"][f"damping_over_period:{tr.id}"]["ci95"]
         assert lo <= TRUTH[1] / TRUTH[0] <= hi, (tr.id, lo, hi)
         assert hi < 0.707 / 120.0
+    # the channels table holds no period or damping at the metadata's values
+    # as if fitted: the corner's entry carries them
+    for ch in res.channels.values():
+        assert "period_s" not in ch.get("response", {}) and "damping" not in ch.get("response", {})
+

@@ -366,6 +366,12 @@ def _improved_posterior(base, model, th, cov, *, eiv, th0, sig, free, seed, mcmc
         base.meta.to_dict(), reference_noise=dict(reference_noise_meta(eiv, th0),
                                         chosen_by="diagnose",
                                         reason=sig["reference_noise"]["explanation"]))
+    if free == "all" and all(b.free != "all" for b in model.blocks):
+        # the corner under its wide prior took the place of the fitted
+        # pendulums (search.released): the blocks hold them at the metadata's
+        # values, the corner effect carries what the data say of them
+        free = "gain"
+        meta = dict(meta, free_response="gain")
     final = posterior_of(model, th, cov, meta, base.not_estimable, free, seed=seed,
                          mcmc=mcmc, progress=progress, **sample_kw)
     if mcmc and not final.convergence.converged:
