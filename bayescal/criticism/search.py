@@ -29,6 +29,11 @@ N_STARTS = 3
 DRIFT_T = 3.0
 
 
+#: The SUT's pendulum under the sensor's stated prior or under a wide one:
+#: one of them at most in a model (each replaces the metadata's pendulum).
+PENDULUM_ALTERNATIVES = ("response_parameters", "sut_corner")
+
+
 def _candidates(model, free, current, drift=None):
     """(key, effect, grid of starting parameters) for every applicable
     catalogue entry not already in ``current`` (list of effects)."""
@@ -78,6 +83,9 @@ def _candidates(model, free, current, drift=None):
         for i, b in enumerate(model.blocks):
             out.append((f"gain_error:{i}", catalogue.GainError(i, b.channel_id),
                         np.linspace(-0.6, 0.6, 61)[:, None]))
+    if have & set(PENDULUM_ALTERNATIVES):
+        # one pendulum per channel: the stated prior's or the wide corner's
+        have |= set(PENDULUM_ALTERNATIVES)
     return [c for c in out if c[0] not in have]
 
 
@@ -344,9 +352,13 @@ def indistinguishable(model, theta, index):
     if th_alt is None or not np.isfinite(alt.log_prior(th_alt)[0]):
         return {}
     d_bic = 2.0 * (float(model.log_likelihood(np.asarray(theta, float))[0]) - ll_alt)
+    where = "SUT" if which == "sut" else "reference"
     if d_bic > BIC_KEEP:
-        return {"evidence": f"the delay is preferred over a pole on the "
-                            f"{'SUT' if which == 'sut' else 'reference'} (BIC {d_bic:.3g})"}
+        return {"evidence": f"the delay is preferred over a pole on the {where} "
+                            f"(BIC {d_bic:.3g})"}
+    if d_bic < -BIC_KEEP:
+        return {"evidence": f"a pole on the {where} is preferred over the delay "
+                            f"(BIC {-d_bic:.3g})"}
     corner = 1.0 / max(float(th_alt[model.effect_slices[index]][0]), 1e-12)
     return {"indistinguishable_from": [
         f"a pole near {corner:.3g} Hz on the {'SUT' if which == 'sut' else 'reference'} "
