@@ -254,3 +254,24 @@ def test_the_one_response_evaluation_is_the_likelihoods_own_factor(ref_pole, lat
         np.testing.assert_allclose(response_factor(m, th), 1.0 / ratio, rtol=1e-10)
         np.testing.assert_allclose(relative_response(st, m.nodes, timing=False)[::50],
                                    1.0 / ratio, rtol=1e-10)
+
+
+def test_stationxml_from_a_result_read_back_says_what_it_could_not_write(ref_pole, tmp_path):
+    """A result read back from its files holds no model: the corrected
+    StationXML written from it keeps the SUT's metadata response and its
+    comment says the improved model's response effects are not written
+    (it does not claim a response it did not write)."""
+    from obspy import read_inventory
+
+    from bayescal.io.result import write_corrected_result
+
+    write_results(ref_pole, str(tmp_path / "fit"))
+    loaded = bayescal.load_posterior(str(tmp_path / "fit"))
+    write_corrected_result(ref_pole.state.sut_inventory, loaded, str(tmp_path / "again.xml"))
+    again = read_inventory(str(tmp_path / "again.xml"))
+    for cid in ref_pole.response_curve["channels"]:
+        net, sta, loc, cha = cid.split(".")
+        ch = again.select(network=net, station=sta, location=loc, channel=cha)[0][0][0]
+        said = [c.value for c in ch.comments if "relative to the reference's metadata" in c.value]
+        assert said and "not written: the improved model's response effects" in said[0]
+        assert "it carries" not in said[0]

@@ -91,7 +91,7 @@ def effect_changes(state):
         own = getattr(e, "sut_response", None)
         fn = (lambda eff, q, row: own(q, row)) if own else _TRANSLATIONS.get(e.name)
         if fn is None:
-            missing.append(e.name)
+            missing.append(f"{e.name} (no pole-zero form)")
             continue
         for row in e.rows:
             out.setdefault(ids[row], []).append(fn(e, p, row))
@@ -155,7 +155,7 @@ def relative_comment(changes, reference, not_written=(), clock_text=None):
     if changes:
         text += "; it carries " + "; ".join(c["label"] for c in changes)
     if not_written:
-        text += (f"; not written (no pole-zero form): {', '.join(not_written)}")
+        text += f"; not written: {', '.join(not_written)}"
     text += "."
     if clock_text:
         text += f" Not response: {clock_text}."

@@ -189,7 +189,11 @@ def corrected_inventory(inventory, posterior, criticism=None):
     from .relative_response import effect_changes
 
     inv = copy.deepcopy(inventory)
-    changes, missing = effect_changes(headline_state(posterior)) if criticism else ({}, [])
+    state = headline_state(posterior) if criticism else None
+    changes, missing = effect_changes(state) if state is not None else ({}, [])
+    if criticism and state is None and (posterior.meta.headline or {}).get("model") == "improved":
+        missing = ["the improved model's response effects (a result read back from its files "
+                   "holds no model to evaluate them: write the StationXML where it is fitted)"]
     summary = posterior.summary()
     time = UTCDateTime(posterior.meta.starttime) if posterior.meta.starttime else None
     free = posterior.meta.free_response or "none"
