@@ -15,7 +15,7 @@ comparing; the unsmoothed comparison is printed beside it.
 
 ``R_fit`` is the improved model's SUT response over the reference's
 metadata (posterior median of
-:func:`bayescal.criticism.relative_response.relative_response` times the
+:func:`bayescal.criticism.fitted_response.relative_response` times the
 SUT's metadata response over the reference's), with the example's
 nominal two-pole metadata for the SUT (``examples/real_huddle.py``) and
 with ``flat`` metadata, on the default band. The proof of issue 40: at

@@ -116,17 +116,16 @@ def test_summary_is_plain_json_and_a_vertical_has_no_azimuth(sim_pair):
 def test_a_failed_model_check_is_a_python_warning():
     """A SUT whose natural period is 20 s where its metadata say 30 s, fitted
     with its gains only: the model check fails, and a script hears of it,
-    with the criticism's verdict (the period and damping named). Under the
-    sensor's 5 % prior a 33 % error lies in the prior's tail: the period and
-    the damping apart are set by the prior (said, with the tolerance to
-    widen), damping/period is measured: 0.707 / 20 inside its interval."""
+    with the criticism's verdict. A 33 % error conflicts with the sensor's
+    5 % prior, so the SUT's long-period corner under its wide prior is
+    named, and damping/period is measured: 0.707 / 20 inside its interval."""
     from bayescal import calibrate
     from bayescal.errors import ModelMisfitWarning
     from bayescal.simulate.pair import simulate_pair
 
     sim = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999,
                         sut_response=((20.0, 0.707, 750.0),) * 3)
-    with pytest.warns(ModelMisfitWarning, match="MODEL DOES NOT FIT.*period and damping"):
+    with pytest.warns(ModelMisfitWarning, match="MODEL DOES NOT FIT.*long-period corner"):
         post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
                          sut_xml=sim.sut_inventory,
                          band=(0.02, 1.0), progress=False, min_ess=200, n_tau=20)
@@ -136,8 +135,9 @@ def test_a_failed_model_check_is_a_python_warning():
     for tr in sim.sut:
         lo, hi = effect["size"][f"damping_over_period:{tr.id}"]["ci95"]
         assert lo <= 0.707 / 20.0 <= hi
-        assert "tail" in effect["set_by_prior"][f"{tr.id}:period_s"]["reason"]
-    assert "--period-tolerance" in effect["explanation"]
+        lo, hi = effect["size"][f"period_s:{tr.id}"]["ci95"]     # the band reaches the corner
+        assert lo <= 20.0 <= hi
+    assert effect["name"] == "sut_corner" and "set_by_prior" not in effect
     clean = simulate_pair(duration=3600.0, fs=10.0, seed=3, coherence=0.999)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelMisfitWarning)

@@ -232,14 +232,14 @@ def test_each_change_written_is_its_closed_form(kind):
 
 
 def test_the_one_response_evaluation_is_the_likelihoods_own_factor(ref_pole, late):
-    """The fitted response (bayescal.criticism.relative_response.model_response,
+    """The fitted response (bayescal.criticism.fitted_response.model_response,
     which result.json's curve and the criticism's relative response both
     use) at the model's nodes is the reciprocal of the likelihood's own
     deconvolution factor (Model.unpack), a clock offset's delay taken out
     of it: on the reference-pole pair's and the late clock's improved
     models (an extra pole; a timing offset)."""
     from bayescal.core.model import is_clock
-    from bayescal.criticism.relative_response import model_response, relative_response
+    from bayescal.criticism.fitted_response import model_response, relative_response
     from bayescal.pair.response_curve import response_factor
 
     for post in (ref_pole, late):

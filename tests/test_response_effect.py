@@ -95,7 +95,7 @@ def test_relative_response_of_a_state_is_its_factors_inverse():
     times that pendulum's high-pass ``s^2 / D(s)``, unit amplitude at 1 Hz;
     a timing offset of 2 ms is its delay when asked for, left out when not."""
     from bayescal.criticism import effects as catalogue
-    from bayescal.criticism.relative_response import relative_response
+    from bayescal.criticism.fitted_response import relative_response
 
     fam = ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")
     corner = SutCorner([0], [fam], ["c"], FMIN)

@@ -18,7 +18,7 @@
                     narrower band only where it helps
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes
 * :mod:`.tilt`      tilt noise as a nested extension of a noise-spectrum model
-* :mod:`.relative_response`  each SUT channel's response as a fit sees it,
+* :mod:`.fitted_response`    each SUT channel's response as a fit sees it,
                     relative to its metadata, at any frequency
 * :mod:`.reference_noise`  whether the reference's own self-noise is part of the
                     mismatch (a noise-model term, tested before any physics is named)
@@ -39,7 +39,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "diagnosis": ["EQUAL_SHAPE_CAVEAT", "REFERENCE_SHAPE_CAVEAT", "misfit_change",
                   "reference_shape_caveat"],
     "naming": ["weak_effects"],
-    "relative_response": ["relative_response"],
+    "fitted_response": ["relative_response", "model_response"],
     "locate": ["band_coherence", "block_timing"],
     "search": ["held_orientation_loglik", "with_effects"],
     "wiring": ["swaps_with_unfitted"],

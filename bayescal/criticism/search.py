@@ -356,9 +356,6 @@ def indistinguishable(model, theta, index):
     if d_bic > BIC_KEEP:
         return {"evidence": f"the delay is preferred over a pole on the {where} "
                             f"(BIC {d_bic:.3g})"}
-    if d_bic < -BIC_KEEP:
-        return {"evidence": f"a pole on the {where} is preferred over the delay "
-                            f"(BIC {-d_bic:.3g})"}
     corner = 1.0 / max(float(th_alt[model.effect_slices[index]][0]), 1e-12)
     return {"indistinguishable_from": [
         f"a pole near {corner:.3g} Hz on the {'SUT' if which == 'sut' else 'reference'} "

@@ -20,7 +20,7 @@ deconvolution factor ``H_nom(f) / H_fit(f)`` at its interpolation nodes
 (the channel blocks' response families and free parameters times every
 effect's factor, as :meth:`bayescal.core.model.likelihood.Model.unpack`
 forms it), evaluated by
-:func:`bayescal.criticism.relative_response.model_response`, the one
+:func:`bayescal.criticism.fitted_response.model_response`, the one
 evaluation of the fitted response, so an effect added to the model enters
 the curve as it enters the likelihood. It
 is evaluated at about :data:`POINTS_PER_DECADE` of those log-spaced nodes
@@ -65,9 +65,9 @@ def response_factor(model, theta, index=None):
     """``H_fit(f) / H_nom(f)`` of the SUT channels, (W, n_u, Q) at the
     model's nodes ``model.nodes[index]``: the reciprocal of the likelihood's
     deconvolution factor with the clock effects left out
-    (:func:`bayescal.criticism.relative_response.model_response`, the one
+    (:func:`bayescal.criticism.fitted_response.model_response`, the one
     evaluation of the fitted response)."""
-    from ..criticism.relative_response import model_response
+    from ..criticism.fitted_response import model_response
 
     nodes = model.nodes if index is None else model.nodes[index]
     return model_response(model, np.atleast_2d(theta), nodes, timing=False)
