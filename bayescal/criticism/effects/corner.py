@@ -201,7 +201,10 @@ class SutCorner(CriticismEffect):
         (``flat`` metadata, or no real period) a stage of its own, ``H /
         H_meta = D_meta(s) / D(s)``: zeros at the metadata's pendulum poles
         (two at the origin for ``flat``) and poles at the fitted pendulum's
-        (rad/s), unit amplitude at the normalisation frequency."""
+        (rad/s), unit amplitude at the normalisation frequency. None when a
+        fitted pole lies in the right half-plane (``a < 0`` or ``b < 0``:
+        the box prior allows them, a pendulum does not; the data then fix
+        the corner too loosely to write it)."""
         k = self.rows.index(row)
         a, b = (float(x) for x in np.asarray(p, float)[2 * k:2 * k + 2])
         fam, cid = self.families[k], self.channel_ids[k]
@@ -216,6 +219,8 @@ class SutCorner(CriticismEffect):
         an, bn = self.nominal_ab[k]
         zeros = np.roots([1.0, an * self.w1, bn * self.w1 ** 2])
         poles = np.roots([1.0, a * self.w1, b * self.w1 ** 2])
+        if np.any(poles.real > 0):    # negative damping or restoring force: no sensor's response
+            return None
         return {"zeros": [complex(z) for z in zeros], "poles": [complex(q) for q in poles],
                 "norm_freq": float(fam.norm_freq), "gain_factor": 1.0, "pendulum": None,
                 "label": label + (f", corner {phys['corner_hz:' + cid]:.4g} Hz" if b > 0 else "")

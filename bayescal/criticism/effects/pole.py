@@ -19,6 +19,12 @@ class ExtraPole(CriticismEffect):
 
     name = "extra_pole"
     param_names = ("inverse_corner_s",)
+    #: Along the grid, at the fit's point, a pole's likelihood has a
+    #: maximum near its true corner and another at "no pole": the fit's
+    #: orientation and gains have taken up part of the mismatch, so the
+    #: second can be the higher there (an extra zero near 1.5 Hz, say).
+    #: Each local maximum is a least-squares start.
+    multimodal = True
 
     def __init__(self, rows, which, norm_freq=1.0, max_inverse_s=100.0):
         self.rows = list(rows)
