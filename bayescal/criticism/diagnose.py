@@ -42,7 +42,7 @@ from ..core.orientation import unit_vector
 from ..core.response import prior_sensitivity, set_by_prior_entries
 from ..core.posterior import interval_summary
 from ..result import Convergence
-from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, with_effects,
+from .search import (BIC_KEEP, drift_candidate, effect_key, best_refit, restored, with_effects,
                      indistinguishable, orientation_score, search)
 from .locate import band_ratio, block_timing, locate, ratio_weights, segment_timing
 from .naming import without_effects, prune_overdispersed, timing_consistency, weak_effects
@@ -319,7 +319,7 @@ def _final_fit(base, model, th, cov, origin, *, sig, dropped, free, seed, mcmc, 
                                                                              model)
         if not weak:
             break
-        model, th, cov = _drop_weakest(model, th, weak, dropped, log)
+        model, th, cov = _drop_weakest(model, th, weak, dropped, log, (model0, th0))
     return model, th, final, after, before_common
 
 
@@ -385,18 +385,23 @@ def _improved_posterior(base, model, th, cov, *, eiv, th0, sig, free, seed, mcmc
     return final
 
 
-def _drop_weakest(model, th, weak, dropped, log):
+def _drop_weakest(model, th, weak, dropped, log, start):
     """The model without its weakest effect (whose absence its posterior
     does not exclude; recorded in ``dropped``), re-fitted: ``(model, th,
-    cov)``, ``cov`` None when no effect is left."""
+    cov)``, ``cov`` None when no effect is left. An effect that took up
+    the pendulum of channels the fit fitted (``releases``) gives it back
+    to them, at the search's ``start`` ``(model, theta)``."""
     _, key, _, _, why = min(weak)
     if log:
         log(f"  {key} dropped: {why}")
     dropped.append({"effect": key, "reason": why})
+    gone = next(e for e in model.effects if effect_key(e) == key)
     m, t = without_effects(model, th, {key})
-    m.adopt_noise(model.noise)
     if not m.effects:
         return model, th, None
+    if getattr(gone, "releases", False):
+        m, t = restored(m, t, *start)
+    m.adopt_noise(model.noise)
     th, cov = least_squares_fit(m, t)
     return m, th, cov
 

@@ -155,6 +155,21 @@ def released(model, theta, rows):
     return m, np.concatenate(pieces + [theta[sl] for sl in model.effect_slices])
 
 
+def restored(model, theta, base, base_theta):
+    """The inverse of :func:`released`: ``model`` with ``base``'s channel
+    blocks back, each block ``model`` holds at gain only where ``base`` fits
+    its pendulum taking its response parameters from ``base_theta`` (the
+    search's start) and keeping ``theta``'s orientation, log gain and
+    effects. Returns (model, theta)."""
+    theta, bt = np.asarray(theta, float), np.asarray(base_theta, float)
+    pieces = []
+    for (so, sr), (_, bsr), b, bb in zip(model.slices, base.slices, model.blocks, base.blocks):
+        pieces += [theta[so]] + ([bt[bsr][:-1], theta[sr][-1:]] if b.free != bb.free
+                                 else [theta[sr]])
+    m = with_effects(model, model.effects, blocks=base.blocks)
+    return m, np.concatenate(pieces + [theta[sl] for sl in model.effect_slices])
+
+
 def theta_base(model, theta):
     """The channel-block part of ``theta`` (effects stripped)."""
     n = sum(b.n_params for b in model.blocks)
