@@ -25,7 +25,7 @@ Per channel: ``hold`` (the truth inside the fit's 95 % interval), ``flagged``
 95 % interval), ``ok`` (held, or flagged with the truth in its bounds), and
 whether the SUT-side gain's 95 % interval (+-1.96 sd) holds the truth.
 
-    python validation/studies/refnoise_gain.py --n 16 \\
+    python validation/studies/refnoise_gain.py --n 30 \\
         --out validation/results/eiv/refnoise_gain.json
 
 Resumable: pairs already in ``--out`` are skipped; ``--table`` reprints.
