@@ -146,13 +146,58 @@ def table(summary):
     return "\n".join(lines)
 
 
+def criticism_gain_pairs(out):
+    """The criticism study's gain-error pairs in noise shaped like the ground
+    (validation/studies/criticism_harness.py, seed sets fourth to seventh,
+    its first 60 effect seeds each), fitted as that study fits them (the
+    criticism on): per channel, whether the relative gain's 95 % interval
+    holds the truth, whether it is flagged, and whether the truth is inside
+    its bounds. Written to ``out``."""
+    import sys
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import bayescal
+    import criticism_harness as ch
+    from bayescal.simulate.pair import simulate_pair
+    rows = []
+    for name in ("fourth", "fifth", "sixth", "seventh"):
+        for seed in ch.SEED_SETS[name][1][:60]:
+            kind = ch.KINDS[seed % len(ch.KINDS)]
+            kw, truth, regime = ch.draw(seed, kind)
+            if kind != "gain_error" or kw["noise_in_counts"]:
+                continue
+            sim = simulate_pair(**kw)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                summ = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                                          ref_xml=sim.ref_inventory, band=ch.BAND,
+                                          progress=False, seed=seed, min_ess=200,
+                                          n_tau=20).summary()
+            bounds = summ["meta"]["reference_noise"]["gain_bounds"]["channels"]
+            for k, cid in enumerate(summ["channels"]):
+                g = 1 + truth["fraction"] if k == truth["row"] else 1.0
+                rel, b = summ["channels"][cid]["response"]["relative_gain"], bounds[cid]
+                rows.append({"set": name, "seed": seed, "channel": cid, "truth": g,
+                             "gain_error_channel": k == truth["row"],
+                             "hold": bool(rel["ci95"][0] <= g <= rel["ci95"][1]),
+                             "flagged": not b["separable"],
+                             "in_bounds": bool(b["interval95"][0] <= g <= b["interval95"][1])})
+            print(seed, flush=True)
+    with open(out, "w") as fh:
+        json.dump({"command": "python validation/studies/refnoise_gain.py --criticism-pairs "
+                   + out, "rows": rows}, fh, indent=1)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=16, help="pairs per regime")
     ap.add_argument("--regimes", type=int, nargs="*", default=None, help="indices into REGIMES")
     ap.add_argument("--out", default="validation/results/eiv/refnoise_gain.json")
     ap.add_argument("--table", action="store_true", help="reprint the stored table only")
+    ap.add_argument("--criticism-pairs", metavar="OUT", default=None,
+                    help="rescore the criticism study's gain-error pairs into OUT instead")
     args = ap.parse_args(argv)
+    if args.criticism_pairs:
+        return criticism_gain_pairs(args.criticism_pairs)
     doc = {"rows": []}
     if os.path.exists(args.out):
         with open(args.out) as fh:
