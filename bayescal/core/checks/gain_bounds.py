@@ -260,14 +260,24 @@ def identified_gains(model, theta, cov):
     su, sr = side_shapes(sp, directions, factor)
     dof = band_dof(sp)
     channels = {model.blocks[i].channel_id: channel_entry(
-        bounds(a[i], c[i], y[i], dof), side_gains(a[i], c[i], y[i], dof, su[i], sr[i]), g, g_sd)
-        for i, (g, g_sd) in fitted.items()}
+        bounds(a[i], c[i], y[i], dof), _sides_or_none(a[i], c[i], y[i], dof, su[i], sr[i]),
+        g, g_sd) for i, (g, g_sd) in fitted.items()}
     out = {"channels": channels, "basis": BASIS}
     if getattr(model, "ref_noise", "quiet") != "fixed":
         note = not_separable_note(channels)
         if note:
             out["note"] = note
     return out
+
+
+def _sides_or_none(a, c, y, dof, sut_shapes, ref_shapes):
+    """:func:`side_gains`, or None where its regressions fail (spectra or
+    shapes that are not finite): the gain is then not checked."""
+    try:
+        with np.errstate(all="ignore"):
+            return side_gains(a, c, y, dof, sut_shapes, ref_shapes)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+        return None
 
 
 #: What ``identified_gains`` holds, for result.json.
