@@ -40,6 +40,8 @@ import warnings
 
 import numpy as np
 
+import study_results                          # the sibling module, run as a script
+
 SEED0 = 51000
 NOMINAL = (30.0, 0.707, 750.0)
 #: (name, SUT noise shape, SUT coherence, reference noise shape, reference coherence)
@@ -182,9 +184,13 @@ def criticism_gain_pairs(out):
                              "flagged": not b["separable"],
                              "in_bounds": bool(b["interval95"][0] <= g <= b["interval95"][1])})
             print(seed, flush=True)
-    with open(out, "w") as fh:
-        json.dump({"command": "python validation/studies/refnoise_gain.py --criticism-pairs "
-                   + out, "rows": rows}, fh, indent=1)
+    study_results.write(out, {"command": "python validation/studies/refnoise_gain.py "
+                              "--criticism-pairs " + out, "rows": rows,
+                              "summary": {"channels": len(rows),
+                                          "held": sum(r["hold"] for r in rows),
+                                          "flagged": sum(r["flagged"] for r in rows),
+                                          "flagged_in_bounds": sum(r["flagged"] and r["in_bounds"]
+                                                                   for r in rows)}})
 
 
 def main(argv=None):
@@ -200,8 +206,8 @@ def main(argv=None):
         return criticism_gain_pairs(args.criticism_pairs)
     doc = {"rows": []}
     if os.path.exists(args.out):
-        with open(args.out) as fh:
-            doc = json.load(fh)
+        doc = study_results.read(args.out)
+        doc.setdefault("rows", [])
     if not args.table:
         done = {r["seed"] for r in doc["rows"]}
         for k in range(args.n):      # interleaved so a stopped run covers every regime
@@ -212,10 +218,7 @@ def main(argv=None):
                 doc["rows"].append(run_pair(seed, regime))
                 doc["summary"] = summarise(doc["rows"])
                 doc["command"] = "python validation/studies/refnoise_gain.py --n %d" % args.n
-                os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
-                with open(args.out + ".tmp", "w") as fh:
-                    json.dump(doc, fh, indent=1)
-                os.replace(args.out + ".tmp", args.out)
+                study_results.write(args.out, doc)
                 print(seed, regime[0], round(doc["rows"][-1]["cpu_s"], 1), flush=True)
     print(table(summarise(doc["rows"])))
 
