@@ -184,6 +184,8 @@ def _print_notes(summary, stream):
     note = rn.get("separation", {}).get("note")
     if note:
         print(f"reference noise: {note}", file=stream)
+    if rn.get("gain_bounds", {}).get("note"):
+        print(f"reference noise: {rn['gain_bounds']['note']}", file=stream)
     short = summary.get("meta", {}).get("record_length", {}).get("note")
     if short:
         print(f"record: {short}", file=stream)

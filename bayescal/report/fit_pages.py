@@ -134,9 +134,10 @@ def _flag_lines(ctx, flags, modes):
                         "the corrected StationXML's poles carry")
     if len(text) == 1:
         text.append("  none: every estimated angle lies within tolerance of its nominal value")
-    note = ctx.summary.get("meta", {}).get("reference_noise", {}).get("separation", {}).get("note")
-    if note:
-        text += textwrap.wrap(f"  Reference noise: {note}", 130, subsequent_indent="    ")
+    rn = ctx.summary.get("meta", {}).get("reference_noise", {})
+    for note in (rn.get("separation", {}).get("note"), rn.get("gain_bounds", {}).get("note")):
+        if note:
+            text += textwrap.wrap(f"  Reference noise: {note}", 130, subsequent_indent="    ")
     short = ctx.summary.get("meta", {}).get("record_length", {}).get("note")
     if short:
         text += textwrap.wrap(f"  Record: {short}", 130, subsequent_indent="    ")

@@ -258,6 +258,7 @@ class _Run:
     separation: dict
     set_by_prior: dict
     sensitivity: dict
+    gain_bounds: dict = None
 
 
 def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
@@ -273,6 +274,8 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
         if getattr(model, "ref_noise", None) == "estimate":
             from ..checks.separation import gain_separation
             separation = gain_separation(model, theta_ls, cov)
+        from ..checks.gain_bounds import identified_gains
+        bounds = identified_gains(model, theta_ls, cov)
         # parameters the data do not constrain are held at nominal
         target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
         from ..sampling.mcmc import sample
@@ -284,7 +287,7 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     return _Run(model=model, theta_ls=theta_ls, target=target, chain=chain, full=full,
                 multimodal=multimodal, separation=separation, set_by_prior=set_by_prior,
-                sensitivity=sensitivity)
+                sensitivity=sensitivity, gain_bounds=bounds)
 
 
 def _fit_meta(run, spectra, free, priors, chosen_by):
@@ -300,7 +303,9 @@ def _fit_meta(run, spectra, free, priors, chosen_by):
             "plugin_weights": plugin_meta(model),
             "reference_noise": dict(refnoise.treatment_meta(model, run.theta_ls),
                                     chosen_by=chosen_by,
-                                    **({"separation": run.separation} if run.separation else {})),
+                                    **({"separation": run.separation} if run.separation else {}),
+                                    **({"gain_bounds": run.gain_bounds} if run.gain_bounds
+                                       else {})),
             "misfit_scale": _misfit_meta(model, np.median(run.full, axis=0)),
             "least_squares": dict(zip(model.names, run.theta_ls)),
             "set_by_prior": run.set_by_prior, "multimodal": run.multimodal,
