@@ -9,14 +9,17 @@ variables). A step's input is flat between its steps and a sine's is one
 sine, where ``n`` is white and broadband; so
 
 * sine runs: the drive is the least-squares sine (and offset) at the fitted
-  frequency, :func:`sine_drive`;
+  frequency, :func:`sine_drive`, whose own amplitude and phase error (from
+  the input's noise) :func:`with_drive_error` adds to the posterior;
 * step runs: the drive is the recorded input on the samples of a transition
   (those more than ``PLATEAU_SD`` noise standard deviations from their
   plateau's level) and the plateau's median elsewhere, :func:`step_drive`.
 
 The noise left is that of a sine's amplitude and phase fitted over the record
-(relative standard deviation ``sd_n / amplitude * sqrt(2 / N)``) or of a
-plateau's level, far below what the output's noise allows. A random (PRBS)
+(relative standard deviation ``sd_n / amplitude * sqrt(2 / N)``, of the
+order of the output's own at a sine: it is added to the posterior) or of a
+plateau's level (averaged over the plateau's samples, far below what the
+output's noise allows on a step's response). A random (PRBS)
 drive has no such form: its input noise attenuates the fitted gain by
 ``1 / (1 + S_nn / S_uu)`` (a PRBS of amplitude ``A`` with white noise of rms
 ``e A``: the gain low by ``e^2``), which the spectral fit cannot tell from
@@ -32,12 +35,28 @@ PLATEAU_SD = 5.0
 
 
 def sine_drive(u, fs, freq):
-    """The sine (with offset) at ``freq`` Hz closest to ``u`` in least squares."""
+    """The sine (with offset) at ``freq`` Hz closest to ``u`` in least
+    squares, and the standard deviation of its log-amplitude and of its
+    phase (radians, the same): ``sd_n / (amplitude sqrt(N / 2))`` with
+    ``sd_n`` the rms of what the sine leaves of ``u`` (the input channel's
+    noise, taken as white)."""
     t = np.arange(u.size) / fs
     design = np.column_stack([np.cos(2 * np.pi * freq * t), np.sin(2 * np.pi * freq * t),
                               np.ones(u.size)])
     coef, *_ = np.linalg.lstsq(design, u, rcond=None)
-    return design @ coef
+    fitted = design @ coef
+    sd_n = np.sqrt(np.sum((u - fitted) ** 2) / max(u.size - 3, 1))
+    return fitted, float(sd_n / (np.hypot(coef[0], coef[1]) * np.sqrt(u.size / 2.0)))
+
+
+def with_drive_error(samples, sd, seed=0):
+    """Samples of ``(ln A, phi)`` conditional on the fitted drive, made
+    marginal over its error: independent Gaussian draws of standard
+    deviation ``sd`` (:func:`sine_drive`) added to both columns (the
+    response's ratio to the drive is what the output measures, so the
+    drive's log-amplitude and phase errors add to the response's)."""
+    rng = np.random.default_rng(seed)
+    return samples + sd * rng.standard_normal(samples.shape)
 
 
 def step_drive(u):

@@ -31,7 +31,7 @@ from ..core.posterior import interval_summary
 from ..core.sampling import sample
 from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
-from .drive import sine_drive
+from .drive import sine_drive, with_drive_error
 from .result import SCHEMA
 from .timedomain import (Predictor, TimeModel, ar_fit, checked_arrays, coil_transfer,
                          least_squares_time, padding)
@@ -174,8 +174,8 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
                          f"needs twice the settling time ({2 * skip / run.fs:.0f} s) and 10 "
                          "cycles")
     # the drive: the fitted sine, not the input channel's noise (coil.drive)
-    pred = Predictor(sine_drive(u, run.fs, f0), run.fs, coil_transfer(run, coil_constant),
-                     padding(fam, run.fs))
+    drive, drive_sd = sine_drive(u, run.fs, f0)
+    pred = Predictor(drive, run.fs, coil_transfer(run, coil_constant), padding(fam, run.fs))
     model = SineModel(x, run.fs, pred, skip)
     # start: least squares of x on (p, q) with offset and drift
     design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
@@ -196,5 +196,7 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
             "duration_s": x.size / run.fs, "settle_s": skip / run.fs,
             "sine_fraction_of_input": frac, "sampler": chain.sampler}
-    return SineFit(run.ids[0], f0, nominal, chain.samples, chain.convergence(),
+    meta["drive_sd"] = drive_sd
+    return SineFit(run.ids[0], f0, nominal, with_drive_error(chain.samples, drive_sd, seed),
+                   chain.convergence(),
                    model.adequacy(med), run.responses[0], meta, model)
