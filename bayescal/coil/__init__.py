@@ -2,12 +2,14 @@
 
 Holds the symmetric triaxial geometry (:mod:`.triaxial`), one calibration
 run read and turned into spectra (:mod:`.runs`), the likelihood and fit of
-one element from one run (:mod:`.element`), the coil-by-coil calibration
+one element from one run (:mod:`.element`) with the variance of its band
+residuals measured from their centred scatter (:mod:`.scatter`), the coil-by-coil calibration
 of UVW sensors with the derived XYZ responses (:mod:`.uvw`), and the
 calibration of one ordinary channel: response parametrisation with the
 high-frequency poles (:mod:`.hf`), random runs (:mod:`.random`), the
 time-domain likelihood with AR noise (:mod:`.timedomain`) of step runs
-(:mod:`.step`) and sine runs (:mod:`.sine`), the result and ``cal.json``
+(:mod:`.step`) and sine runs (:mod:`.sine`) driven by their idealised input
+(:mod:`.drive`), the result and ``cal.json``
 (:mod:`.result`), corrected StationXML (:mod:`.calxml`); the posterior every
 coil model shares (:mod:`.bounded`).
 

@@ -13,10 +13,11 @@ from ..core.response import (NAMES as PENDULUM_NAMES, damping_over_period, set_b
 from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit import refine
-from ..core.model import lag_one_scatter, overlapping_segments, shrunk_inflation
+from ..core.model import overlapping_segments, shrunk_inflation
 from ..core.priors import Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import cross_spectra
+from .scatter import centred_band_variance
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
@@ -185,16 +186,23 @@ class RunModel(BoundedPosterior):
              - mu[:, :, None] * cya.conj()[:, None, :]
              + saa[:, None, None] * mu[:, :, None] * mu.conj()[:, None, :])
         n_bins = sp.bins_per_band * sp.n_segments
-        sigma = np.einsum("fb,fij->bij", self.band_membership, e) / n_bins[:, None, None]
+        # the band residual sums C_yA - mu S_AA over the band's bins, so its
+        # variance is sum_f S_NN(f) S_AA(f): the noise weighted by the input's
+        # power, not its plain band mean (they differ where both vary across
+        # a band, as 1/f^2 in velocity at the bottom of a coil run's band)
+        sigma = (np.einsum("fb,fij->bij", self.band_membership, e * saa[:, None, None])
+                 / (sp.n_segments * self.band_input_power)[:, None, None])
         sigma = regularise(0.5 * (sigma + sigma.conj().transpose(0, 2, 1)),
                            np.einsum("fb,fii->bi", self.band_membership, self._cyy).real / n_bins[:, None])
         s_inv = np.linalg.inv(sigma)
         mu_b = (mu * saa[:, None]).T @ self.band_membership / self.band_input_power       # (no, B)
         seg = sp.per_segment                                          # (K, B, n, n)
         r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
-        scatter = lag_one_scatter(lambda x, y: np.einsum("kbi,bij,kbj->b", x.conj(), s_inv,
-                                                         y).real,
-                                  r_k, overlapping_segments(sp.segment_starts, sp.nperseg))
+        # centred on their mean, so that the fit's share of the band
+        # residuals does not lower it (bayescal.coil.scatter)
+        scatter = centred_band_variance(
+            lambda x, y: np.einsum("kbi,bij,kbj->b", x.conj(), s_inv, y).real,
+            r_k, overlapping_segments(sp.segment_starts, sp.nperseg))
         c = shrunk_inflation(scatter / (no * self.band_input_power), sp.n_segments * no,
                              pooled_floor=1e-12)
         self.sigma, self.inflation = sigma, c

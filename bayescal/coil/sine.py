@@ -2,7 +2,8 @@
 frequency ``f0`` (amplitude and phase), with its posterior.
 
 The model is that of :mod:`.timedomain` with the nominal response's output
-to the recorded input, ``p(t)``, and its quadrature ``q(t)`` (the same with
+to the drive (the least-squares sine of the recorded input,
+:func:`bayescal.coil.drive.sine_drive`), ``p(t)``, and its quadrature ``q(t)`` (the same with
 the spectrum multiplied by ``i``) combined as
 
     m(t; theta) = Re(rho) p(t) + Im(rho) q(t),   rho = H(f0) / H_nom(f0) = A e^{i phi},
@@ -30,8 +31,9 @@ from ..core.posterior import interval_summary
 from ..core.sampling import sample
 from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
+from .drive import sine_drive, with_drive_error
 from .result import SCHEMA
-from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
+from .timedomain import (Predictor, TimeModel, ar_fit, checked_arrays, coil_transfer,
                          least_squares_time, padding)
 
 #: Decay times ``1 / (h w0)`` of the nominal pendulum left out at the start.
@@ -76,6 +78,20 @@ class SineModel(TimeModel):
 
     def bounds(self):
         return np.array([np.log(0.1), -np.pi]), np.array([np.log(10.0), np.pi])
+
+    def estimate_noise(self, theta):
+        """AR noise model from the residual at ``theta`` (after ``skip``) less
+        its sine at ``f0``, fitted by least squares under a Hann taper (whose
+        side lobes keep the red noise below ``f0`` out of it): a residual
+        left at ``f0`` by an imperfect ``theta`` would teach the
+        autoregression a peak there, and its whitening would then hide the
+        sine from the likelihood (at a sine far above red noise, the fit
+        then runs to the amplitude's bound)."""
+        r = self.raw_residual(theta)[self.skip:]
+        pq = self.predict(np.array([[0.0, 0.0], [0.0, np.pi / 2]]))[:, self.skip:].T
+        w = np.sqrt(np.hanning(r.size))[:, None]
+        coef, *_ = np.linalg.lstsq(w * pq, w[:, 0] * r, rcond=None)
+        self.set_noise(*ar_fit(self._pre(r - pq @ coef)))
 
     def predict(self, theta, weight=None):
         theta = np.atleast_2d(theta)
@@ -157,7 +173,9 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
         raise InputError(f"{run.source}: the sine run is too short: {x.size / run.fs:.0f} s; "
                          f"needs twice the settling time ({2 * skip / run.fs:.0f} s) and 10 "
                          "cycles")
-    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(fam, run.fs))
+    # the drive: the fitted sine, not the input channel's noise (coil.drive)
+    drive, drive_sd = sine_drive(u, run.fs, f0)
+    pred = Predictor(drive, run.fs, coil_transfer(run, coil_constant), padding(fam, run.fs))
     model = SineModel(x, run.fs, pred, skip)
     # start: least squares of x on (p, q) with offset and drift
     design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
@@ -178,5 +196,7 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
     meta = {"source": run.source, "sampling_rate": run.fs, "coil_constant": coil_constant,
             "duration_s": x.size / run.fs, "settle_s": skip / run.fs,
             "sine_fraction_of_input": frac, "sampler": chain.sampler}
-    return SineFit(run.ids[0], f0, nominal, chain.samples, chain.convergence(),
+    meta["drive_sd"] = drive_sd
+    return SineFit(run.ids[0], f0, nominal, with_drive_error(chain.samples, drive_sd, seed),
+                   chain.convergence(),
                    model.adequacy(med), run.responses[0], meta, model)

@@ -8,7 +8,8 @@ USGS ASL Sensor Test Suite reports them from a step, and the gain.
 
 The input may hold any sequence of steps (on, off, several): the model is
 the nominal response with the free parts replaced, applied to the recorded
-input through a zero-padded FFT. The record is assumed to start with the
+input (its plateaus freed of the input channel's own noise,
+:func:`bayescal.coil.drive.step_drive`) through a zero-padded FFT. The record is assumed to start with the
 input at rest for long enough that the sensor has settled (the input's
 first level is taken as its rest level).
 """
@@ -23,6 +24,7 @@ from ..core.response import pendulum_coefficients, pendulum_denominator
 from ..core.sampling import sample
 from ..core.threads import single_threaded_blas
 from ..errors import InputError
+from .drive import step_drive
 from .hf import PZSpec, scale_start
 from .result import CalFit
 from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
@@ -124,6 +126,7 @@ def least_squares_step(run, coil_constant, priors=Priors()):
     u = u - rest_level(u)
     if not np.ptp(u) > 0:
         raise InputError(f"{run.source}: the input channel holds no step (it is constant)")
+    u = step_drive(u)
     spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
                                 priors=priors)
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))

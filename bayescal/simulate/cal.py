@@ -2,11 +2,18 @@
 ordinary channel, with known long-period pair, gain and high-frequency poles.
 
 The coil makes an equivalent ground acceleration ``C u(t)`` (``u`` the PRBS,
-steps or sine recorded on the input channel, counts). The sensor adds its own white
+steps or sine driving the coil, counts). The sensor adds its own
 equivalent-acceleration self-noise (``noise_ratio`` of the calibration
-signal's rms), and the digitizer white noise in counts:
+signal's rms; white, or coloured with power spectral density proportional to
+``f ** -noise_slope``), and the digitizer white noise in counts:
 
-    X(f) = H(f) (C U(f) + N(f)) / (2 pi i f) + digitizer noise,
+    X(f) = H(f) (C U(f) + N(f)) / (2 pi i f) + digitizer noise.
+
+The input channel records ``u`` plus white noise of rms ``input_noise`` times
+the drive's amplitude (0: recorded exactly). A fit that takes the recorded
+input for the drive sees the transfer ``S_yx / S_xx`` attenuated by
+``S_uu / (S_uu + S_nn)``, that is the gain low by ``input_noise ** 2`` (for
+a PRBS, whose power is the amplitude squared at every frequency).
 
 with ``H`` the *true* velocity response built by
 :func:`bayescal.core.response.family.paz_velocity_response` (pendulum pair, two zeros
@@ -21,7 +28,7 @@ from obspy import Inventory, Stream, Trace, UTCDateTime
 from obspy.core.inventory import Channel, Network, Site, Station
 
 from ..core.response import paz_velocity_response
-from .coil import CalibrationSimulation, white_rfft, prbs
+from .coil import CalibrationSimulation, coloured_rfft, prbs
 from .pair import DIGITIZER_GAIN, NORM_FREQ, band_code, velocity_response
 
 #: Nominal STS-2-like channel: period (s), damping, gain (V per m/s).
@@ -51,13 +58,15 @@ def paz_response(period_s, damping, gain, hf_poles=(), sample_rate=20.0, norm_fr
 def simulate_random_cal(*, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
                         duration=3 * 3600.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
                         clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, seed=0,
-                        **header):
+                        noise_slope=0.0, input_noise=0.0, **header):
     """One random calibration run of a vertical channel (see module docstring).
 
     ``truth``/``nominal``: (period_s, damping, gain V per m/s); ``hf_true`` /
     ``hf_nominal``: high-frequency poles (rad/s, Im >= 0), same count and order.
-    ``header``: ``input_channel``, ``network``, ``station``, ``location``,
-    ``start``. Returns a :class:`CalibrationSimulation` with ``runs["cal"]``.
+    ``noise_slope``, ``input_noise``: the self-noise's colour and the input
+    channel's own noise (module docstring). ``header``: ``input_channel``,
+    ``network``, ``station``, ``location``, ``start``. Returns a
+    :class:`CalibrationSimulation` with ``runs["cal"]``.
     """
     rng = np.random.default_rng(seed)
     n = int(round(duration * fs))
@@ -65,13 +74,15 @@ def simulate_random_cal(*, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_
     return _simulate(u, "random", rng, truth=truth, hf_true=hf_true, nominal=nominal,
                      hf_nominal=hf_nominal, fs=fs, coil_constant=coil_constant,
                      noise_std=noise_ratio * coil_constant * amplitude,
-                     digitizer_noise=digitizer_noise,
+                     digitizer_noise=digitizer_noise, noise_slope=noise_slope,
+                     input_noise=input_noise,
                      extra={"noise_ratio": noise_ratio, "seed": seed}, **header)
 
 
 def simulate_step_cal(*, truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, fs=20.0,
                       steps=((120.0, 1.0), (900.0, 0.0)), coil_constant=1e-9, amplitude=1e5,
-                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
+                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, noise_slope=0.0,
+                      input_noise=0.0, **header):
     """One step calibration run: the input is 0 counts, then ``amplitude``
     times each level of ``steps`` ((time s, level), ...) from that time on.
     The sensor's white equivalent-acceleration self-noise has rms
@@ -87,14 +98,16 @@ def simulate_step_cal(*, truth=LP_NOMINAL, nominal=LP_NOMINAL, duration=1800.0, 
     return _simulate(u, "step", rng, truth=truth, hf_true=(), nominal=nominal, hf_nominal=(),
                      fs=fs, coil_constant=coil_constant,
                      noise_std=noise_ratio * coil_constant * amplitude,
-                     digitizer_noise=digitizer_noise,
+                     digitizer_noise=digitizer_noise, noise_slope=noise_slope,
+                     input_noise=input_noise,
                      extra={"noise_ratio": noise_ratio, "seed": seed,
                             "steps": [list(s) for s in steps]}, **header)
 
 
 def simulate_sine_cal(freq, *, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL, hf_nominal=(),
                       duration=900.0, fs=20.0, coil_constant=1e-9, amplitude=1e5,
-                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, **header):
+                      noise_ratio=0.05, digitizer_noise=1.0, seed=0, noise_slope=0.0,
+                      input_noise=0.0, **header):
     """One sine calibration run at ``freq`` Hz (rounded to a whole number of
     cycles in the record, so the periodic construction is the steady state
     of a sine running before the record). Self-noise rms ``noise_ratio``
@@ -111,16 +124,19 @@ def simulate_sine_cal(freq, *, truth=LP_NOMINAL, hf_true=(), nominal=LP_NOMINAL,
     return _simulate(u, "sine", rng, truth=truth, hf_true=hf_true, nominal=nominal,
                      hf_nominal=hf_nominal, fs=fs, coil_constant=coil_constant,
                      noise_std=noise_ratio * coil_constant * amplitude,
-                     digitizer_noise=digitizer_noise,
+                     digitizer_noise=digitizer_noise, noise_slope=noise_slope,
+                     input_noise=input_noise,
                      extra={"noise_ratio": noise_ratio, "seed": seed, "sine_freq_hz": f0,
                             "response": [h0.real, h0.imag]}, **header)
 
 
 def _simulate(u, kind, rng, *, truth, hf_true, nominal, hf_nominal, fs, coil_constant, noise_std,
-              digitizer_noise, extra, input_channel="BC0", network="XX", station="CAL",
-              location="00", start=UTCDateTime(2026, 1, 1)):
+              digitizer_noise, noise_slope, input_noise, extra, input_channel="BC0",
+              network="XX", station="CAL", location="00", start=UTCDateTime(2026, 1, 1)):
     """Output of a channel with the true response to ``C u`` plus self-noise
-    (std ``noise_std`` m/s^2, white) and digitizer noise; Stream, StationXML."""
+    (std ``noise_std`` m/s^2, PSD proportional to ``f ** -noise_slope``) and
+    digitizer noise; the input channel ``u`` plus white noise of std
+    ``input_noise`` times ``max |u|``; Stream, StationXML."""
     n = u.size
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
     iw = 2j * np.pi * freqs
@@ -128,8 +144,10 @@ def _simulate(u, kind, rng, *, truth, hf_true, nominal, hf_nominal, fs, coil_con
     k = paz_velocity_response(freqs, *truth, extra_poles=_expand(hf_true),
                               digitizer_gain=DIGITIZER_GAIN, norm_freq=NORM_FREQ)
     a_f = np.fft.rfft(coil_constant * u)
-    noise = white_rfft(rng, freqs.size, noise_std, n)
+    noise = coloured_rfft(rng, freqs, noise_std, n, noise_slope)
     x = np.fft.irfft(k * (a_f + noise) / iw, n=n) + digitizer_noise * rng.standard_normal(n)
+    if input_noise > 0:
+        u = u + input_noise * np.max(np.abs(u)) * rng.standard_normal(n)
     code = f"{band_code(fs)}HZ"
     hdr = dict(network=network, station=station, location=location, sampling_rate=fs,
                starttime=start)
@@ -149,5 +167,6 @@ def _simulate(u, kind, rng, *, truth, hf_true, nominal, hf_nominal, fs, coil_con
                            "hf_poles": [[complex(p).real, complex(p).imag] for p in hf_nominal]},
                "coil_constant": coil_constant, "duration_s": n / fs,
                "sampling_rate": fs, "channel": f"{network}.{station}.{location}.{code}",
-               "input_channel": input_channel, "kind": kind, **extra}
+               "input_channel": input_channel, "kind": kind, "noise_slope": noise_slope,
+               "input_noise": input_noise, **extra}
     return CalibrationSimulation(runs={"cal": st}, inventory=inv, truth=truth_d)

@@ -87,6 +87,18 @@ def white_rfft(rng, nf, std_time, n):
     return out
 
 
+def coloured_rfft(rng, freqs, std_time, n, slope=0.0):
+    """Complex rfft coefficients of noise with time-domain ``std_time`` and
+    power spectral density proportional to ``freqs ** -slope`` (``slope`` 0:
+    :func:`white_rfft`, the same draws)."""
+    out = white_rfft(rng, freqs.size, std_time, n)
+    if slope:
+        shape = np.zeros(freqs.size)
+        shape[1:] = (freqs[1:] / freqs[1]) ** (-0.5 * slope)
+        out *= shape / np.sqrt(np.mean(shape[1:] ** 2))
+    return out
+
+
 def simulate_calibration(*, elements=(STS2_NOMINAL,) * 3, nominal=STS2_NOMINAL, matrix=STS2_UVW,
                          duration=8 * 3600.0, fs=1.0, coil_constant=1e-9, amplitude=1e5,
                          clock_samples=1, noise_ratio=0.05, digitizer_noise=1.0, outputs="xyz",

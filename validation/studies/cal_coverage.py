@@ -15,6 +15,26 @@
   drawn log-uniformly from 0.02 to 2 Hz, the true response amplitude and phase
   there.
 
+* simulation-based calibration (``--sbc N``, the proof of issue 41's item
+  1): per kind (random lp, random hf, step, sine) N runs, the truth of run i
+  drawn from the stated prior (period and damping log-normal, 5 % around
+  nominal; gain log-uniform, drawn within a factor 2 of nominal, where the
+  stated factor-10 prior is as flat in ln G as anywhere; the hf poles'
+  coordinates uniform within 5 % of nominal, inside their uniform +-50 %
+  prior), the run's length (random lp: 1-4 h; hf 10 min at 100 Hz; step
+  30 min; sine 15 min), its self-noise white or coloured (PSD as 1/f in
+  acceleration) and its input channel recorded exactly or with white noise
+  of 1 % of the drive's amplitude, all four combinations in turn (run i:
+  colour ``i % 2``, input noise ``(i // 2) % 2``). Low sampling rates (lp and
+  step 5 Hz, sine 10 Hz) and short sampler settings (``--sbc-walkers`` 16,
+  ``--sbc-ess`` 200) keep a run cheap. Per parameter: the rank of the truth
+  among the posterior samples (its fraction below the truth, 10 bins), and
+  ``z = (median - truth) / sd``; each histogram bin, the z mean and the z
+  sd against their level-0.001 bands (bins Bonferroni over the 10).
+  Each run's row is appended to ``validation/results/cal/sbc_runs.jsonl`` as
+  it finishes (a rerun skips the rows there: resumable); the tables go to
+  ``validation/results/cal/sbc.json``.
+
 Counts the truths inside the 95 % intervals (with the 99 % binomial band for
 a true 95 %) and the median relative error per parameter. Writes
 ``validation/results/cal/coverage.json``; a kind run with ``--n-KIND 0`` keeps its
@@ -22,6 +42,7 @@ section from an existing file (the runs are seeded, so a section does not
 change unless its arguments do).
 
     python validation/studies/cal_coverage.py --n-lp 20 --n-hf 6 --n-step 20 --n-sine 12
+    python validation/studies/cal_coverage.py --n-lp 0 --n-hf 0 --sbc 200
 """
 from __future__ import annotations
 
@@ -31,7 +52,7 @@ import os
 import time
 
 import numpy as np
-from scipy.stats import binom
+from scipy.stats import binom, chi2, norm
 
 from bayescal import coil
 from bayescal.coil.random import fit_random
@@ -159,6 +180,156 @@ def table(rows):
     return out
 
 
+# --- simulation-based calibration ---------------------------------------------
+
+#: The study's kinds, in the order they run.
+SBC_KINDS = ("random_lp", "sine", "random_hf", "step")
+#: Input-channel noise of the runs with it on (rms over the drive's amplitude).
+SBC_INPUT_NOISE = 0.01
+#: Self-noise PSD slope of the coloured runs (acceleration, 1/f).
+SBC_SLOPE = 1.0
+
+
+def sbc_truth(rng, hf=False):
+    """(period, damping, gain) from the stated prior (module docstring) and,
+    with ``hf``, the hf poles."""
+    t0, h0, g0 = LP_NOMINAL
+    lp = (t0 * np.exp(0.05 * rng.standard_normal()), h0 * np.exp(0.05 * rng.standard_normal()),
+          g0 * np.exp(rng.uniform(-np.log(2.0), np.log(2.0))))
+    if not hf:
+        return lp, ()
+    poles = tuple(complex(p.real * (1 + rng.uniform(-0.05, 0.05)),
+                          p.imag * (1 + rng.uniform(-0.05, 0.05))) for p in map(complex, HF_NOMINAL))
+    return (t0, h0, lp[2]), poles
+
+
+def _rank_row(samples, truth):
+    """(fraction of samples below truth, median, sd, inside the 95 % interval)."""
+    lo, hi = np.percentile(samples, [2.5, 97.5])
+    return {"rank": float(np.mean(samples < truth)), "median": float(np.median(samples)),
+            "sd": float(np.std(samples, ddof=1)), "truth": float(truth),
+            "in95": bool(lo <= truth <= hi)}
+
+
+def sbc_run(kind, i, walkers, ess):
+    """One seeded run of ``kind``: its configuration and per-parameter rows."""
+    rng = np.random.default_rng(90_000 + 1000 * SBC_KINDS.index(kind) + i)
+    cfg = {"slope": SBC_SLOPE * (i % 2), "input_noise": SBC_INPUT_NOISE * ((i // 2) % 2)}
+    noise = dict(noise_slope=cfg["slope"], input_noise=cfg["input_noise"], seed=100_000 + i)
+    kw = dict(seed=i, n_walkers=walkers, min_ess=ess)
+    lp, poles = sbc_truth(rng, hf=kind == "random_hf")
+    if kind == "random_lp":
+        cfg["hours"] = float(rng.uniform(1.0, 4.0))
+        sim = simulate_random_cal(truth=lp, duration=round(cfg["hours"] * 3600.0), fs=5.0,
+                                  **noise)
+        fit = fit_random(_read(sim), COIL, fit="lp", **kw)
+    elif kind == "random_hf":
+        sim = simulate_random_cal(truth=lp, hf_true=poles, hf_nominal=HF_NOMINAL, duration=600.0,
+                                  fs=100.0, **noise)
+        fit = fit_random(_read(sim), COIL, fit="hf", **kw)
+    elif kind == "step":
+        sim = simulate_step_cal(truth=lp, fs=5.0, noise_ratio=0.01, **noise)
+        fit = fit_step(_read(sim), COIL, **kw)
+    else:
+        cfg["freq_hz"] = float(np.exp(rng.uniform(np.log(0.02), np.log(2.0))))
+        sim = simulate_sine_cal(cfg["freq_hz"], truth=lp, fs=10.0, noise_ratio=0.01, **noise)
+        fit = fit_sine(_read(sim), COIL, **kw)
+    phys = fit.physical()
+    if kind == "sine":
+        h = complex(*sim.truth["response"])
+        ph = np.degrees(np.angle(h))
+        ph += 360.0 * np.round((np.median(phys["response_phase_deg"]) - ph) / 360.0)
+        rows = {"response_amplitude": _rank_row(phys["response_amplitude"], abs(h)),
+                "response_phase_deg": _rank_row(phys["response_phase_deg"], ph)}
+    else:
+        rows = {"gain": _rank_row(phys["gain"], lp[2])}
+        if kind != "random_hf":
+            rows["period_s"] = _rank_row(phys["period_s"], lp[0])
+            rows["damping"] = _rank_row(phys["damping"], lp[1])
+        for k, p in enumerate(poles):
+            rows[f"pole{k}_re"] = _rank_row(phys["hf"][:, k].real, p.real)
+            if p.imag:
+                rows[f"pole{k}_im"] = _rank_row(phys["hf"][:, k].imag, p.imag)
+    return {"kind": kind, "i": i, "config": cfg, "converged": bool(fit.convergence.converged),
+            "parameters": rows}
+
+
+def _read(sim):
+    return coil.read_run("U", sim.runs["cal"], sim.inventory, "BC0", "sim")
+
+
+def sbc_bands(n, bins=10, level=0.001):
+    """Level-``level`` bands for ``n`` runs: z mean, z sd (chi-square) and
+    each rank bin's count (binomial, Bonferroni over the bins)."""
+    q = norm.isf(level / 2)
+    a = level / bins
+    return {"z_mean": [-q / np.sqrt(n), q / np.sqrt(n)],
+            "z_sd": [float(np.sqrt(chi2.ppf(level / 2, n - 1) / (n - 1))),
+                     float(np.sqrt(chi2.isf(level / 2, n - 1) / (n - 1)))],
+            "rank_bin": [int(binom.ppf(a / 2, n, 1 / bins)), int(binom.isf(a / 2, n, 1 / bins))]}
+
+
+def sbc_table(rows, bins=10):
+    """Per kind and parameter: rank histogram, z mean and sd, coverage, and
+    whether each is inside its level-0.001 band."""
+    out = {}
+    for kind in SBC_KINDS:
+        runs = [r for r in rows if r["kind"] == kind]
+        if len(runs) < 2:
+            continue
+        band = sbc_bands(len(runs), bins)
+        sec = {"runs": len(runs), "converged": int(sum(r["converged"] for r in runs)),
+               "bands": band, "parameters": {}}
+        for p in runs[0]["parameters"]:
+            e = [r["parameters"][p] for r in runs]
+            z = np.array([(x["median"] - x["truth"]) / x["sd"] for x in e])
+            hist = np.histogram([x["rank"] for x in e], bins=bins, range=(0, 1))[0]
+            zm, zs = float(z.mean()), float(z.std(ddof=1))
+            sec["parameters"][p] = {
+                "rank_histogram": hist.tolist(), "z_mean": zm, "z_sd": zs,
+                "inside_95": int(sum(x["in95"] for x in e)),
+                "ranks_ok": bool(hist.min() >= band["rank_bin"][0]
+                                 and hist.max() <= band["rank_bin"][1]),
+                "z_mean_ok": bool(band["z_mean"][0] <= zm <= band["z_mean"][1]),
+                "z_sd_ok": bool(band["z_sd"][0] <= zs <= band["z_sd"][1])}
+        out[kind] = sec
+    return out
+
+
+def run_sbc(n, out, walkers, ess, kinds=SBC_KINDS):
+    """Run (or resume) the study, appending rows; write the tables."""
+    path = os.path.join(out, "sbc_runs.jsonl")
+    os.makedirs(out, exist_ok=True)
+    rows = []
+    if os.path.exists(path):
+        with open(path) as fh:
+            rows = [json.loads(line) for line in fh if line.strip()]
+    done = {(r["kind"], r["i"]) for r in rows}
+    for kind in kinds:
+        for i in range(n):
+            if (kind, i) in done:
+                continue
+            t = time.time()
+            row = sbc_run(kind, i, walkers, ess)
+            row["seconds"] = time.time() - t
+            rows.append(row)
+            with open(path, "a") as fh:
+                fh.write(json.dumps(row) + "\n")
+    write_sbc(rows, out, walkers, ess)
+
+
+def write_sbc(rows, out, walkers, ess):
+    """Write ``sbc.json``: the tables, the settings and the time per run."""
+    table = sbc_table(rows)
+    for kind, sec in table.items():
+        sec["seconds_per_run"] = float(np.mean([r["seconds"] for r in rows if r["kind"] == kind]))
+    with open(os.path.join(out, "sbc.json"), "w") as fh:
+        json.dump({"sampler": {"n_walkers": walkers, "min_ess": ess},
+                   "input_noise": SBC_INPUT_NOISE, "slope": SBC_SLOPE, "kinds": table}, fh,
+                  indent=1)
+    print(json.dumps(table, indent=1))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n-lp", type=int, default=20)
@@ -174,7 +345,14 @@ def main():
     ap.add_argument("--noise-ratio", type=float, default=0.05,
                     help="sensor self-noise rms over the coil signal's rms (default 0.05)")
     ap.add_argument("--out", default="validation/results/cal")
+    ap.add_argument("--sbc", type=int, default=0, help="simulation-based calibration: runs per "
+                    "kind (module docstring)")
+    ap.add_argument("--sbc-kinds", nargs="+", default=list(SBC_KINDS), choices=SBC_KINDS)
+    ap.add_argument("--sbc-walkers", type=int, default=16)
+    ap.add_argument("--sbc-ess", type=int, default=200)
     args = ap.parse_args()
+    if args.sbc:
+        run_sbc(args.sbc, args.out, args.sbc_walkers, args.sbc_ess, args.sbc_kinds)
     path = os.path.join(args.out, "coverage.json")
     previous = {}
     if os.path.exists(path):
