@@ -154,9 +154,11 @@ EXIT_CODES = ("Exit codes: 0 success; 2 bad input (one line naming the file and 
 
 def add_sampling_argument(parser):
     """``--max-steps N``: the most steps a sampler runs before it stops unconverged."""
-    parser.add_argument("--max-steps", type=int, default=200_000, metavar="N",
+    from ..core.budget import SAMPLE_WORK
+    parser.add_argument("--max-steps", type=int, default=None, metavar="N",
                         help="most steps a sampler runs before it stops without meeting its "
-                             "convergence rule (default 200000; the run then ends with exit "
+                             f"convergence rule (default: what {SAMPLE_WORK} model evaluations "
+                             "allow, 12350 steps at 40 walkers; the run then ends with exit "
                              "code 3 and says so)")
 
 

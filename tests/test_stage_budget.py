@@ -1,0 +1,81 @@
+"""Every stage of a pair fit within a work budget (bayescal.core.budget):
+a least-squares run that ends by its budget stops at the best point it
+evaluated; a fit whose stages all run out ends with a result and a line per
+stage naming it and what helps, not an exception."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from bayescal.core import Budget
+from bayescal.core.budget import charge
+from bayescal.core.fit.leastsq import solve
+
+#: A linear least-squares problem: its minimum in closed form.
+A = np.array([[1.0, 0.0, 0.5], [0.2, 1.0, 0.0], [0.0, 0.3, 1.0], [1.0, 1.0, 1.0],
+              [0.5, -1.0, 0.2]])
+B = np.array([1.0, -2.0, 0.5, 3.0, 0.7])
+
+
+def _counted(calls):
+    def fun(x):
+        charge(1)                     # one model evaluation, as a model's residual counts
+        calls.append(np.array(x))
+        return A @ x - B
+    return fun
+
+
+def test_least_squares_within_a_budget_ends_at_its_best_point():
+    truth = np.linalg.lstsq(A, B, rcond=None)[0]
+    calls = []
+    free = solve(_counted(calls), np.zeros(3), method="lm", budget=Budget("least squares", 10**6))
+    np.testing.assert_allclose(free.x, truth, atol=1e-7)
+    assert free.status > 0
+    calls = []
+    budget = Budget("least squares", 3, helps="a narrower --band helps")
+    res = solve(_counted(calls), np.zeros(3), method="lm", budget=budget)
+    assert res.status == -3 and budget.ended_by == "work"
+    assert len(calls) == 3 == budget.used             # no evaluation past the budget
+    costs = [np.sum((A @ x - B) ** 2) for x in calls]
+    np.testing.assert_array_equal(res.x, calls[int(np.argmin(costs))])
+    assert res.message == ("least squares: ended by its work budget (3 model evaluations); "
+                           "a narrower --band helps")
+
+
+@pytest.fixture(scope="module")
+def small_files(tmp_path_factory):
+    from bayescal.simulate.pair import simulate_pair
+    folder = tmp_path_factory.mktemp("budget_pair")
+    return simulate_pair(duration=1800.0, fs=5.0, seed=1).write(str(folder))
+
+
+def test_spent_budgets_end_the_fit_with_a_result_and_say_which_stage(small_files, tmp_path,
+                                                                     capfd, monkeypatch):
+    from bayescal.cli import main
+    from bayescal.core import budget
+
+    monkeypatch.setattr(budget, "LEAST_SQUARES_WORK", 40)
+    monkeypatch.setattr(budget, "MODE_SEARCH_WORK", 40)
+    out = tmp_path / "out"
+    code = main(["fit", "--ref", small_files["ref.mseed"], "--ref-xml", small_files["ref.xml"],
+                 "--sut", small_files["sut.mseed"], "--sut-xml", small_files["sut.xml"],
+                 "--band", "0.05", "1", "--no-report", "--no-diagnose", "--quiet",
+                 "--max-steps", "20", "--out", str(out)])
+    said = capfd.readouterr().out
+    assert code == 3                                   # results written, chain unconverged
+    for stage in ("least squares", "mode search"):
+        assert (f"budget spent: {stage}: ended by its work budget (40 model evaluations); "
+                "a narrower --band helps") in said, said
+    assert "NOT CONVERGED: the sampler stopped" in said and "--max-steps" in said
+    result = json.loads((out / "result.json").read_text())
+    ended = {b["stage"]: b["ended_by"] for b in result["meta"]["budgets"]}
+    assert ended == {"least squares": "work", "mode search": "work", "sampling": "work"}
+    assert result["multimodal"]["not_tried"] > 0
+    # the posterior of what was run holds the simulated axes (north, east)
+    for cid, truth in (("XX.SIM.10.LH1", 0.0), ("XX.SIM.10.LH2", 90.0)):
+        az = result["channels"][cid]["azimuth_deg"]
+        lo, hi = az["ci95"]
+        wrap = 360.0 if lo >= 180.0 else 0.0         # an interval written across north
+        assert lo <= truth + wrap <= hi, (cid, az)
