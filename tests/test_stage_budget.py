@@ -1,7 +1,9 @@
 """Every stage of a pair fit within a work budget (bayescal.core.budget):
 a least-squares run that ends by its budget stops at the best point it
 evaluated; a fit whose stages all run out ends with a result and a line per
-stage naming it and what helps, not an exception."""
+stage naming it and what helps, not an exception; a sampler whose first t
+proposal fails fits it again after more DE steps instead of running the
+DE moves' long chain."""
 from __future__ import annotations
 
 import json
@@ -79,3 +81,33 @@ def test_spent_budgets_end_the_fit_with_a_result_and_say_which_stage(small_files
         lo, hi = az["ci95"]
         wrap = 360.0 if lo >= 180.0 else 0.0         # an interval written across north
         assert lo <= truth + wrap <= hi, (cid, az)
+
+
+class FarStart:
+    """A 3-D standard normal, its walkers started 100 sd away in a small
+    ball: 100 DE steps do not bring them to it, 400 do."""
+
+    ndim = 3
+
+    def log_prob(self, x):
+        x = np.atleast_2d(x)
+        return -0.5 * np.sum(x * x, axis=1)
+
+
+def test_a_second_adaptation_spares_the_de_moves_their_long_chain():
+    """When the first t proposal accepts too rarely the DE moves run
+    DE_RETRY more steps and the proposal is fitted again: the chain
+    converges at the proposal's mixing and samples the target."""
+    from bayescal.core.sampling import mcmc
+
+    ch = mcmc.sample(FarStart(), np.array([100.0, 0.0, 0.0]), 0.01 * np.eye(3), seed=3,
+                     progress=False)
+    steps = [(p["label"], p["steps"]) for p in ch.sampler["phases"]]
+    assert steps[:4] == [("differential evolution (burn-in)", mcmc.DE_BURN),
+                         ("independence (adapting; accepted too rarely)", mcmc.ADAPT),
+                         ("differential evolution (burn-in)", mcmc.DE_RETRY),
+                         ("independence (adapting)", mcmc.ADAPT)]
+    assert ch.converged and ch.tau.max() < 3                  # the proposal's mixing
+    se = 1.0 / np.sqrt(ch.ess)
+    np.testing.assert_array_less(np.abs(ch.samples.mean(axis=0)), 4 * se)
+    np.testing.assert_allclose(ch.samples.std(axis=0), 1.0, atol=4 * np.sqrt(0.5) * se.max())

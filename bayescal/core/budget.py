@@ -25,16 +25,17 @@ import time
 #: The work unit of every budget.
 UNIT = "model evaluations"
 #: The work budgets of a pair fit's stages (:func:`bayescal.core.fit.run.fit_spectra`):
-#: the least squares, the mode search and the sampler (whose ``max_steps``,
+#: the least squares, the mode search and the sampler, whose ``max_steps``,
 #: when not given, is what ``SAMPLE_WORK`` leaves over its walkers after the
-#: burn-in: 12,350 steps at 40 walkers, five times the longest chain of the
-#: speed benchmarks). The first
-#: two are about twenty times what they use on the shared real pairs and
-#: the simulated wrong-instrument pairs (docs/validation/speed.md, "Awkward
-#: inputs"). The criticism's is its own (``--diagnose-budget``).
-LEAST_SQUARES_WORK = 60_000
-MODE_SEARCH_WORK = 60_000
-SAMPLE_WORK = 500_000
+#: burn-in (7350 steps at 40 walkers, 4850 at 60: about twice the longest
+#: chain that met the convergence rule on the speed benchmarks and the
+#: awkward inputs, 2612 steps at 60 walkers). The least squares and the mode
+#: search use at most 408 and 6663 on those (docs/validation/speed.md,
+#: "Awkward inputs"). Together about 30-60 s of a two-core computer's work;
+#: the criticism's budget is its own (``--diagnose-budget``).
+LEAST_SQUARES_WORK = 30_000
+MODE_SEARCH_WORK = 30_000
+SAMPLE_WORK = 300_000
 
 _ACTIVE = contextvars.ContextVar("bayescal_budgets", default=())
 

@@ -6,8 +6,12 @@ when progress is off."""
 from __future__ import annotations
 
 import sys
+import time
 
 import numpy as np
+
+#: Without a terminal, a line every this many steps within a long run of steps.
+EVERY = 1000
 
 
 class NoBar:
@@ -43,9 +47,10 @@ class GoalBar(NoBar):
     def step(self):
         self.bar.update(1)
 
-    def goal(self, need_steps, kept_tau, ess, rhat, tau=None):
+    def goal(self, need_steps, kept_tau, ess, rhat, tau=None, done=None):
         """New estimate of the steps needed (the next check of the rule),
-        and where each target stands."""
+        and where each target stands (``tau``: the largest so far;
+        ``done``: the chain's steps so far)."""
         n_tau, min_ess, rhat_max = self.goals
         self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
         self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
@@ -61,20 +66,31 @@ class LogLines(NoBar):
 
     def __init__(self, n_tau, min_ess, rhat_max, max_steps):
         self.goals, self.max_steps, self.done = (n_tau, min_ess, rhat_max), max_steps, 0
+        self.planned, self.t0 = 0, time.monotonic()
 
     def step(self):
         self.done += 1
+        if self.done % EVERY == 0 and self.done < self.planned:   # within a long run of steps
+            _say(f"sampling to convergence: {self.done} steps done of {self.planned} planned "
+                 f"({self._seconds()})")
 
     def phase(self, label, steps, acceptance):
         """A phase of the sampler ended."""
-        _say(f"sampling, {label}: {steps} steps, acceptance {acceptance:.2f}")
+        _say(f"sampling, {label}: {steps} steps, acceptance {acceptance:.2f} "
+             f"({self._seconds()})")
 
-    def goal(self, need_steps, kept_tau, ess, rhat, tau=None):
+    def goal(self, need_steps, kept_tau, ess, rhat, tau=None, done=None):
         n_tau, min_ess, rhat_max = self.goals
+        done = self.done if done is None else done
+        self.planned = int(np.ceil(need_steps)) + self.done - done
         tau_text = f"; tau {tau:.1f}" if tau is not None else ""
-        _say(f"sampling to convergence: {self.done} steps done of {need_steps:.0f} planned "
-             f"(at most {self.max_steps} after the burn-in){tau_text}; chain {kept_tau:.0f}/{n_tau} tau, "
-             f"ESS {ess:.0f}/{min_ess}, R-hat {rhat:.3f} (< {rhat_max})")
+        _say(f"sampling to convergence: {done} steps done of {need_steps:.0f} planned "
+             f"(at most {self.max_steps} after the burn-in){tau_text}; "
+             f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
+             f"R-hat {rhat:.3f} (< {rhat_max}) ({self._seconds()})")
+
+    def _seconds(self):
+        return f"{time.monotonic() - self.t0:.1f} s since the sampler started"
 
 
 def _say(text):
