@@ -146,3 +146,23 @@ def test_criticism_candidates_go_to_the_progress_channel(capsys):
     with progress.shown(True):
         progress.logger("criticism, candidate")("  timing_offset      BIC gain       12.5")
     assert capsys.readouterr().err == "criticism, candidate: timing_offset      BIC gain       12.5\n"
+
+
+def test_a_stage_on_a_terminal_draws_a_bar_of_its_budget_then_its_line(capsys, monkeypatch):
+    import sys
+
+    from bayescal.core import Budget, progress
+    from bayescal.core.budget import charge
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)     # as on a terminal
+    budget = Budget("least squares", 400)
+    with progress.shown(True), budget.active(), progress.stage("least squares", budget) as st:
+        for _ in range(30):
+            charge(10)                       # a model evaluation of 10 points at a time
+        assert (st.bar.n, st.bar.total) == (300, 400)   # the bar: work used of the budget
+        st.result = "9 parameters"
+    err = capsys.readouterr().err
+    assert "least squares:   0%|" in err, err        # drawn on stderr
+    assert budget.listener is None                     # the bar let go of the budget
+    assert re.search(r"^least squares: 9 parameters \(300 model evaluations, [\d.]+ s\)$",
+                     err.splitlines()[-1]), err

@@ -10,9 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import progress
 from .. import budget as work
-from ..progress import shown
+from ..progress import shown, stage
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
@@ -292,7 +291,7 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
                 sensitivity=sensitivity, budgets=budgets)
 
 
-def budget_help(model):
+def _budget_help(model):
     """What helps a pair fit whose least squares or mode search ran out of
     its work budget: fewer parameters or fewer bands."""
     if any(b.free == "all" for b in model.blocks):
@@ -307,13 +306,13 @@ def _optimise(setup, nominal):
     theta_ls, cov, multimodal, budgets)``, ``budgets`` each stage's
     :meth:`~bayescal.core.budget.Budget.summary`. A stage that ends by its
     budget goes on from its best point, with a :class:`BudgetWarning`."""
-    helps = budget_help(setup.model)
+    helps = _budget_help(setup.model)
     ls = work.Budget("least squares", work.LEAST_SQUARES_WORK, helps=helps)
-    with progress.stage("least squares", ls) as st:
+    with stage("least squares", ls) as st:
         theta_ls, cov = least_squares_fit(setup.model, setup.theta0, budget=ls)
         st.result = f"{setup.model.ndim} parameters" + (", BUDGET SPENT" if ls.ended_by else "")
     ms = work.Budget("mode search", work.MODE_SEARCH_WORK, helps=helps)
-    with progress.stage("mode search", ms) as st:
+    with stage("mode search", ms) as st:
         model, theta_ls, cov, multimodal = _modes(setup.model, theta_ls, cov, nominal,
                                                   setup.fitted, budget=ms)
         n = multimodal.get("starts", 1)
