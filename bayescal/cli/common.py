@@ -91,8 +91,9 @@ def add_pair_arguments(parser):
     parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true",
-                        help="no progress display (the band used and the results table are "
-                             "still printed)")
+                        help="no progress display (each stage's line or bar on stderr: least "
+                             "squares, mode search, sampling, criticism); errors, the band used "
+                             "and the results table are still printed")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
     add_sampling_argument(parser)
     add_paper_argument(parser)
