@@ -46,6 +46,14 @@ def test_least_squares_within_a_budget_ends_at_its_best_point():
                            "a narrower --band helps")
 
 
+def test_work_counts_once_into_each_active_budget():
+    outer, inner = Budget("fit", 100), Budget("mode search", 100)
+    with outer.active(), inner.active(), inner.active():      # a stage inside a stage
+        charge(5)
+    charge(7)                                                  # none active: counted nowhere
+    assert (outer.used, inner.used) == (5, 5)
+
+
 @pytest.fixture(scope="module")
 def small_files(tmp_path_factory):
     from bayescal.simulate.pair import simulate_pair

@@ -94,8 +94,10 @@ class Budget:
     @contextlib.contextmanager
     def active(self):
         """Within this context the work :func:`charge` counts goes to this
-        budget too (budgets nest: an inner stage's work is also the outer's)."""
-        token = _ACTIVE.set(_ACTIVE.get() + (self,))
+        budget too (budgets nest: an inner stage's work is also the outer's;
+        a budget made active again inside its own context counts once)."""
+        active = _ACTIVE.get()
+        token = _ACTIVE.set(active if self in active else active + (self,))
         try:
             yield self
         finally:
