@@ -119,3 +119,15 @@ def test_a_second_adaptation_spares_the_de_moves_their_long_chain():
     se = 1.0 / np.sqrt(ch.ess)
     np.testing.assert_array_less(np.abs(ch.samples.mean(axis=0)), 4 * se)
     np.testing.assert_allclose(ch.samples.std(axis=0), 1.0, atol=4 * np.sqrt(0.5) * se.max())
+
+
+def test_a_long_chain_keeps_at_most_max_kept_draws():
+    """Thinning: a quarter of the smallest tau, and at least what keeps
+    MAX_KEPT draws (memory of what is computed from the samples)."""
+    from bayescal.core.sampling import mcmc
+
+    assert mcmc._thin(np.array([20.0, 30.0]), 1000) == 5
+    assert mcmc._thin(np.array([np.nan]), 10) == 1
+    n = 4850 * 60                                          # a 60-walker chain run to its budget
+    thin = mcmc._thin(np.array([3.2]), n)
+    assert thin == 8 and n // thin <= mcmc.MAX_KEPT < n // (thin - 1)

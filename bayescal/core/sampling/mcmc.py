@@ -65,6 +65,11 @@ DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
 #: accepts 0.45 and the chain converges in 650 steps, where the DE moves
 #: alone (tau about 40) need 2600 (docs/validation/speed.md, "Awkward inputs").
 DE_RETRY = 300
+#: Most draws a chain keeps (thinned further beyond it): what is computed
+#: from the samples (responses, prior sensitivity, the summaries) grows with
+#: them; a chain run to its work budget at a tau of 3 kept 290,000 draws of
+#: 15 parameters and took 1.6 GB (docs/validation/speed.md, "Awkward inputs").
+MAX_KEPT = 40_000
 #: Points per log-probability call of :class:`IndependenceMove`'s batches.
 BATCH = 2048
 #: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
@@ -340,7 +345,7 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
                                                           offset)
     bar.close()
     phases.close(sampler)
-    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1   # a very short chain
+    thin = _thin(tau, (steps - burn) * n_walkers)
     full = np.concatenate([pre, sampler.get_chain()]) if offset else sampler.get_chain()
     chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
                   log_prob=sampler.get_log_prob(discard=burn, thin=thin).reshape(-1), tau=tau,
@@ -353,6 +358,14 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
         warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
                       stacklevel=2)
     return chain
+
+
+def _thin(tau, n_kept):
+    """The kept chain's thinning: a quarter of the smallest tau (1 for a very
+    short chain, whose tau is not finite), and at least what keeps
+    :data:`MAX_KEPT` of its ``n_kept`` draws."""
+    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1
+    return max(thin, -(-int(n_kept) // MAX_KEPT))
 
 
 @dataclass(frozen=True)
