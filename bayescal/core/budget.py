@@ -29,8 +29,8 @@ UNIT = "model evaluations"
 #: when not given, is what ``SAMPLE_WORK`` leaves over its walkers after the
 #: burn-in (7350 steps at 40 walkers, 4850 at 60: about twice the longest
 #: chain that met the convergence rule on the speed benchmarks and the
-#: awkward inputs, 2612 steps at 60 walkers). The least squares and the mode
-#: search use at most 408 and 6663 on those (docs/validation/speed.md,
+#: awkward inputs, 2562 steps at 60 walkers). The least squares and the mode
+#: search use 408 and 4504 on `period_3x_all` (docs/validation/speed.md,
 #: "Awkward inputs"). Together about 30-60 s of a two-core computer's work;
 #: the criticism's budget is its own (``--diagnose-budget``).
 LEAST_SQUARES_WORK = 30_000
