@@ -43,3 +43,14 @@ class ModelMisfitWarning(UserWarning):
 class NotConvergedWarning(UserWarning):
     """A chain stopped at ``max_steps`` without meeting the convergence rule:
     its intervals are provisional."""
+
+
+class BudgetSpent(Exception):
+    """A stage's work budget (:class:`bayescal.core.budget.Budget`) is used
+    up: raised inside the stage's computation, caught by the stage, which
+    ends with its best point so far."""
+
+
+class BudgetWarning(UserWarning):
+    """A stage of a fit ended by its work budget, before its own rule
+    (:meth:`bayescal.core.budget.Budget.note` says which, and what helps)."""

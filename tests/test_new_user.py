@@ -202,7 +202,8 @@ def test_logs_get_whole_lines(sim_files, tmp_path):
     proc = _fit(sim_files, tmp_path / "o", "--band", *SIM_BAND, "--no-report", quiet=False)
     assert proc.returncode == 0, proc.stderr
     assert "\r" not in proc.stderr
-    starts = ("bayescal fit:", "band used:", "data used:", "sampling to convergence:", "wrote ")
+    starts = ("bayescal fit:", "band used:", "data used:", "least squares:", "mode search:",
+              "sampling", "criticism", "wrote ")
     for ln in proc.stderr.splitlines():
         assert ln.startswith(starts), ln
 

@@ -91,8 +91,9 @@ def add_pair_arguments(parser):
     parser.add_argument("--end", type=parse_time, metavar="T", help="end of the analysis window")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true",
-                        help="no progress display (the band used and the results table are "
-                             "still printed)")
+                        help="no progress display (each stage's line or bar on stderr: least "
+                             "squares, mode search, sampling, criticism); errors, the band used "
+                             "and the results table are still printed")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
     add_sampling_argument(parser)
     add_paper_argument(parser)
@@ -154,9 +155,11 @@ EXIT_CODES = ("Exit codes: 0 success; 2 bad input (one line naming the file and 
 
 def add_sampling_argument(parser):
     """``--max-steps N``: the most steps a sampler runs before it stops unconverged."""
-    parser.add_argument("--max-steps", type=int, default=200_000, metavar="N",
+    from ..core.budget import SAMPLE_WORK
+    parser.add_argument("--max-steps", type=int, default=None, metavar="N",
                         help="most steps a sampler runs before it stops without meeting its "
-                             "convergence rule (default 200000; the run then ends with exit "
+                             f"convergence rule (default: what {SAMPLE_WORK} model evaluations "
+                             "allow, 7350 steps at 40 walkers; the run then ends with exit "
                              "code 3 and says so)")
 
 

@@ -249,9 +249,21 @@ def transient_words(transients):
             f"--keep-transients keeps them)")
 
 
+def _said_warnings(caught):
+    """Print the input warnings among ``caught``; returns the budget notes
+    (said with the summary, as the NOT CONVERGED line is)."""
+    from ..errors import BudgetWarning, InputWarning
+
+    for w in caught:
+        if issubclass(w.category, InputWarning):
+            print(f"bayescal: warning: {w.message}", file=sys.stderr)
+    return [str(w.message) for w in caught if issubclass(w.category, BudgetWarning)]
+
+
 def run(args):
     """Run the fit; returns the exit code."""
-    from ..errors import InputError, InputWarning
+    from ..core import progress
+    from ..errors import BudgetWarning, InputError, InputWarning
     from ..io.result import write_results
     from ..pair.workflow import calibrate_files
 
@@ -259,8 +271,10 @@ def run(args):
     if os.path.exists(out) and not os.path.isdir(out):
         raise InputError(f"{args.out}: exists and is not a folder")
     t_start = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught, quiet_convergence_warnings():
+    with warnings.catch_warnings(record=True) as caught, quiet_convergence_warnings(), \
+            progress.shown(not args.quiet):
         warnings.simplefilter("always", InputWarning)
+        warnings.simplefilter("always", BudgetWarning)
         say(args, "bayescal fit: reading recordings and metadata ...")
         post = calibrate_files(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
                                sut_xml=args.sut_xml,
@@ -273,9 +287,7 @@ def run(args):
                                priors=priors_from(args),
                                diagnose=not args.no_diagnose,
                                diagnose_budget_s=args.diagnose_budget)
-    for w in caught:
-        if issubclass(w.category, InputWarning):
-            print(f"bayescal: warning: {w.message}", file=sys.stderr)
+    spent = _said_warnings(caught)
     meta = post.meta
     lo, hi = meta.band_hz
     print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.band_choice})", file=sys.stderr)
@@ -300,6 +312,8 @@ def run(args):
     elapsed = time.perf_counter() - t_start
     summary = post.summary()
     print_summary(summary)   # --quiet removes the progress display only
+    for line in spent:       # a stage's budget ended it: said as the NOT CONVERGED line is
+        print(line)
     code = convergence_exit([("the sampler", summary["convergence"])])
     written = sorted(n for n in os.listdir(out) if not n.startswith("."))
     say(args, f"wrote {out} ({', '.join(written)}) in {elapsed:.1f} s")

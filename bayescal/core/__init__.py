@@ -19,6 +19,7 @@ Grouped by idea, one subpackage each; in the order data flows through them:
 * :mod:`.threads`     the BLAS thread limit every group's small products run under
 * :mod:`.budget`      work budgets: a stage's work counted in model evaluations,
                       with a wall-clock limit only as a safety net
+* :mod:`.progress`    where a fit's time goes: each stage's line (or bar) on stderr
 
 Each subpackage's docstring names its modules and the subpackages it may
 import. The core as a whole may import only numpy, scipy, emcee,
@@ -36,7 +37,7 @@ importing a face costs no import time.
 """
 import lazy_loader
 
-__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submodules=["progress"], submod_attrs={
     "budget": ["Budget"],
     "priors": ["Priors"],
     "threads": ["single_threaded_blas"],

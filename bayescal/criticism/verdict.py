@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from . import words
+from ..core import progress
 from .advice import accepted, band
 
 #: An estimate "moves" when the improved model shifts it by more than this
@@ -186,8 +187,6 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     approximation). ``band_given``: the band was given (``--band``), so
     no narrower one is advised (:mod:`.advice`, whose rules every advice
     passes). ``sample_kw`` go to the sampler."""
-    from .diagnose import diagnose
-
     t0 = time.monotonic()
     budget, budget_s = _budget(budget, budget_s)
     free = post.meta.free_response or "none"
@@ -195,9 +194,7 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
     pinned = _pinned_parameters(base_sum)
     if pinned:
         return Criticism(_pinned(pinned, budget_s))
-    with budget.active():
-        d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
-                     **_sampler_options(sample_kw))
+    d = _diagnosed(post, budget, seed=seed, mcmc=mcmc, log=log, sample_kw=sample_kw)
     seconds = time.monotonic() - t0
     named = list(d.effects)
     moves = _moves(d, post, base_sum, named)
@@ -232,6 +229,20 @@ def criticise(post, budget_s=DEFAULT_BUDGET_S, seed=0, log=None, mcmc=True, budg
         "sentences": d.sentences(),
     }
     return Criticism(summary, improved, d)
+
+
+def _diagnosed(post, budget, *, seed, mcmc, log, sample_kw):
+    """The diagnosis of ``post`` within ``budget``, saying its progress
+    (:mod:`bayescal.core.progress`: a line per candidate, one at its end)."""
+    from .diagnose import diagnose
+
+    log = log or progress.logger("criticism, candidate")
+    with budget.active(), progress.stage("criticism", budget) as stage:
+        d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
+                     **_sampler_options(sample_kw))
+        stage.result = f"{len(d.tried)} candidate effects tried" + (
+            ", BUDGET SPENT" if d.incomplete else "")
+    return d
 
 
 def _all_advice(advice, effects, verdict, model):

@@ -53,7 +53,8 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
         How the reference's own self-noise is treated (module docstring);
         the mode used is in ``result.meta.reference_noise``.
     progress : bool
-        Show the sampler's progress.
+        Say each stage's progress on stderr: the least squares, the mode
+        search, each phase of the sampler (:mod:`bayescal.core.progress`).
     **sample_kw
         To :func:`bayescal.core.fit.run.fit_spectra` (e.g. ``max_steps``,
         ``misfit_shape``).

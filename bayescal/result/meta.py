@@ -45,6 +45,8 @@ FIELDS = {
     "response_prior": "the priors of period and damping",
     "effects": "the effects an improved model holds",
     "sampler": "what sampled the posterior: library, walkers, moves, steps",
+    "budgets": "each stage's work budget (least squares, mode search, sampling): its limit "
+               "and the work used, in model evaluations, and what ended it",
     "reference_tolerance": "the reference's metadata tolerance carried into the response",
     "batch_label": "the batch item's label",
     "headline": "under which model the reported estimates are: the fit's, or the criticism's "
@@ -93,6 +95,7 @@ class Meta:
     response_prior: dict | None = None
     effects: list | None = None
     sampler: dict | None = None
+    budgets: list | None = None
     reference_tolerance: dict | None = None
     batch_label: str | None = None
     headline: dict | None = None

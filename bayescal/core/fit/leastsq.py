@@ -22,16 +22,58 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ...errors import FitError
+from ...errors import BudgetSpent, FitError
 
 #: Tolerances of a refinement's passes.
 TIGHT = dict(xtol=1e-12, ftol=1e-12, gtol=1e-12)
 
 
-def solve(fun, x0, lo=-np.inf, hi=np.inf, method="trf", jac="2-point", args=(), **kw):
+def solve(fun, x0, lo=-np.inf, hi=np.inf, method="trf", jac="2-point", args=(), budget=None,
+          **kw):
     """One least-squares run of ``fun(x, *args)`` from ``x0`` in the box
     ``[lo, hi]`` by ``method`` (module docstring); ``kw`` go to scipy
-    (tolerances, ``x_scale``, ``max_nfev``). Returns scipy's result."""
+    (tolerances, ``x_scale``, ``max_nfev``). Returns scipy's result.
+
+    ``budget``: a :class:`bayescal.core.budget.Budget`, active during the
+    run (the model's evaluations count into it) and checked before each
+    evaluation of ``fun``; once spent the run ends at the best point it has
+    evaluated (the result's ``status`` is then ``-3``, its ``message`` the
+    budget's note)."""
+    if budget is None:
+        return _solve(fun, x0, lo, hi, method, jac, args, **kw)
+    tracked = _Best(fun, budget)
+    try:
+        with budget.active():
+            return _solve(tracked, x0, lo, hi, method, jac, args, **kw)
+    except BudgetSpent as spent:
+        return tracked.result(x0, lo, hi, str(spent))
+
+
+class _Best:
+    """``fun`` that checks ``budget`` before each evaluation and keeps the
+    point of the smallest finite squared residual it has returned."""
+
+    def __init__(self, fun, budget):
+        self.fun, self.budget = fun, budget
+        self.x, self.cost = None, np.inf
+
+    def __call__(self, x, *args):
+        self.budget.check()
+        r = self.fun(x, *args)
+        cost = float(np.sum(np.square(r)))
+        if np.isfinite(cost) and cost < self.cost:
+            self.x, self.cost = np.array(x, float), cost
+        return r
+
+    def result(self, x0, lo, hi, message):
+        """scipy's result fields for the best point (``x0`` when none was evaluated)."""
+        from scipy.optimize import OptimizeResult
+        x = np.clip(x0 if self.x is None else self.x, lo, hi)
+        return OptimizeResult(x=x, cost=0.5 * self.cost, status=-3, success=False,
+                              message=message)
+
+
+def _solve(fun, x0, lo, hi, method, jac, args, **kw):
     if method == "lm":
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             res = least_squares(fun, x0, jac=jac, args=args, method="lm", **kw)
@@ -64,7 +106,7 @@ def covariance(jac, scale=2.0):
 
 
 def refine(fun, theta0, lo, hi, reestimate, passes, *, noise_args=tuple, method="lm",
-           jac="2-point", scale=2.0, reestimate_first=True, **kw):
+           jac="2-point", scale=2.0, reestimate_first=True, budget=None, **kw):
     """Least squares with the noise model re-estimated after each pass.
 
     From ``theta0`` clipped into ``[lo, hi]``: ``reestimate(theta)`` (first
@@ -74,17 +116,23 @@ def refine(fun, theta0, lo, hi, reestimate, passes, *, noise_args=tuple, method=
     noise model re-estimated at its end point. Returns ``(theta,
     covariance)``, the covariance :func:`covariance` of the Jacobian at
     ``theta`` (unbounded for "lm", in the box for "trf").
+
+    ``budget`` (:func:`solve`): once spent, no further pass runs; the
+    point is the best one evaluated.
     """
     theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
     if reestimate_first:
         reestimate(theta)
     for _ in range(passes):
-        res = solve(fun, theta, lo, hi, method=method, jac=jac, args=noise_args(), **TIGHT, **kw)
+        res = solve(fun, theta, lo, hi, method=method, jac=jac, args=noise_args(),
+                    budget=budget, **TIGHT, **kw)
         if not np.isfinite(res.x).all():
             raise FitError("least squares left the finite parameter range (a non-finite "
                            "residual); check the responses and the band")
         theta = res.x
         reestimate(theta)
+        if budget is not None and budget.spent():
+            break
     j = jacobian(fun, theta, jac=jac, args=noise_args(),
                  **({} if method == "lm" else dict(bounds=(lo, hi), **kw)))
     return theta, covariance(j, scale)

@@ -46,6 +46,7 @@ with R-hat between them were not used for the same reason.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 from dataclasses import dataclass, replace
 
@@ -114,17 +115,18 @@ def theta_for(model, vectors, theta_response):
     return theta
 
 
-def _polish(model, theta, factors):
-    """Least squares from ``theta`` with the noise model held fixed."""
+def _polish(model, theta, factors, budget=None):
+    """Least squares from ``theta`` with the noise model held fixed (within
+    ``budget``: :func:`bayescal.core.fit.leastsq.solve`)."""
     lo, hi = prior_bounds(model)
     theta = np.clip(theta, lo + 1e-9, hi - 1e-9)
     with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
-        return _least_squares(model, theta, factors, lo, hi)
+        return _least_squares(model, theta, factors, lo, hi, budget)
 
 
-def _least_squares(model, theta, factors, lo, hi):
+def _least_squares(model, theta, factors, lo, hi, budget):
     fun, jac = least_squares_objective(model, _jacobian(model))
-    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,)).x
+    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget).x
 
 
 def curvature(log_prob, theta, step):
@@ -149,11 +151,12 @@ def curvature(log_prob, theta, step):
     return grad, hess
 
 
-def optimum(model, theta, label, factors, first=None):
-    """Polish ``theta`` and describe the end point (chart centred on it);
-    None when it came back within :func:`merge_threshold` of ``first``."""
+def optimum(model, theta, label, factors, first=None, budget=None):
+    """Polish ``theta`` (within ``budget``) and describe the end point
+    (chart centred on it); None when it came back within
+    :func:`merge_threshold` of ``first``."""
     if first is not None:
-        theta = _polish(model, theta, factors)
+        theta = _polish(model, theta, factors, budget)
     vecs = model.unpack(theta)[0][0]
     model = recharted(model, vecs)
     theta = theta_for(model, vecs, theta)
@@ -287,23 +290,42 @@ def physical(opt):
     return out
 
 
-def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS):
-    """Least squares from the other starts; returns ``(best, report)``:
-    the most probable mode's :class:`Optimum` (its ``label`` says whether it
-    is the first fit's) and the ``multimodal`` entry of result.json."""
-    factors = model.noise.cholesky()
+def _from_starts(model, theta_ls, nominal_vectors, factors, budget):
+    """The optima from the first fit's point and the other starts:
+    ``(found, returned, skipped)``, the distinct optima (the first fit's
+    first), the starts that came back to it and those ``budget`` left
+    untried."""
     first = optimum(model, theta_ls, "closed-form start (the first fit)", factors)
-    found, returned = [first], 0
+    found, returned, skipped = [first], 0, 0
     for label, v in starts(model, theta_ls, nominal_vectors):
+        if budget is not None and budget.spent():
+            skipped += 1
+            continue
         chart = recharted(model, v)
         try:
-            o = optimum(chart, theta_for(chart, v, theta_ls), label, factors, first)
+            o = optimum(chart, theta_for(chart, v, theta_ls), label, factors, first, budget)
         except (np.linalg.LinAlgError, ValueError):
             continue
         if o is None:
             returned += 1
         else:
             found.append(o)
+    return found, returned, skipped
+
+
+def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
+    """Least squares from the other starts; returns ``(best, report)``:
+    the most probable mode's :class:`Optimum` (its ``label`` says whether it
+    is the first fit's) and the ``multimodal`` entry of result.json.
+
+    ``budget`` (a :class:`bayescal.core.budget.Budget`): the search's work;
+    once spent, the starts not yet tried are skipped (the report's
+    ``not_tried`` and ``budget`` say so) and a start being polished ends at
+    its best point."""
+    factors = model.noise.cholesky()
+    with (budget.active() if budget is not None else contextlib.nullcontext()):
+        found, returned, skipped = _from_starts(model, theta_ls, nominal_vectors, factors, budget)
+    first = found[0]
     threshold = merge_threshold(model.ndim)
     modes = group(found, threshold)
     if modes[0] is not first and distance(modes[0], first) < threshold:
@@ -312,7 +334,8 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS):
     best = modes[0]
     report = {
         "detected": bool(len(modes) > 1 and frac[1:].max() >= mass),
-        "returned_to_first": returned,
+        "returned_to_first": returned, "starts": len(found) + returned + skipped,
+        **({"not_tried": skipped, "budget": budget.note()} if skipped else {}),
         "test": (f"least squares from {len(found) + returned} starts (closed form, axes mirrored across the "
                  "weakest ground motion, nominal axes); optima within a Mahalanobis distance of "
                  f"{threshold:.2f} (99 % Laplace ellipsoids touching) are one mode; multimodal "

@@ -5,14 +5,17 @@ frozen t proposal; the convergence rule is stated there).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import budget as work
+from ..progress import shown, stage
 from ..model import misfit_scale, refnoise
 from ..response import pendulum
 from ..threads import single_threaded_blas
-from ...errors import FitError
+from ...errors import BudgetWarning, FitError
 from .assemble import assemble_posterior, plugin_meta
 from .leastsq import refine
 from ..orientation.geometry import Circle, Fixed, Sphere
@@ -165,7 +168,7 @@ def _check_families(families, fitted, free):
         raise FitError(why)
 
 
-def least_squares_fit(model, theta0, iterations=2, jac=None):
+def least_squares_fit(model, theta0, iterations=2, jac=None, budget=None):
     """Refine ``theta0`` by least squares on the whitened residual (Levenberg-
     Marquardt, :func:`bayescal.core.fit.leastsq.refine`), re-estimating the
     noise model after each pass.
@@ -180,6 +183,8 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     the pendulum priors' included
     (:func:`bayescal.core.model.jacobian.least_squares_objective`): along a
     direction the data hardly fix, the point stays where the prior puts it.
+    ``budget``: a :class:`bayescal.core.budget.Budget`; once spent the
+    point is the best one evaluated (:func:`bayescal.core.fit.leastsq.refine`).
     """
     from ..model.jacobian import least_squares_objective
     if jac is None:
@@ -188,7 +193,8 @@ def least_squares_fit(model, theta0, iterations=2, jac=None):
     fun, jac = least_squares_objective(model, jac)
     lo, hi = prior_bounds(model)
     return refine(fun, theta0, lo, hi, model.estimate_noise, iterations,
-                  noise_args=lambda: (model.noise.cholesky(),), method="lm", jac=jac)
+                  noise_args=lambda: (model.noise.cholesky(),), method="lm", jac=jac,
+                  budget=budget)
 
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, *, free="none",
@@ -258,6 +264,7 @@ class _Run:
     separation: dict
     set_by_prior: dict
     sensitivity: dict
+    budgets: list
     gain_bounds: dict = None
 
 
@@ -265,11 +272,8 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     """Least squares, the search for other modes, the parameters held for
     want of information, the chain, and the flags on what the prior set."""
     from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
-    with single_threaded_blas():
-        theta_ls, cov = least_squares_fit(setup.model, setup.theta0)
-        # other optima: the most probable mode is sampled
-        model, theta_ls, cov, multimodal = _modes(setup.model, theta_ls, cov,
-                                                  sut_nominal_vectors, setup.fitted)
+    with single_threaded_blas(), shown(progress):
+        model, theta_ls, cov, multimodal, budgets = _optimise(setup, sut_nominal_vectors)
         separation = {}
         if getattr(model, "ref_noise", None) == "estimate":
             from ..checks.separation import gain_separation
@@ -287,7 +291,40 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     set_by_prior.update(pendulum.set_by_prior_entries(sensitivity))
     return _Run(model=model, theta_ls=theta_ls, target=target, chain=chain, full=full,
                 multimodal=multimodal, separation=separation, set_by_prior=set_by_prior,
-                sensitivity=sensitivity, gain_bounds=bounds)
+                sensitivity=sensitivity, budgets=budgets, gain_bounds=bounds)
+
+
+def _budget_help(model):
+    """What helps a pair fit whose least squares or mode search ran out of
+    its work budget: fewer parameters or fewer bands."""
+    if any(b.free == "all" for b in model.blocks):
+        return ("fewer parameters help (--fit-response gain: period and damping held at "
+                "their metadata values), or a narrower --band")
+    return "a narrower --band helps (fewer bands to fit)"
+
+
+def _optimise(setup, nominal):
+    """The least squares and the mode search, each within its work budget
+    and saying its progress (:mod:`bayescal.core.progress`): ``(model,
+    theta_ls, cov, multimodal, budgets)``, ``budgets`` each stage's
+    :meth:`~bayescal.core.budget.Budget.summary`. A stage that ends by its
+    budget goes on from its best point, with a :class:`BudgetWarning`."""
+    helps = _budget_help(setup.model)
+    ls = work.Budget("least squares", work.LEAST_SQUARES_WORK, helps=helps)
+    with stage("least squares", ls) as st:
+        theta_ls, cov = least_squares_fit(setup.model, setup.theta0, budget=ls)
+        st.result = f"{setup.model.ndim} parameters" + (", BUDGET SPENT" if ls.ended_by else "")
+    ms = work.Budget("mode search", work.MODE_SEARCH_WORK, helps=helps)
+    with stage("mode search", ms) as st:
+        model, theta_ls, cov, multimodal = _modes(setup.model, theta_ls, cov, nominal,
+                                                  setup.fitted, budget=ms)
+        n = multimodal.get("starts", 1)
+        st.result = (f"{len(multimodal['modes'])} mode(s) from {n - multimodal.get('not_tried', 0)}"
+                     f" of {n} starts" + (", BUDGET SPENT" if ms.ended_by else ""))
+    for b in (ls, ms):
+        if b.ended_by:
+            warnings.warn(f"budget spent: {b.note()}", BudgetWarning, stacklevel=3)
+    return model, theta_ls, cov, multimodal, [ls.summary(), ms.summary()]
 
 
 def _fit_meta(run, spectra, free, priors, chosen_by):
@@ -314,18 +351,31 @@ def _fit_meta(run, spectra, free, priors, chosen_by):
                                    "damping_tolerance": priors.damping_tolerance,
                                    "shape": "log-normal around the metadata values"}}
                if run.sensitivity else {}),
-            "sampler": run.chain.sampler}
+            "sampler": run.chain.sampler,
+            "budgets": run.budgets + [_sampling_budget(run.chain)]}
 
 
-def _modes(model, theta_ls, cov, nominal, fitted):
+def _sampling_budget(chain):
+    """The sampler's work as a budget's summary: its steps times its walkers;
+    its limit the burn-in's steps and ``max_steps`` (the kept phase's)."""
+    limit = chain.sampler.get("max_steps")
+    burn_in = sum(p["steps"] for p in chain.sampler.get("phases", [])[:-1])
+    return {"stage": "sampling", "unit": work.UNIT,
+            "limit": None if limit is None else (burn_in + int(limit)) * chain.n_walkers,
+            "used": int(chain.n_steps) * chain.n_walkers, "time_limit_s": None,
+            "ended_by": None if chain.converged else "work"}
+
+
+def _modes(model, theta_ls, cov, nominal, fitted, budget=None):
     """:func:`bayescal.core.fit.modes.search`; when another mode is the most
-    probable, the fit restarts there (noise model re-estimated)."""
+    probable, the fit restarts there (noise model re-estimated), both
+    within ``budget``."""
     from .modes import search
 
-    best, report = search(model, theta_ls, np.asarray(nominal, float)[fitted])
+    best, report = search(model, theta_ls, np.asarray(nominal, float)[fitted], budget=budget)
     if best.label.startswith("closed-form"):
         return model, theta_ls, cov, report
-    theta_ls, cov = least_squares_fit(best.model, best.theta)
+    theta_ls, cov = least_squares_fit(best.model, best.theta, budget=budget)
     return best.model, theta_ls, cov, report
 
 

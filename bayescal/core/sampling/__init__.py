@@ -2,6 +2,7 @@
 
 * :mod:`.mcmc` every chain is run here, by emcee, with its moves and its
                convergence rule
+* :mod:`.display` what a running chain says: a bar on a terminal, lines in a log
 
 May import :mod:`bayescal.core.posterior` (how convergence is told).
 

@@ -11,7 +11,8 @@ random stream handed on:
   (weight 0.2) throughout;
 * ``move="independence"`` (the default, every posterior of bayescal):
   :data:`DE_BURN` steps of those moves
-  find the posterior's scale; then :class:`IndependenceMove`, an
+  find the posterior's scale (:data:`DE_RETRY` more when the first
+  proposal accepts too rarely); then :class:`IndependenceMove`, an
   :class:`emcee.moves.Move` whose proposal is a multivariate Student t
   fitted to the DE draws (:class:`TProposal`), runs :data:`ADAPT` steps, is
   refitted to them and frozen for the kept chain. On the near-Gaussian
@@ -40,7 +41,6 @@ this module is imported only by code that samples.
 """
 from __future__ import annotations
 
-import sys
 import warnings
 from dataclasses import dataclass, field
 
@@ -49,12 +49,27 @@ import numpy as np
 
 from ...errors import NotConvergedWarning
 from ...result.convergence import Convergence
+from ..budget import SAMPLE_WORK
 from ..posterior.convergence import not_converged_line
+from .display import progress_display
 
 #: ``move="independence"``: DE steps before the first proposal is fitted (from
 #: their second half), independence steps before it is refitted, and the
 #: acceptance below which the DE moves carry on instead.
 DE_BURN, ADAPT, MIN_ACCEPTANCE = 100, 50, 0.2
+#: DE steps run once more, and the proposal fitted again, when the first
+#: adaptation accepts less than :data:`MIN_ACCEPTANCE`: walkers started from
+#: the least-squares Laplace approximation on a skewed ridge (a prior against
+#: the data: a 40-s sensor whose metadata say 120 s, ``--fit-response all``)
+#: have not settled in :data:`DE_BURN` steps; fitted after 400 the proposal
+#: accepts 0.45 and the chain converges in 650 steps, where the DE moves
+#: alone (tau about 40) need 2600 (docs/validation/speed.md, "Awkward inputs").
+DE_RETRY = 300
+#: Most draws a chain keeps (thinned further beyond it): what is computed
+#: from the samples (responses, prior sensitivity, the summaries) grows with
+#: them; a chain run to its work budget at a tau of 3 kept 290,000 draws of
+#: 15 parameters and took 1.6 GB (docs/validation/speed.md, "Awkward inputs").
+MAX_KEPT = 40_000
 #: Points per log-probability call of :class:`IndependenceMove`'s batches.
 BATCH = 2048
 #: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
@@ -258,6 +273,7 @@ class _Phases:
         self.phases.append(dict(sampler.phase, label=label or sampler.phase["label"],
                                 steps=int(steps),
                                 acceptance=float(np.mean(accepted) / max(steps, 1))))
+        self.bar.phase(self.phases[-1]["label"], int(steps), self.phases[-1]["acceptance"])
         sampler.recorded = (sampler.iteration, sampler.backend.accepted.copy())
 
     def record(self):
@@ -284,7 +300,7 @@ def default_walkers(ndim):
 
 
 def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
-           rhat_max=1.01, max_steps=200_000, progress=True, move="independence"):
+           rhat_max=1.01, max_steps=None, progress=True, move="independence"):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.
 
@@ -296,9 +312,9 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     seed : the chain is a function of the seed alone (same seed, same chain).
     n_walkers : default ``max(32, 4 ndim)``, made even.
     min_ess, n_tau, rhat_max : the convergence rule (module docstring).
-    max_steps : steps of the kept phase after which the chain stops unconverged
-        (it always runs at least one step).
-    progress : a progress bar toward the rule (tqdm, on stderr).
+    max_steps : steps of the kept phase after which the chain stops unconverged (at
+        least one); None: :data:`bayescal.core.budget.SAMPLE_WORK` evaluations' worth in all.
+    progress : a bar toward the rule on a terminal, else lines (:mod:`.display`).
     move : "independence" (the default: a DE burn-in, then
         :class:`IndependenceMove`; the DE moves carry on where it accepts too
         rarely) or "de" (emcee's differential-evolution moves throughout).
@@ -313,11 +329,11 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     if move not in ("de", "independence"):
         raise ValueError(f"unknown move {move!r}")
     ndim = model.ndim
-    n_walkers = n_walkers or default_walkers(ndim)
-    n_walkers += n_walkers % 2
+    n_walkers = (n_walkers or default_walkers(ndim)) + (n_walkers or 0) % 2
+    rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max, max_steps=max(
+        1, SAMPLE_WORK // n_walkers - DE_BURN - ADAPT) if max_steps is None else int(max_steps))
     p0 = _start_walkers(model, theta_start, cov, np.random.default_rng(seed), n_walkers)
-    rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max, max_steps=max_steps)
-    bar = _progress(progress, 1000, n_tau, min_ess, rhat_max)
+    bar = progress_display(progress, 1000, n_tau, min_ess, rhat_max, rule.max_steps)
     phases = _Phases(model.log_prob, n_walkers, ndim, bar)
     sampler = phases.new(_de_moves(), "differential evolution")
     state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
@@ -326,23 +342,30 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     # (a DE fallback keeps its burn-in steps in its own chain)
     offset = pre.shape[0]
     steps, burn, tau, ess, rhat, converged = _run_to_rule(phases, sampler, state, rule, pace,
-                                                                 offset)
+                                                          offset)
     bar.close()
     phases.close(sampler)
-    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1   # a very short chain
-    kept_lp = sampler.get_log_prob(discard=burn, thin=thin)
-    full = sampler.get_chain()
-    full = np.concatenate([pre, full]) if offset else full
+    thin = _thin(tau, (steps - burn) * n_walkers)
+    full = np.concatenate([pre, sampler.get_chain()]) if offset else sampler.get_chain()
     chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
-                  log_prob=kept_lp.reshape(-1), tau=tau, ess=ess, rhat=rhat,
+                  log_prob=sampler.get_log_prob(discard=burn, thin=thin).reshape(-1), tau=tau,
+                  ess=ess, rhat=rhat,
                   acceptance=float(np.mean(sampler.acceptance_fraction)),
                   n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
                   converged=converged, trace=full[:: max(1, (offset + steps) // 1000)],
-                  sampler=phases.record())
+                  sampler=dict(phases.record(), max_steps=rule.max_steps))
     if not converged:
         warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
                       stacklevel=2)
     return chain
+
+
+def _thin(tau, n_kept):
+    """The kept chain's thinning: a quarter of the smallest tau (1 for a very
+    short chain, whose tau is not finite), and at least what keeps
+    :data:`MAX_KEPT` of its ``n_kept`` draws."""
+    thin = max(1, int(tau.min() / 4)) if np.all(np.isfinite(tau)) else 1
+    return max(thin, -(-int(n_kept) // MAX_KEPT))
 
 
 @dataclass(frozen=True)
@@ -375,7 +398,10 @@ def _burn_in(phases, sampler, state, rule, independence):
     if not independence:
         return pre, sampler, state, pace
     state = phases.run(sampler, state, DE_BURN)
-    frozen = _frozen_proposal(phases, sampler, state)
+    frozen = _frozen_proposal(phases, sampler, state, DE_BURN // 2)
+    if frozen is None:      # once more, from DE draws that have had longer to settle
+        state = phases.run(sampler, state, DE_RETRY)
+        frozen = _frozen_proposal(phases, sampler, state, DE_BURN + DE_RETRY // 2)
     if frozen is None:
         return pre, sampler, state, pace
     pre, sampler, state = frozen
@@ -410,28 +436,30 @@ def _run_to_rule(phases, sampler, state, rule, pace, offset):
         if (kept.shape[0] >= rule.n_tau * tau.max() and ess.min() >= rule.min_ess
                 and rhat.max() < rule.rhat_max):
             converged = True
-            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+            bar.goal(offset + steps, kept.shape[0] / tau.max(), ess.min(), rhat.max(), tau.max(),
+                     offset + steps)
             break
         chunk = int(min(max(min_chunk, 1.1 * need - steps), rule.max_steps - steps))
-        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max())
+        bar.goal(offset + steps + chunk, kept.shape[0] / tau.max(), ess.min(), rhat.max(),
+                 tau.max(), offset + steps)
         if steps >= rule.max_steps:
             break
     return steps, burn, tau, ess, rhat, converged
 
 
-def _frozen_proposal(phases, de, state):
-    """One adaptation round of the t proposal after the DE burn-in; returns
-    (burn-in chain, the sampler with the frozen proposal, its start state),
-    or None (the DE sampler carries on) when the proposal cannot be fitted or
-    accepts too rarely."""
+def _frozen_proposal(phases, de, state, discard):
+    """One adaptation round of the t proposal after the DE burn-in, fitted to
+    its draws after the first ``discard`` steps; returns (burn-in chain, the
+    sampler with the frozen proposal, its start state), or None (the DE
+    sampler carries on) when the proposal cannot be fitted or accepts too
+    rarely."""
     phases.close(de, "differential evolution (burn-in)")
     try:
         adapt = phases.new([(IndependenceMove(TProposal.fit(
-            de.get_chain(discard=DE_BURN // 2, flat=True))), 1.0)], "independence (adapting)")
+            de.get_chain(discard=discard, flat=True))), 1.0)], "independence (adapting)")
         last = phases.run(adapt, state, ADAPT)
         if np.mean(adapt.acceptance_fraction) < MIN_ACCEPTANCE:
-            phases.close(adapt, "independence (adapting; accepted too rarely: the "
-                                "differential-evolution moves carry on)")
+            phases.close(adapt, "independence (adapting; accepted too rarely)")
             return None
         phases.close(adapt)
         final = phases.new([(IndependenceMove(TProposal.fit(adapt.get_chain(flat=True))), 1.0)],
@@ -439,69 +467,3 @@ def _frozen_proposal(phases, de, state):
     except np.linalg.LinAlgError:   # a degenerate spread: no proposal
         return None
     return np.concatenate([de.get_chain(), adapt.get_chain()]), final, last
-
-
-class _NoBar:
-    step = None
-
-    def goal(self, *args):
-        pass
-
-    def close(self):
-        pass
-
-
-class _GoalBar:
-    """Progress toward the convergence rule: the bar's total is the current
-    estimate of the steps the rule needs (re-estimated at every check, so
-    the time left is tqdm's estimate toward it), the postfix each target:
-    kept chain in autocorrelation times, smallest ESS and largest R-hat
-    against their goals."""
-
-    def __init__(self, first, n_tau, min_ess, rhat_max):
-        from tqdm.auto import tqdm
-        self.goals = (n_tau, min_ess, rhat_max)
-        self.bar = tqdm(total=first, unit="step", desc="sampling to convergence", leave=False,
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n}/{total} steps "
-                                   "[{elapsed}<{remaining}]{postfix}")
-        self.bar.set_postfix_str(f"goals: {n_tau} tau, ESS {min_ess}, R-hat < {rhat_max}")
-
-    def step(self):
-        self.bar.update(1)
-
-    def goal(self, need_steps, kept_tau, ess, rhat):
-        """New estimate of the steps needed (the next check of the rule),
-        and where each target stands."""
-        n_tau, min_ess, rhat_max = self.goals
-        self.bar.total = max(int(np.ceil(need_steps)), self.bar.n)
-        self.bar.set_postfix_str(f"chain {kept_tau:.0f}/{n_tau} tau, ESS {ess:.0f}/{min_ess}, "
-                                 f"R-hat {rhat:.3f} (< {rhat_max})")
-
-    def close(self):
-        self.bar.close()
-
-
-class _LogLine(_NoBar):
-    """Without a terminal (a log file): one line when the sampling ends."""
-
-    def __init__(self, n_tau, min_ess, rhat_max):
-        self.goals, self.state = (n_tau, min_ess, rhat_max), None
-
-    def goal(self, need_steps, kept_tau, ess, rhat):
-        self.state = (need_steps, kept_tau, ess, rhat)
-
-    def close(self):
-        if self.state is not None:
-            steps, kept_tau, ess, rhat = self.state
-            n_tau, min_ess, rhat_max = self.goals
-            print(f"sampling to convergence: {steps:.0f} steps; chain {kept_tau:.0f}/{n_tau} tau, "
-                  f"ESS {ess:.0f}/{min_ess}, R-hat {rhat:.3f} (< {rhat_max})", file=sys.stderr)
-
-
-def _progress(enabled, first, n_tau, min_ess, rhat_max):
-    """A progress bar on a terminal, one line in a log, or nothing."""
-    if not enabled:
-        return _NoBar()
-    if not getattr(sys.stderr, "isatty", lambda: False)():
-        return _LogLine(n_tau, min_ess, rhat_max)
-    return _GoalBar(first, n_tau, min_ess, rhat_max)
