@@ -166,3 +166,30 @@ def test_a_stage_on_a_terminal_draws_a_bar_of_its_budget_then_its_line(capsys, m
     assert budget.listener is None                     # the bar let go of the budget
     assert re.search(r"^least squares: 9 parameters \(300 model evaluations, [\d.]+ s\)$",
                      err.splitlines()[-1]), err
+
+
+@pytest.mark.parametrize("shown", [True, False])
+def test_the_api_says_the_criticisms_progress_as_the_fits(small_files, monkeypatch, shown):
+    """``calibrate(progress=...)`` turns the criticism's progress lines on
+    or off with the fit's: the criticism runs where progress is said only
+    when asked for."""
+    import obspy
+
+    from bayescal import calibrate
+    from bayescal.core import progress
+    from bayescal.io import load_inventory
+    from bayescal.pair import workflow
+
+    seen = []
+    real = workflow.criticise
+
+    def spy(*args, **kw):
+        seen.append(progress.enabled())
+        return real(*args, **kw)
+
+    monkeypatch.setattr(workflow, "criticise", spy)
+    sut, ref = obspy.read(small_files["sut.mseed"]), obspy.read(small_files["ref.mseed"])
+    calibrate(ref=ref, ref_xml=load_inventory(small_files["ref.xml"], ref), sut=sut,
+              sut_xml=load_inventory(small_files["sut.xml"], sut), band=(0.05, 1.0),
+              progress=shown, diagnose=False)
+    assert seen == [shown]

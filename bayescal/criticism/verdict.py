@@ -87,7 +87,8 @@ def _sd(entry):
 def improved_estimates(base_summary, final_summary):
     """Per channel, each estimate under the improved model (median and 95 %
     interval) and ``moved_sd``: its shift from the fit's median in the fit's
-    own standard deviations (68 % half-width)."""
+    own standard deviations (68 % half-width; an azimuth's shift the short
+    way round the circle)."""
     out = {}
     for cid, b in base_summary["channels"].items():
         f = final_summary["channels"].get(cid)
@@ -105,7 +106,10 @@ def improved_estimates(base_summary, final_summary):
             if be.get("set_by_prior") or fe.get("set_by_prior"):
                 continue                    # the prior's value is not a measurement
             sd = _sd(be)
-            moved = (fe["median"] - be["median"]) / sd if sd > 0 else 0.0
+            diff = fe["median"] - be["median"]
+            if key == "azimuth_deg":        # the short way round the circle
+                diff = (diff + 180.0) % 360.0 - 180.0
+            moved = diff / sd if sd > 0 else 0.0
             entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
                           "fit_median": be["median"], "moved_sd": float(moved)}
         out[cid] = entry

@@ -86,8 +86,11 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                    ref_source=ref_source, ref_noise_psd=ref_noise_psd, label=label)
     state = fit(data, fit_response=fit_response, priors=priors, seed=seed, ref_noise=ref_noise,
                 progress=progress, **sample_kw)
-    criticism = criticise(state, budget_s=diagnose_budget_s, seed=seed, enabled=diagnose,
-                          **sample_kw)
+    from ..core import progress as display
+
+    with display.shown(progress):       # the criticism's stages, as the fit's
+        criticism = criticise(state, budget_s=diagnose_budget_s, seed=seed, enabled=diagnose,
+                              **sample_kw)
     result = choose(state, criticism, data=data, fit_response=fit_response,
                     tolerance=priors.reference_tolerance, seed=seed)
     _warn_on_misfit(result)
