@@ -86,9 +86,8 @@ def _sd(entry):
 
 def improved_estimates(base_summary, final_summary):
     """Per channel, each estimate under the improved model (median and 95 %
-    interval) and ``moved_sd``: its shift from the fit's median in the fit's
-    own standard deviations (68 % half-width; an azimuth's shift the short
-    way round the circle)."""
+    interval) and ``moved_sd``: its shift from the fit's median (azimuths the
+    short way round) in the fit's own standard deviations (68 % half-width)."""
     out = {}
     for cid, b in base_summary["channels"].items():
         f = final_summary["channels"].get(cid)
@@ -107,8 +106,7 @@ def improved_estimates(base_summary, final_summary):
                 continue                    # the prior's value is not a measurement
             sd = _sd(be)
             diff = fe["median"] - be["median"]
-            if key == "azimuth_deg":        # the short way round the circle
-                diff = (diff + 180.0) % 360.0 - 180.0
+            diff = (diff + 180.0) % 360.0 - 180.0 if key == "azimuth_deg" else diff
             moved = diff / sd if sd > 0 else 0.0
             entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
                           "fit_median": be["median"], "moved_sd": float(moved)}
