@@ -181,24 +181,29 @@ def test_sut_response_is_the_pendulum_of_the_coordinates():
                                rtol=1e-9)
 
 
-def test_unstable_corner_is_not_written():
-    """A corner whose fitted coefficients put a pole in the right
+def test_unstable_corner_is_written_stable():
+    """A corner whose fitted coefficients would put a pole in the right
     half-plane (negative damping, ``a < 0``, or negative restoring force,
-    ``b < 0``: inside the wide box, but no sensor's response) is not written
-    into the corrected StationXML: :func:`effect_changes` lists it as not
-    written and gives the channel no stage, while a stable corner beside it
-    is written."""
+    ``b < 0``: inside the wide box, but no sensor's response) is written
+    with that coefficient at zero: every written pole has a real part of
+    at most zero, the label says so, and a stable corner beside it is
+    written as fitted."""
     from bayescal.io.relative_response import effect_changes
 
     flat = ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")
     e = SutCorner([0, 1], [flat, flat], ["XX.S..BH1", "XX.S..BH2"], FMIN)
     a, b = _ab(120.0, 0.707)
-    for bad in ((-a, b), (a, -b)):
-        assert e.sut_response(np.array([*bad, a, b]), 0) is None
+    w1 = 2 * np.pi * FMIN
+    for bad, want in (((-a, b), (0.0, b)), ((a, -b), (a, 0.0))):
         state = SimpleNamespace(
             model=SimpleNamespace(effects=[e], effect_slices=[slice(0, 4)],
                                   blocks=[SimpleNamespace(channel_id=c) for c in e.channel_ids]),
             full_samples=np.tile([*bad, a, b], (5, 1)))
         changes, missing = effect_changes(state)
-        assert list(changes) == ["XX.S..BH2"] and len(changes["XX.S..BH2"]) == 1
-        assert len(missing) == 1 and "XX.S..BH1" in missing[0] and "unstable" in missing[0]
+        assert not missing
+        (got,), (good,) = changes["XX.S..BH1"], changes["XX.S..BH2"]
+        np.testing.assert_allclose(np.sort_complex(np.asarray(got["poles"])),
+                                   np.sort_complex(np.roots([1.0, want[0] * w1, want[1] * w1 ** 2])),
+                                   atol=1e-12)
+        assert max(np.real(got["poles"])) <= 0.0 and "negative coefficient" in got["label"]
+        assert max(np.real(good["poles"])) < 0.0 and "negative" not in good["label"]

@@ -37,7 +37,7 @@ importing a face costs no import time.
 """
 import lazy_loader
 
-__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submodules=["progress"], submod_attrs={
+__getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "budget": ["Budget"],
     "priors": ["Priors"],
     "threads": ["single_threaded_blas"],

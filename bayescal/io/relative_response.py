@@ -75,9 +75,7 @@ def effect_changes(state):
     """``(changes, not_written)``: channel id -> the list of
     :func:`change` dicts of the response effects of the fit ``state``'s
     model (posterior medians), and the names of the response effects with
-    no known change (neither a ``sut_response`` method nor a translation,
-    or a ``sut_response`` that returns None for a channel: poles in the
-    right half-plane)."""
+    no known change (neither a ``sut_response`` method nor a translation)."""
     from ..core.model import is_clock
 
     model = getattr(state, "model", None)
@@ -96,12 +94,7 @@ def effect_changes(state):
             missing.append(f"{e.name} (no pole-zero form)")
             continue
         for row in e.rows:
-            c = fn(e, p, row)
-            if c is None:
-                missing.append(f"{e.name} on {ids[row]} (its fitted poles are unstable: "
-                               "no sensor's response)")
-                continue
-            out.setdefault(ids[row], []).append(c)
+            out.setdefault(ids[row], []).append(fn(e, p, row))
     return out, missing
 
 

@@ -201,12 +201,15 @@ class SutCorner(CriticismEffect):
         (``flat`` metadata, or no real period) a stage of its own, ``H /
         H_meta = D_meta(s) / D(s)``: zeros at the metadata's pendulum poles
         (two at the origin for ``flat``) and poles at the fitted pendulum's
-        (rad/s), unit amplitude at the normalisation frequency. None when a
-        fitted pole lies in the right half-plane (``a < 0`` or ``b < 0``:
-        the box prior allows them, a pendulum does not; the data then fix
-        the corner too loosely to write it)."""
+        (rad/s), unit amplitude at the normalisation frequency. A negative
+        coefficient (negative damping or restoring force: inside the box
+        prior, no sensor's; where the band lies far above the corner the
+        data leave ``b`` about zero) is written at zero, so that no pole
+        lies in the right half-plane."""
         k = self.rows.index(row)
         a, b = (float(x) for x in np.asarray(p, float)[2 * k:2 * k + 2])
+        clipped = ", a negative coefficient written at zero" if min(a, b) < 0 else ""
+        a, b = max(a, 0.0), max(b, 0.0)
         fam, cid = self.families[k], self.channel_ids[k]
         phys = {n: float(v[0]) for n, v in self.physical(np.asarray(p, float)[None]).items()}
         label = (f"the SUT's pendulum as the data see it: damping/period "
@@ -219,12 +222,10 @@ class SutCorner(CriticismEffect):
         an, bn = self.nominal_ab[k]
         zeros = np.roots([1.0, an * self.w1, bn * self.w1 ** 2])
         poles = np.roots([1.0, a * self.w1, b * self.w1 ** 2])
-        if np.any(poles.real > 0):    # negative damping or restoring force: no sensor's response
-            return None
         return {"zeros": [complex(z) for z in zeros], "poles": [complex(q) for q in poles],
                 "norm_freq": float(fam.norm_freq), "gain_factor": 1.0, "pendulum": None,
                 "label": label + (f", corner {phys['corner_hz:' + cid]:.4g} Hz" if b > 0 else "")
-                + " (two poles and two zeros relative to its metadata)"}
+                + clipped + " (two poles and two zeros relative to its metadata)"}
 
     def nominal(self):
         """The metadata values, keyed as :meth:`physical` (no period or
