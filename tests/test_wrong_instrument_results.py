@@ -44,9 +44,10 @@ def test_quoted_table_is_the_stored_study_and_meets_its_floor():
             assert k >= _floor(m) and f"{row} {k} of {m} |" in doc
 
 
-def test_quoted_extra_pole_or_zero_row_is_the_stored_study():
+def test_quoted_extra_pole_or_zero_row_is_the_stored_study_and_meets_its_floor():
     rows = json.loads((RESULTS / "wrong_instrument_pz.json").read_text())["pairs"]
     n, named, held = _recount(rows, "extra_pz")
     k, m = held["corner_hz"]
-    assert f"| extra pole or zero | {n} (of 30 drawn) | {named} | - | {k} of {m} (corner " \
+    assert n == 30 and named >= _floor(n) and m == named and k >= _floor(m)
+    assert f"| extra pole or zero | {n} | {named} | - | {k} of {m} (corner " \
            "frequency) |" in (ROOT / "docs" / "validation" / "diagnose.md").read_text()
