@@ -182,19 +182,21 @@ def test_sut_response_is_the_pendulum_of_the_coordinates():
 
 
 def test_unstable_corner_is_written_stable():
-    """A corner whose fitted coefficients would put a pole in the right
+    """A corner whose fitted coefficients put a pole in the right
     half-plane (negative damping, ``a < 0``, or negative restoring force,
     ``b < 0``: inside the wide box, but no sensor's response) is written
-    with that coefficient at zero: every written pole has a real part of
-    at most zero, the label says so, and a stable corner beside it is
-    written as fitted."""
+    with no pole in the right half-plane: a negative ``b`` at zero (a pole
+    at the origin), a negative ``a`` mirrored (``|a|``: the denominator's
+    amplitude ``|D(i w)|`` unchanged at every frequency); the label says
+    which, and a stable corner beside it is written as fitted."""
     from bayescal.io.relative_response import effect_changes
 
     flat = ScaleFamily(gain=1.0, norm_freq=1.0, gain_units="counts/(m/s)")
     e = SutCorner([0, 1], [flat, flat], ["XX.S..BH1", "XX.S..BH2"], FMIN)
     a, b = _ab(120.0, 0.707)
     w1 = 2 * np.pi * FMIN
-    for bad, want in (((-a, b), (0.0, b)), ((a, -b), (a, 0.0))):
+    s = 2j * np.pi * np.geomspace(1e-3, 10.0, 9)
+    for bad, want in (((-a, b), (a, b)), ((a, -b), (a, 0.0)), ((-a, -b), (a, 0.0))):
         state = SimpleNamespace(
             model=SimpleNamespace(effects=[e], effect_slices=[slice(0, 4)],
                                   blocks=[SimpleNamespace(channel_id=c) for c in e.channel_ids]),
@@ -205,5 +207,11 @@ def test_unstable_corner_is_written_stable():
         np.testing.assert_allclose(np.sort_complex(np.asarray(got["poles"])),
                                    np.sort_complex(np.roots([1.0, want[0] * w1, want[1] * w1 ** 2])),
                                    atol=1e-12)
-        assert max(np.real(got["poles"])) <= 0.0 and "negative coefficient" in got["label"]
-        assert max(np.real(good["poles"])) < 0.0 and "negative" not in good["label"]
+        assert max(np.real(got["poles"])) <= 0.0
+        assert ("mirrored" in got["label"]) == (bad[0] < 0)
+        assert ("written at zero" in got["label"]) == (bad[1] < 0)
+        if bad[1] >= 0:       # the mirror keeps the amplitude
+            written = np.abs(np.prod([s - q for q in got["poles"]], axis=0))
+            np.testing.assert_allclose(written, np.abs(s ** 2 + bad[0] * w1 * s + b * w1 ** 2),
+                                       rtol=1e-9)
+        assert max(np.real(good["poles"])) < 0.0 and "mirrored" not in good["label"]

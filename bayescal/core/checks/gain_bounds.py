@@ -305,7 +305,8 @@ def not_separable_note(channels):
         if None not in (su["gain"], su["sd"], su["reference_noise_fraction"]):
             pct = 100 * su["reference_noise_fraction"]
             text += (f" ({su['gain']:.4g} +- {su['sd']:.2g} if the SUT's self-noise is white in "
-                     f"counts, the reference's noise then {pct:.2g} % of the ground power)")
+                     f"ground units plus white in its counts, the reference's noise then "
+                     f"{pct:.2g} % of the ground power)")
         parts.append(text)
     return ("gain not separable from the reference's self-noise: a pair cannot tell a gain from "
             "noise that follows the ground motion, and the fit's gain (which takes the "

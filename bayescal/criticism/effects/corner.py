@@ -204,12 +204,16 @@ class SutCorner(CriticismEffect):
         (rad/s), unit amplitude at the normalisation frequency. A negative
         coefficient (negative damping or restoring force: inside the box
         prior, no sensor's; where the band lies far above the corner the
-        data leave ``b`` about zero) is written at zero, so that no pole
-        lies in the right half-plane."""
+        data leave ``b`` about zero) puts a pole in the right half-plane.
+        A negative ``b`` is written at zero (no restoring force: a pole at
+        the origin, the data's ``b`` about zero); then a negative ``a``
+        with its poles mirrored into the left half-plane (``|a|``: the same
+        amplitude at every frequency)."""
         k = self.rows.index(row)
         a, b = (float(x) for x in np.asarray(p, float)[2 * k:2 * k + 2])
-        clipped = ", a negative coefficient written at zero" if min(a, b) < 0 else ""
-        a, b = max(a, 0.0), max(b, 0.0)
+        clipped = (", a negative restoring force written at zero" if b < 0 else "") + \
+                  (", negative damping mirrored (same amplitude)" if a < 0 else "")
+        a, b = abs(a), max(b, 0.0)
         fam, cid = self.families[k], self.channel_ids[k]
         phys = {n: float(v[0]) for n, v in self.physical(np.asarray(p, float)[None]).items()}
         label = (f"the SUT's pendulum as the data see it: damping/period "
