@@ -215,3 +215,16 @@ def test_unstable_corner_is_written_stable():
             np.testing.assert_allclose(written, np.abs(s ** 2 + bad[0] * w1 * s + b * w1 ** 2),
                                        rtol=1e-9)
         assert max(np.real(good["poles"])) < 0.0 and "mirrored" not in good["label"]
+
+
+def test_negative_damping_on_two_pole_metadata_is_written_as_a_stable_pendulum():
+    """On two-pole metadata, coordinates with negative damping (``a < 0``)
+    are written as the mirrored pendulum: the same period, the damping's
+    magnitude."""
+    fam = TwoPoleFamily(period_s=120.0, damping=0.707, gain=1500.0, norm_freq=1.0,
+                        gain_units="counts/(m/s)")
+    e = SutCorner([0], [fam], ["c"], FMIN)
+    a, b = _ab(40.0, 0.3)
+    got = e.sut_response(np.array([-a, b]), 0)
+    assert got["pendulum"] == pytest.approx((40.0, 0.3)) and "mirrored" in got["label"]
+

@@ -214,15 +214,18 @@ class SutCorner(CriticismEffect):
         clipped = (", a negative restoring force written at zero" if b < 0 else "") + \
                   (", negative damping mirrored (same amplitude)" if a < 0 else "")
         a, b = abs(a), max(b, 0.0)
+        q = np.array(p, float)
+        q[2 * k:2 * k + 2] = a, b
         fam, cid = self.families[k], self.channel_ids[k]
-        phys = {n: float(v[0]) for n, v in self.physical(np.asarray(p, float)[None]).items()}
+        phys = {n: float(v[0]) for n, v in self.physical(q[None]).items()}
         label = (f"the SUT's pendulum as the data see it: damping/period "
                  f"{phys['damping_over_period:' + cid]:.4g} 1/s")
         if not self.flat[k] and b > 0 and a > 0:
             period, damping = phys[f"period_s:{cid}"], phys[f"damping:{cid}"]
             return {"zeros": [], "poles": [], "norm_freq": float(fam.norm_freq),
                     "gain_factor": 1.0, "pendulum": (period, damping),
-                    "label": label + f", natural period {period:.5g} s, damping {damping:.4g}"}
+                    "label": label + f", natural period {period:.5g} s, damping {damping:.4g}"
+                    + clipped}
         an, bn = self.nominal_ab[k]
         zeros = np.roots([1.0, an * self.w1, bn * self.w1 ** 2])
         poles = np.roots([1.0, a * self.w1, b * self.w1 ** 2])
