@@ -7,6 +7,7 @@ DE moves' long chain."""
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ import pytest
 from bayescal.core import Budget
 from bayescal.core.budget import charge
 from bayescal.core.fit.leastsq import solve
+from bayescal.errors import NotConvergedWarning
 
 #: A linear least-squares problem: its minimum in closed form.
 A = np.array([[1.0, 0.0, 0.5], [0.2, 1.0, 0.0], [0.0, 0.3, 1.0], [1.0, 1.0, 1.0],
@@ -131,3 +133,53 @@ def test_a_long_chain_keeps_at_most_max_kept_draws():
     n = 4850 * 60                                          # a 60-walker chain run to its budget
     thin = mcmc._thin(np.array([3.2]), n)
     assert thin == 8 and n // thin <= mcmc.MAX_KEPT < n // (thin - 1)
+
+
+class Banana:
+    """A thin curved 2-D ridge: no t proposal fitted to it accepts often
+    enough, so both adaptations fail and the DE moves carry on."""
+
+    ndim = 2
+
+    def log_prob(self, x):
+        x = np.atleast_2d(x)
+        return -0.5 * x[:, 0] ** 2 - 0.5 * ((x[:, 1] - 3.0 * x[:, 0] ** 2) / 0.05) ** 2
+
+
+class Counting:
+    """``target``'s log-probability, counting the points it is evaluated at."""
+
+    def __init__(self, target):
+        self.target, self.ndim, self.n = target, target.ndim, 0
+
+    def log_prob(self, x):
+        self.n += len(x)
+        return self.target.log_prob(x)
+
+
+@pytest.mark.parametrize("target, start, phases", [
+    (FarStart(), [0.0, 0.0, 0.0], 3),                 # the proposal fits at once
+    (FarStart(), [100.0, 0.0, 0.0], 5),               # one failed adaptation, then the proposal
+    (Banana(), [0.0, 0.0], 5),                        # two failed adaptations: the DE moves
+])
+def test_the_sampling_budget_records_the_evaluations_made(monkeypatch, target, start, phases):
+    """The sampling budget's ``used`` is every log-probability evaluation
+    the sampler made (the walkers' start, each failed adaptation), counted
+    outside it; within a work budget of 20,000 the default step limit keeps
+    the work within it, and a chain that stops unconverged has spent it to
+    its last whole step."""
+    from bayescal.core.fit.run import _sampling_budget
+    from bayescal.core.sampling import mcmc
+
+    monkeypatch.setattr(mcmc, "SAMPLE_WORK", 20_000)
+    counted = Counting(target)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotConvergedWarning)
+        ch = mcmc.sample(counted, np.array(start), 0.01 * np.eye(target.ndim), seed=3,
+                         progress=False)
+    assert len(ch.sampler["phases"]) == phases
+    rec = _sampling_budget(ch)
+    assert rec["used"] == counted.n
+    assert counted.n <= rec["limit"] <= 20_000
+    if not ch.converged:
+        assert counted.n > rec["limit"] - ch.n_walkers

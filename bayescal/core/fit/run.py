@@ -356,13 +356,12 @@ def _fit_meta(run, spectra, free, priors, chosen_by):
 
 
 def _sampling_budget(chain):
-    """The sampler's work as a budget's summary: its steps times its walkers;
-    its limit the burn-in's steps and ``max_steps`` (the kept phase's)."""
-    limit = chain.sampler.get("max_steps")
-    burn_in = sum(p["steps"] for p in chain.sampler.get("phases", [])[:-1])
+    """The sampler's work as a budget's summary: the log-probability
+    evaluations it made and was allowed, as its record counts them
+    (:func:`bayescal.core.sampling.mcmc.sample`)."""
     return {"stage": "sampling", "unit": work.UNIT,
-            "limit": None if limit is None else (burn_in + int(limit)) * chain.n_walkers,
-            "used": int(chain.n_steps) * chain.n_walkers, "time_limit_s": None,
+            "limit": int(chain.sampler["evaluation_limit"]),
+            "used": int(chain.sampler["evaluations"]), "time_limit_s": None,
             "ended_by": None if chain.converged else "work"}
 
 

@@ -25,6 +25,10 @@ class NoBar:
     def phase(self, *args):
         pass
 
+    def limit(self, max_steps):
+        """The kept phase's step limit, known once the burn-in has ended."""
+        self.max_steps = max_steps
+
     def close(self):
         pass
 

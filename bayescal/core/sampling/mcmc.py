@@ -42,7 +42,7 @@ this module is imported only by code that samples.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import emcee
 import numpy as np
@@ -312,8 +312,10 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     seed : the chain is a function of the seed alone (same seed, same chain).
     n_walkers : default ``max(32, 4 ndim)``, made even.
     min_ess, n_tau, rhat_max : the convergence rule (module docstring).
-    max_steps : steps of the kept phase after which the chain stops unconverged (at
-        least one); None: :data:`bayescal.core.budget.SAMPLE_WORK` evaluations' worth in all.
+    max_steps : steps of the kept phase's sampler after which the chain stops
+        unconverged (a DE fallback's sampler counts its burn-in; at least one
+        step runs); None: what :data:`bayescal.core.budget.SAMPLE_WORK`
+        evaluations leave after the burn-in.
     progress : a bar toward the rule on a terminal, else lines (:mod:`.display`).
     move : "independence" (the default: a DE burn-in, then
         :class:`IndependenceMove`; the DE moves carry on where it accepts too
@@ -322,42 +324,56 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     Returns
     -------
     Chain
-        Kept samples; ``sampler`` records emcee's version, the walkers and
-        each phase's moves, weights, steps and acceptance. An unconverged
+        Kept samples; ``sampler`` records emcee's version, the walkers,
+        each phase's moves, weights, steps and acceptance, and the
+        log-probability evaluations made (``evaluations``, every walker
+        start and every phase, a failed adaptation's included) and allowed
+        (``evaluation_limit``). An unconverged
         chain also raises a :class:`NotConvergedWarning`.
     """
     if move not in ("de", "independence"):
         raise ValueError(f"unknown move {move!r}")
     ndim = model.ndim
     n_walkers = (n_walkers or default_walkers(ndim)) + (n_walkers or 0) % 2
-    rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max, max_steps=max(
-        1, SAMPLE_WORK // n_walkers - DE_BURN - ADAPT) if max_steps is None else int(max_steps))
-    p0 = _start_walkers(model, theta_start, cov, np.random.default_rng(seed), n_walkers)
+    log_prob = CountedLogProb(model.log_prob)
+    rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max,
+                 max_steps=None if max_steps is None else int(max_steps))
+    p0 = _start_walkers(log_prob, theta_start, cov, np.random.default_rng(seed), n_walkers)
     bar = progress_display(progress, 1000, n_tau, min_ess, rhat_max, rule.max_steps)
-    phases = _Phases(model.log_prob, n_walkers, ndim, bar)
+    phases = _Phases(log_prob, n_walkers, ndim, bar)
     sampler = phases.new(_de_moves(), "differential evolution")
     state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
     pre, sampler, state, pace = _burn_in(phases, sampler, state, rule,
                                          independence=move == "independence")
+    rule, limit = _kept_limit(rule, log_prob.n, sampler.iteration, n_walkers)
+    bar.limit(rule.max_steps)
     # (a DE fallback keeps its burn-in steps in its own chain)
-    offset = pre.shape[0]
-    steps, burn, tau, ess, rhat, converged = _run_to_rule(phases, sampler, state, rule, pace,
-                                                          offset)
+    kept = _run_to_rule(phases, sampler, state, rule, pace, pre.shape[0])
     bar.close()
     phases.close(sampler)
-    thin = _thin(tau, (steps - burn) * n_walkers)
-    full = np.concatenate([pre, sampler.get_chain()]) if offset else sampler.get_chain()
-    chain = Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
-                  log_prob=sampler.get_log_prob(discard=burn, thin=thin).reshape(-1), tau=tau,
-                  ess=ess, rhat=rhat,
-                  acceptance=float(np.mean(sampler.acceptance_fraction)),
-                  n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
-                  converged=converged, trace=full[:: max(1, (offset + steps) // 1000)],
-                  sampler=dict(phases.record(), max_steps=rule.max_steps))
-    if not converged:
+    record = dict(phases.record(), max_steps=rule.max_steps, evaluations=log_prob.n,
+                  evaluation_limit=limit)
+    chain = _kept_chain(sampler, pre, kept, record)
+    if not chain.converged:
         warnings.warn(not_converged_line(chain.summary(), option="max_steps"), NotConvergedWarning,
                       stacklevel=2)
     return chain
+
+
+def _kept_chain(sampler, pre, kept, record):
+    """The :class:`Chain` of ``sampler``'s kept phase, ``kept`` as
+    :func:`_run_to_rule` returns it, ``pre`` the chain run before it and
+    ``record`` what was run."""
+    steps, burn, tau, ess, rhat, converged = kept
+    offset, n_walkers = pre.shape[0], sampler.nwalkers
+    thin = _thin(tau, (steps - burn) * n_walkers)
+    full = np.concatenate([pre, sampler.get_chain()]) if offset else sampler.get_chain()
+    return Chain(samples=sampler.get_chain(discard=burn, thin=thin, flat=True),
+                 log_prob=sampler.get_log_prob(discard=burn, thin=thin).reshape(-1), tau=tau,
+                 ess=ess, rhat=rhat, acceptance=float(np.mean(sampler.acceptance_fraction)),
+                 n_steps=offset + steps, n_walkers=n_walkers, burn=offset + burn,
+                 converged=converged, trace=full[:: max(1, (offset + steps) // 1000)],
+                 sampler=record)
 
 
 def _thin(tau, n_kept):
@@ -377,12 +393,36 @@ class _Rule:
     max_steps: int
 
 
-def _start_walkers(model, theta_start, cov, rng, n_walkers):
+class CountedLogProb:
+    """A vectorised log-probability that counts the points it is evaluated
+    at (``n``): the sampler's work, in :data:`bayescal.core.budget.UNIT`."""
+
+    def __init__(self, log_prob):
+        self.log_prob, self.n = log_prob, 0
+
+    def __call__(self, x):
+        self.n += len(x)
+        return self.log_prob(x)
+
+
+def _kept_limit(rule, used, start, n_walkers):
+    """The kept phase's step limit and the sampler's whole work limit, from
+    the evaluations ``used`` before the kept phase and the steps ``start``
+    its sampler has already run (a DE fallback's burn-in): ``(rule,
+    limit)``. Without a ``max_steps`` the kept phase gets what
+    :data:`~bayescal.core.budget.SAMPLE_WORK` leaves after ``used``, in
+    whole steps of ``n_walkers`` evaluations; it runs at least one step."""
+    if rule.max_steps is None:
+        rule = replace(rule, max_steps=start + max(1, (SAMPLE_WORK - used) // n_walkers))
+    return rule, used + max(1, rule.max_steps - start) * n_walkers
+
+
+def _start_walkers(log_prob, theta_start, cov, rng, n_walkers):
     """Walkers drawn from a Gaussian around ``theta_start``; those where
-    ``model.log_prob`` is not finite drawn again, closer (up to 100 times)."""
+    ``log_prob`` is not finite drawn again, closer (up to 100 times)."""
     p0 = rng.multivariate_normal(theta_start, cov, size=n_walkers)
     for _ in range(100):
-        bad = ~np.isfinite(model.log_prob(p0))
+        bad = ~np.isfinite(log_prob(p0))
         if not bad.any():
             break
         p0[bad] = rng.multivariate_normal(theta_start, 0.01 * cov, size=int(bad.sum()))
