@@ -93,10 +93,13 @@ def _regression(resp, reg, shapes, var, with_sd=True):
     """Weighted non-negative least squares of ``resp`` on ``[reg, shapes]``
     (each band weighted by ``1 / var``): the coefficient of ``reg`` and its
     standard error (from the normal equations of the columns in use; NaN
-    without ``with_sd``)."""
+    without ``with_sd``); both NaN when a band sum, shape or weight is not
+    finite."""
     sw = 1.0 / np.sqrt(np.maximum(var, 1e-300))
     shapes = shapes / shapes.mean(axis=0, keepdims=True) * resp.mean()
     design = np.column_stack([reg, shapes])
+    if not (np.all(np.isfinite(design * sw[:, None])) and np.all(np.isfinite(resp * sw))):
+        return np.nan, np.nan            # spectra or shapes not finite: no regression
     coef, _ = nnls(design * sw[:, None], resp * sw)
     if not with_sd:
         return float(coef[0]), np.nan
@@ -143,7 +146,7 @@ def side_gains(a, c, y, dof, sut_shapes, ref_shapes, sweeps=3):
         g_u, sd_u = _regression(y, p, su, var_u)
         beta, sd_b = _regression(a, p, sr, var_r)
         g_r = 1.0 / beta if beta > 0 else np.nan
-        if not np.isfinite(g_r):
+        if not (np.isfinite(g_r) and np.isfinite(g_u)):
             return None
 
     def diff(v):      # the weights held at their values (the delta method's convention)
@@ -271,12 +274,15 @@ def identified_gains(model, theta, cov):
 
 
 def _sides_or_none(a, c, y, dof, sut_shapes, ref_shapes):
-    """:func:`side_gains`, or None where its regressions fail (spectra or
-    shapes that are not finite): the gain is then not checked."""
+    """:func:`side_gains`, or None where its regressions cannot be made
+    (spectra or shapes that are not finite, or a non-negative least squares
+    that does not end in its iterations): the gain is then not checked."""
     try:
         with np.errstate(all="ignore"):
             return side_gains(a, c, y, dof, sut_shapes, ref_shapes)
-    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+    except RuntimeError as err:          # scipy's nnls: "Maximum number of iterations reached."
+        if "iterations" not in str(err):
+            raise
         return None
 
 
