@@ -255,6 +255,18 @@ def least_squares_run(model, theta0):
                   x_scale="jac")
 
 
+def _check_enough_bands(run, spectra, band, n_params):
+    """Refuse a run whose band residuals (two real numbers per band and
+    output) are fewer than the parameters fitted: :class:`InputError`."""
+    n_out = len(run.axes)
+    if 2 * spectra.n_bands * n_out < n_params:
+        dur = run.data.shape[1] / run.fs
+        raise InputError(
+            f"{run.source}: the band {band[0]:.3g}-{band[1]:.3g} Hz of this {dur:.0f}-s run "
+            f"holds {spectra.n_bands} frequency band(s) of {spectra.nperseg / run.fs:.0f}-s "
+            f"segments, too few for the {n_params} parameters fitted: record a longer run")
+
+
 def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at, *, seed=0,
                  progress=False, **sample_kw):
     """The fit of one run shared by ``bayescal uvw`` (:func:`fit_run`) and
@@ -272,7 +284,9 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
     """
     sp = run_spectra(run, coil_constant, band, nperseg)
     model = make_model(sp, None)
-    theta, _ = least_squares_run(model, start(model))
+    theta = start(model)
+    _check_enough_bands(run, sp, band, theta.size)
+    theta, _ = least_squares_run(model, theta)
     t_ls = theta.copy()
 
     def base(f):

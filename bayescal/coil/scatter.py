@@ -25,6 +25,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+
+#: Fewest segments whose centred scatter separates ``v`` from ``w``: two
+#: centred residuals have one degree of freedom (``r_1 - r_2``), which two
+#: unknowns cannot share.
+MIN_SEGMENTS = 3
+
 
 def centred_weights(n_segments, adjacent):
     """Coefficients ``(a0, a1)`` with ``E[a0 q0' + a1 q1'] = Var R_b`` for
@@ -39,9 +46,18 @@ def centred_weights(n_segments, adjacent):
     Returns
     -------
     (2,) array ``(a0, a1)``.
+
+    Raises
+    ------
+    InputError
+        Fewer than :data:`MIN_SEGMENTS` segments (two independent ones
+        suffice): the run is too short for its noise model.
     """
     k = int(n_segments)
     adjacent = np.asarray(adjacent, int)
+    if k < (MIN_SEGMENTS if adjacent.size else 2):
+        raise InputError(f"only {k} segment(s) of the run: its noise model needs at least "
+                         f"{MIN_SEGMENTS}; record a longer run")
     if adjacent.size == 0:                        # independent segments: v only
         return np.array([k / (k - 1.0), 0.0])
     adj = np.zeros((k, k))
