@@ -454,6 +454,37 @@ def test_centred_scatter_of_too_few_segments_is_refused(k, adjacent):
     np.testing.assert_allclose(centred_weights(2, np.array([], int)), [2.0, 0.0])
 
 
+def test_sine_noise_model_is_fitted_to_the_series_the_likelihood_whitens():
+    """A sine model with a 50-tap prefilter: its AR noise model is that of
+    the residual (less its sine at f0, Hann-weighted least squares after
+    the settling samples) filtered over the whole record and cut after
+    ``skip``, as the likelihood filters and cuts: scipy's lfilter and the
+    closed-form least squares of the sine, computed here."""
+    from scipy.signal import lfilter
+    from bayescal.coil.sine import SineModel
+    from bayescal.coil.timedomain import Predictor, ar_fit
+
+    fs, n, skip, f0 = 10.0, 6000, 1000, 0.37
+    u = np.cos(2 * np.pi * f0 * np.arange(n) / fs)
+    pred = Predictor(u, fs, lambda f: np.ones(f.size, complex), 256)
+    p, q = pred(np.array([[1.0], [1j]]))
+    x = 0.5 * p + np.random.default_rng(5).standard_normal(n)
+    model = SineModel(x, fs, pred, skip)
+    model.set_prefilter(np.ones(50), np.ones(1))
+    theta = np.array([np.log(0.4), 0.1])
+    model.estimate_noise(theta)
+    t = np.arange(n) / fs
+    design = np.column_stack([np.ones(n), t - t.mean()])
+    r = x - (0.4 * np.cos(0.1)) * p - (0.4 * np.sin(0.1)) * q
+    r -= design @ np.linalg.lstsq(design, r, rcond=None)[0]
+    w = np.sqrt(np.hanning(n - skip))
+    pq = np.column_stack([p, q])
+    coef = np.linalg.lstsq(w[:, None] * pq[skip:], w * r[skip:], rcond=None)[0]
+    a, s2 = ar_fit(lfilter(np.ones(50), 1.0, r - pq @ coef)[skip:])
+    np.testing.assert_allclose(model.ar, a, rtol=1e-8, atol=1e-10)
+    assert model.s2 == pytest.approx(s2, rel=1e-8)
+
+
 # --- uvw runs that once failed -----------------------------------------------------------
 
 def test_uvw_identity_geometry_per_axis_runs():

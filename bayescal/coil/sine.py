@@ -86,12 +86,14 @@ class SineModel(TimeModel):
         left at ``f0`` by an imperfect ``theta`` would teach the
         autoregression a peak there, and its whitening would then hide the
         sine from the likelihood (at a sine far above red noise, the fit
-        then runs to the amplitude's bound)."""
-        r = self.raw_residual(theta)[self.skip:]
-        pq = self.predict(np.array([[0.0, 0.0], [0.0, np.pi / 2]]))[:, self.skip:].T
-        w = np.sqrt(np.hanning(r.size))[:, None]
-        coef, *_ = np.linalg.lstsq(w * pq, w[:, 0] * r, rcond=None)
-        self.set_noise(*ar_fit(self._pre(r - pq @ coef)))
+        then runs to the amplitude's bound). As the likelihood does, the
+        prefilter runs over the whole record and the first ``skip`` samples
+        are left out after it."""
+        r = self.raw_residual(theta)
+        pq = self.predict(np.array([[0.0, 0.0], [0.0, np.pi / 2]])).T
+        w = np.sqrt(np.hanning(r.size - self.skip))[:, None]
+        coef, *_ = np.linalg.lstsq(w * pq[self.skip:], w[:, 0] * r[self.skip:], rcond=None)
+        self.set_noise(*ar_fit(self._pre(r - pq @ coef)[self.skip:]))
 
     def predict(self, theta, weight=None):
         theta = np.atleast_2d(theta)
