@@ -183,3 +183,31 @@ def test_the_sampling_budget_records_the_evaluations_made(monkeypatch, target, s
     assert counted.n <= rec["limit"] <= 20_000
     if not ch.converged:
         assert counted.n > rec["limit"] - ch.n_walkers
+
+
+def test_the_held_parameter_refit_ends_by_its_budget_and_says_so(small_files, tmp_path, capfd,
+                                                                 monkeypatch):
+    """A gain held at nominal (the hold forced here) and a refit budget of 5
+    evaluations: the refit stops at its best point, meta.budgets records
+    its 5 evaluations ended by work, and the console's line names the
+    stage and the option that helps."""
+    from bayescal.cli import main
+    from bayescal.core import budget
+    from bayescal.core.fit import unconstrained
+
+    monkeypatch.setattr(budget, "LEAST_SQUARES_WORK", 40)
+    monkeypatch.setattr(budget, "MODE_SEARCH_WORK", 40)
+    monkeypatch.setattr(unconstrained, "REFIT_WORK", 5)
+    monkeypatch.setattr(unconstrained, "early_holds", lambda model, theta: {
+        next(j for j, n in enumerate(model.names) if n.endswith(":log_gain")): 0.6})
+    out = tmp_path / "out"
+    main(["fit", "--ref", small_files["ref.mseed"], "--ref-xml", small_files["ref.xml"],
+          "--sut", small_files["sut.mseed"], "--sut-xml", small_files["sut.xml"],
+          "--band", "0.05", "1", "--no-report", "--no-diagnose", "--quiet",
+          "--fit-response", "all", "--max-steps", "20", "--out", str(out)])
+    said = capfd.readouterr().out
+    assert ("budget spent: refit with parameters held: ended by its work budget (5 model "
+            "evaluations); fewer parameters help (--fit-response gain") in said, said
+    result = json.loads((out / "result.json").read_text())
+    refit = [b for b in result["meta"]["budgets"] if b["stage"] == "refit with parameters held"]
+    assert refit and refit[0]["used"] == 5 and refit[0]["ended_by"] == "work"

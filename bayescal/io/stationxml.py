@@ -143,7 +143,7 @@ def update_response(channel, samples, free, summary):
     stage.stage_gain = float(gain)
     if stage.stage_gain_frequency is None:     # a gain ObsPy's evaluation would ignore
         stage.stage_gain_frequency = float(fam.norm_freq)
-    g_lo, g_hi = summary["gain"]["ci68"]
+    g_lo, g_hi = summary["gain"].get("ci68", (np.nan, np.nan))   # none for a gain held
     stage.description = ("stage gain kept at its nominal value: set by the prior, not by the "
                          "data (see the channel's bayescal comment)" if "gain" in prior else
                          f"stage gain fitted by bayescal: {gain:.6g}, 68 % interval "

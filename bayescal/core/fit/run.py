@@ -271,7 +271,8 @@ class _Run:
 def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     """Least squares, the search for other modes, the parameters held for
     want of information, the chain, and the flags on what the prior set."""
-    from .unconstrained import describe_late, full_samples, hold_unconstrained, late_flags
+    from .unconstrained import (REFIT_WORK, describe_late, full_samples, hold_unconstrained,
+                                late_flags)
     with single_threaded_blas(), shown(progress):
         model, theta_ls, cov, multimodal, budgets = _optimise(setup, sut_nominal_vectors)
         separation = {}
@@ -281,7 +282,10 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
         from ..checks.gain_bounds import identified_gains
         bounds = identified_gains(model, theta_ls, cov)
         # parameters the data do not constrain are held at nominal
-        target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov)
+        refit = work.Budget("refit with parameters held", REFIT_WORK, helps=_budget_help(model))
+        target, start, cov, theta_ls, set_by_prior = hold_unconstrained(model, theta_ls, cov,
+                                                                        budget=refit)
+        budgets = budgets + _spent_refit(refit, set_by_prior)
         from ..sampling.mcmc import sample
         chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
     full = full_samples(target, chain.samples)
@@ -292,6 +296,16 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
     return _Run(model=model, theta_ls=theta_ls, target=target, chain=chain, full=full,
                 multimodal=multimodal, separation=separation, set_by_prior=set_by_prior,
                 sensitivity=sensitivity, budgets=budgets, gain_bounds=bounds)
+
+
+def _spent_refit(refit, set_by_prior):
+    """The held-parameter refit's budget summary (none when nothing was
+    held), with a :class:`BudgetWarning` once it is spent."""
+    if not set_by_prior:
+        return []
+    if refit.ended_by:
+        warnings.warn(f"budget spent: {refit.note()}", BudgetWarning, stacklevel=4)
+    return [refit.summary()]
 
 
 def _budget_help(model):

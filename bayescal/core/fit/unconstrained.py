@@ -19,12 +19,16 @@ the uniform prior on ``log gain``):
   times nominal: the data want a value the prior excludes).
 
 Either way the parameter is listed in ``result.meta.set_by_prior`` and
-the corrected StationXML keeps its nominal value.
+the corrected StationXML keeps its nominal value. The least squares of the
+free parameters given the held ones runs within a work budget of its own
+(:data:`REFIT_WORK`), as the pair fit's other stages do
+(:mod:`bayescal.core.budget`).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..progress import stage
 from ..response import pendulum
 from ..model.jacobian import least_squares_objective
 from .leastsq import TIGHT, jacobian, solve
@@ -35,6 +39,10 @@ EARLY_RATIO = 0.5
 LATE_RATIO = 0.5
 #: A 95 % interval this close to a prior bound (fraction of the prior's width) is pinned.
 BOUND_FRACTION = 0.01
+#: Work budget (:data:`bayescal.core.budget.UNIT`) of the least squares of the
+#: free parameters once some are held: that of the pair fit's least squares
+#: (:data:`bayescal.core.budget.LEAST_SQUARES_WORK`), which starts further away.
+REFIT_WORK = 30_000
 
 
 def prior_box(model):
@@ -130,9 +138,11 @@ class Held:
     def log_prob(self, theta):
         return self.model.log_prob(self.expand(theta))
 
-    def refit(self, theta_full):
+    def refit(self, theta_full, budget=None):
         """Least-squares point of the free parameters given the held ones,
-        and its Laplace covariance. Returns ``(theta_full, cov_free)``."""
+        and its Laplace covariance. Returns ``(theta_full, cov_free)``.
+        ``budget``: a :class:`bayescal.core.budget.Budget`; once spent the
+        point is the best one evaluated (:func:`.leastsq.solve`)."""
         lo, hi = prior_box(self.model)
         lo, hi = lo[self.free], hi[self.free]
         fac = self.model.noise.cholesky()
@@ -143,7 +153,7 @@ class Held:
         def fun(x):
             return objective(self.expand(x)[0], fac)
 
-        res = solve(fun, x0, lo, hi, method="trf", **TIGHT)
+        res = solve(fun, x0, lo, hi, method="trf", budget=budget, **TIGHT)
         full = self.expand(res.x)[0]
         fisher = (information(self.model, full)
                   + pendulum_precision(self.model))[np.ix_(self.free, self.free)]
@@ -196,12 +206,14 @@ def _physical(name, value):
     return float(np.exp(value)) if name.split(":")[-1].startswith("log_") else float(value)
 
 
-def hold_unconstrained(model, theta_ls, cov):
+def hold_unconstrained(model, theta_ls, cov, budget=None):
     """Before sampling: hold the parameters :func:`early_holds` finds at
     nominal. Returns ``(target, start, cov, theta_ls, held_meta)``: what to
     sample (the model itself when nothing is held), its start and Laplace
     covariance, the (re-fitted) least-squares point in full coordinates and
-    the ``set_by_prior`` entries."""
+    the ``set_by_prior`` entries. ``budget``: the refit's work budget
+    (:meth:`Held.refit`); the refit says its progress as a stage
+    (:mod:`bayescal.core.progress`)."""
     if not any(b.free == "all" for b in model.blocks):
         return model, theta_ls, cov, theta_ls, {}
     held = early_holds(model, theta_ls)
@@ -209,7 +221,10 @@ def hold_unconstrained(model, theta_ls, cov):
         return model, theta_ls, cov, theta_ls, {}
     nominal = nominal_theta(model)
     target = Held(model, {j: nominal[j] for j in held})
-    theta_full, cov_free = target.refit(theta_ls)
+    with stage("refit with parameters held", budget) as st:
+        theta_full, cov_free = target.refit(theta_ls, budget=budget)
+        st.result = (f"{len(held)} held at nominal, {target.ndim} refitted"
+                     + (", BUDGET SPENT" if budget is not None and budget.ended_by else ""))
     return target, theta_full[target.free], cov_free, theta_full, describe_held(model, held)
 
 
