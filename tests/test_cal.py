@@ -506,6 +506,22 @@ def test_uvw_identity_geometry_per_axis_runs():
     assert "z_only" not in s                  # Z sees only W: no Z-only check
 
 
+def test_uvw_progress_lines_name_the_element_sampled(capsys):
+    """``bayescal uvw``'s sampling lines (a log: one line per phase and per
+    check of the rule) each name the element sampled, every element's,
+    and the Z-output-only fits as such."""
+    sim = simulate_calibration(elements=((120.0, 0.707, 1500.0),) * 3, duration=3600.0, fs=2.0,
+                               seed=21)
+    runs = {e: coil.read_run(e, sim.runs[e], sim.inventory, "BC0", e) for e in coil.ELEMENTS}
+    coil.calibrate_uvw(runs, STS2_UVW, coil_constant=COIL, n_walkers=16, min_ess=50, n_tau=5,
+                       progress=True)
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("sampling")]
+    named = [ln.split(",")[0].split(" to convergence")[0] for ln in lines]
+    assert lines and all(n.startswith("sampling element ") for n in named), lines
+    assert {n.split()[2] for n in named} == set(coil.ELEMENTS)
+    assert any("from the Z output alone" in n for n in named)
+
+
 @pytest.mark.parametrize("duration, fs", [(2400.0, 40.0), (4 * 3600.0, 20.0)])
 def test_uvw_short_and_long_runs(duration, fs):
     """A 40-minute run at 40 Hz is not refused (the band follows the record);

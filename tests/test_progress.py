@@ -42,14 +42,15 @@ def test_bar_shows_goals_and_time_left(capsys, monkeypatch):
     assert states, err
     # every target against its goal, and tqdm's remaining-time field
     last = states[-1]
-    assert re.search(r"chain \d+/50 tau, ESS \d+/2000, R-hat \d\.\d{3} \(< 1\.01\)", last), last
+    assert re.search(r"kept draws span \d+ autocorrelation times \(50 asked\), \d+ effective "
+                     r"samples \(2000 asked\), R-hat \d\.\d{3} \(below 1\.01 asked\)", last), last
     assert re.search(r"\[\d\d:\d\d<\d\d:\d\d", last), last
     # the total is the step count at which the rule held: the bar ends full
     n, total = map(int, re.search(r"(\d+)/(\d+) steps", last).groups())
     assert n == total == chain.n_steps, (last, chain.n_steps)
     assert "100%" in last
     # the reported numbers are the chain's
-    ess = int(re.search(r"ESS (\d+)/", last).group(1))
+    ess = int(re.search(r"(\d+) effective samples \(2000 asked\)", last).group(1))
     assert ess == int(f"{chain.ess.min():.0f}")
     # the display does not change the chain
     quiet = sample(m, np.zeros(3), 0.1 * np.eye(3), seed=3, min_ess=2000, progress=False)
@@ -68,7 +69,8 @@ def test_lines_in_a_log(capsys):
     checks = [ln for ln in lines if ln.startswith("sampling to convergence: ")]
     last = checks[-1]
     assert f"{chain.n_steps} steps done of {chain.n_steps} planned" in last, last
-    assert f"ESS {chain.ess.min():.0f}/2000" in last and f"tau {chain.tau.max():.1f}" in last
+    assert f"{chain.ess.min():.0f} effective samples (2000 asked)" in last
+    assert f"autocorrelation time {chain.tau.max():.1f} steps" in last
     phases = [int(s) for s in re.findall(r"^sampling, [^:]+: (\d+) steps", err, re.M)]
     assert phases == [p["steps"] for p in chain.sampler["phases"]]
     assert sum(phases) == chain.n_steps
@@ -78,7 +80,7 @@ def test_lines_in_a_log(capsys):
 SMALL = dict(duration=1800.0, fs=5.0, seed=1)
 BAND = ("0.05", "1")
 
-STAGES = ("least squares:", "mode search:", "sampling, differential evolution (burn-in):",
+STAGES = ("least squares:", "mode search:", "sampling, burn-in, differential-evolution moves:",
           "sampling to convergence:")
 
 

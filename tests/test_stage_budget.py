@@ -113,10 +113,11 @@ def test_a_second_adaptation_spares_the_de_moves_their_long_chain():
     ch = mcmc.sample(FarStart(), np.array([100.0, 0.0, 0.0]), 0.01 * np.eye(3), seed=3,
                      progress=False)
     steps = [(p["label"], p["steps"]) for p in ch.sampler["phases"]]
-    assert steps[:4] == [("differential evolution (burn-in)", mcmc.DE_BURN),
-                         ("independence (adapting; accepted too rarely)", mcmc.ADAPT),
-                         ("differential evolution (burn-in)", mcmc.DE_RETRY),
-                         ("independence (adapting)", mcmc.ADAPT)]
+    assert steps[:4] == [("burn-in, differential-evolution moves", mcmc.DE_BURN),
+                         ("trial of the proposal fitted to the burn-in, accepted too rarely",
+                          mcmc.ADAPT),
+                         ("burn-in, differential-evolution moves", mcmc.DE_RETRY),
+                         ("trial of the proposal fitted to the burn-in", mcmc.ADAPT)]
     assert ch.converged and ch.tau.max() < 3                  # the proposal's mixing
     se = 1.0 / np.sqrt(ch.ess)
     np.testing.assert_array_less(np.abs(ch.samples.mean(axis=0)), 4 * se)

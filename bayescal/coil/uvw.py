@@ -314,12 +314,12 @@ def calibrate_uvw(runs, m, *, coil_constant=None, band=None, z_only=False, seed=
     for i, e in enumerate(ELEMENTS):
         run = runs[e].select(["Z"]) if z_only else runs[e]
         fits[e] = fit_run(run, m, c_eff, band, nperseg, seed=seed + i, progress=progress,
-                          priors=priors, **sample_kw)
+                          priors=priors, what=f"element {e}", **sample_kw)
         sees_z = abs(m[ELEMENTS.index(e), 2]) > 1e-6
         if not z_only and has_z and len(runs[e].axes) > 1 and sees_z:
             z_fits[e] = fit_run(runs[e].select(["Z"]), m, c_eff, band, nperseg,
                                 seed=seed + 10 + i, progress=progress, priors=priors,
-                                **sample_kw)
+                                what=f"element {e} from the Z output alone", **sample_kw)
     rng = np.random.default_rng(seed)
     joint = _pair([fits[e] for e in ELEMENTS], n_derived, rng)
     freqs = np.geomspace(band[0], band[1], 120)

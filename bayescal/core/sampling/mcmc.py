@@ -300,7 +300,7 @@ def default_walkers(ndim):
 
 
 def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
-           rhat_max=1.01, max_steps=None, progress=True, move="independence"):
+           rhat_max=1.01, max_steps=None, progress=True, move="independence", what=None):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.
 
@@ -317,6 +317,8 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
         step runs); None: what :data:`bayescal.core.budget.SAMPLE_WORK`
         evaluations leave after the burn-in.
     progress : a bar toward the rule on a terminal, else lines (:mod:`.display`).
+    what : what is sampled, named in every progress line ("element U");
+        None: nothing named.
     move : "independence" (the default: a DE burn-in, then
         :class:`IndependenceMove`; the DE moves carry on where it accepts too
         rarely) or "de" (emcee's differential-evolution moves throughout).
@@ -333,21 +335,19 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     """
     if move not in ("de", "independence"):
         raise ValueError(f"unknown move {move!r}")
-    ndim = model.ndim
-    n_walkers = (n_walkers or default_walkers(ndim)) + (n_walkers or 0) % 2
+    n_walkers = (n_walkers or default_walkers(model.ndim)) + (n_walkers or 0) % 2
     log_prob = CountedLogProb(model.log_prob)
     rule = _Rule(min_ess=min_ess, n_tau=n_tau, rhat_max=rhat_max,
                  max_steps=None if max_steps is None else int(max_steps))
     p0 = _start_walkers(log_prob, theta_start, cov, np.random.default_rng(seed), n_walkers)
-    bar = progress_display(progress, 1000, n_tau, min_ess, rhat_max, rule.max_steps)
-    phases = _Phases(log_prob, n_walkers, ndim, bar)
-    sampler = phases.new(_de_moves(), "differential evolution")
+    bar = progress_display(progress, 1000, n_tau, min_ess, rhat_max, rule.max_steps, what)
+    phases = _Phases(log_prob, n_walkers, model.ndim, bar)
+    sampler = phases.new(_de_moves(), "kept chain, differential-evolution moves")
     state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
     pre, sampler, state, pace = _burn_in(phases, sampler, state, rule,
                                          independence=move == "independence")
     rule, limit = _kept_limit(rule, log_prob.n, sampler.iteration, n_walkers)
-    bar.limit(rule.max_steps)
-    # (a DE fallback keeps its burn-in steps in its own chain)
+    bar.limit(pre.shape[0] + rule.max_steps)     # a DE fallback's sampler holds its burn-in
     kept = _run_to_rule(phases, sampler, state, rule, pace, pre.shape[0])
     bar.close()
     phases.close(sampler)
@@ -493,17 +493,19 @@ def _frozen_proposal(phases, de, state, discard):
     sampler with the frozen proposal, its start state), or None (the DE
     sampler carries on) when the proposal cannot be fitted or accepts too
     rarely."""
-    phases.close(de, "differential evolution (burn-in)")
+    phases.close(de, "burn-in, differential-evolution moves")
     try:
         adapt = phases.new([(IndependenceMove(TProposal.fit(
-            de.get_chain(discard=discard, flat=True))), 1.0)], "independence (adapting)")
+            de.get_chain(discard=discard, flat=True))), 1.0)],
+            "trial of the proposal fitted to the burn-in")
         last = phases.run(adapt, state, ADAPT)
         if np.mean(adapt.acceptance_fraction) < MIN_ACCEPTANCE:
-            phases.close(adapt, "independence (adapting; accepted too rarely)")
+            phases.close(adapt, "trial of the proposal fitted to the burn-in, accepted too "
+                                "rarely")
             return None
         phases.close(adapt)
         final = phases.new([(IndependenceMove(TProposal.fit(adapt.get_chain(flat=True))), 1.0)],
-                           "independence (frozen proposal)")
+                           "kept chain, proposal fitted to the trial")
     except np.linalg.LinAlgError:   # a degenerate spread: no proposal
         return None
     return np.concatenate([de.get_chain(), adapt.get_chain()]), final, last
