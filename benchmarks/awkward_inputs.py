@@ -27,7 +27,7 @@ and peak memory as the child's ``resource.getrusage`` ``ru_maxrss``):
 * ``day_1hz_wrong_all``: a simulated full day at 1 Hz, both sensors given
   nominal 120-s two-pole StationXML while the reference is truly a 360-s /
   0.7 sensor and the SUT a 40-s one, ``--fit-response all --band 0.125
-  0.333`` (the configuration of issue 44);
+  0.333`` (the configuration of a day-long GSN pair that ran for 25 minutes);
 * ``day_1hz_no_digitizer``: the same with the reference's nominal
   StationXML lacking the digitizer's gain (its gain 4e5 times too small:
   every SUT gain pinned at the prior's bound, a misfit no parameter can
@@ -148,7 +148,7 @@ def _simulated_builders():
                                                noise_in_counts=True))
 
     def day_wrong_instruments(digitizer):
-        # the issue's case: a day at 1 Hz, both sensors given nominal 120-s
+        # a day-long GSN pair's configuration: a day at 1 Hz, both sensors given nominal 120-s
         # metadata, the reference truly a 360-s / 0.7 sensor, the SUT a 40-s one
         def build(folder):
             name = "day_wrong" if digitizer else "day_no_digitizer"
