@@ -2,8 +2,9 @@
 real pairs and on simulated pairs whose metadata name the wrong instrument.
 
 Cases (each a fresh ``python -m bayescal fit --no-report`` subprocess; wall
-time, the child's CPU time, the one-minute load average when it started,
-and peak memory as the child's ``resource.getrusage`` ``ru_maxrss``):
+time, the child's CPU time, the machine's load over the minute before it
+started, and peak memory as the child's ``resource.getrusage``
+``ru_maxrss``):
 
 * ``cowi_flat``: ASL's COWI pair (``../shared/data``), its whole record
   (about 17 h at 1 Hz), ``flat`` metadata, band 1/8-1/3 Hz, the defaults;
@@ -195,7 +196,8 @@ def prepare(folder, only=None):
 
 def run(argv, folder, timeout):
     """One case in a child process: wall time, CPU time, peak memory, the
-    load average when it started, exit code and the last lines it printed."""
+    load over the minute before it started (``os.getloadavg``), exit code and
+    the last lines it printed."""
     out = tempfile.mkdtemp(dir=folder)
     env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
     cmd = [sys.executable, "-m", "bayescal", "fit", *argv, "--out", out, "--no-report"]
