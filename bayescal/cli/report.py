@@ -19,8 +19,10 @@ HELP = "render report.pdf and report_*.png for a saved result folder"
 def configure(parser):
     """Arguments of ``bayescal report``."""
     parser.add_argument("folder", metavar="DIR", help="result folder (result.json, samples.npz)")
-    parser.add_argument("--threshold", type=float, default=5.0, metavar="DEG",
-                        help="flag angles off nominal by more than DEG degrees (default 5)")
+    from ..report.batch import FLAG_THRESHOLD_DEG
+    parser.add_argument("--threshold", type=float, default=FLAG_THRESHOLD_DEG, metavar="DEG",
+                        help="flag azimuth, dip or tilt off nominal by more than DEG degrees "
+                             f"(default {FLAG_THRESHOLD_DEG:g}, as bayescal batch)")
     parser.add_argument("--truth", metavar="JSON", default=None,
                         help="simulation truth for truth markers (default DIR/truth.json)")
     add_paper_argument(parser)
