@@ -94,8 +94,9 @@ def _run_diagnosis(args, say):
                            transients="keep" if args.keep_transients else "drop",
                            max_steps=args.max_steps, diagnose=False,
                            priors=priors_from(args))
-    say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
-        "gain above 10, strong evidence; docs/diagnose.md) ...")
+    say("searching the catalogue of effects in rounds: each round scores every effect against "
+        "the model so far and keeps the best one when it improves the fit by a BIC gain above 10 "
+        "(very strong evidence) ...")
     return base, diagnose(base.state, seed=args.seed, progress=not args.quiet, log=say,
                           max_steps=args.max_steps)
 

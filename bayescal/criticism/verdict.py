@@ -29,10 +29,8 @@ import numpy as np
 from . import words
 from ..core import progress
 from .advice import accepted, band
+from .moves import MOVE_SD, half_width, improved_estimates
 
-#: An estimate "moves" when the improved model shifts it by more than this
-#: many of its standard deviations (the fit's 68 % half-width).
-MOVE_SD = 0.3
 #: The criticism's budget as ``bayescal fit --diagnose-budget`` states it, in
 #: seconds of this rate's work (:func:`criticism_budget`; checked between
 #: candidates).
@@ -79,41 +77,6 @@ class Criticism:
         return self.summary["verdict"]
 
 
-def _sd(entry):
-    lo, hi = entry.get("ci68", (np.nan, np.nan))
-    return 0.5 * (hi - lo)
-
-
-def improved_estimates(base_summary, final_summary):
-    """Per channel, each estimate under the improved model (median and 95 %
-    interval) and ``moved_sd``: its shift from the fit's median (azimuths the
-    short way round) in the fit's own standard deviations (68 % half-width)."""
-    out = {}
-    for cid, b in base_summary["channels"].items():
-        f = final_summary["channels"].get(cid)
-        if f is None:
-            continue
-        entry = {}
-        pairs = [(k, b.get(k, {}), f.get(k, {})) for k in ("azimuth_deg", "dip_deg")]
-        pairs += [(k, v, f.get("response", {}).get(k, {}))
-                  for k, v in b.get("response", {}).items()]
-        for key, be, fe in pairs:
-            if "ci68" not in be or "ci68" not in fe or be.get("undefined") or fe.get("undefined"):
-                continue
-            if be.get("median") is None or fe.get("median") is None:
-                continue
-            if be.get("set_by_prior") or fe.get("set_by_prior"):
-                continue                    # the prior's value is not a measurement
-            sd = _sd(be)
-            diff = fe["median"] - be["median"]
-            diff = (diff + 180.0) % 360.0 - 180.0 if key == "azimuth_deg" else diff
-            moved = diff / sd if sd > 0 else 0.0
-            entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
-                          "fit_median": be["median"], "moved_sd": float(moved)}
-        out[cid] = entry
-    return out
-
-
 def _effect_sizes(effect):
     """{parameter: {median, ci95}} of a named effect (the numbers only)."""
     out = {}
@@ -149,7 +112,7 @@ def _held_response_moves(effect):
         if not isinstance(v, dict) or "ci68" not in v:
             continue
         name, cid = key.split(":", 1)
-        sd = _sd(v)
+        sd = half_width(v)
         nominal = effect.get("nominal", {}).get(key)
         if nominal is None or not sd > 0:
             continue
