@@ -75,7 +75,7 @@ def test_summary_page_in_sentences_without_empty_lists():
     lines = rb.summary_lines(ROWS, rb.find_flags(ROWS), 2.0, 2.0)
     text = "\n".join(lines)
     assert "[]" not in text and "every item converged" in text
-    assert text.startswith("4 items: 4 calibrated, 0 failed; 1 stations, 2 days")
+    assert text.startswith("4 items: 4 calibrated, 0 failed; 1 station, 2 days")
     late = [dict(r, converged="False") if r["label"] == "2026-01-02-20" else r for r in ROWS]
     assert "not converged: 2026-01-02-20" in "\n".join(
         rb.summary_lines(late, [], 2.0, 2.0))

@@ -28,8 +28,9 @@ def test_moves_sentence_orders_by_standard_deviations_and_gives_units():
     text = moves_sentence(base, final)
     assert text == ("it moves, largest first in the fit's standard deviations: "
                     "XX.S.10.BH1's gain by +8.5 % (4.6 sd), "
-                    "XX.S.10.BH1's dip by -5.6 deg (3.5 sd), XX.S.10.BH1's azimuth by -0.92 deg (0.66 sd); no other estimate moves by more "
-                    "than 0.3 sd")
+                    "XX.S.10.BH1's dip by -5.6 deg (3.5 sd), "
+                    "XX.S.10.BH1's azimuth by -0.92 deg (0.66 sd); "
+                    "no other estimate moves by more than 0.3 sd")
     assert moves_sentence(base, _summary(10.1, 5.6, 687.0)) is None   # all within 0.3 sd
 
 

@@ -201,7 +201,7 @@ def _diagnosed(post, budget, *, seed, mcmc, log, sample_kw):
     (:mod:`bayescal.core.progress`: a line per candidate, one at its end)."""
     from .diagnose import diagnose
 
-    log = log or progress.logger("criticism, candidate")
+    log = log or progress.logger("criticism")
     with budget.active(), progress.stage("criticism", budget) as stage:
         d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
                      **_sampler_options(sample_kw))

@@ -129,7 +129,7 @@ def round_outcome(k, best, tried, keep, most=None):
     """The console's sentence on what round ``k`` kept and why: ``best``
     the candidate it keeps (an entry of ``tried``, with ``effect`` and
     ``delta_bic``) or None, ``keep`` the BIC gain to exceed, ``most`` the
-    largest number of effects when this round reaches it."""
+    largest number of effects, given when round ``k`` reaches it."""
     scored = [t for t in tried if t.get("delta_bic") is not None]
     if best is None or best["delta_bic"] <= keep:
         top = max(scored, key=lambda t: t["delta_bic"], default=None)

@@ -234,14 +234,16 @@ def date_ticks(days, most=8):
     return dates[::step]
 
 
+def _short(refs):
+    """Reference channels (``;``-joined SEED ids) as location.channel codes."""
+    return ",".join(".".join(r.split(".")[2:]) for r in refs.split(";") if r) or "?"
+
+
 def _pair_label(cid, refs, several):
     """A curve's legend: the SUT channel code, and the reference channels'
     location.channel codes when a station has several pairs."""
     code = cid.split(".")[-1]
-    if not several:
-        return code
-    short = ",".join(".".join(r.split(".")[2:]) for r in refs.split(";") if r)
-    return f"{code} vs {short or '?'}"
+    return f"{code} vs {_short(refs)}" if several else code
 
 
 def _station_panel(ax, rows, flags, sta, quantity):
@@ -306,6 +308,10 @@ def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
     return fig
 
 
+def _count(n, noun):
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
     """The summary page's sentences: what ran, convergence, the flag rule."""
     labels = sorted({r["label"] for r in rows})
@@ -313,9 +319,9 @@ def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
     ok = [r for r in rows if not r.get("error")]
     chains = [r for r in ok if r["ess_min"] is not None]      # a Laplace approximation has none
     not_converged = sorted({r["label"] for r in ok if r["converged"] != "True"})
-    lines = [f"{len(labels)} items: {len(labels) - len(failed)} calibrated, "
-             f"{len(failed)} failed; {len({r['station'] for r in ok})} stations, "
-             f"{len({r['day'] for r in ok})} days"]
+    lines = [f"{_count(len(labels), 'item')}: {len(labels) - len(failed)} calibrated, "
+             f"{len(failed)} failed; {_count(len({r['station'] for r in ok}), 'station')}, "
+             f"{_count(len({r['day'] for r in ok}), 'day')}"]
     if chains:
         lines.append(f"Sampler, over the items: min ESS {min(r['ess_min'] for r in chains):.0f}, "
                      f"max R-hat {max(r['rhat_max'] for r in chains):.4f} (effective sample "
@@ -327,8 +333,8 @@ def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
     lines += [f"Flags: beyond {threshold_deg:g} deg (azimuth, dip) or {gain_threshold_pct:g} % "
               "(gain) AND beyond the 95 % uncertainty; off nominal against the StationXML, "
               "changed against the same pair's result before",
-              f"Flagged: {len(flags)} in {len({f['station'] for f in flags})} stations "
-              "(all in flags.csv)"]
+              f"Flagged: {len(flags)} in {_count(len({f['station'] for f in flags}), 'station')}"
+              " (all in flags.csv)"]
     return lines
 
 
@@ -362,14 +368,16 @@ def _summary_page(rows, flags, threshold_deg, gain_threshold_pct, page, most=30)
         fig.text(0.05, 0.93, "\n".join(textwrap.fill(t, 110) for t in lines), va="top",
                  fontsize=8, linespacing=1.5)
         top = 0.80
-        cells = [[f["station"], f["channel"].split(".")[-1], f["quantity"],
+        cells = [[f["station"], f["channel"].split(".")[-1], _short(f["reference_channels"]),
+                  f["quantity"],
                   f["flag"].replace("_", " "),
                   f"{f['previous_day']} -> {f['day']}" if f["flag"] == "changed" else f["day"],
                   f"{f['value']:+.2f} {f['unit']}", f"[{f['lo95']:+.2f}, {f['hi95']:+.2f}]"]
                  for f in flags[:most]]
         more = f" (first {most} of {len(flags)})" if len(flags) > most else ""
-        top = _table(fig, top, cells or [["none"] + [""] * 6],
-                     ["station", "channel", "quantity", "flag", "day", "value", "95 % interval"],
+        top = _table(fig, top, cells or [["none"] + [""] * 7],
+                     ["station", "channel", "reference", "quantity", "flag", "day", "value",
+                      "95 % interval"],
                      f"Flags{more}")
         errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
         cells = [[lb, textwrap.shorten(err, 95, placeholder=" ...")] for lb, err in errors[:most]]
