@@ -55,3 +55,21 @@ def test_round_sentences_say_what_was_kept_and_why():
         "sut_corner, -24.3); the search stops")
     assert words.round_outcome(3, tried[0], tried[:1], 10.0, most=3).endswith(
         "one effect is kept per round; 3 effects at most: the search stops")
+
+
+def test_fit_console_lists_the_moves_largest_first():
+    from bayescal.criticism.verdict import lines
+
+    def move(median, fit, sd):
+        return {"median": median, "ci95": [median - 1, median + 1], "fit_median": fit,
+                "moved_sd": (median - fit) / sd}
+    c = {"verdict": "improved", "verdict_text": "improved", "move_threshold_sd": 0.3,
+         "improved_estimates": {"A.B..BH1": {"azimuth_deg": move(1.0, 0.0, 2.0),
+                                             "dip_deg": move(5.0, 0.0, 1.0)},
+                                "A.B..BH2": {"gain": move(110.0, 100.0, 2.5),
+                                             "azimuth_deg": move(90.1, 90.0, 1.0)}}}
+    out = lines(c)
+    head = out.index("  estimates under the improved model that move by more than 0.3 sd, "
+                     "largest first:")
+    assert [ln.split()[:2] for ln in out[head + 1:]] == [
+        ["A.B..BH1", "dip"], ["A.B..BH2", "gain"], ["A.B..BH1", "azimuth"]]

@@ -461,11 +461,13 @@ def lines(c):
         out.append(misfit_line(c))
     moved = [(cid, k, v) for cid, d in c.get("improved_estimates", {}).items()
              for k, v in d.items() if k != "relative_gain"]
-    big = [m for m in moved if m[2].get("moved_sd") is not None
-           and abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)]
+    big = sorted((m for m in moved if m[2].get("moved_sd") is not None
+                  and abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)),
+                 key=lambda m: -abs(m[2]["moved_sd"]))      # largest first
     if moved:
         out.append(f"  estimates under the improved model that move by more than "
-                   f"{c.get('move_threshold_sd', MOVE_SD):g} sd" + (":" if big else ": none"))
+                   f"{c.get('move_threshold_sd', MOVE_SD):g} sd"
+                   + (", largest first:" if big else ": none"))
         for cid, k, v in big:
             lo, hi = v.get("ci95") or (None, None)
             out.append(f"    {cid} {k.replace('_deg', '').replace('_s', '')} {_g(v['median'])} "
