@@ -15,6 +15,10 @@ sensor's axis is tilted by that many rad rms in each horizontal direction and
 sees independent horizontal ground motion (PSD equal to the vertical): the
 model error the interval's allowance is about. Series are synthesised in the
 frequency domain (one FFT of the whole record, so exactly stationary).
+:meth:`Colocated.write` puts each sensor's miniSEED and StationXML in a
+folder with ``truth.json``: each sensor's true self-noise, in dB re 1
+(m/s^2)^2/Hz at a list of periods, beside the ground motion's PSD
+(:meth:`Colocated.truth`).
 """
 from __future__ import annotations
 
