@@ -102,7 +102,7 @@ def test_noise_console(data):
 
 def test_cal_console(data):
     c = data["cal"]
-    text = _run("cal", "--cal", c["cal"], "--input-channel", "BC0", "--output-channel", "LHZ",
+    text = _run("cal", "--cal", c["cal"], "--input-channel", "BC0", "--output-channel", "MHZ",
                 "--sut-xml", c["xml"], "--coil-constant", 1e-9, "--out", "cal", cwd=data["root"])
     assert "model check" in text
     _check(text, "bayescal cal")

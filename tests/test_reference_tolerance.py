@@ -65,7 +65,7 @@ def test_a_reference_gain_off_is_covered_only_with_its_tolerance():
             post = calibrate(ref=sim.ref, ref_xml=sim.ref_inventory, sut=sim.sut,
                              sut_xml=sim.sut_inventory, band=(0.02, 1.0), progress=False,
                              diagnose=False, priors=Priors(reference_tolerance=tol))
-        gain = post.summary()["channels"]["XX.SIM.10.LHZ"]["response"]["gain"]
+        gain = post.summary()["channels"]["XX.SIM.10.MHZ"]["response"]["gain"]
         out[tol] = gain["ci95"]
     lo, hi = out[0.0]
     assert not lo <= 750.0 <= hi and lo > 750.0

@@ -36,7 +36,7 @@ def test_cal_report_rebuilt_from_its_folder(tmp_path):
                         seed=1).write(str(tmp_path / "run"))
     out = tmp_path / "cal"
     assert _bayescal("cal", "--cal", tmp_path / "run" / "cal_cal.mseed", "--input-channel", "BC0",
-                     "--output-channel", "LHZ", "--sut-xml", tmp_path / "run" / "sut.xml",
+                     "--output-channel", "MHZ", "--sut-xml", tmp_path / "run" / "sut.xml",
                      "--coil-constant", "1e-9", "--out", out, "--quiet") == 0
     text = _redraw(out, ["cal_report.pdf", "cal_response.png", "cal_residuals.png",
                          "cal_corner.png"])

@@ -86,7 +86,7 @@ def test_spent_budgets_end_the_fit_with_a_result_and_say_which_stage(small_files
     assert ended == {"least squares": "work", "mode search": "work", "sampling": "work"}
     assert result["multimodal"]["not_tried"] > 0
     # the posterior of what was run holds the simulated axes (north, east)
-    for cid, truth in (("XX.SIM.10.LH1", 0.0), ("XX.SIM.10.LH2", 90.0)):
+    for cid, truth in (("XX.SIM.10.MH1", 0.0), ("XX.SIM.10.MH2", 90.0)):
         az = result["channels"][cid]["azimuth_deg"]
         lo, hi = az["ci95"]
         wrap = 360.0 if lo >= 180.0 else 0.0         # an interval written across north

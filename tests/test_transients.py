@@ -87,7 +87,7 @@ def test_the_fit_without_the_transients_holds_the_truth_and_is_narrower():
     for mode in ("keep", "drop"):
         post = calibrate(ref=ref, ref_xml=p.ref_inventory, sut=p.sut, sut_xml=p.sut_inventory,
                          band=(0.05, 0.5), progress=False, diagnose=False, transients=mode)
-        az = post.summary()["channels"]["XX.SIM.10.LH1"]["azimuth_deg"]
+        az = post.summary()["channels"]["XX.SIM.10.MH1"]["azimuth_deg"]
         out[mode] = (az["ci95"][0], az["ci95"][1])
         dropped = post.meta.data_used.get("transients", {}).get("dropped", 0)
         if mode == "keep":

@@ -13,8 +13,9 @@ writes DIR/<label>/error.json and the others go on. Rerunning the same
 command skips finished items and retries failed ones. At the end:
 DIR/results.csv (a row per item and channel), DIR/flags.csv and the summary
 report DIR/report.pdf / report.png (orientation against time per station;
-stations off nominal or changed between days by more than --threshold and
-beyond the 95 % uncertainty).
+a result is flagged when off nominal, or changed from the same pair's
+result before, by more than --threshold and beyond the 95 % uncertainty;
+two pairs of one station, e.g. two references, are never compared).
 
 Exit status: 0 when every item is calibrated, 1 when some failed (their
 errors are in results.csv), 2 for bad input (plan, paths, options).
@@ -27,6 +28,7 @@ Examples:
 from __future__ import annotations
 
 from ..errors import InputError
+from ..report.batch import FLAG_THRESHOLD_DEG, FLAG_THRESHOLD_PCT
 from .common import add_paper_argument
 
 HELP = "calibrate many pairs (CSV plan or SDS archive) on Dask, resumable, with a network report"
@@ -55,10 +57,13 @@ def configure(parser):
                         help="local workers (default: one per core)")
     parser.add_argument("--seed", type=int, default=0,
                         help="global seed; each item's seed derives from it and its label")
-    parser.add_argument("--threshold", type=float, default=2.0, metavar="DEG",
-                        help="flag angle changes / offsets above this (default 2 degrees)")
-    parser.add_argument("--gain-threshold", type=float, default=2.0, metavar="PCT",
-                        help="flag gain changes / offsets above this (default 2 %%)")
+    parser.add_argument("--threshold", type=float, default=FLAG_THRESHOLD_DEG, metavar="DEG",
+                        help="flag azimuth and dip offsets / changes above this and beyond "
+                             f"the 95 %% interval (default {FLAG_THRESHOLD_DEG:g} degrees, as "
+                             "bayescal report)")
+    parser.add_argument("--gain-threshold", type=float, default=FLAG_THRESHOLD_PCT, metavar="PCT",
+                        help="flag gain offsets / changes above this and beyond the 95 %% "
+                             f"interval (default {FLAG_THRESHOLD_PCT:g} %%)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_paper_argument(parser)
 

@@ -65,7 +65,8 @@ def configure(parser):
                              "raised when the record is short; hf 10/T0 to 0.4 fs)")
     add_tolerance_arguments(parser, "with --fit lp or all (random, step)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress display (the results are still printed, on stdout)")
     add_sampling_argument(parser)
     add_paper_argument(parser)
 
@@ -87,13 +88,17 @@ def load_runs(args):
     except Exception as exc:
         raise InputError(f"{args.cal}: not a readable waveform file ({exc})") from None
     inv = read_metadata(args.sut_xml, "SUT StationXML", stream=st)
+    ids = ", ".join(tr.id for tr in st) or "none"
+    if not any(args.input_channel in (tr.stats.channel, tr.id) for tr in st):
+        raise InputError(f"{args.cal}: no input channel {args.input_channel} (--input-channel, a "
+                         f"channel code or SEED id) among the file's channels: {ids}")
     runs = []
     for cha in args.output_channel:
         sel = [tr for tr in st if cha in (tr.stats.channel, tr.id)
                or args.input_channel in (tr.stats.channel, tr.id)]
         if not any(cha in (tr.stats.channel, tr.id) for tr in sel):
-            raise InputError(f"{args.cal}: no output channel {cha} (channels: "
-                             f"{', '.join(tr.id for tr in st) or 'none'})")
+            raise InputError(f"{args.cal}: no output channel {cha} (--output-channel, a "
+                             f"channel code or SEED id) among the file's channels: {ids}")
         if not coil.output_axis(cha[-3:]):
             raise InputError(f"{args.cal}: output channel {cha}: code must end in N/E/Z/1/2 "
                              "or U/V/W")
@@ -186,9 +191,9 @@ def run(args):
             else:
                 fits.append(fit_sine(r, args.coil_constant, **kw))
     summaries = write_outputs(fits, inv, args.out, paper=args.paper)
-    if not args.quiet:
-        for s in summaries:
-            _print_summary(s)
-        print(f"written to {args.out}")
+    for s in summaries:      # --quiet removes the progress display only
+        _print_summary(s)
+    from .common import say, written
+    say(args, f"wrote {os.path.abspath(args.out)} ({', '.join(written(args.out))})")
     return convergence_exit([(f"the sampler of {s['channel']}", s["convergence"])
                              for s in summaries])

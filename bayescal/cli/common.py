@@ -199,3 +199,12 @@ def add_paper_argument(parser):
 def say(args, text):
     if not args.quiet:
         print(text, file=sys.stderr)
+
+
+def written(folder):
+    """The names a user looks for in an output folder, sorted: its files
+    and sub-folders, without the hidden list of what bayescal wrote there
+    (:data:`bayescal.atomic.MANIFEST`) or other hidden files."""
+    import os
+    return sorted(n for n in os.listdir(folder) if not n.startswith("."))
+

@@ -13,6 +13,15 @@ Same inputs as ``bayescal fit``. Writes into DIR:
   diagnosis.pdf, diagnosis.png
                    one page saying it in words (unless --no-report)
 
+On stderr (unless --quiet), the search for effects in rounds: each round
+scores every effect of the catalogue against the model so far by its BIC
+gain and keeps the best one when the gain exceeds 10 (very strong
+evidence); the others are scored again in the following round, with the kept
+effect in the model. The search stops when no gain exceeds 10 or three
+effects are kept. On stdout, the finding in sentences: the effects named,
+where the misfit goes, and every estimate that moves by more than 0.3 of
+the fit's standard deviations, largest first.
+
 Example:
   bayescal diagnose --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed \\
                     --sut-xml SUT.xml --out diag --band 0.02 3
@@ -94,8 +103,9 @@ def _run_diagnosis(args, say):
                            transients="keep" if args.keep_transients else "drop",
                            max_steps=args.max_steps, diagnose=False,
                            priors=priors_from(args))
-    say("searching the catalogue of effects (an effect is kept when it improves the fit by a BIC "
-        "gain above 10, strong evidence; docs/diagnose.md) ...")
+    say("searching the catalogue of effects in rounds: each round scores every effect against "
+        "the model so far and keeps the best one when it improves the fit by a BIC gain above 10 "
+        "(very strong evidence) ...")
     return base, diagnose(base.state, seed=args.seed, progress=not args.quiet, log=say,
                           max_steps=args.max_steps)
 

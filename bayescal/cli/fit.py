@@ -289,8 +289,6 @@ def run(args):
                                diagnose_budget_s=args.diagnose_budget)
     spent = _said_warnings(caught)
     meta = post.meta
-    lo, hi = meta.band_hz
-    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.band_choice})", file=sys.stderr)
     used = meta.data_used
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "
                f"({100 * used['fraction']:.0f} %, about {used['approx_seconds']:.0f} s)"
@@ -311,10 +309,12 @@ def run(args):
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
     elapsed = time.perf_counter() - t_start
     summary = post.summary()
+    lo, hi = meta.band_hz    # with the results on stdout: `> out.txt` keeps it
+    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.band_choice})")
     print_summary(summary)   # --quiet removes the progress display only
     for line in spent:       # a stage's budget ended it: said as the NOT CONVERGED line is
         print(line)
     code = convergence_exit([("the sampler", summary["convergence"])])
-    written = sorted(n for n in os.listdir(out) if not n.startswith("."))
-    say(args, f"wrote {out} ({', '.join(written)}) in {elapsed:.1f} s")
+    from .common import written
+    say(args, f"wrote {out} ({', '.join(written(out))}) in {elapsed:.1f} s")
     return code

@@ -125,9 +125,16 @@ def run(args):
                       f"({type(exc).__name__}: {exc}); noise.json is complete", file=sys.stderr)
     for line in summary_lines(to_json(result)):
         print(line)
-    say(args, f"wrote {out} ({', '.join(sorted(os.listdir(out)))}) in "
+    from .common import written
+    say(args, f"wrote {out} ({', '.join(written(out))}) in "
               f"{time.perf_counter() - t_start:.1f} s")
     return 0
+
+
+#: The console's unit of a self-noise in ground units, and of one whose
+#: response was given as ``flat`` (1 count per m/s: counts as velocity).
+GROUND_UNIT = "dB re 1 (m/s^2)^2/Hz"
+FLAT_UNIT = "dB re 1 (count/s)^2/Hz"
 
 
 def _cell(band, key):
@@ -146,7 +153,9 @@ def summary_lines(doc):
     sensors = doc["sensors"]
     level = round(100 * doc["meta"].get("level", 0.9))
     key = f"ci{level}_db"
-    lines = [f"self-noise, dB re 1 (m/s^2)^2/Hz, mean over each period band [{level} % "
+    flat = [c for c in doc["meta"].get("flat_metadata") or [] if c in sensors]
+    unit = FLAT_UNIT if flat and len(flat) == len(sensors) else GROUND_UNIT
+    lines = [f"self-noise, {unit}, mean over each period band [{level} % "
              f"interval]; '< X below resolution': the interval reaches zero power, X is its "
              f"upper bound"]
     by_comp = {}
@@ -167,8 +176,10 @@ def summary_lines(doc):
                 cells.append("-" if band is None else _cell(band, key))
             lines.append(f"{f'{r[0]:.3g}-{r[1]:.3g}':>12}  "
                          + "  ".join(f"{c:>{width}}" for c in cells))
-    flat = doc["meta"].get("flat_metadata") or []
     if flat:
-        lines.append(f"flat metadata: {', '.join(flat)}: numbers in counts through an assumed "
-                     "flat response of 1 count per m/s, not in ground units")
+        lines.append(f"flat metadata: {', '.join(flat)}: "
+                     + ("their columns are" if unit != FLAT_UNIT else "numbers")
+                     + f" in {FLAT_UNIT}, the counts taken as velocity through an "
+                     "assumed flat response of 1 count per m/s and differentiated, not in "
+                     "ground units")
     return lines

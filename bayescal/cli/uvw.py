@@ -73,7 +73,8 @@ def configure(parser):
                              "raised when the record is short)")
     add_tolerance_arguments(parser, "for each element")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress or summary output")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress display (the results are still printed, on stdout)")
     add_sampling_argument(parser)
     add_paper_argument(parser)
 
@@ -151,7 +152,7 @@ def _fmt(entry):
     return f"{entry['median']:.5g} [{entry['ci95'][0]:.5g}, {entry['ci95'][1]:.5g}]"
 
 
-def _print_summary(summary, out):
+def _print_summary(summary):
     from .fit import response_lines
 
     print(f"UVW calibration ({summary['mode']}), medians [95 % intervals], gains in "
@@ -170,7 +171,6 @@ def _print_summary(summary, out):
     if "agreement" in summary:
         print(f"  Z-only vs all outputs: {summary['agreement']['note']} "
               f"(max |z| {summary['agreement']['max_abs_z']:.2f})")
-    print(f"written to {out}")
 
 
 def rotate_file(args):
@@ -219,8 +219,9 @@ def run(args):
                                    matrix_source=source, max_steps=args.max_steps,
                                    priors=priors_from(args))
     summary = write_outputs(result, args.out, paper=args.paper)
-    if not args.quiet:
-        _print_summary(summary, args.out)
+    _print_summary(summary)  # --quiet removes the progress display only
+    from .common import say, written
+    say(args, f"wrote {os.path.abspath(args.out)} ({', '.join(written(args.out))})")
     chains = [(f"the sampler of element {e}", v["convergence"])
               for e, v in summary["elements"].items()]
     chains += [(f"the sampler of element {e} (Z only)", v["convergence"])

@@ -13,7 +13,9 @@
 * :mod:`.diagnosis` what the diagnosis found: its summary (diagnosis.json) and
                     its finding in plain words
 * :mod:`.verdict`   the criticism of a fit that failed its model check
-* :mod:`.words`     the named effects in plain words: their labels and advice
+* :mod:`.moves`     how far modelling the effects moves the estimates, in words
+* :mod:`.words`     the named effects in plain words: their labels and advice, and
+                    the search's rounds
 * :mod:`.advice`    advice that leads somewhere: options the run accepts, a
                     narrower band only where it helps
 * :mod:`.wiring`    reversed or exchanged channels, from the fitted axes

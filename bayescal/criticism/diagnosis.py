@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .locate import ALPHA, true_runs
+from .moves import moves_sentence
 from .search import BIC_KEEP
 
 
@@ -104,12 +105,10 @@ class Diagnosis:
                        "check)")
         if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
             out.append(misfit_change(edges, before, after))
-        moves = self.movements()
-        big = [(c, k, v) for c, d in moves.items() for k, v in d.items()
-               if k == "azimuth_deg" and abs(v) > 0.05]
-        if big and any(e.get("score_gain") for e in self.effects):
-            out.append("it moves " + ", ".join(f"{c}'s azimuth by {v:+.2f} degree"
-                                               for c, _, v in big))
+        if any(e.get("score_gain") for e in self.effects) and self.final is not self.base:
+            moved = moves_sentence(self.base.summary(), self.final.summary())
+            if moved:
+                out.append(moved)
         if not self.effects and not self.after["mismatch"]:
             out.append("no mismatch: the model describes the recordings within their noise"
                        + (" once the reference's noise is modelled" if ref.get("kept") else ""))

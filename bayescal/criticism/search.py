@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import effects as catalogue
+from . import effects as catalogue, words
 from ..core.model import forward_jacobian, EIVModel, EIVNoise, MIN_TIME_BLOCKS, Model
 from ..core.fit import TIGHT, solve, least_squares_fit, prior_bounds
 from ..core.threads import single_threaded_blas
@@ -398,62 +398,88 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
     cur, th, cov = model, theta, None
     steps = []
     while len(cur.effects) < MAX_EFFECTS:
-        tried = []
-        cands = _candidates(cur, free, cur.effects, drift)
-        for n, (key, effect, grid) in enumerate(cands):
-            if budget is not None and budget.spent():
-                why = "time limit" if budget.ended_by == "time" else "budget"
-                steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried]
-                             + [{"stopped": why, "not_tried": [c[0] for c in cands[n:]]}])
-                return cur, th, cov, steps
-            effects = list(cur.effects)
-            if key == "clock_drift":      # nests timing_offset: replaces it
-                effects = [e for e in effects if e.name != "timing_offset"]
-                tau = _fitted_offset(cur, th, tried)
-                if tau is not None:       # start at the offset found (no grid over it)
-                    grid = np.array([[tau, grid[0, 1]]])
-            effects.append(effect)
-            on = released(cur, th, effect.rows) if getattr(effect, "releases", False) \
-                else (cur, th)
-            fit = fit_candidate(*on, effects, grid, len(effects) - 1)
-            if fit is None:
-                tried.append({"effect": key, "delta_bic": None,
-                          "note": "left the prior support or not identifiable in the band"})
-                continue
-            s = score(cur, th, fit[0], fit[1])
-            if key in BY_EVIDENCE:
-                s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
-            if key == "sut_corner":
-                s.update(prior_conflict(cur.priors, fit, len(effects) - 1))
-            tried.append({"effect": key, **s, "fit": fit,
-                          **({"first": True} if getattr(effect, "first", False) else {}),
-                          **({"releases": True} if getattr(effect, "releases", False) else {})})
+        if log:
+            log(words.round_header(len(steps) + 1, [e.name for e in cur.effects], BIC_KEEP))
+        tried, stop = _round(cur, th, free, drift, budget, log)
+        if stop is not None:
+            steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried] + [stop])
             if log:
-                log(f"  {key:18s} BIC gain {s['delta_bic']:10.1f}")
-        good = by_evidence([t for t in tried if t.get("delta_bic") is not None], BIC_KEEP)
-        # an effect marked ``first`` (the SUT's corner on metadata that give
-        # none: a term of the response family the base model lacks) is kept
-        # before the others whenever it passes; a delay and poles near the
-        # band's top, which trade with each other there, would otherwise fill
-        # the steps first
-        best = max(good, key=lambda t: (t.get("first", False) and t["delta_bic"] > BIC_KEEP,
-                                        t["delta_bic"]), default=None)
+                log(f"round {len(steps)} stopped: the criticism's {stop['stopped']} is spent "
+                    f"(not tried: {', '.join(stop['not_tried'])})")
+            return cur, th, cov, steps
+        best = _best(tried, log)
         steps.append([{k: v for k, v in t.items() if k != "fit"} for t in tried])
+        if log:
+            log(words.round_outcome(len(steps), best, tried, BIC_KEEP,
+                                    MAX_EFFECTS if len(cur.effects) + 1 >= MAX_EFFECTS else None))
         if best is None or best["delta_bic"] <= BIC_KEEP:
             break
-        timing = next((t for t in good if t["effect"] == "timing_offset"), None)
-        if best["effect"] == "clock_drift" and timing is not None:
-            # clock drift nests a constant offset: it must beat it, not only the current model
-            s = score(timing["fit"][0], timing["fit"][1], best["fit"][0], best["fit"][1])
-            if log:
-                log(f"  clock_drift over timing_offset BIC gain {s['delta_bic']:10.1f}")
-            if s["delta_bic"] <= BIC_KEEP and timing["delta_bic"] > BIC_KEEP:
-                best = timing
         cur, th, cov = best["fit"]
         steps[-1].append({"kept": best["effect"], "delta_bic": best["delta_bic"]})
         if best["effect"] == "clock_drift" and eiv is not None:
             cur, th, cov = drift_under_eiv(eiv, cur, th, cov, log)
     return cur, th, cov, steps
+
+
+def _round(cur, th, free, drift, budget, log):
+    """One round of the search: every candidate effect fitted and scored
+    against ``cur``. Returns ``(tried, stop)``: the entries of the
+    candidates tried (with their fits), and None or the entry saying the
+    budget ended the round."""
+    tried = []
+    cands = _candidates(cur, free, cur.effects, drift)
+    for n, (key, effect, grid) in enumerate(cands):
+        if budget is not None and budget.spent():
+            why = "time limit" if budget.ended_by == "time" else "budget"
+            return tried, {"stopped": why, "not_tried": [c[0] for c in cands[n:]]}
+        effects = list(cur.effects)
+        if key == "clock_drift":      # nests timing_offset: replaces it
+            effects = [e for e in effects if e.name != "timing_offset"]
+            tau = _fitted_offset(cur, th, tried)
+            if tau is not None:       # start at the offset found (no grid over it)
+                grid = np.array([[tau, grid[0, 1]]])
+        effects.append(effect)
+        on = released(cur, th, effect.rows) if getattr(effect, "releases", False) else (cur, th)
+        fit = fit_candidate(*on, effects, grid, len(effects) - 1)
+        if fit is None:
+            tried.append({"effect": key, "delta_bic": None,
+                          "note": "left the prior support or not identifiable in the band"})
+            if log:
+                log(f"  {key:20s} not scored: {tried[-1]['note']}")
+            continue
+        s = score(cur, th, fit[0], fit[1])
+        if key in BY_EVIDENCE:
+            s["log_evidence_gain"] = log_evidence_gain(fit, s, len(effects) - 1)
+        if key == "sut_corner":
+            s.update(prior_conflict(cur.priors, fit, len(effects) - 1))
+        tried.append({"effect": key, **s, "fit": fit,
+                      **({"first": True} if getattr(effect, "first", False) else {}),
+                      **({"releases": True} if getattr(effect, "releases", False) else {})})
+        if log:
+            log(f"  {key:20s} BIC gain {s['delta_bic']:10.1f}")
+    return tried, None
+
+
+def _best(tried, log):
+    """The candidate a round keeps (its BIC gain still to be checked against
+    :data:`BIC_KEEP`), or None. An effect marked ``first`` (the SUT's corner
+    on metadata that give none: a term of the response family the base model
+    lacks) comes before the others whenever it passes; a delay and poles
+    near the band's top, which trade with each other there, would otherwise
+    fill the steps first."""
+    good = by_evidence([t for t in tried if t.get("delta_bic") is not None], BIC_KEEP)
+    best = max(good, key=lambda t: (t.get("first", False) and t["delta_bic"] > BIC_KEEP,
+                                    t["delta_bic"]), default=None)
+    timing = next((t for t in good if t["effect"] == "timing_offset"), None)
+    if best is not None and best["effect"] == "clock_drift" and timing is not None \
+            and best["delta_bic"] > BIC_KEEP:
+        # clock drift nests a constant offset: it must beat it, not only the current model
+        s = score(timing["fit"][0], timing["fit"][1], best["fit"][0], best["fit"][1])
+        if log:
+            log(f"  clock_drift over timing_offset BIC gain {s['delta_bic']:10.1f}")
+        if s["delta_bic"] <= BIC_KEEP and timing["delta_bic"] > BIC_KEEP:
+            best = timing
+    return best
 
 
 def drift_under_eiv(eiv, model, theta, cov, log=None):

@@ -29,10 +29,8 @@ import numpy as np
 from . import words
 from ..core import progress
 from .advice import accepted, band
+from .moves import MOVE_SD, half_width, improved_estimates
 
-#: An estimate "moves" when the improved model shifts it by more than this
-#: many of its standard deviations (the fit's 68 % half-width).
-MOVE_SD = 0.3
 #: The criticism's budget as ``bayescal fit --diagnose-budget`` states it, in
 #: seconds of this rate's work (:func:`criticism_budget`; checked between
 #: candidates).
@@ -79,41 +77,6 @@ class Criticism:
         return self.summary["verdict"]
 
 
-def _sd(entry):
-    lo, hi = entry.get("ci68", (np.nan, np.nan))
-    return 0.5 * (hi - lo)
-
-
-def improved_estimates(base_summary, final_summary):
-    """Per channel, each estimate under the improved model (median and 95 %
-    interval) and ``moved_sd``: its shift from the fit's median (azimuths the
-    short way round) in the fit's own standard deviations (68 % half-width)."""
-    out = {}
-    for cid, b in base_summary["channels"].items():
-        f = final_summary["channels"].get(cid)
-        if f is None:
-            continue
-        entry = {}
-        pairs = [(k, b.get(k, {}), f.get(k, {})) for k in ("azimuth_deg", "dip_deg")]
-        pairs += [(k, v, f.get("response", {}).get(k, {}))
-                  for k, v in b.get("response", {}).items()]
-        for key, be, fe in pairs:
-            if "ci68" not in be or "ci68" not in fe or be.get("undefined") or fe.get("undefined"):
-                continue
-            if be.get("median") is None or fe.get("median") is None:
-                continue
-            if be.get("set_by_prior") or fe.get("set_by_prior"):
-                continue                    # the prior's value is not a measurement
-            sd = _sd(be)
-            diff = fe["median"] - be["median"]
-            diff = (diff + 180.0) % 360.0 - 180.0 if key == "azimuth_deg" else diff
-            moved = diff / sd if sd > 0 else 0.0
-            entry[key] = {"median": fe["median"], "ci95": fe["ci95"],
-                          "fit_median": be["median"], "moved_sd": float(moved)}
-        out[cid] = entry
-    return out
-
-
 def _effect_sizes(effect):
     """{parameter: {median, ci95}} of a named effect (the numbers only)."""
     out = {}
@@ -149,7 +112,7 @@ def _held_response_moves(effect):
         if not isinstance(v, dict) or "ci68" not in v:
             continue
         name, cid = key.split(":", 1)
-        sd = _sd(v)
+        sd = half_width(v)
         nominal = effect.get("nominal", {}).get(key)
         if nominal is None or not sd > 0:
             continue
@@ -238,7 +201,7 @@ def _diagnosed(post, budget, *, seed, mcmc, log, sample_kw):
     (:mod:`bayescal.core.progress`: a line per candidate, one at its end)."""
     from .diagnose import diagnose
 
-    log = log or progress.logger("criticism, candidate")
+    log = log or progress.logger("criticism")
     with budget.active(), progress.stage("criticism", budget) as stage:
         d = diagnose(post, seed=seed, mcmc=mcmc, progress=False, log=log, budget=budget,
                      **_sampler_options(sample_kw))
@@ -498,11 +461,13 @@ def lines(c):
         out.append(misfit_line(c))
     moved = [(cid, k, v) for cid, d in c.get("improved_estimates", {}).items()
              for k, v in d.items() if k != "relative_gain"]
-    big = [m for m in moved if m[2].get("moved_sd") is not None
-           and abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)]
+    big = sorted((m for m in moved if m[2].get("moved_sd") is not None
+                  and abs(m[2]["moved_sd"]) > c.get("move_threshold_sd", MOVE_SD)),
+                 key=lambda m: -abs(m[2]["moved_sd"]))      # largest first
     if moved:
         out.append(f"  estimates under the improved model that move by more than "
-                   f"{c.get('move_threshold_sd', MOVE_SD):g} sd" + (":" if big else ": none"))
+                   f"{c.get('move_threshold_sd', MOVE_SD):g} sd"
+                   + (", largest first:" if big else ": none"))
         for cid, k, v in big:
             lo, hi = v.get("ci95") or (None, None)
             out.append(f"    {cid} {k.replace('_deg', '').replace('_s', '')} {_g(v['median'])} "

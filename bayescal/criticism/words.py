@@ -114,3 +114,35 @@ def self_noise_text(summary):
     if head.get("model") != "improved" or not head.get("self_noise"):
         return None
     return f"self-noise and sensor order are {head['self_noise']}"
+
+
+def round_header(k, kept, keep):
+    """The console's line opening round ``k`` of the effects search: what
+    the candidates are scored against (the fit with the effects ``kept``
+    so far) and the rule (a BIC gain above ``keep``)."""
+    against = f"the fit with {' and '.join(kept)}" if kept else "the fit"
+    return (f"round {k}: each effect of the catalogue scored against {against} "
+            f"(kept when its BIC gain exceeds {keep:g})")
+
+
+def round_outcome(k, best, tried, keep, most=None):
+    """The console's sentence on what round ``k`` kept and why: ``best``
+    the candidate it keeps (an entry of ``tried``, with ``effect`` and
+    ``delta_bic``) or None, ``keep`` the BIC gain to exceed, ``most`` the
+    largest number of effects, given when round ``k`` reaches it."""
+    scored = [t for t in tried if t.get("delta_bic") is not None]
+    if best is None or best["delta_bic"] <= keep:
+        top = max(scored, key=lambda t: t["delta_bic"], default=None)
+        return (f"round {k} keeps nothing: no effect improves the fit by a BIC gain above "
+                f"{keep:g}" + (f" (the largest: {top['effect']}, {top['delta_bic']:.1f})"
+                               if top else "") + "; the search stops")
+    others = [t["effect"] for t in scored if t is not best and t["delta_bic"] > keep]
+    why = ("the response term the metadata lack, kept before the others" if best.get("first")
+           else "the best of the round")
+    text = (f"round {k} keeps {best['effect']} (BIC gain {best['delta_bic']:.1f}, {why}); "
+            "one effect is kept per round")
+    if others:
+        text += (f", so {', '.join(others)} (also above {keep:g}) "
+                 + ("is" if len(others) == 1 else "are")
+                 + f" scored again in round {k + 1} with {best['effect']} in the model")
+    return text + (f"; {most} effects at most: the search stops" if most else "")

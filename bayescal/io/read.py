@@ -49,6 +49,16 @@ def _paths(paths):
     return [os.fspath(p) for p in paths]
 
 
+def obspy_reason(exc):
+    """Why ObsPy could not read a file, in words: its message's first line
+    ("none of its formats" for ObsPy's "Unknown format"), never only the
+    exception's class."""
+    text = (str(exc).strip().splitlines() or [""])[0]
+    if not text or text.startswith("Unknown format"):
+        return "it recognises none of its formats in it"
+    return text[:160]
+
+
 def read_waveforms(paths, side="waveform"):
     """Read one or several waveform files (any format ObsPy reads) into one
     Stream. Each trace keeps the file it came from in
@@ -66,8 +76,7 @@ def read_waveforms(paths, side="waveform"):
             st = obspy.read(path)
         except Exception as exc:  # ObsPy raises many types for unreadable files
             raise InputError(f"{path}: not a waveform file ObsPy can read "
-                             f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
-                             ) from None
+                             f"({obspy_reason(exc)})") from None
         if len(st) == 0:
             raise InputError(f"{path}: the file holds no traces")
         for tr in st:
@@ -149,7 +158,7 @@ def read_metadata(path, side="StationXML", stream=None):
     except Exception as exc:
         what = "RESP" if kind == "RESP" else "StationXML (or other metadata)"
         raise InputError(f"{path}: not a {what} file ObsPy can read "
-                         f"({type(exc).__name__})") from None
+                         f"({obspy_reason(exc)})") from None
     return _mark_read(inv, path, scan_stationxml(path) if kind is None else {})
 
 

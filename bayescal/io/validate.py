@@ -290,8 +290,8 @@ def _evaluation_problem(resp, fs):
             h = np.asarray(evaluate_velocity_response(resp, freqs), complex)
     except Exception as exc:   # ObsPy's evalresp raises many kinds
         text = str(exc).strip().splitlines()
-        return (f"the response cannot be evaluated ({type(exc).__name__}"
-                f"{': ' + text[0][:120] if text else ''})")
+        return ("the response cannot be evaluated"
+                + (f" (ObsPy's evalresp: {text[0][:120]})" if text else ""))
     if not np.all(np.isfinite(h)):
         return "the response evaluates to a non-finite value"
     size = abs(h[int(np.argmin(np.abs(freqs - f_ref)))])

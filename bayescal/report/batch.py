@@ -9,12 +9,17 @@ Flags (``flags.csv`` and the report), per station, channel and quantity
 
 * ``off_nominal``: the estimate differs from the StationXML value by more
   than the threshold AND the 95 % interval excludes the nominal value;
-* ``changed``: between two consecutive days with results, the estimate moved
-  by more than the threshold AND by more than the combined 95 % half-widths
-  ``sqrt(h1**2 + h2**2)`` (the change is beyond the uncertainty). The flag is
-  put on the later day.
+* ``changed``: between two consecutive results of the same pair (the same
+  SUT channel against the same reference channels, column
+  ``reference_channels``; results in order of day, then label), the
+  estimate moved by more than the threshold AND by more than the combined
+  95 % half-widths ``sqrt(h1**2 + h2**2)`` (the change is beyond the
+  uncertainty). The flag is put on the later result. Two pairs of one
+  station on one day are two series, never compared with each other.
 
-Angle thresholds are in degrees, the gain threshold in percent.
+Angle thresholds are in degrees (default :data:`FLAG_THRESHOLD_DEG`, the
+default of ``bayescal report`` too), the gain threshold in percent (default
+:data:`FLAG_THRESHOLD_PCT`).
 """
 from __future__ import annotations
 
@@ -22,22 +27,31 @@ import csv
 import datetime
 import json
 import os
+import textwrap
 
 import numpy as np
 
 from ..atomic import atomic_path
 from ..criticism.words import LAPLACE, posterior_text
-from .layout import page_size, write_pages
 
-COLUMNS = ("label", "station", "day", "channel", "kind",
+
+#: Default flag thresholds: angles (degrees) and gains (percent).
+FLAG_THRESHOLD_DEG = 2.0
+FLAG_THRESHOLD_PCT = 2.0
+
+COLUMNS = ("label", "station", "day", "channel", "reference_channels", "kind",
            "azimuth", "azimuth_lo95", "azimuth_hi95", "nominal_azimuth",
            "dip", "dip_lo95", "dip_hi95", "nominal_dip",
            "tilt", "tilt_lo95", "tilt_hi95",
            "gain", "gain_lo95", "gain_hi95", "nominal_gain",
            "ess_min", "tau_max", "rhat_max", "converged", "effects", "effects_not_heading",
            "notes", "error")
-FLAG_COLUMNS = ("station", "channel", "quantity", "flag", "day", "previous_day", "value",
-                "lo95", "hi95", "reference", "threshold", "unit")
+FLAG_COLUMNS = ("station", "channel", "reference_channels", "quantity", "flag", "day",
+                "previous_day", "label", "previous_label", "value", "lo95", "hi95", "reference",
+                "threshold", "unit")
+#: results.csv's columns that hold text (the others are numbers).
+TEXT_COLUMNS = ("label", "station", "day", "channel", "reference_channels", "kind", "effects",
+                "effects_not_heading", "notes", "error", "converged")
 
 
 def _interval(entry):
@@ -57,6 +71,7 @@ def _rows_for(item, folder):
     day = item.get("day") or str(res.get("meta", {}).get("starttime", ""))[:10]
     effects, not_heading = _effects(res.get("meta", {}))
     notes = _notes(res.get("meta", {}))
+    refs = ";".join(sorted(res.get("meta", {}).get("reference") or {}))
     rows = []
     for cid, ch in res["channels"].items():
         nom = ch.get("nominal", {})
@@ -65,7 +80,8 @@ def _rows_for(item, folder):
         tilt, t_lo, t_hi = _interval(ch.get("tilt_deg"))
         gain, g_lo, g_hi = _interval(ch.get("response", {}).get("gain"))
         rows.append({"label": item["label"], "station": ".".join(cid.split(".")[:2]), "day": day,
-                     "channel": cid, "kind": ch.get("kind"), "azimuth": az,
+                     "channel": cid, "reference_channels": refs, "kind": ch.get("kind"),
+                     "azimuth": az,
                      "azimuth_lo95": az_lo, "azimuth_hi95": az_hi,
                      "nominal_azimuth": None if az is None else nom.get("azimuth_deg"),
                      "dip": dip, "dip_lo95": dip_lo, "dip_hi95": dip_hi,
@@ -143,8 +159,7 @@ def read_results(path):
         rows = list(csv.DictReader(fh))
     for r in rows:
         for k, v in r.items():
-            if k not in ("label", "station", "day", "channel", "kind", "effects",
-                         "effects_not_heading", "notes", "error", "converged"):
+            if k not in TEXT_COLUMNS:
                 r[k] = float(v) if v != "" else None
     return rows
 
@@ -154,8 +169,9 @@ def _wrap(d):
 
 
 def _series(rows, quantity):
-    """Per (station, channel): sorted list of (day, dev, lo, hi, nominal) of
-    the deviation from nominal (degrees, or percent for the gain)."""
+    """Per pair (station, SUT channel, reference channels): the list of
+    (day, label, dev, lo, hi, nominal) of the deviation from nominal
+    (degrees, or percent for the gain), in order of day and label."""
     out = {}
     for r in rows:
         val, nom = r.get(quantity), r.get(f"nominal_{quantity}")
@@ -167,63 +183,102 @@ def _series(rows, quantity):
         else:
             dev = _wrap(val - nom) if quantity == "azimuth" else val - nom
             dlo, dhi = dev - (val - lo), dev + (hi - val)
-        out.setdefault((r["station"], r["channel"]), []).append((r["day"], dev, dlo, dhi, nom))
+        key = (r["station"], r["channel"], r.get("reference_channels") or "")
+        out.setdefault(key, []).append((r["day"], r["label"], dev, dlo, dhi, nom))
     return {k: sorted(v) for k, v in out.items()}
 
 
-def find_flags(rows, threshold_deg=2.0, gain_threshold_pct=2.0):
-    """Flags (list of dicts, columns :data:`FLAG_COLUMNS`) from results rows."""
+def find_flags(rows, threshold_deg=FLAG_THRESHOLD_DEG, gain_threshold_pct=FLAG_THRESHOLD_PCT):
+    """Flags (list of dicts, columns :data:`FLAG_COLUMNS`) from results rows,
+    by the rule of the module docstring; each pair's results form one series."""
     flags = []
     for quantity, thr, unit in (("azimuth", threshold_deg, "deg"), ("dip", threshold_deg, "deg"),
                                 ("gain", gain_threshold_pct, "%")):
-        for (sta, cid), series in sorted(_series(rows, quantity).items()):
-            base = {"station": sta, "channel": cid, "quantity": quantity, "threshold": thr,
-                    "unit": unit}
-            for day, dev, lo, hi, nom in series:
+        for (sta, cid, refs), series in sorted(_series(rows, quantity).items()):
+            base = {"station": sta, "channel": cid, "reference_channels": refs,
+                    "quantity": quantity, "threshold": thr, "unit": unit}
+            for day, label, dev, lo, hi, nom in series:
                 if abs(dev) > thr and not lo <= 0.0 <= hi:
                     flags.append({**base, "flag": "off_nominal", "day": day, "previous_day": "",
-                                  "value": dev, "lo95": lo, "hi95": hi, "reference": nom})
-            for (d0, v0, lo0, hi0, _), (d1, v1, lo1, hi1, _) in zip(series, series[1:]):
-                delta = _wrap(v1 - v0) if quantity == "azimuth" else v1 - v0
-                combined = np.hypot((hi0 - lo0) / 2, (hi1 - lo1) / 2)
-                if abs(delta) > thr and abs(delta) > combined:
-                    flags.append({**base, "flag": "changed", "day": d1, "previous_day": d0,
-                                  "value": delta, "lo95": delta - combined,
-                                  "hi95": delta + combined, "reference": v0})
+                                  "label": label, "previous_label": "", "value": dev,
+                                  "lo95": lo, "hi95": hi, "reference": nom})
+            for before, after in zip(series, series[1:]):
+                flag = _change(before, after, quantity, thr)
+                if flag:
+                    flags.append({**base, **flag})
     return flags
+
+
+def _change(before, after, quantity, thr):
+    """The ``changed`` flag's entries between two results of one pair, or None."""
+    (d0, lb0, v0, lo0, hi0, _), (d1, lb1, v1, lo1, hi1, _) = before, after
+    delta = _wrap(v1 - v0) if quantity == "azimuth" else v1 - v0
+    combined = np.hypot((hi0 - lo0) / 2, (hi1 - lo1) / 2)
+    if not (abs(delta) > thr and abs(delta) > combined):
+        return None
+    return {"flag": "changed", "day": d1, "previous_day": d0, "label": lb1,
+            "previous_label": lb0, "value": delta, "lo95": delta - combined,
+            "hi95": delta + combined, "reference": v0}
 
 
 def _date(day):
     return datetime.date.fromisoformat(day)
 
 
+def date_ticks(days, most=8):
+    """Tick positions of a time axis: distinct dates of ``days`` (ISO
+    strings), every k-th when there are more than ``most``, so that no date
+    is written twice."""
+    dates = sorted({_date(d) for d in days})
+    step = -(-len(dates) // most)
+    return dates[::step]
+
+
+def _short(refs):
+    """Reference channels (``;``-joined SEED ids) as location.channel codes."""
+    return ",".join(".".join(r.split(".")[2:]) for r in refs.split(";") if r) or "?"
+
+
+def _pair_label(cid, refs, several):
+    """A curve's legend: the SUT channel code, and the reference channels'
+    location.channel codes when a station has several pairs."""
+    code = cid.split(".")[-1]
+    return f"{code} vs {_short(refs)}" if several else code
+
+
+def _station_panel(ax, rows, flags, sta, quantity):
+    """One station's curves of ``quantity`` (one per pair) on ``ax``."""
+    series = {k: v for k, v in sorted(_series(rows, quantity).items()) if k[0] == sta}
+    several = len({refs for _, _, refs in series}) > 1
+    flagged = {(f["channel"], f["reference_channels"], f["quantity"], f["label"]) for f in flags}
+    for (_, cid, refs), points in series.items():
+        days = [_date(p[0]) for p in points]
+        dev, lo, hi = (np.array([p[k] for p in points]) for k in (2, 3, 4))
+        line, = ax.plot(days, dev, "o-", ms=4, label=_pair_label(cid, refs, several))
+        ax.fill_between(days, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
+        ax.errorbar(days, dev, yerr=[dev - lo, hi - dev], fmt="none",
+                    ecolor=line.get_color(), capsize=3)
+        bad = [(d, v) for d, v, p in zip(days, dev, points)
+               if (cid, refs, quantity, p[1]) in flagged]
+        if bad:
+            ax.plot(*zip(*bad), "x", color="red", ms=11, mew=2.5)
+    for day in sorted({f["day"] for f in flags if f["station"] == sta
+                       and f["quantity"] == quantity and f["flag"] == "changed"}):
+        ax.axvline(_date(day), color="red", ls="--", lw=1)
+
+
 def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
     import matplotlib
     matplotlib.use("Agg")
+    import matplotlib.dates as mdates
     import matplotlib.pyplot as plt
 
     quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
     fig, axes = plt.subplots(len(stations), len(quantities), figsize=page, squeeze=False,
                              sharex=True)
-    flagged = {(f["channel"], f["quantity"], f["day"]) for f in flags}
     for row, sta in zip(axes, stations):
         for ax, quantity in zip(row, quantities):
-            for (s, cid), series in sorted(_series(rows, quantity).items()):
-                if s != sta:
-                    continue
-                days = [_date(d[0]) for d in series]
-                dev, lo, hi = (np.array([d[k] for d in series]) for k in (1, 2, 3))
-                line, = ax.plot(days, dev, "o-", ms=4, label=cid.split(".")[-1])
-                ax.fill_between(days, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
-                ax.errorbar(days, dev, yerr=[dev - lo, hi - dev], fmt="none",
-                            ecolor=line.get_color(), capsize=3)
-                bad = [(d, v) for d, v, s_ in zip(days, dev, series)
-                       if (cid, quantity, s_[0]) in flagged]
-                if bad:
-                    ax.plot(*zip(*bad), "x", color="red", ms=11, mew=2.5)
-            for f in flags:
-                if f["station"] == sta and f["quantity"] == quantity and f["flag"] == "changed":
-                    ax.axvline(_date(f["day"]), color="red", ls="--", lw=1)
+            _station_panel(ax, rows, flags, sta, quantity)
             thr, unit = (gain_threshold_pct, "%") if quantity == "gain" else (threshold_deg, "deg")
             for y in (-thr, thr):
                 ax.axhline(y, color="grey", ls=":", lw=1)
@@ -232,60 +287,113 @@ def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
             ax.set_title(f"{sta}: {quantity}", fontsize=10, loc="left")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7, loc="best")
-    import matplotlib.dates as mdates
-    for ax in axes[-1]:
-        ax.xaxis.set_major_locator(mdates.AutoDateLocator(minticks=2, maxticks=10))
-        ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+    days = [r["day"] for r in rows if r.get("station") in stations and not r.get("error")
+            and r.get("day")]
+    if days:
+        ticks = date_ticks(days)
+        first, last = (datetime.datetime.combine(_date(d), datetime.time())
+                       for d in (min(days), max(days)))
+        half = datetime.timedelta(hours=12)
+        for ax in axes[-1]:
+            ax.set_xticks(ticks)
+            ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+            ax.set_xlim(first - half, last + half)
+            ax.set_xlabel("day")
     fig.autofmt_xdate()
     fig.suptitle("Orientation (and gain) against time (median, 95 % credible band;\nred x: "
-                 "flagged, red dashed: changed from the day before; "
+                 "flagged, red dashed: changed from the pair's result before; "
                  f"dotted: thresholds +-{threshold_deg:g} deg, +-{gain_threshold_pct:g} %)",
                  fontsize=9)
     fig.tight_layout()
     return fig
 
 
-def _text_page(rows, flags, threshold_deg, gain_threshold_pct, page):
+def _count(n, noun):
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
+    """The summary page's sentences: what ran, convergence, the flag rule."""
+    labels = sorted({r["label"] for r in rows})
+    failed = sorted({r["label"] for r in rows if r.get("error")})
+    ok = [r for r in rows if not r.get("error")]
+    chains = [r for r in ok if r["ess_min"] is not None]      # a Laplace approximation has none
+    not_converged = sorted({r["label"] for r in ok if r["converged"] != "True"})
+    lines = [f"{_count(len(labels), 'item')}: {len(labels) - len(failed)} calibrated, "
+             f"{len(failed)} failed; {_count(len({r['station'] for r in ok}), 'station')}, "
+             f"{_count(len({r['day'] for r in ok}), 'day')}"]
+    if chains:
+        lines.append(f"Sampler, over the items: min ESS {min(r['ess_min'] for r in chains):.0f}, "
+                     f"max R-hat {max(r['rhat_max'] for r in chains):.4f} (effective sample "
+                     "size, Gelman-Rubin statistic); "
+                     + ("every item converged" if not not_converged else
+                        f"not converged: {', '.join(not_converged)}"))
+    elif ok:
+        lines.append("Posterior: no item has a sampler chain (Laplace approximations)")
+    lines += [f"Flags: beyond {threshold_deg:g} deg (azimuth, dip) or {gain_threshold_pct:g} % "
+              "(gain) AND beyond the 95 % uncertainty; off nominal against the StationXML, "
+              "changed against the same pair's result before",
+              f"Flagged: {len(flags)} in {_count(len({f['station'] for f in flags}), 'station')}"
+              " (all in flags.csv)"]
+    return lines
+
+
+def _table(fig, top, cells, labels, title):
+    """A table of ``cells`` under ``title`` whose top is at figure fraction
+    ``top``; returns the fraction just below it."""
+    from .layout import ROW_H
+    fig.text(0.05, top, title, fontweight="bold", va="top")
+    height = ROW_H * (len(cells) + 1)
+    ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
+    ax.axis("off")
+    tab = ax.table(cellText=cells, colLabels=labels, loc="upper left", cellLoc="left",
+                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(6.5)
+    tab.auto_set_column_width(list(range(len(labels))))
+    return top - 0.02 - height - 0.03
+
+
+def _summary_page(rows, flags, threshold_deg, gain_threshold_pct, page, most=30):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    labels = sorted({r["label"] for r in rows})
-    errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
-    ok = [r for r in rows if not r.get("error")]
-    chains = [r for r in ok if r["ess_min"] is not None]      # a Laplace approximation has none
-    lines = [f"bayescal batch: {len(labels)} items, {len(labels) - len(errors)} calibrated, "
-             f"{len(errors)} failed",
-             (f"convergence: min ESS {min(r['ess_min'] for r in chains):.0f}, max R-hat "
-              f"{max(r['rhat_max'] for r in chains):.4f}, max tau "
-              f"{max(r['tau_max'] for r in chains):.0f};"
-              f" not converged: {sorted({r['label'] for r in ok if r['converged'] != 'True'})}"
-              if chains else "convergence: no chain"),
-             f"thresholds: {threshold_deg:g} deg (angles), {gain_threshold_pct:g} % (gain); "
-             "flag = beyond threshold AND beyond the 95 % uncertainty", "",
-             f"Flagged stations ({len({f['station'] for f in flags})}):"]
-    for f in flags[:40]:
-        when = f"{f['previous_day']} -> {f['day']}" if f["flag"] == "changed" else f["day"]
-        lines.append(f"  {f['channel']:<18} {f['quantity']:<7} {f['flag']:<11} {when:<24} "
-                     f"{f['value']:+8.2f} {f['unit']} [{f['lo95']:+.2f}, {f['hi95']:+.2f}]")
-    if not flags:
-        lines.append("  none")
-    lines += ["", "Failed items:"] + [f"  {lb}: {err}"[:110] for lb, err in errors[:30]]
-    if not errors:
-        lines.append("  none")
-    fig = plt.figure(figsize=page)
-    fig.text(0.04, 0.96, "\n".join(lines), va="top", family="monospace", fontsize=7)
+    from .layout import style
+    with style():
+        fig = plt.figure(figsize=page)
+        fig.text(0.05, 0.965, "bayescal batch: summary", fontsize=12, fontweight="bold",
+                 va="top")
+        lines = summary_lines(rows, flags, threshold_deg, gain_threshold_pct)
+        fig.text(0.05, 0.93, "\n".join(textwrap.fill(t, 110) for t in lines), va="top",
+                 fontsize=8, linespacing=1.5)
+        top = 0.80
+        cells = [[f["station"], f["channel"].split(".")[-1], _short(f["reference_channels"]),
+                  f["quantity"],
+                  f["flag"].replace("_", " "),
+                  f"{f['previous_day']} -> {f['day']}" if f["flag"] == "changed" else f["day"],
+                  f"{f['value']:+.2f} {f['unit']}", f"[{f['lo95']:+.2f}, {f['hi95']:+.2f}]"]
+                 for f in flags[:most]]
+        more = f" (first {most} of {len(flags)})" if len(flags) > most else ""
+        top = _table(fig, top, cells or [["none"] + [""] * 7],
+                     ["station", "channel", "reference", "quantity", "flag", "day", "value",
+                      "95 % interval"],
+                     f"Flags{more}")
+        errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
+        cells = [[lb, textwrap.shorten(err, 95, placeholder=" ...")] for lb, err in errors[:most]]
+        _table(fig, top, cells or [["none", ""]], ["item", "error"], "Failed items")
     return fig
 
 
-def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, per_page=6,
-                 paper="a4"):
+def write_report(results_csv, out, threshold_deg=FLAG_THRESHOLD_DEG,
+                 gain_threshold_pct=FLAG_THRESHOLD_PCT, per_page=6, paper="a4"):
     """``flags.csv``, ``report.pdf`` (summary page + orientation pages, every
     page of ``paper``, "a4" or "letter") and ``report.png`` (first
     orientation page) in ``out``; returns their paths and the flags."""
     import matplotlib
     matplotlib.use("Agg")
 
+    from .layout import page_size, write_pages
     rows = read_results(results_csv)
     flags = find_flags(rows, threshold_deg, gain_threshold_pct)
     paths = {"flags": os.path.join(out, "flags.csv"), "pdf": os.path.join(out, "report.pdf"),
@@ -296,7 +404,7 @@ def write_report(results_csv, out, threshold_deg=2.0, gain_threshold_pct=2.0, pe
     page = page_size(paper)
 
     def pages():
-        yield None, _text_page(rows, flags, threshold_deg, gain_threshold_pct, page)
+        yield None, _summary_page(rows, flags, threshold_deg, gain_threshold_pct, page)
         for k, stas in enumerate(groups):
             yield (paths["png"] if k == 0 else None), _figure(rows, flags, stas, threshold_deg,
                                                               gain_threshold_pct, page)

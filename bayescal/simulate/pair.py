@@ -50,8 +50,14 @@ NOISE_REFERENCE_HZ = 0.2
 
 
 def band_code(fs):
-    """SEED band code for a broadband sensor at sampling rate ``fs``."""
-    return "H" if fs >= 80 else "B" if fs >= 10 else "L" if fs >= 1 else "V"
+    """SEED band code of a broadband sensor (corner period 10 s or longer)
+    at sampling rate ``fs`` Hz, as the SEED manual's Appendix A gives it:
+    F from 1000 Hz, C from 250, H from 80, B from 10, M above 1 and below
+    10, L about 1 (0.5 to 1), V about 0.1 (0.05 to 0.5), U below."""
+    for code, lowest in (("F", 1000.0), ("C", 250.0), ("H", 80.0), ("B", 10.0)):
+        if fs >= lowest:
+            return code
+    return "M" if fs > 1.0 else "L" if fs >= 0.5 else "V" if fs >= 0.05 else "U"
 
 
 def ground_spectrum(f):

@@ -15,6 +15,10 @@ sensor's axis is tilted by that many rad rms in each horizontal direction and
 sees independent horizontal ground motion (PSD equal to the vertical): the
 model error the interval's allowance is about. Series are synthesised in the
 frequency domain (one FFT of the whole record, so exactly stationary).
+:meth:`Colocated.write` puts each sensor's miniSEED and StationXML in a
+folder with ``truth.json``: each sensor's true self-noise, in dB re 1
+(m/s^2)^2/Hz at a list of periods, beside the ground motion's PSD
+(:meth:`Colocated.truth`).
 """
 from __future__ import annotations
 
@@ -125,8 +129,34 @@ class Colocated:
                               gain=s["generator"] * DIGITIZER, norm_freq=1.0)
                 for st, s in zip(self.streams(), SENSORS)]
 
+    def truth(self, n_periods=40):
+        """The simulation's truth (what ``truth.json`` holds): per sensor
+        (SEED id) its kind of self-noise and that noise's PSD in dB re 1
+        (m/s^2)^2/Hz at ``period_s`` (log-spaced from 2.5 samples to the
+        shorter of 1000 s and a tenth of the record), the ground motion's
+        PSD there, and the run's settings."""
+        period = np.geomspace(2.5 / self.fs, min(1000.0, self.data.shape[1] / self.fs / 10),
+                              n_periods)
+        f = 1.0 / period
+        kinds = ("white in ground acceleration, -185 dB",
+                 "white in ground velocity, -190 dB at 1 Hz (+20 dB per decade)",
+                 "white in counts (digitizer-like), -180 dB at 1 Hz in acceleration")
+        sensors = {f"XS.SIM.{loc}.BHZ": {
+            "sensor": "Trillium 240" if s is T240 else "STS-1", "noise": kind,
+            "noise_psd_db": np.round(10 * np.log10(noise_acceleration_psd(i, f)), 3).tolist()}
+            for i, (loc, s, kind) in enumerate(zip(LOCATIONS, SENSORS, kinds))}
+        return {"units": "dB re 1 (m/s^2)^2/Hz", "period_s": period.tolist(),
+                "ground_psd_db": np.round(10 * np.log10(ground_acceleration_psd(f)), 3).tolist(),
+                "ground": f"Peterson's NLNM + {GROUND_ABOVE_NLNM_DB:g} dB", "sensors": sensors,
+                "sampling_rate": self.fs, "duration_s": self.data.shape[1] / self.fs,
+                "seed": self.seed, "axis_mismatch_rad": self.axis_mismatch}
+
     def write(self, folder):
-        """miniSEED and StationXML per sensor; returns (data paths, xml paths)."""
+        """miniSEED and StationXML per sensor, and ``truth.json``
+        (:meth:`truth`: each sensor's true self-noise) in ``folder``;
+        returns (data paths, xml paths)."""
+        import json
+
         os.makedirs(folder, exist_ok=True)
         data, xml = [], []
         for loc, st, inv in zip(LOCATIONS, self.streams(), self.inventories()):
@@ -134,6 +164,8 @@ class Colocated:
             xml.append(os.path.join(folder, f"XS.SIM.{loc}.BHZ.xml"))
             st.write(data[-1], format="MSEED")
             inv.write(xml[-1], format="STATIONXML")
+        with open(os.path.join(folder, "truth.json"), "w") as fh:
+            json.dump(self.truth(), fh, indent=1)
         return data, xml
 
 
