@@ -28,6 +28,8 @@ def configure(parser):
 
 def run(args):
     """Render the report; returns the exit code."""
+    import os
+
     from ..errors import InputError
     from ..report.fit import write_report
 
@@ -40,7 +42,8 @@ def run(args):
         return 0
     paths = write_report(args.folder, nominal_tolerance_deg=args.threshold, truth=args.truth,
                          paper=args.paper)
-    print(f"report: {paths[0]} ({len(paths) - 1} PNG figures)")
+    shown = paths[0] if os.path.isabs(args.folder) else os.path.relpath(paths[0])
+    print(f"report: {shown} ({len(paths) - 1} PNG figures)")
     return 0
 
 
