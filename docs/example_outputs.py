@@ -178,16 +178,24 @@ def refresh_page(page, stored):
 
 def quoted_value(quote):
     """A ``[[quote]]`` of :data:`QUOTED` formatted from its stored results:
-    ``format`` filled with the entry at ``path`` of each ``source`` (one
-    path or a file each), in order (``{0[median]:.2f}``)."""
+    ``format`` filled, in order, with the entry at ``path`` of each
+    ``source`` (``{0[median]:.2f}``). ``source`` is one file or a list;
+    with a list, ``path`` is one path for all or a list of paths, one each."""
     sources = quote["source"] if isinstance(quote["source"], list) else [quote["source"]]
+    paths = quote["path"] if quote["path"] and isinstance(quote["path"][0], list) \
+        else [quote["path"]] * len(sources)
     values = []
-    for source in sources:
+    for source, path in zip(sources, paths):
         data = json.loads((ROOT / source).read_text())
-        for step in quote["path"]:
+        for step in path:
             data = data[step]
         values.append(data)
     return quote["format"].format(*values)
+
+
+def words_of(text):
+    """A pattern of ``text`` whatever its line breaks and spaces."""
+    return re.compile(r"\s+".join(map(re.escape, text.split())))
 
 
 def refresh_quotes():
@@ -199,10 +207,11 @@ def refresh_quotes():
     for quote in tomllib.loads(text)["quote"]:
         new, page = quoted_value(quote), ROOT / quote["page"]
         body = page.read_text()
-        if quote["text"] not in body:
+        if not words_of(quote["text"]).search(body):
             missing.append(f"{quote['page']}: {quote['text']}")
             continue
-        page.write_text(body.replace(quote["text"], new))
+        page.write_text(words_of(quote["text"]).sub(
+            lambda m: m.group(0) if " ".join(m.group(0).split()) == new else new, body, count=1))
         text = text.replace(f"text = {json.dumps(quote['text'])}", f"text = {json.dumps(new)}")
     QUOTED.write_text(text)
     return missing
