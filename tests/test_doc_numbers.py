@@ -68,3 +68,19 @@ def test_prose_numbers_are_the_stored_results(quote):
     assert text == quote["text"], f"{quote['source']} {quote['path']}: {text!r}"
     page = " ".join((ROOT / quote["page"]).read_text().split())
     assert quote["text"] in page, f"{quote['page']} does not quote {quote['text']!r}"
+
+
+def test_refresh_rewrites_each_quoted_line_from_its_own_output_line(tmp_path):
+    """Of the stored lines that say the same (numbers masked), a quoted line
+    is rewritten from the one sharing its words (its row's label, its
+    channel's id); a line no stored line says is left and reported."""
+    block = 'print("table")\n'
+    page = tmp_path / "page.md"
+    page.write_text("```python\n" + block + "```\n\n```text\n...\nBH2 0.3-1 9.9\n"
+                    "BH1 0.25-0.3 9.9\nnot printed 1\n```\n")
+    printed = "BH1 0.25-0.3 1.0\nBH1 0.3-1 2.0\nBH2 0.25-0.3 3.0\nBH2 0.3-1 4.0\n"
+    stored = {example_outputs.key(block): {"block": block, "printed": printed}}
+    missing = example_outputs.refresh_page(page, stored)
+    assert page.read_text().splitlines()[6:9] == ["BH2 0.3-1 4.0", "BH1 0.25-0.3 1.0",
+                                                  "not printed 1"]
+    assert missing == ["page.md:9: not printed 1"]
