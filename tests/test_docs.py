@@ -184,3 +184,26 @@ def test_docs_conf_and_toctree():
 def test_readme_is_short():
     """The README is a front page: at most 250 lines; the rest is in docs/."""
     assert len((ROOT / "README.md").read_text().splitlines()) <= 250
+
+
+def test_api_reference_lists_what_the_python_page_names():
+    """Every function or class the Python page's task table names has its
+    page in the API reference (docs/api.rst's autosummary)."""
+    import importlib
+    import inspect
+
+    api = (DOCS / "api.rst").read_text()
+    rows = [ln for ln in (DOCS / "python.md").read_text().splitlines() if ln.startswith("| ")]
+    named = {m.group(0) for ln in rows for m in re.finditer(r"\bbayescal(?:\.\w+)+", ln)}
+    missing, checked = [], 0
+    for name in sorted(named):
+        module, _, attr = name.rpartition(".")
+        try:
+            obj = getattr(importlib.import_module(module), attr)
+        except (ImportError, AttributeError):
+            continue                                     # a module, not a function or class
+        if inspect.isfunction(obj) or inspect.isclass(obj):
+            checked += 1
+            if not re.search(rf"^\s+{re.escape(name)}$", api, re.MULTILINE):
+                missing.append(name)
+    assert checked >= 8 and not missing, missing
