@@ -12,7 +12,9 @@ the science, and its build is wired.
   this very environment); one after ``<!-- needs: PATH -->`` runs only when
   ``PATH`` (relative to the repository's parent, e.g. ``../shared/data``)
   exists. The same block text met again (a guide page repeating the
-  README's example) is run once.
+  README's example) is run once. The runner is ``docs/example_outputs.py``,
+  which also stores what the examples print (``tests/test_doc_numbers.py``
+  checks the quoted numbers against that).
 * No words about how the software was made (issue numbers, commit hashes,
   rounds and sessions, dated reruns, the machine and its load) in the
   README, the docs or the package's docstrings and comments.
@@ -22,11 +24,8 @@ the science, and its build is wired.
 """
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 import re
-import subprocess
 import sys
 import tomllib
 from pathlib import Path
@@ -35,49 +34,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-#: README, then the user-guide pages in the order of the docs' table of contents.
-GUIDE = ["index", "install", "fit", "report", "diagnose", "noise", "cal", "uvw", "batch",
-         "python", "science", "gallery"]
-PAGES = [ROOT / "README.md", *[DOCS / f"{name}.md" for name in GUIDE]]
+sys.path.insert(0, str(DOCS))
+from example_outputs import PAGES, blocks, mask, quoted, run_pages  # noqa: E402
 
 LANGS = {"python", "bash", "text"}
-NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-
-
-def blocks(path):
-    """(lang, body, skip reason or None, needed path or None, line) of each
-    fenced code block of ``path``; MyST directives (```{toctree}) are not
-    code and are left out."""
-    out, lines, i = [], path.read_text().splitlines(), 0
-    while i < len(lines):
-        m = re.match(r"^(`{3,})(.*)$", lines[i])
-        if not m:
-            i += 1
-            continue
-        fence, info, start = m.group(1), m.group(2).strip(), i
-        j = i + 1
-        while j < len(lines) and lines[j].strip() != fence:
-            j += 1
-        if not info.startswith("{"):
-            marks = lines[start - 1] if start else ""        # the line just above
-            skip = re.search(r"<!-- skip: ([^>]*?) -->", marks)
-            needs = re.search(r"<!-- needs: ([^>]*?) -->", marks)
-            out.append((info, "\n".join(lines[start + 1:j]) + "\n", skip and skip.group(1),
-                        needs and needs.group(1), start + 1))
-        i = j + 1
-    return out
-
-
-def _mask(line):
-    return " ".join(NUMBER.sub("#", line).split())
-
-
-def _shown_lines_appear(shown, printed, where):
-    have = {_mask(ln) for ln in printed.splitlines()}
-    for ln in shown.splitlines():
-        if ln.strip() in ("", "...") or ln.lstrip().startswith("$ "):
-            continue
-        assert _mask(ln) in have, f"{where}: shown output line not printed:\n{ln}\n--- printed:\n{printed}"
 
 
 def test_every_block_is_marked():
@@ -89,46 +49,18 @@ def test_every_block_is_marked():
 
 
 def test_examples_run(tmp_path):
-    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-               MPLBACKEND="Agg", PYTHONPATH=str(ROOT))
-    namespace = {"__name__": "__docs__"}
-    printed_by = {}               # block text -> what it printed (run once)
-    skipped = []
-    cwd = os.getcwd()
-    os.chdir(tmp_path)
-    try:
-        for page in PAGES:
-            last = None           # what the previous runnable block printed
-            for lang, body, skip, needs, line in blocks(page):
-                where = f"{page.relative_to(ROOT)}:{line}"
-                if lang == "text":
-                    if last is not None:
-                        _shown_lines_appear(body, last, where)
-                    last = None
-                    continue
-                if skip:
-                    skipped.append((where, skip))
-                    last = None
-                    continue
-                if needs and not (ROOT.parent / needs.removeprefix("../")).exists():
-                    skipped.append((where, f"{needs} absent"))
-                    last = None
-                    continue
-                code = body.replace("../shared/", f"{ROOT.parent}/shared/")
-                if body not in printed_by:
-                    if lang == "python":
-                        buf = io.StringIO()
-                        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
-                            exec(compile(code, where, "exec"), namespace)
-                        printed_by[body] = buf.getvalue()
-                    else:
-                        proc = subprocess.run(["bash", "-e", "-c", code], capture_output=True,
-                                              text=True, env=env, timeout=600)
-                        assert proc.returncode == 0, f"{where}:\n{code}\n{proc.stderr}"
-                        printed_by[body] = proc.stdout + proc.stderr
-                last = printed_by[body]
-    finally:
-        os.chdir(cwd)
+    """Every example runs; each line of the output a page shows (numbers
+    masked) is one the example printed."""
+    printed, skipped = run_pages(tmp_path)
+    bad = []
+    for page, line, block, shown in quoted():
+        if block not in printed:          # needs data that are absent
+            continue
+        have = {mask(ln) for ln in printed[block].splitlines()}
+        bad += [f"{page.relative_to(ROOT)}:{line}: shown output line not printed:\n{ln}"
+                for ln in shown.splitlines() if ln.strip() not in ("", "...")
+                and not ln.lstrip().startswith("$ ") and mask(ln) not in have]
+    assert not bad, "\n".join(bad)
     # the only commands not run: those that set up this environment or need data
     from tests.conftest import REQUIRE_REAL_DATA, SHARED_DATA
     strict = os.environ.get(REQUIRE_REAL_DATA) == "1" and SHARED_DATA.is_dir()
@@ -247,3 +179,31 @@ def test_docs_conf_and_toctree():
     pages = {str(p.relative_to(DOCS).with_suffix("")) for p in
              [*DOCS.glob("*.md"), *DOCS.glob("*.rst"), *DOCS.glob("validation/*.md")]}
     assert pages - {"index"} <= listed, sorted(pages - {"index"} - listed)
+
+
+def test_readme_is_short():
+    """The README is a front page: at most 250 lines; the rest is in docs/."""
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 250
+
+
+def test_api_reference_lists_what_the_python_page_names():
+    """Every function or class the Python page's task table names has its
+    page in the API reference (docs/api.rst's autosummary)."""
+    import importlib
+    import inspect
+
+    api = (DOCS / "api.rst").read_text()
+    rows = [ln for ln in (DOCS / "python.md").read_text().splitlines() if ln.startswith("| ")]
+    named = {m.group(0) for ln in rows for m in re.finditer(r"\bbayescal(?:\.\w+)+", ln)}
+    missing, checked = [], 0
+    for name in sorted(named):
+        module, _, attr = name.rpartition(".")
+        try:
+            obj = getattr(importlib.import_module(module), attr)
+        except (ImportError, AttributeError):
+            continue                                     # a module, not a function or class
+        if inspect.isfunction(obj) or inspect.isclass(obj):
+            checked += 1
+            if not re.search(rf"^\s+{re.escape(name)}$", api, re.MULTILINE):
+                missing.append(name)
+    assert checked >= 8 and not missing, missing

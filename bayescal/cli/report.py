@@ -52,7 +52,8 @@ def run(args):
     if not os.path.isdir(folder) or os.path.isfile(os.path.join(folder, "result.json")):
         paths = write_report(folder, nominal_tolerance_deg=args.threshold, truth=args.truth,
                              paper=args.paper)
-        print(f"report: {paths[0]} ({len(paths) - 1} PNG figures)")
+        shown = paths[0] if os.path.isabs(folder) else os.path.relpath(paths[0])
+        print(f"report: {shown} ({len(paths) - 1} PNG figures)")
         if os.path.isfile(os.path.join(folder, "diagnosis.json")):
             print(f"diagnosis page: {_diagnosis_page(folder, args.paper)}")
         return 0

@@ -100,7 +100,9 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
 def _warn_on_misfit(result):
     """A failed model check of the fit as a Python warning
     (:class:`ModelMisfitWarning`), so a script sees it as the console does
-    (also when the verdict puts the improved model in the headline)."""
+    (also when the verdict puts the improved model in the headline). The
+    warning points at the caller's line that called into bayescal, and its
+    next step is said in Python."""
     import warnings
 
     from ..core.checks import describe
@@ -108,8 +110,25 @@ def _warn_on_misfit(result):
     adequacy = result.rejected.get("adequacy") or result.adequacy   # the fit's own check
     if adequacy.get("ok") is False:
         c = result.criticism.get("verdict_text") if result.criticism else None
-        warnings.warn(describe(adequacy, next_step=c and f"Criticism: {c}."),
-                      ModelMisfitWarning, stacklevel=3)
+        step = (f"Criticism: {c}." if c else "The criticism was not run (diagnose=False): "
+                "bayescal.criticism.diagnose.diagnose(result.state) finds and names the cause.")
+        warnings.warn(describe(adequacy, next_step=step), ModelMisfitWarning,
+                      stacklevel=caller_stacklevel())
+
+
+def caller_stacklevel():
+    """The ``stacklevel`` of :func:`warnings.warn`, called by the function
+    that calls this one, that names the first frame outside the bayescal
+    package: the user's line (the outermost frame when every frame is
+    bayescal's, as under the ``bayescal`` command)."""
+    import inspect
+    import os
+
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+    frame, level = inspect.currentframe().f_back, 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level if frame is not None else level - 1
 
 
 def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,

@@ -75,7 +75,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
         the meta's ``truth`` entry or ``folder/truth.json`` when present.
     paper : "a4" (default) or "letter": every page of the PDF has this size.
 
-    Returns the list of written paths (PDF first).
+    Returns the list of written paths, each absolute (PDF first).
     """
     from ..atomic import move_files, staging
     from ..version import __version__
@@ -104,4 +104,4 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
             [(os.path.join(tmp, f"{stem}_{name}.png"), fig) for name, fig in figures
              if fig is not None],
             os.path.join(tmp, os.path.basename(out_pdf)), page=ctx.page, metadata=meta)
-    return [out_pdf] + [os.path.join(out_dir, os.path.basename(p)) for p in written]
+    return [os.path.join(out_dir, os.path.basename(p)) for p in [out_pdf, *written]]

@@ -4,6 +4,8 @@ schema that writes them to a folder and reads them from it.
 
 * :mod:`.record`      :class:`~bayescal.result.record.Result`: samples, their
                       summaries and what was run
+* :mod:`.labels`      what each sampled parameter is, in words, and the short
+                      text ``print(result)`` shows
 * :mod:`.meta`        :class:`~bayescal.result.meta.Meta`: what was run, by name
 * :mod:`.convergence` :class:`~bayescal.result.convergence.Convergence`: a
                       chain's convergence figures and their summary

@@ -5,10 +5,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .labels import describe, parameter_label
 from .convergence import Convergence
 from .meta import Meta, by_channel
 
 SCHEMA = "bayescal.fit/1"
+#: Nominal dip (degrees, absolute) from which a channel's tangent-plane
+#: coordinates are tilts toward east and north (the basis switches where the
+#: axis' down component reaches 0.9: arcsin 0.9 = 64.16 degrees).
+VERTICAL_DIP_DEG = float(np.degrees(np.arcsin(0.9)))
 #: ``multimodal`` of a fit that did not search for modes.
 NOT_SEARCHED = {"detected": None, "note": "not searched for this kind of fit"}
 
@@ -25,7 +30,9 @@ class Result:
     vectors : (N, n_ch, 3) sampled channel axes (NED).
     response : channel id -> (N, 3) period_s, damping, gain samples; only
         for channels whose response was fitted.
-    samples, names, log_prob : raw sampler output in model coordinates.
+    samples, names, log_prob : raw sampler output in model coordinates;
+        ``names`` are the sampler's keys (``"<channel id>:orient_a"``),
+        :attr:`labels` says what each one is.
     convergence : :class:`~bayescal.result.convergence.Convergence`.
     meta : :class:`~bayescal.result.meta.Meta`: band, data used, reference
         noise, sampler, nominal values, ...
@@ -46,6 +53,8 @@ class Result:
     diagnostics : arrays a report or a model check needs (``diagnostics.npz``).
     trace : the chain's per-step trace, when kept.
 
+    Notes
+    -----
     A result just fitted also holds, in memory only (None when read back
     from disk): ``improved``, the :class:`Result` of the criticism's
     improved model, and ``state``, the live fit
@@ -54,6 +63,10 @@ class Result:
     the improved model heads the result, ``state`` stays the fit the
     criticism started from (its model is not the headline's: the improved
     model's live state is ``improved.state``).
+
+    ``print(result)`` shows each channel's medians and 95 % intervals, the
+    model check and the convergence in a few lines; ``summary()`` is
+    ``result.json``'s content.
     """
 
     channel_ids: list
@@ -83,6 +96,28 @@ class Result:
     def sut_inventory(self):
         """The SUT's metadata the fit read (None when read from disk)."""
         return None if self.state is None else self.state.sut_inventory
+
+    @property
+    def labels(self):
+        """What each sampled parameter is, in the order of ``names``
+        (``"BH1 azimuth offset (tangent plane, rad)"``, ``"BHZ log gain"``)."""
+        return [parameter_label(name, vertical=self._vertical(name.rpartition(":")[0]))
+                for name in self.names]
+
+    def _vertical(self, cid):
+        dip = ((self.channels.get(cid) or {}).get("nominal") or {}).get("dip_deg")
+        return dip is not None and abs(float(dip)) >= VERTICAL_DIP_DEG
+
+    def __repr__(self):
+        """One line: the channels, the sample count and the model check."""
+        check = {True: "passed", False: "failed"}.get((self.adequacy or {}).get("ok"), "not run")
+        return (f"<bayescal Result: {', '.join(self.channel_ids)}; {len(self.samples)} samples "
+                f"of {len(self.names)} parameters; model check {check}>")
+
+    def __str__(self):
+        """Each channel's medians and 95 % intervals, the model check and
+        the convergence, in a few lines (``print(result)``)."""
+        return describe(self)
 
     def summary(self):
         """The ``result.json`` content (schema ``bayescal.fit/1``): plain

@@ -1,0 +1,86 @@
+"""The numbers the README and the docs quote are those of stored results.
+
+* Every ``text`` block of README.md and the user-guide pages that shows what
+  an example printed is checked, line by line and numbers included, against
+  that example's stored output (``docs/gallery/outputs.json``, written by
+  ``python docs/example_outputs.py``); an example edited without its output
+  regenerated has no stored output and fails.
+* Every number quoted in prose is listed in ``docs/quoted.toml`` with the
+  stored result (a JSON file in the repository) and the entry it comes
+  from; each is formatted from that entry and must appear on its page.
+
+``tests/test_docs.py`` runs the examples again and checks the quoted
+lines' words (numbers masked) against the live output.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "docs"))
+import example_outputs  # noqa: E402  (docs/example_outputs.py)
+
+
+def _words(line):
+    return " ".join(line.split())
+
+
+def _stored():
+    return json.loads(example_outputs.STORED.read_text())
+
+
+def test_every_quoted_output_is_a_stored_one():
+    stored, bad = _stored(), []
+    for page, line, block, shown in example_outputs.quoted():
+        where = f"{page.relative_to(ROOT)}:{line}"
+        entry = stored.get(example_outputs.key(block))
+        if entry is None:
+            bad.append(f"{where}: its example has no stored output "
+                       "(python docs/example_outputs.py)")
+            continue
+        have = {_words(ln) for ln in entry["printed"].splitlines()}
+        bad += [f"{where}: not in the stored output: {ln.strip()}" for ln in shown.splitlines()
+                if ln.strip() not in ("", "...") and not ln.lstrip().startswith("$ ")
+                and _words(ln) not in have]
+    assert not bad, "\n".join(bad)
+
+
+def test_stored_outputs_are_of_the_pages_examples():
+    """No stored output of an example the pages no longer hold."""
+    blocks = {example_outputs.key(body) for page in example_outputs.PAGES
+              for lang, body, *_ in example_outputs.blocks(page) if lang in ("python", "bash")}
+    assert set(_stored()) <= blocks
+
+
+def quoted_numbers():
+    """Each ``[[quote]]`` of docs/quoted.toml."""
+    return tomllib.loads(example_outputs.QUOTED.read_text())["quote"]
+
+
+@pytest.mark.parametrize("quote", quoted_numbers(), ids=lambda q: f"{q['page']}:{q['text']}")
+def test_prose_numbers_are_the_stored_results(quote):
+    text = example_outputs.quoted_value(quote)
+    assert text == quote["text"], f"{quote['source']} {quote['path']}: {text!r}"
+    page = " ".join((ROOT / quote["page"]).read_text().split())
+    assert quote["text"] in page, f"{quote['page']} does not quote {quote['text']!r}"
+
+
+def test_refresh_rewrites_each_quoted_line_from_its_own_output_line(tmp_path):
+    """Of the stored lines that say the same (numbers masked), a quoted line
+    is rewritten from the one sharing its words (its row's label, its
+    channel's id); a line no stored line says is left and reported."""
+    block = 'print("table")\n'
+    page = tmp_path / "page.md"
+    page.write_text("```python\n" + block + "```\n\n```text\n...\nBH2 0.3-1 9.9\n"
+                    "BH1 0.25-0.3 9.9\nnot printed 1\n```\n")
+    printed = "BH1 0.25-0.3 1.0\nBH1 0.3-1 2.0\nBH2 0.25-0.3 3.0\nBH2 0.3-1 4.0\n"
+    stored = {example_outputs.key(block): {"block": block, "printed": printed}}
+    missing = example_outputs.refresh_page(page, stored)
+    assert page.read_text().splitlines()[6:9] == ["BH2 0.3-1 4.0", "BH1 0.25-0.3 1.0",
+                                                  "not printed 1"]
+    assert missing == ["page.md:9: not printed 1"]
