@@ -20,8 +20,7 @@ from scipy import stats
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
 from ..criticism.words import headline, posterior_text, self_noise_text
-from ..core.posterior import multimodal_line, sampled_azimuth_dip
-from ..core.orientation import tilt_from_vertical
+from ..core.posterior import multimodal_line
 from ..result import Convergence
 from .tables import (interval_row, angle_rows, response_rows, truth_values, two_pole_nominal,
                      wrap180)
@@ -153,33 +152,34 @@ def _flag_lines(ctx, flags, modes):
 
 
 def _channel_panels(ctx, k):
-    """Per channel: list of (label, samples - nominal offset, nominal, truth) panels."""
+    """Per channel: list of (label, result.json entry, nominal, truth) panels.
+    The intervals are result.json's (one source for every number printed);
+    an azimuth's nominal and truth are moved next to its median (by 360 deg)."""
     post = ctx.post
     cid, kind = post.channel_ids[k], post.kinds[k]
     ch = ctx.summary["channels"][cid]
     nom = ch.get("nominal") or {}
     tru = truth_values(ctx.truth, cid)
-    az, dip = sampled_azimuth_dip(post.vectors)
     panels = []
     if "tilt_deg" in ch:
-        tilt, _ = tilt_from_vertical(post.vectors[:, k])
         ntilt = 90.0 - abs(nom["dip_deg"]) if "dip_deg" in nom else None
         ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
-        panels.append(("tilt from vertical (deg)", tilt, ntilt, ttilt))
+        panels.append(("tilt from vertical (deg)", ch["tilt_deg"], ntilt, ttilt))
     elif kind != "fixed":
-        naz = nom.get("azimuth_deg")
-        med = float(np.median(az[:, k]))
-        t = tru.get("azimuth_deg")
-        panels.append(("azimuth (deg)", az[:, k],
+        az = ch["azimuth_deg"]
+        naz, t, med = nom.get("azimuth_deg"), tru.get("azimuth_deg"), az["median"]
+        panels.append(("azimuth (deg)", az,
                        None if naz is None else med - float(wrap180(med - naz)),
                        None if t is None else med - float(wrap180(med - t))))
     if kind == "sphere":
-        panels.append(("dip (deg)", dip[:, k], nom.get("dip_deg"), tru.get("dip_deg")))
+        panels.append(("dip (deg)", ch["dip_deg"], nom.get("dip_deg"), tru.get("dip_deg")))
     return panels
 
 
-def _interval_panel(ax, label, x, nominal, truth, tol):
-    lo95, lo68, med, hi68, hi95 = np.percentile(x, [2.5, 16, 50, 84, 97.5])
+def _interval_panel(ax, label, entry, nominal, truth, tol):
+    """One angle's median, 68 % and 95 % intervals (result.json's ``entry``)
+    against its nominal value and the tolerance band."""
+    med, (lo68, hi68), (lo95, hi95) = entry["median"], entry["ci68"], entry["ci95"]
     ax.plot([lo95, hi95], [0, 0], color="k", lw=1.0, solid_capstyle="butt")
     ax.plot([lo95, lo95], [-0.15, 0.15], color="k", lw=1.0)
     ax.plot([hi95, hi95], [-0.15, 0.15], color="k", lw=1.0)
@@ -201,7 +201,7 @@ def _interval_panel(ax, label, x, nominal, truth, tol):
     ax.set_yticks([])
     ax.set_xlabel(label)
     ax.ticklabel_format(axis="x", useOffset=False)
-    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}]"
+    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}], 95 % [{lo95:.2f}, {hi95:.2f}]"
     if nominal is not None:
         txt += f", nominal {nominal:.2f}"
     ax.text(0.01, 0.93, txt, transform=ax.transAxes, va="top", fontsize=6.5,
@@ -247,6 +247,11 @@ def page_intervals(ctx):
                bbox_to_anchor=(0.5, 1 - 0.05 / fig.get_figheight()))
     fig.text(0.5, 1 - 0.45 / fig.get_figheight(), "Angle credible intervals against nominal",
              ha="center", fontsize=11, fontweight="bold")
+    if any("tilt_deg" in ctx.summary["channels"][c] for c in post.channel_ids):
+        fig.text(0.06, 0.15 / fig.get_figheight(), "Intervals as in result.json and page 1; a "
+                 "near-vertical channel's tilt and dip: the range of tilts in the credible "
+                 "region of its lean north/east (lower bound 0 when the region holds the "
+                 "vertical).", fontsize=6.5)
     return fig
 
 
