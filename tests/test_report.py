@@ -139,7 +139,7 @@ def test_summary_table_matches_result_and_truth(flagged):
 _TABLE = {("azimuth_deg",): ("azimuth (deg)", "angle"), ("dip_deg",): ("dip (deg)", "angle"),
           ("tilt_deg",): ("tilt (deg)", "angle"),
           ("orthogonality",): ("orthogonality (deg)", "angle"),
-          ("response", "gain"): ("gain (stage-1 units per m/s)", "4g"),
+          ("response", "gain"): ("gain (V/(m/s))", "4g"),          # the metadata's units
           ("response", "relative_gain"): ("relative gain (fitted / metadata)", "4g")}
 
 
@@ -275,8 +275,13 @@ def test_convergence_page_numbers(flagged):
     assert f"ESS min {conv['ess_min']:.0f}" in pages[-1]
     assert f"Acceptance fraction {conv['acceptance']:.3f}" in pages[-1]
     assert f"R-hat max {conv['rhat_max']:.4f}" in pages[-1]
+    words = {"orient_a": "axis direction, 1st offset", "orient_b": "axis direction, 2nd offset",
+             "azimuth_rad": "azimuth"}
     for name, p in conv["per_parameter"].items():
-        assert f"{name} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[-1]
+        cid, kind = name.rsplit(":", 1)
+        label = f"{cid.split('.')[-1]} {words[kind]}"
+        assert f"{label} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[-1], label
+    assert "orient_a" not in pages[-1] and "bayescal.core" not in pages[-1]
 
 
 def test_response_rows_and_not_estimable(gain_fit):
@@ -317,6 +322,35 @@ def test_cli_report_and_bad_folders(flagged, tmp_path, capsys):
     with pytest.raises(InputError, match=str(broken)):
         write_report(str(broken))
     assert sorted(os.listdir(broken)) == ["result.json", "samples.npz"]
+
+
+def test_rerun_without_report_removes_the_earlier_report(flagged, tmp_path):
+    """A report drawn into a result folder after its run (``write_report``,
+    as examples/demo.py does) is listed in the folder's manifest, so a rerun
+    into the folder that writes no report (``fit --no-report``: the results
+    only, published by bayescal.atomic.staging) removes the earlier
+    report.pdf and PNGs; a file of the user's stays."""
+    import shutil
+
+    from bayescal.atomic import staging
+    from bayescal.io.result import write_results
+    from bayescal.report.fit import load_result
+
+    folder = str(tmp_path / "fit")
+    shutil.copytree(flagged[0], folder)
+    for name in os.listdir(folder):                     # the fixture's own report
+        if name.startswith("report"):
+            os.remove(os.path.join(folder, name))
+    with staging(folder) as tmp:                        # a first run: results only
+        write_results(load_result(folder), tmp)
+    (tmp_path / "fit" / "notes.txt").write_text("mine")
+    drawn = [os.path.basename(p) for p in write_report(folder)]
+    assert "report.pdf" in drawn and len(drawn) >= 6
+    with staging(folder) as tmp:                        # the rerun with --no-report
+        write_results(load_result(folder), tmp)
+    left = set(os.listdir(folder))
+    assert not left & set(drawn), sorted(left & set(drawn))
+    assert {"result.json", "samples.npz", "notes.txt"} <= left
 
 
 def test_single_channel_reference(tmp_path):

@@ -1,7 +1,8 @@
 """Figures of the calibration report, one function per page (the corner plots are in :mod:`.corner_pages`).
 
 Each ``page_<name>(ctx)`` returns a :class:`matplotlib.figure.Figure` (or
-None when the page does not apply). Figures are built without pyplot, so
+None when the page does not apply; page 1 a list of figures when it
+continues on further pages). Figures are built without pyplot, so
 rendering never needs a display. Conventions: angles in degrees (SEED),
 frequencies in Hz on log axes, black-and-white friendly (line styles and
 markers carry the distinctions, not colour alone), numbers written as text.
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 
 import textwrap
+from functools import partial
 
 import numpy as np
 from matplotlib.collections import LineCollection
@@ -24,8 +26,9 @@ from ..core.posterior import multimodal_line
 from ..result import Convergence
 from .tables import (interval_row, angle_rows, response_rows, truth_values, two_pole_nominal,
                      wrap180)
-from .axes import frequency_ticks, psd_label, trace_in_user_units
-from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
+from .axes import (frequency_ticks, parameter_label, placeholder_ids, psd_label,
+                   trace_in_user_units)
+from .layout import LINESTYLES, MARKERS, PARAM_UNITS, flow_text, header_lines, summary_table
 
 
 def _page_top(fig, ctx):
@@ -53,7 +56,11 @@ def _page_top(fig, ctx):
 
 
 def page_summary(ctx):
-    """Page 1: what was measured, the table of angles (and responses), flags."""
+    """Page 1: what was measured, the table of angles (and responses), flags
+    and notes. Returns its figure, or a list of figures when the flags and
+    notes run past the page's bottom margin (measured,
+    :func:`~bayescal.report.layout.flow_text`): the rest on pages "page 1
+    continued"."""
     post = ctx.post
     fig = Figure(figsize=ctx.page)
     top, modes = _page_top(fig, ctx)
@@ -80,8 +87,17 @@ def page_summary(ctx):
     if resp:
         text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
                     " StationXML's stage-1 output units (e.g. V) per m/s.")
-    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
-    return fig
+    figs = flow_text(fig, 0.06, y, [ln for t in text for ln in t.split("\n")],
+                     partial(_continued, ctx), fontsize=8, linespacing=1.5)
+    return figs[0] if len(figs) == 1 else figs
+
+
+def _continued(ctx):
+    """A continuation page of page 1: its title; returns (figure, top)."""
+    fig = Figure(figsize=ctx.page)
+    fig.text(0.06, 0.965, "bayescal calibration report (page 1 continued)", fontsize=14,
+             fontweight="bold")
+    return fig, 0.94
 
 
 def fit_check(summary):
@@ -248,10 +264,10 @@ def page_intervals(ctx):
     fig.text(0.5, 1 - 0.45 / fig.get_figheight(), "Angle credible intervals against nominal",
              ha="center", fontsize=11, fontweight="bold")
     if any("tilt_deg" in ctx.summary["channels"][c] for c in post.channel_ids):
-        fig.text(0.06, 0.15 / fig.get_figheight(), "Intervals as in result.json and page 1; a "
+        fig.text(0.06, 0.1 / fig.get_figheight(), "Intervals as in result.json and page 1; a "
                  "near-vertical channel's tilt and dip: the range of tilts in the credible "
-                 "region of its lean north/east (lower bound 0 when the region holds the "
-                 "vertical).", fontsize=6.5)
+                 "region of its lean\nnorth/east components (lower bound 0 when the region "
+                 "holds the vertical).", fontsize=6.5)
     return fig
 
 
@@ -284,8 +300,12 @@ def page_data_fit(ctx):
                   ls=LINESTYLES[j % len(LINESTYLES)], label=f"{'REF' if is_ref else 'SUT'} {cid}")
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(psd_label(ctx.post.meta, sut + ref))
-    ax.set_title("Power spectra, ground velocity (nominal responses removed); "
-                 "SUT black, reference grey", loc="left")
+    flat = placeholder_ids(ctx.post.meta) & set(sut + ref)
+    ax.set_title(("Power spectra, ground velocity (metadata responses removed)" if not flat else
+                  "Power spectra as recorded ('flat' metadata: no response removed)"
+                  if flat >= set(sut + ref) else
+                  "Power spectra (metadata responses removed; 'flat' channels as recorded)")
+                 + "; SUT black, reference grey", loc="left")
     ax.legend(ncol=2, loc="best")
     frequency_ticks(ax, f[0], f[-1])
     ax = fig.add_subplot(gs[1])
@@ -355,10 +375,11 @@ def page_convergence(ctx):
     _convergence_table(fig, ctx, table_top, table_h)
     from ..core.posterior import describe_sampler
     sampler = describe_sampler(post.meta.sampler)
-    fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
-             + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
-             " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
-             fontsize=6.5, wrap=True)
+    fig.text(0.06, 0.015, (textwrap.fill(f"Sampler: {sampler}", 150) + "\n" if sampler else "")
+             + "Converged means: the chain kept after burn-in is at least 50 times its "
+             "autocorrelation time (tau), every parameter has at least 1000\neffective samples "
+             "(ESS), and the two halves of the chain agree (split R-hat below 1.01).",
+             fontsize=6.5)
     return fig
 
 
@@ -385,7 +406,7 @@ def _trace_panels(fig, ctx, n_rows, trace_h):
         ax.margins(y=0.35)
         if burn is not None:
             ax.axvline(float(burn), color="k", ls="--", lw=0.8)
-        ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
+        ax.text(0.01, 0.96, parameter_label(name), transform=ax.transAxes, fontsize=6, va="top",
                 bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
         ax.set_ylabel(unit or PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
         ax.tick_params(labelsize=6)
@@ -394,8 +415,8 @@ def _trace_panels(fig, ctx, n_rows, trace_h):
         else:
             ax.tick_params(labelbottom=False)
     fig.text(0.1, 0.93 - trace_h - 0.045,
-             f"Traces of {len(walkers)} of {tr.shape[1]} walkers: orientation in deg "
-             "(tangent-plane angle from the start axis, or azimuth),\nperiod in s, gain in % "
+             f"Traces of {len(walkers)} of {tr.shape[1]} walkers: axis direction in deg from "
+             "the sampler's start axis (two offsets), or azimuth in deg;\nperiod in s, gain in % "
              "off metadata; dashed line: end of burn-in (samples after it are kept).",
              fontsize=7, va="top")
 
@@ -407,8 +428,8 @@ def _convergence_table(fig, ctx, table_top, table_h):
     ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
     ax.axis("off")
     per = conv["per_parameter"]
-    cells = [[n, f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}", f"{per[n]['rhat']:.4f}"]
-             for n in names]
+    cells = [[parameter_label(n), f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}",
+              f"{per[n]['rhat']:.4f}"] for n in names]
     ax.set_title(
         f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
         f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; {Convergence.figures(conv)};"
