@@ -4,6 +4,8 @@ import here):
 
 * text off the page: a figure text, or an axes' tight box (its tick labels,
   axis labels, title, texts, legend and table), reaching outside the figure;
+* a figure text over an axes' plotting area (axes drawn without their
+  frame, as tables, are left out);
 * a table cell's text wider or taller than its cell (it runs into the next
   column or row);
 * a legend over a curve: a point of a data line drawn inside the axes
@@ -51,8 +53,12 @@ def _texts_off_page(fig, r):
         if (t.axes is not None or id(t) in ticks or not t.get_visible()
                 or not t.get_text().strip()):
             continue                          # an axes' text: in its tight box below
-        if _outside(t.get_window_extent(r), fig.bbox):
+        box = t.get_window_extent(r)
+        if _outside(box, fig.bbox):
             faults.append(f"text off the page: {t.get_text()[:60]!r}")
+        for ax in _all_axes(fig):
+            if ax.axison and box.overlaps(ax.bbox):
+                faults.append(f"text over the axes {ax.get_title()!r}: {t.get_text()[:60]!r}")
     for ax in _all_axes(fig):
         box = ax.get_tightbbox(r)
         if box is not None and _outside(box, fig.bbox):
