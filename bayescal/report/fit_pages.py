@@ -81,7 +81,9 @@ def page_summary(ctx):
     for cid, reason in post.not_estimable.items():
         text.append(f"  {cid}: {reason}")
     text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
-             "\nazimuth intervals crossing north stay contiguous.",
+             "\nazimuth intervals crossing north stay contiguous; a near-vertical channel's tilt and"
+             " dip: the range of tilts\nin the credible region of its lean north/east components"
+             " (lower bound 0 when the region holds the vertical).",
              "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
              " instead, with the azimuth it leans toward."]
     if resp:
