@@ -10,7 +10,8 @@ or folder is removed and what was there before is left as it was.
   moved into a folder that may hold the user's own files: the previous run's
   files, listed in its :data:`MANIFEST`, are replaced), by
   :func:`replace_folder` (a folder bayescal owns, replaced as a whole) or by
-  :func:`move_files` (files moved in, named stale ones removed).
+  :func:`move_files` (files moved in, named stale ones removed, optionally
+  listed in the folder's manifest by :func:`record_written`).
 """
 from __future__ import annotations
 
@@ -67,21 +68,36 @@ def _usual_permissions(folder):
     os.chmod(folder, 0o777 & ~umask)
 
 
-def move_files(tmp, out, stale=()):
+def move_files(tmp, out, stale=(), record=False):
     """Move every entry of folder ``tmp`` into the existing folder ``out``
     (replacing one of the same name), after removing the names in ``stale``
     that ``tmp`` does not hold (what an earlier run wrote and this one does
-    not). Returns the names moved."""
+    not). With ``record`` the names moved are added to ``out``'s
+    :data:`MANIFEST` and the stale ones taken off it (:func:`record_written`),
+    so a later run into ``out`` removes them. Returns the names moved."""
     names = sorted(os.listdir(tmp), key=lambda n: (n == MANIFEST, n))   # the list last
-    for old in stale:
-        if old not in names:
-            _remove(os.path.join(out, old))
+    removed = [old for old in stale if old not in names]
+    for old in removed:
+        _remove(os.path.join(out, old))
     for name in names:
         dest = os.path.join(out, name)
         if os.path.isdir(dest) and not os.path.islink(dest):
             shutil.rmtree(dest)
         os.replace(os.path.join(tmp, name), dest)
+    if record:
+        record_written(out, names, removed)
     return names
+
+
+def record_written(out, names, removed=()):
+    """Add ``names`` to the :data:`MANIFEST` of folder ``out`` (made when
+    missing) and take ``removed`` off it: files written into an output
+    folder after its run (a report drawn later) are then removed, as the
+    run's own are, by the next run published there (:func:`publish`)."""
+    listed = set(_previous_run(out)) - set(removed)
+    listed |= {n for n in names if n != MANIFEST and os.sep not in n}
+    with atomic_path(os.path.join(out, MANIFEST)) as tmp, open(tmp, "w") as fh:
+        fh.write("".join(f"{n}\n" for n in sorted(listed)))
 
 
 def _remove(path):

@@ -54,7 +54,9 @@ def _page_one_texts(out):
     post = load_result(str(out))
     ctx = ReportContext(folder=str(out), post=post, summary=post.summary(), truth=None,
                         tolerance_deg=5.0)
-    return [t.get_text() for t in page_summary(ctx).texts]
+    pages = page_summary(ctx)                # page 1, and its continuation pages
+    pages = pages if isinstance(pages, list) else [pages]
+    return [t.get_text() for fig in pages for t in fig.texts]
 
 
 def test_a_pair_that_truly_misfits_fails_the_check_where_the_physics_is(tmp_path):

@@ -135,7 +135,9 @@ def test_polarised_wavefield_is_reported_bimodal(tmp_path):
     loaded = load_result(str(tmp_path))
     ctx = ReportContext(folder=str(tmp_path), post=loaded, summary=loaded.summary(), truth=None,
                         tolerance_deg=5.0)
-    texts = [t.get_text() for t in page_summary(ctx).texts]
+    pages = page_summary(ctx)                # page 1, and its continuation pages
+    pages = pages if isinstance(pages, list) else [pages]
+    texts = [t.get_text() for fig in pages for t in fig.texts]
     assert texts[2].startswith("MULTIMODAL POSTERIOR")       # under the model check
     assert loaded.summary()["multimodal"]["detected"] is True
 

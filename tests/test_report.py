@@ -139,7 +139,7 @@ def test_summary_table_matches_result_and_truth(flagged):
 _TABLE = {("azimuth_deg",): ("azimuth (deg)", "angle"), ("dip_deg",): ("dip (deg)", "angle"),
           ("tilt_deg",): ("tilt (deg)", "angle"),
           ("orthogonality",): ("orthogonality (deg)", "angle"),
-          ("response", "gain"): ("gain (stage-1 units per m/s)", "4g"),
+          ("response", "gain"): ("gain (V/(m/s))", "4g"),          # the metadata's units
           ("response", "relative_gain"): ("relative gain (fitted / metadata)", "4g")}
 
 
@@ -193,24 +193,36 @@ def test_summary_table_intervals_are_those_of_the_samples(which, request):
     assert checked == {"flagged": 6, "gain_fit": 7}[which], checked
 
 
-def test_intervals_page_numbers_are_those_of_the_samples(flagged):
-    """The intervals page's text (median and 68 % interval of each panel:
-    azimuth, dip, the vertical's tilt from vertical) against the 50 % and
-    16/84 % percentiles of samples.npz. Bound: half the last printed decimal
-    (0.005) plus float rounding."""
-    import re
+def _page_intervals(text):
+    """(median, 68 % low, high, 95 % low, high) of each panel of the
+    intervals page's text."""
+    num = r"(-?\d+\.\d\d)"
+    return [tuple(map(float, m)) for m in re.findall(
+        rf"median {num}, 68 % \[{num}, {num}\], 95 % \[{num}, {num}\]", text)]
 
-    from tests.intervals import fit_samples, tails
+
+def _result_angles(folder):
+    """(median, 68 % and 95 % bounds) of every angle result.json gives:
+    azimuth, dip, or for a near-vertical channel tilt and dip."""
+    out = []
+    for ch in _result(folder)["channels"].values():
+        for key in ("azimuth_deg", "tilt_deg", "dip_deg"):
+            e = ch.get(key, {})
+            if "ci95" in e and not e.get("fixed"):
+                out.append((e["median"], *e["ci68"], *e["ci95"]))
+    return out
+
+
+def test_intervals_page_numbers_are_result_json(flagged):
+    """Every interval the intervals page prints (median, 68 % and 95 % of
+    each panel: azimuth, dip, the vertical's tilt and dip from its lean
+    region) is result.json's, to half the last printed decimal (0.005):
+    one source for every number (the vertical's tilt is not an equal-tailed
+    interval of its samples, tests/intervals.py)."""
     folder, _ = flagged
     _, pages = _pages(folder)
-    _, samples = fit_samples(folder)
-    found = [tuple(map(float, m)) for m in re.findall(
-        r"median (-?\d+\.\d\d), 68 % \[(-?\d+\.\d\d), (-?\d+\.\d\d)\]", pages[1])]
-    want = []
-    for (key, path), x in samples.items():
-        if path in (("azimuth_deg",), ("dip_deg",), ("tilt_deg",)):
-            x = x[2] if isinstance(x, tuple) else x
-            want.append((np.median(x), *np.percentile(x, tails("ci68"))))
+    found = _page_intervals(pages[1])
+    want = _result_angles(folder)
     assert len(found) == len(want) == 6, (found, want)
     for w in want:
         assert any(np.all(np.abs(np.subtract(f, w)) <= 0.005 + 1e-9) for f in found), (w, found)
@@ -263,8 +275,13 @@ def test_convergence_page_numbers(flagged):
     assert f"ESS min {conv['ess_min']:.0f}" in pages[-1]
     assert f"Acceptance fraction {conv['acceptance']:.3f}" in pages[-1]
     assert f"R-hat max {conv['rhat_max']:.4f}" in pages[-1]
+    words = {"orient_a": "axis direction, 1st offset", "orient_b": "axis direction, 2nd offset",
+             "azimuth_rad": "azimuth"}
     for name, p in conv["per_parameter"].items():
-        assert f"{name} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[-1]
+        cid, kind = name.rsplit(":", 1)
+        label = f"{cid.split('.')[-1]} {words[kind]}"
+        assert f"{label} {p['tau']:.1f} {p['ess']:.0f} {p['rhat']:.4f}" in pages[-1], label
+    assert "orient_a" not in pages[-1] and "bayescal.core" not in pages[-1]
 
 
 def test_response_rows_and_not_estimable(gain_fit):
@@ -305,6 +322,35 @@ def test_cli_report_and_bad_folders(flagged, tmp_path, capsys):
     with pytest.raises(InputError, match=str(broken)):
         write_report(str(broken))
     assert sorted(os.listdir(broken)) == ["result.json", "samples.npz"]
+
+
+def test_rerun_without_report_removes_the_earlier_report(flagged, tmp_path):
+    """A report drawn into a result folder after its run (``write_report``,
+    as examples/demo.py does) is listed in the folder's manifest, so a rerun
+    into the folder that writes no report (``fit --no-report``: the results
+    only, published by bayescal.atomic.staging) removes the earlier
+    report.pdf and PNGs; a file of the user's stays."""
+    import shutil
+
+    from bayescal.atomic import staging
+    from bayescal.io.result import write_results
+    from bayescal.report.fit import load_result
+
+    folder = str(tmp_path / "fit")
+    shutil.copytree(flagged[0], folder)
+    for name in os.listdir(folder):                     # the fixture's own report
+        if name.startswith("report"):
+            os.remove(os.path.join(folder, name))
+    with staging(folder) as tmp:                        # a first run: results only
+        write_results(load_result(folder), tmp)
+    (tmp_path / "fit" / "notes.txt").write_text("mine")
+    drawn = [os.path.basename(p) for p in write_report(folder)]
+    assert "report.pdf" in drawn and len(drawn) >= 6
+    with staging(folder) as tmp:                        # the rerun with --no-report
+        write_results(load_result(folder), tmp)
+    left = set(os.listdir(folder))
+    assert not left & set(drawn), sorted(left & set(drawn))
+    assert {"result.json", "samples.npz", "notes.txt"} <= left
 
 
 def test_single_channel_reference(tmp_path):

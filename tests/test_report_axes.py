@@ -86,7 +86,7 @@ def test_convergence_traces_in_degrees_and_percent():
                            meta=Meta(nominal={"A": {"gain": 750.0}}))
     fig = page_convergence(SimpleNamespace(post=post, summary=summary, page=A4))
     axes = fig.axes[:4]
-    assert [a.get_ylabel() for a in axes] == ["deg (tangent plane)", "deg (tangent plane)",
+    assert [a.get_ylabel() for a in axes] == ["deg from start axis", "deg from start axis",
                                               "azimuth (deg)", "gain, % off metadata"]
     ys = [np.concatenate([s[:, 1] for s in a.collections[0].get_segments()]) for a in axes]
     assert np.median(ys[0]) == pytest.approx(np.degrees(0.01), rel=0.05)

@@ -42,8 +42,10 @@ def test_cal_report_rebuilt_from_its_folder(tmp_path):
                          "cal_corner.png"])
     p = json.loads((out / "cal.json").read_text())["parameters"]
     e = p["period_s"]
-    assert (f"period_s: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, {e['ci95'][1]:.6g}]"
+    assert (f"period: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, {e['ci95'][1]:.6g}] s"
             in text)
+    assert "n_steps" not in text and "converged True" not in text      # words, not keys
+    assert "converged: yes" in text
     with np.load(out / "cal_samples.npz") as npz:
         corner = npz["corner_samples"]
         assert list(npz["corner_labels"][:3]) == ["period (s)", "damping", "gain"]

@@ -60,13 +60,14 @@ def test_diagnosis_page_rebuilt_from_its_json(late_fit, tmp_path):
     path = tmp_path / "diagnosis.json"
     write_json(str(path), d.summary())
     live = build_figure(d)
-    live_text, live_lines = live.texts[0].get_text(), _drawn(live)
+    live_text, live_lines = [t.get_text() for t in live.texts], _drawn(live)
     del d, live
     doc = json.loads(path.read_text())
     assert [e["name"] for e in doc["effects"]] == ["timing_offset"]
     # the page from the file alone: the same words and the same curves
     rebuilt = build_figure(SavedDiagnosis(doc))
-    assert rebuilt.texts[0].get_text() == live_text
+    assert [t.get_text() for t in rebuilt.texts] == live_text
+    assert "timing offset" in " ".join(live_text[1].split())       # the findings, in words
     lines = _drawn(rebuilt)
     assert len(lines) == len(live_lines)
     for a, b in zip(lines, live_lines):

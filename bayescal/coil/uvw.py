@@ -225,8 +225,9 @@ class UVWResult:
         return out
 
 
-#: Quantiles (per cent) of the report's credible bands: the median and a 90 % band.
-BAND_PERCENTILES = (5, 50, 95)
+#: Quantiles (per cent) of the report's credible bands: the median and a 95 % band (the
+#: level of uvw.json's intervals, which the report's table prints).
+BAND_PERCENTILES = (2.5, 50, 97.5)
 
 
 def _bands(x):
@@ -238,7 +239,7 @@ def report_arrays(result):
     """Everything the report draws besides ``uvw.json`` (saved in
     ``uvw_samples.npz``; :mod:`bayescal.report.uvw` reads them back): the
     samples (``joint``, ``element_<e>``, ``z_only_<e>``), the derived XYZ
-    quantities, and over ``freqs`` the 90 % bands (``BAND_PERCENTILES``) of
+    quantities, and over ``freqs`` the 95 % bands (``BAND_PERCENTILES``) of
     each element's and each XYZ axis's response over the nominal (amplitude
     ``*_amp``, phase in degrees ``*_phase``, shape (3, 3 quantiles, F)) and
     of the cross-talk of each pair X-Y, X-Z, Y-Z in per cent."""

@@ -67,7 +67,7 @@ def trace_in_user_units(name, values, nominal=None):
     kind = name.split(":")[-1]
     values = np.asarray(values, float)
     if kind in ("orient_a", "orient_b"):
-        return np.degrees(np.arctan(values)), "deg (tangent plane)"
+        return np.degrees(np.arctan(values)), "deg from start axis"
     if kind == "azimuth_rad":
         return np.degrees(values), "azimuth (deg)"
     nom = nominal or {}
@@ -82,3 +82,21 @@ def trace_in_user_units(name, values, nominal=None):
             return 100.0 * (np.exp(values) / g - 1.0), "gain, % off metadata"
         return np.exp(values), "gain"
     return values, None
+
+
+#: Plain words for the sampler's coordinates (the keys of result.json's
+#: ``convergence.per_parameter``, after the channel).
+PARAMETER_WORDS = {"orient_a": "axis direction, 1st offset", "orient_b": "axis direction, 2nd offset",
+                   "azimuth_rad": "azimuth", "c0_rel": "period", "c1_rel": "damping/period",
+                   "log_gain": "gain", "damping": "damping"}
+
+
+def parameter_label(name):
+    """A sampler coordinate ``"NET.STA.LOC.CHA:kind"`` in words for a page:
+    the channel code and what the coordinate is (e.g. ``"BH1 gain"``);
+    a name it does not know is returned as it is."""
+    cid, _, kind = name.rpartition(":")
+    words = PARAMETER_WORDS.get(kind)
+    if words is None:
+        return name
+    return f"{cid.split('.')[-1]} {words}".strip()

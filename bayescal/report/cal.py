@@ -17,16 +17,21 @@ Three pages, each a PNG and a page of ``cal_report.pdf``:
 from __future__ import annotations
 
 import os
+import textwrap
 
-import corner
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from ..atomic import record_written
+from .cal_time import cal_head, sine_corner_page, timeseries_page
+from .layout import (CORNER_LEVELS, CORNER_QUANTILES, GREYS, legend_beside, page_size, style,
+                     write_pages)
 
-from .cal_time import sine_corner_page, timeseries_page  # noqa: E402
-from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_size, write_pages  # noqa: E402
+#: How the pages draw the fitted, measured and nominal responses.
+FITTED = {"color": "k", "lw": 1.1}
+BAND = {"color": "0.6", "alpha": 0.35, "lw": 0}
+MEASURED = {"fmt": "o", "color": GREYS[1], "mfc": "white", "ms": 3, "elinewidth": 0.8}
+NOMINAL = {"color": "0.35", "ls": "--", "lw": 1.0}
 
 
 def response_page(summary, arrays, paper="a4"):
@@ -39,42 +44,56 @@ def response_page(summary, arrays, paper="a4"):
     else:                                       # time-domain fit: no per-band measurement
         fc, ratio_m, sd_m = np.zeros(0), np.zeros(0, complex), np.zeros(0)
         nom_c = np.zeros(0, complex)
-    fig, axes = plt.subplots(2, 2, figsize=page_size(paper, landscape=True), sharex=True)
+    fig = Figure(figsize=page_size(paper, landscape=True))
+    cal_head(fig, summary, f"{summary['kind']} calibration, fit {summary['fit']}",
+          "Response of the channel (counts per m/s of ground velocity): fitted (posterior "
+          "median, 95 % band), measured per band (2 sigma bars) and nominal (metadata); "
+          "below, their ratio to the nominal.", paper)
+    axes = fig.subplots(2, 2, sharex=True, gridspec_kw={"left": 0.08, "right": 0.8,
+                                                        "bottom": 0.08, "top": 0.8,
+                                                        "hspace": 0.12, "wspace": 0.25})
     (a_amp, a_ph), (r_amp, r_ph) = axes
-    a_amp.loglog(f, np.abs(nom), "k--", lw=1, label="nominal")
-    a_amp.fill_between(f, np.abs(nom) * amp[0], np.abs(nom) * amp[2], color="tab:blue",
-                       alpha=0.3, lw=0)
-    a_amp.plot(f, np.abs(nom) * amp[1], color="tab:blue", label="fitted (95 % band)")
-    a_amp.errorbar(fc, np.abs(nom_c * ratio_m), yerr=2 * np.abs(nom_c) * sd_m, fmt=".",
-                   color="tab:red", ms=3, label="measured (2 sigma)")
+    a_amp.loglog(f, np.abs(nom), label="nominal (metadata)", **NOMINAL)
+    a_amp.fill_between(f, np.abs(nom) * amp[0], np.abs(nom) * amp[2], label="95 % band",
+                       **BAND)
+    a_amp.plot(f, np.abs(nom) * amp[1], label="fitted (posterior median)", **FITTED)
+    a_amp.errorbar(fc, np.abs(nom_c * ratio_m), yerr=2 * np.abs(nom_c) * sd_m,
+                   label="measured per band (2 sigma)", **MEASURED)
     a_amp.set_ylabel("amplitude (counts per m/s)")
     ph_nom = np.degrees(np.unwrap(np.angle(nom)))
-    a_ph.plot(f, ph_nom, "k--", lw=1)
-    a_ph.fill_between(f, ph_nom + phase[0], ph_nom + phase[2], color="tab:blue",
-                      alpha=0.3, lw=0)
-    a_ph.plot(f, ph_nom + phase[1], color="tab:blue")
-    a_ph.plot(fc, np.interp(np.log(fc), np.log(f), ph_nom) + np.degrees(np.angle(ratio_m)), ".",
-              color="tab:red", ms=3)
+    a_ph.plot(f, ph_nom, **NOMINAL)
+    a_ph.fill_between(f, ph_nom + phase[0], ph_nom + phase[2], **BAND)
+    a_ph.plot(f, ph_nom + phase[1], **FITTED)
+    a_ph.errorbar(fc, np.interp(np.log(fc), np.log(f), ph_nom) + np.degrees(np.angle(ratio_m)),
+                  yerr=np.degrees(2 * sd_m), **MEASURED)
     a_ph.set_ylabel("phase (deg)")
-    r_amp.fill_between(f, amp[0], amp[2], color="tab:blue", alpha=0.3, lw=0)
-    r_amp.plot(f, amp[1], color="tab:blue")
-    r_amp.errorbar(fc, np.abs(ratio_m), yerr=2 * sd_m, fmt=".", color="tab:red", ms=3)
-    r_amp.axhline(1.0, color="k", ls="--", lw=1)
+    r_amp.fill_between(f, amp[0], amp[2], **BAND)
+    r_amp.plot(f, amp[1], **FITTED)
+    r_amp.errorbar(fc, np.abs(ratio_m), yerr=2 * sd_m, **MEASURED)
+    r_amp.axhline(1.0, **NOMINAL)
     r_amp.set_ylabel("amplitude / nominal")
-    r_ph.fill_between(f, phase[0], phase[2], color="tab:blue", alpha=0.3, lw=0)
-    r_ph.plot(f, phase[1], color="tab:blue")
-    r_ph.errorbar(fc, np.degrees(np.angle(ratio_m)), yerr=np.degrees(2 * sd_m), fmt=".",
-                  color="tab:red", ms=3)
-    r_ph.axhline(0.0, color="k", ls="--", lw=1)
+    r_ph.fill_between(f, phase[0], phase[2], **BAND)
+    r_ph.plot(f, phase[1], **FITTED)
+    r_ph.errorbar(fc, np.degrees(np.angle(ratio_m)), yerr=np.degrees(2 * sd_m), **MEASURED)
+    r_ph.axhline(0.0, **NOMINAL)
     r_ph.set_ylabel("phase - nominal (deg)")
     for a in axes.ravel():
         a.set_xscale("log")
-        a.grid(True, which="both", alpha=0.3)
     for a in axes[1]:
         a.set_xlabel("frequency (Hz)")
-    a_amp.legend(fontsize=8)
-    fig.suptitle(f"{summary['channel']}: {summary['kind']} calibration, fit {summary['fit']}")
+    legend_beside(a_ph, *a_amp.get_legend_handles_labels())
     return fig
+
+
+#: Parameters of cal.json in words, with their units (a gain's from cal.json's ``units``).
+NAMES = {"period_s": ("period", "s"), "damping": ("damping", ""),
+         "damping_over_period": ("damping/period", "1/s")}
+
+
+def _name_unit(summary, p):
+    if p == "gain":
+        return "gain", summary.get("units", {}).get("gain", "")
+    return NAMES.get(p, (p, ""))
 
 
 def parameter_lines(summary):
@@ -88,45 +107,55 @@ def parameter_lines(summary):
     flagged = [p for p in ("period_s", "damping") if params.get(p, {}).get("set_by_prior")]
     lines = []
     for p, e in params.items():
+        name, unit = _name_unit(summary, p)
+        unit = f" {unit}" if unit else ""
         if e.get("set_by_prior"):
-            lines.append(f"{p}: SET BY THE PRIOR, not measured (nominal {nominal[p]:.6g}): "
-                         f"{e['reason']}")
+            lines.append(f"{name}: SET BY THE PRIOR, not measured (nominal {nominal[p]:.6g}"
+                         f"{unit}): {e['reason']}")
         elif p == "damping_over_period" and flagged:
             lines.append(f"the data fix damping/period = {e['median']:.4g} [{e['ci95'][0]:.4g}, "
                          f"{e['ci95'][1]:.4g}] 1/s (95 %), which the corrected StationXML's "
                          "poles carry")
         else:
-            lines.append(f"{p}: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, "
-                         f"{e['ci95'][1]:.6g}]  (nominal {nominal.get(p, float('nan')):.6g})")
+            lines.append(f"{name}: {e['median']:.6g}  95 % [{e['ci95'][0]:.6g}, "
+                         f"{e['ci95'][1]:.6g}]{unit}  (nominal "
+                         f"{nominal.get(p, float('nan')):.6g})")
     return lines
+
+
+def check_lines(summary):
+    """The model check of a coil fit in words, from cal.json's ``adequacy``."""
+    ad = summary["adequacy"]
+    over = (f"{ad['n_bands']} bands" if "n_bands" in ad else f"{ad.get('n_samples')} samples")
+    line = (f"Model check: misfit {ad['misfit']:.3g} over {over} (about 1 when the model "
+            f"fits), p-value {ad['p_value']:.3g}")
+    if ad.get("test"):
+        line += f" ({ad['test']}; noise AR order {ad.get('ar_order')})"
+    return [line]
 
 
 def residuals_page(summary, arrays, paper="a4"):
     """Standardised band residuals at the median, convergence and adequacy."""
-    from ..core.posterior import describe_sampler, not_converged_line
+    from ..core.posterior import describe_sampler
 
     z, fc = arrays["band_residual"], arrays["band_centres"]
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=page_size(paper, landscape=True),
-                                 gridspec_kw={"height_ratios": [2, 1]})
-    a1.semilogx(fc, z.real, "o", ms=4, label="real")
-    a1.semilogx(fc, z.imag, "s", ms=4, label="imaginary")
+    fig = Figure(figsize=page_size(paper, landscape=True))
+    cal_head(fig, summary, "residuals and the fitted values",
+          "Standardised band residuals at the posterior median: about 95 % of them within "
+          "+-2 when the model fits.", paper)
+    a1 = fig.add_axes([0.08, 0.42, 0.72, 0.38])
+    a1.semilogx(fc, z.real, "o", color="k", mfc="white", ms=4, label="real part")
+    a1.semilogx(fc, z.imag, "s", color=GREYS[1], ms=4, label="imaginary part")
     for y in (-2, 2):
-        a1.axhline(y, color="k", ls=":", lw=1)
+        a1.axhline(y, color="0.35", ls=":", lw=1)
     a1.set_xlabel("frequency (Hz)")
-    a1.set_ylabel("standardised band residual")
-    a1.legend(fontsize=8)
-    a1.grid(True, which="both", alpha=0.3)
-    a2.axis("off")
-    lines = ["Convergence: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                                         for k, v in summary["convergence"].items()),
-             "Adequacy: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                                      for k, v in summary["adequacy"].items()),
-             *([not_converged_line(summary["convergence"])]
-               if not summary["convergence"].get("converged", True) else []),
-             *([f"Sampler: {describe_sampler(summary['meta'].get('sampler'))}"]
-               if summary.get("meta", {}).get("sampler") else []),
+    a1.set_ylabel("standardised band residual (-)")
+    legend_beside(a1)
+    sampler = describe_sampler(summary.get("meta", {}).get("sampler"))
+    lines = [*check_lines(summary),
+             *([f"Sampler moves: {sampler}"] if sampler else []),
              f"Band {summary['band_hz'][0]:.4g}-{summary['band_hz'][1]:.4g} Hz; "
-             f"fixed at nominal: {summary['fixed_at_nominal'] or 'nothing'}"]
+             f"held at nominal: {', '.join(summary['fixed_at_nominal']) or 'nothing'}", ""]
     lines += parameter_lines(summary)
     for kind in ("hf_poles", "hf_zeros"):
         for e in summary["parameters"][kind]:
@@ -134,18 +163,27 @@ def residuals_page(summary, arrays, paper="a4"):
                          f"{e['real']['median']:.5g} + "
                          f"{e['imag'].get('median', 0.0):.5g}i rad/s "
                          f"(nominal {e['nominal'][0]:.5g} + {e['nominal'][1]:.5g}i)")
-    a2.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=8, wrap=True)
-    fig.suptitle(f"{summary['channel']}: residuals, convergence, adequacy")
+    fig.text(0.08, 0.32, "\n".join(w for ln in lines for w in (textwrap.wrap(ln, 150) or [""])),
+             va="top", fontsize=7.5, linespacing=1.4)
     return fig
 
 
 def corner_page(summary, arrays, paper="a4"):
     """Corner plot of the fitted parameters in physical units."""
+    import corner
+
     data, labels = arrays["corner_samples"], [str(x) for x in arrays["corner_labels"]]
-    fig = plt.figure(figsize=page_size(paper, landscape=True))
+    gain = summary.get("units", {}).get("gain", "").split(" (")[0]
+    labels = [f"gain ({gain})" if lb == "gain" and gain else lb for lb in labels]
+    fig = Figure(figsize=page_size(paper, landscape=True))
     corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
-                  plot_datapoints=False, label_kwargs={"fontsize": 8})
-    fig.suptitle(f"{summary['channel']}: posterior (2-D contours: 68 % and 95 % of the mass)")
+                  color="k", plot_datapoints=False, plot_density=False, fill_contours=True,
+                  contourf_kwargs={"colors": ["white", "0.88", "0.7"]}, smooth=1.0,
+                  max_n_ticks=3, label_kwargs={"fontsize": 8})
+    fig.subplots_adjust(left=0.3, right=0.7, bottom=0.1, top=0.8)
+    cal_head(fig, summary, "posterior of the fitted parameters",
+          "Contours hold 68 % and 95 % of the 2-D posterior mass; dashed lines on the 1-D "
+          "histograms: 16, 50 and 84 % quantiles.", paper)
     return fig
 
 
@@ -176,9 +214,11 @@ def write_report(summary, arrays, folder, paper="a4"):
     time series (:mod:`.cal_time`) and the corner plot; for a sine run the
     time series and the corner plot of amplitude and phase."""
     pdf_path = os.path.join(folder, "cal_report.pdf")
-    paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
-                         for name, make in PAGES[summary["kind"]]), pdf_path,
-                        page=page_size(paper, landscape=True), dpi=100, grey=False)
+    with style():
+        paths = write_pages(((os.path.join(folder, name), make(summary, arrays, paper))
+                             for name, make in PAGES[summary["kind"]]), pdf_path,
+                            page=page_size(paper, landscape=True), dpi=100, grey=False)
+    record_written(folder, [os.path.basename(p) for p in paths + [pdf_path]])
     return paths + [pdf_path]
 
 

@@ -63,11 +63,12 @@ def response_columns(ctx):
     if free == "none" or not post.response:
         return []
     names = ("period_s", "damping", "gain") if free == "all" else ("gain",)
-    units = {"period_s": "s", "damping": "-", "gain": "per m/s"}
     out = []
     for cid in post.channel_ids:
         if cid not in post.response:
             continue
+        gain_units = (ctx.summary["channels"].get(cid, {}).get("nominal") or {}).get("gain_units")
+        units = {"period_s": "s", "damping": "-", "gain": gain_units or "stage-1 units per m/s"}
         tru = truth_values(ctx.truth, cid)
         idx = [j for j, n in enumerate(("period_s", "damping", "gain")) if n in names]
         # a parameter held at nominal (set by the prior) has nothing to draw

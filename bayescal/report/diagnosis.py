@@ -7,7 +7,7 @@ import textwrap
 import numpy as np
 
 from ..criticism.diagnosis import check_misfits
-from .layout import page_size, write_pages
+from .layout import legend_beside, page_size, style, write_pages
 
 
 def build_figure(diagnosis, paper="a4"):
@@ -23,8 +23,11 @@ def build_figure(diagnosis, paper="a4"):
     d = diagnosis
     edges = np.asarray(d.band_edges)
     fig = Figure(figsize=page_size(paper))
-    fig.text(0.06, 0.97, "\n".join(textwrap.fill(t, 95) for t in _findings(d)), va="top",
-             family="monospace", fontsize=7.5)
+    fig.text(0.06, 0.965, "bayescal diagnose: what the model leaves out", fontsize=13,
+             fontweight="bold")
+    fig.text(0.06, 0.945, "\n".join(textwrap.fill(t, 115, subsequent_indent="  ")
+                                     for t in _findings(d)), va="top", fontsize=7.5,
+             linespacing=1.4)
     ax1 = fig.add_axes([0.13, 0.42, 0.58, 0.25])
     ax2 = fig.add_axes([0.13, 0.08, 0.58, 0.25])
     colours = _draw_curves(d, ax1, ax2, np.sqrt(edges[:-1] * edges[1:]))
@@ -39,12 +42,12 @@ def _findings(d):
     model's sampler did not converge, and the base model's mismatches."""
     from ..core.posterior import not_converged_line
 
-    text = ["bayescal diagnose"] + [f"- {s}" for s in d.sentences()]
+    text = [f"- {s}" for s in d.sentences()]
     conv = getattr(d.final, "convergence", None)
     warn = None if conv is None or conv.converged else not_converged_line(
         conv.summary(), "the final model's sampler")
     if warn:
-        text.insert(1, warn)
+        text.insert(0, warn)
     if d.before["mismatch"]:
         text.append("Mismatch of the base model: " + "; ".join(
             f"{m['band_hz'][0]:.3g}-{m['band_hz'][1]:.3g} Hz on {', '.join(m['channels'])} "
@@ -89,8 +92,8 @@ def _label_panels(ax1, ax2, colours, after):
     ax1.set_ylabel("standardised misfit per band\n(1 = fits)", fontsize=8)
     ax1.set_title("misfit before and after modelling the effects (each model's own check)",
                   fontsize=8, loc="left")
-    ax1.legend(handles=colours + [_style("o--", "base model"), _style("s-", "with the effects")],
-               fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    legend_beside(ax1, handles=colours + [_style("o--", "base model"),
+                                          _style("s-", "with the effects")], fontsize=7)
     ax2.axhline(0.0, color="k", lw=0.8)
     ax2.set_xlabel("frequency (Hz)")
     ax2.set_ylabel("recorded / predicted:\nphase (deg), amplitude - 1 (%)", fontsize=8)
@@ -100,13 +103,13 @@ def _label_panels(ax1, ax2, colours, after):
     if after:
         styles += [_style("o-", "phase, with the effects"),
                    _style("^-", "amplitude, with the effects")]
-    ax2.legend(handles=colours + styles, fontsize=7, loc="upper left",
-               bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    legend_beside(ax2, handles=colours + styles, fontsize=7)
 
 
 def write_page(diagnosis, stem, paper="a4"):
     """Write ``stem.pdf`` and ``stem.png`` (one page of ``paper``, "a4" or
     "letter"); returns the two paths."""
     paths = (f"{stem}.pdf", f"{stem}.png")
-    write_pages([(paths[1], build_figure(diagnosis, paper))], paths[0], dpi=80, grey=False)
+    with style():
+        write_pages([(paths[1], build_figure(diagnosis, paper))], paths[0], dpi=80, grey=False)
     return paths

@@ -37,6 +37,28 @@ def _builder(name, *modules):
     return next(getattr(m, f"page_{name}") for m in modules if hasattr(m, f"page_{name}"))
 
 
+def _named(name, drawn):
+    """``(png name, figure)`` of a page builder's result: None (the page does
+    not apply), a figure, or a list of figures (a page continued: ``name``,
+    ``name_2``, ...)."""
+    if drawn is None:
+        return []
+    if not isinstance(drawn, list):
+        return [(name, drawn)]
+    return [(name if i == 0 else f"{name}_{i + 1}", fig) for i, fig in enumerate(drawn)]
+
+
+def figures(ctx):
+    """``(name, figure)`` of every page of the report of ``ctx`` (a
+    :class:`~bayescal.report.layout.ReportContext`) that applies, in page
+    order; a page continued on further pages gives ``name_2``, ... ."""
+    from . import corner_pages, fit_pages, pair_noise, response_curve
+
+    for name in PAGES:
+        yield from _named(name, _builder(name, fit_pages, corner_pages, pair_noise,
+                                         response_curve)(ctx))
+
+
 def _check_folder(folder):
     if not os.path.isdir(folder):
         raise InputError(f"{folder}: no such result folder")
@@ -63,7 +85,10 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     next to it (``report_<figure>.png``). All files are drawn in a temporary
     folder first and moved into place at the end, so a failure leaves
     nothing half-written. PNGs of an earlier report that no longer apply
-    (e.g. a response corner plot) are removed.
+    (e.g. a response corner plot) are removed. The files written are listed
+    in the folder's manifest (:data:`bayescal.atomic.MANIFEST`), so a later
+    run into the folder (e.g. ``bayescal fit --no-report``) removes them
+    rather than leaving an earlier run's report beside its results.
 
     Parameters
     ----------
@@ -79,7 +104,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     """
     from ..atomic import move_files, staging
     from ..version import __version__
-    from . import corner_pages, fit_pages, layout, pair_noise, response_curve
+    from . import layout
 
     folder = os.fspath(folder)
     post = load_result(folder)
@@ -91,17 +116,16 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
                                tolerance_deg=float(nominal_tolerance_deg),
                                page=layout.page_size(paper))
-    stale = [f"{stem}_{name}.png" for name in PAGES]     # an earlier report's, if not redrawn
-    with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale),
+    stale = [f"{stem}_{name}.png" for name in PAGES] + [   # an earlier report's, if not redrawn
+        n for n in (os.listdir(out_dir) if os.path.isdir(out_dir) else ())
+        if n.startswith(f"{stem}_summary_") and n.endswith(".png")]
+    with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale, record=True),
                                  within=out_dir) as tmp:
-        figures = [(name, _builder(name, fit_pages, corner_pages, pair_noise,
-                                        response_curve)(ctx))
-                   for name in PAGES]
+        drawn = list(figures(ctx))
         meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
                 "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",
                 "Keywords": "seismometer calibration; orientation; Bayesian"}
         written = layout.write_pages(
-            [(os.path.join(tmp, f"{stem}_{name}.png"), fig) for name, fig in figures
-             if fig is not None],
+            [(os.path.join(tmp, f"{stem}_{name}.png"), fig) for name, fig in drawn],
             os.path.join(tmp, os.path.basename(out_pdf)), page=ctx.page, metadata=meta)
     return [os.path.join(out_dir, os.path.basename(p)) for p in [out_pdf, *written]]

@@ -1,7 +1,8 @@
 """Figures of the calibration report, one function per page (the corner plots are in :mod:`.corner_pages`).
 
 Each ``page_<name>(ctx)`` returns a :class:`matplotlib.figure.Figure` (or
-None when the page does not apply). Figures are built without pyplot, so
+None when the page does not apply; page 1 a list of figures when it
+continues on further pages). Figures are built without pyplot, so
 rendering never needs a display. Conventions: angles in degrees (SEED),
 frequencies in Hz on log axes, black-and-white friendly (line styles and
 markers carry the distinctions, not colour alone), numbers written as text.
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 
 import textwrap
+from functools import partial
 
 import numpy as np
 from matplotlib.collections import LineCollection
@@ -20,13 +22,13 @@ from scipy import stats
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
 from ..criticism.words import headline, posterior_text, self_noise_text
-from ..core.posterior import multimodal_line, sampled_azimuth_dip
-from ..core.orientation import tilt_from_vertical
+from ..core.posterior import multimodal_line
 from ..result import Convergence
 from .tables import (interval_row, angle_rows, response_rows, truth_values, two_pole_nominal,
                      wrap180)
-from .axes import frequency_ticks, psd_label, trace_in_user_units
-from .layout import LINESTYLES, MARKERS, PARAM_UNITS, header_lines, summary_table
+from .axes import (frequency_ticks, parameter_label, placeholder_ids, psd_label,
+                   trace_in_user_units)
+from .layout import LINESTYLES, MARKERS, PARAM_UNITS, flow_text, header_lines, summary_table
 
 
 def _page_top(fig, ctx):
@@ -54,7 +56,11 @@ def _page_top(fig, ctx):
 
 
 def page_summary(ctx):
-    """Page 1: what was measured, the table of angles (and responses), flags."""
+    """Page 1: what was measured, the table of angles (and responses), flags
+    and notes. Returns its figure, or a list of figures when the flags and
+    notes run past the page's bottom margin (measured,
+    :func:`~bayescal.report.layout.flow_text`): the rest on pages "page 1
+    continued"."""
     post = ctx.post
     fig = Figure(figsize=ctx.page)
     top, modes = _page_top(fig, ctx)
@@ -75,14 +81,25 @@ def page_summary(ctx):
     for cid, reason in post.not_estimable.items():
         text.append(f"  {cid}: {reason}")
     text += ["", "Intervals are equal-tailed posterior quantiles (68 %: 16-84 %, 95 %: 2.5-97.5 %);"
-             "\nazimuth intervals crossing north stay contiguous.",
+             "\nazimuth intervals crossing north stay contiguous; a near-vertical channel's tilt and"
+             " dip: the range of tilts\nin the credible region of its lean north/east components"
+             " (lower bound 0 when the region holds the vertical).",
              "A near-vertical channel's azimuth is undefined: its tilt from the vertical is given"
              " instead, with the azimuth it leans toward."]
     if resp:
         text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
                     " StationXML's stage-1 output units (e.g. V) per m/s.")
-    fig.text(0.06, y, "\n".join(text), va="top", fontsize=8, linespacing=1.5)
-    return fig
+    figs = flow_text(fig, 0.06, y, [ln for t in text for ln in t.split("\n")],
+                     partial(_continued, ctx), fontsize=8, linespacing=1.5)
+    return figs[0] if len(figs) == 1 else figs
+
+
+def _continued(ctx):
+    """A continuation page of page 1: its title; returns (figure, top)."""
+    fig = Figure(figsize=ctx.page)
+    fig.text(0.06, 0.965, "bayescal calibration report (page 1 continued)", fontsize=14,
+             fontweight="bold")
+    return fig, 0.94
 
 
 def fit_check(summary):
@@ -153,33 +170,34 @@ def _flag_lines(ctx, flags, modes):
 
 
 def _channel_panels(ctx, k):
-    """Per channel: list of (label, samples - nominal offset, nominal, truth) panels."""
+    """Per channel: list of (label, result.json entry, nominal, truth) panels.
+    The intervals are result.json's (one source for every number printed);
+    an azimuth's nominal and truth are moved next to its median (by 360 deg)."""
     post = ctx.post
     cid, kind = post.channel_ids[k], post.kinds[k]
     ch = ctx.summary["channels"][cid]
     nom = ch.get("nominal") or {}
     tru = truth_values(ctx.truth, cid)
-    az, dip = sampled_azimuth_dip(post.vectors)
     panels = []
     if "tilt_deg" in ch:
-        tilt, _ = tilt_from_vertical(post.vectors[:, k])
         ntilt = 90.0 - abs(nom["dip_deg"]) if "dip_deg" in nom else None
         ttilt = 90.0 - abs(tru["dip_deg"]) if "dip_deg" in tru else None
-        panels.append(("tilt from vertical (deg)", tilt, ntilt, ttilt))
+        panels.append(("tilt from vertical (deg)", ch["tilt_deg"], ntilt, ttilt))
     elif kind != "fixed":
-        naz = nom.get("azimuth_deg")
-        med = float(np.median(az[:, k]))
-        t = tru.get("azimuth_deg")
-        panels.append(("azimuth (deg)", az[:, k],
+        az = ch["azimuth_deg"]
+        naz, t, med = nom.get("azimuth_deg"), tru.get("azimuth_deg"), az["median"]
+        panels.append(("azimuth (deg)", az,
                        None if naz is None else med - float(wrap180(med - naz)),
                        None if t is None else med - float(wrap180(med - t))))
     if kind == "sphere":
-        panels.append(("dip (deg)", dip[:, k], nom.get("dip_deg"), tru.get("dip_deg")))
+        panels.append(("dip (deg)", ch["dip_deg"], nom.get("dip_deg"), tru.get("dip_deg")))
     return panels
 
 
-def _interval_panel(ax, label, x, nominal, truth, tol):
-    lo95, lo68, med, hi68, hi95 = np.percentile(x, [2.5, 16, 50, 84, 97.5])
+def _interval_panel(ax, label, entry, nominal, truth, tol):
+    """One angle's median, 68 % and 95 % intervals (result.json's ``entry``)
+    against its nominal value and the tolerance band."""
+    med, (lo68, hi68), (lo95, hi95) = entry["median"], entry["ci68"], entry["ci95"]
     ax.plot([lo95, hi95], [0, 0], color="k", lw=1.0, solid_capstyle="butt")
     ax.plot([lo95, lo95], [-0.15, 0.15], color="k", lw=1.0)
     ax.plot([hi95, hi95], [-0.15, 0.15], color="k", lw=1.0)
@@ -201,7 +219,7 @@ def _interval_panel(ax, label, x, nominal, truth, tol):
     ax.set_yticks([])
     ax.set_xlabel(label)
     ax.ticklabel_format(axis="x", useOffset=False)
-    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}]"
+    txt = f"median {med:.2f}, 68 % [{lo68:.2f}, {hi68:.2f}], 95 % [{lo95:.2f}, {hi95:.2f}]"
     if nominal is not None:
         txt += f", nominal {nominal:.2f}"
     ax.text(0.01, 0.93, txt, transform=ax.transAxes, va="top", fontsize=6.5,
@@ -247,6 +265,11 @@ def page_intervals(ctx):
                bbox_to_anchor=(0.5, 1 - 0.05 / fig.get_figheight()))
     fig.text(0.5, 1 - 0.45 / fig.get_figheight(), "Angle credible intervals against nominal",
              ha="center", fontsize=11, fontweight="bold")
+    if any("tilt_deg" in ctx.summary["channels"][c] for c in post.channel_ids):
+        fig.text(0.06, 0.1 / fig.get_figheight(), "Intervals as in result.json and page 1; a "
+                 "near-vertical channel's tilt and dip: the range of tilts in the credible "
+                 "region of its lean\nnorth/east components (lower bound 0 when the region "
+                 "holds the vertical).", fontsize=6.5)
     return fig
 
 
@@ -279,8 +302,12 @@ def page_data_fit(ctx):
                   ls=LINESTYLES[j % len(LINESTYLES)], label=f"{'REF' if is_ref else 'SUT'} {cid}")
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(psd_label(ctx.post.meta, sut + ref))
-    ax.set_title("Power spectra, ground velocity (nominal responses removed); "
-                 "SUT black, reference grey", loc="left")
+    flat = placeholder_ids(ctx.post.meta) & set(sut + ref)
+    ax.set_title(("Power spectra, ground velocity (metadata responses removed)" if not flat else
+                  "Power spectra as recorded ('flat' metadata: no response removed)"
+                  if flat >= set(sut + ref) else
+                  "Power spectra (metadata responses removed; 'flat' channels as recorded)")
+                 + "; SUT black, reference grey", loc="left")
     ax.legend(ncol=2, loc="best")
     frequency_ticks(ax, f[0], f[-1])
     ax = fig.add_subplot(gs[1])
@@ -350,10 +377,11 @@ def page_convergence(ctx):
     _convergence_table(fig, ctx, table_top, table_h)
     from ..core.posterior import describe_sampler
     sampler = describe_sampler(post.meta.sampler)
-    fig.text(0.06, 0.015, (f"Sampler: {sampler}\n" if sampler else "")
-             + "Default convergence rule of bayescal.core.sampling.mcmc.sample: kept chain >= 50 tau,"
-             " ESS >= 1000 for every parameter,\nsplit R-hat (chain halves) < 1.01.",
-             fontsize=6.5, wrap=True)
+    fig.text(0.06, 0.015, (textwrap.fill(f"Sampler: {sampler}", 150) + "\n" if sampler else "")
+             + "Converged means: the chain kept after burn-in is at least 50 times its "
+             "autocorrelation time (tau), every parameter has at least 1000\neffective samples "
+             "(ESS), and the two halves of the chain agree (split R-hat below 1.01).",
+             fontsize=6.5)
     return fig
 
 
@@ -380,7 +408,7 @@ def _trace_panels(fig, ctx, n_rows, trace_h):
         ax.margins(y=0.35)
         if burn is not None:
             ax.axvline(float(burn), color="k", ls="--", lw=0.8)
-        ax.text(0.01, 0.96, name, transform=ax.transAxes, fontsize=6, va="top",
+        ax.text(0.01, 0.96, parameter_label(name), transform=ax.transAxes, fontsize=6, va="top",
                 bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.8, "alpha": 0.85})
         ax.set_ylabel(unit or PARAM_UNITS.get(name.split(":")[-1], ""), fontsize=6)
         ax.tick_params(labelsize=6)
@@ -389,8 +417,8 @@ def _trace_panels(fig, ctx, n_rows, trace_h):
         else:
             ax.tick_params(labelbottom=False)
     fig.text(0.1, 0.93 - trace_h - 0.045,
-             f"Traces of {len(walkers)} of {tr.shape[1]} walkers: orientation in deg "
-             "(tangent-plane angle from the start axis, or azimuth),\nperiod in s, gain in % "
+             f"Traces of {len(walkers)} of {tr.shape[1]} walkers: axis direction in deg from "
+             "the sampler's start axis (two offsets), or azimuth in deg;\nperiod in s, gain in % "
              "off metadata; dashed line: end of burn-in (samples after it are kept).",
              fontsize=7, va="top")
 
@@ -402,8 +430,8 @@ def _convergence_table(fig, ctx, table_top, table_h):
     ax = fig.add_axes([0.06, table_top - table_h, 0.6, table_h])
     ax.axis("off")
     per = conv["per_parameter"]
-    cells = [[n, f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}", f"{per[n]['rhat']:.4f}"]
-             for n in names]
+    cells = [[parameter_label(n), f"{per[n]['tau']:.1f}", f"{per[n]['ess']:.0f}",
+              f"{per[n]['rhat']:.4f}"] for n in names]
     ax.set_title(
         f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
         f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; {Convergence.figures(conv)};"

@@ -1,6 +1,13 @@
 """Shared layout of report pages: the page context, style, PNG output,
 number formatting, tables and page headers, and :func:`write_pages`, which
 writes every report's pages into its PDF and PNGs.
+
+One visual style for every report (fit, cal, uvw, noise, diagnose, batch):
+draw inside :func:`style` (fonts, grid, extractable PDF text), head each
+page with :func:`page_header` (bold title, small note at the top left),
+draw lines in :data:`GREYS` with :data:`LINESTYLES` and :data:`MARKERS`,
+put legends beside the axes (:func:`legend_beside`), size tables with
+:func:`fit_columns` and let long text run on with :func:`flow_text`.
 """
 from __future__ import annotations
 
@@ -201,20 +208,67 @@ def summary_table(fig, top, rows, title, with_truth):
     cells = []
     for r in rows:
         c = [r.channel, f"{QUANTITY_NAMES.get(r.quantity, r.quantity)}"
-             f" ({QUANTITY_UNITS.get(r.quantity, '')})",
+             f" ({r.unit or QUANTITY_UNITS.get(r.quantity, '')})",
              fmt_value(r.quantity, r.median), _fmt_ci(r.quantity, r.ci68),
              _fmt_ci(r.quantity, r.ci95), fmt_value(r.quantity, r.nominal), _fmt_dev(r)]
         cells.append(c + ([fmt_value(r.quantity, r.truth)] if with_truth else []) + [r.note])
     fig.text(0.05, top, title, fontweight="bold", va="top")
-    height = ROW_H * (len(rows) + 1)
+    cells, widths, n_lines = fit_columns([labels] + cells, 0.9 * fig.get_figwidth(), TABLE_PT)
+    rows_h = [ROW_H * (1 + LINE_H * (n - 1)) for n in n_lines]
+    height = sum(rows_h)
     ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
     ax.axis("off")
-    tab = ax.table(cellText=cells, colLabels=labels, loc="upper left", cellLoc="left",
+    tab = ax.table(cellText=cells[1:], colLabels=cells[0], loc="upper left", cellLoc="left",
                    colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
     tab.auto_set_font_size(False)
-    tab.set_fontsize(6.5)
-    tab.auto_set_column_width(list(range(len(labels))))
+    tab.set_fontsize(TABLE_PT)
+    for (i, j), cell in tab.get_celld().items():     # matplotlib scales them to the bbox
+        cell.set_width(widths[j])
+        cell.set_height(rows_h[i])
     return top - 0.02 - height - 0.025
+
+
+#: Font size (points) of the summary tables; a wrapped cell's second and
+#: later lines add this fraction of a row's height each.
+TABLE_PT = 6.5
+LINE_H = 0.62
+#: Fraction of a cell's width matplotlib leaves as padding on each side (``Cell.PAD``).
+CELL_PAD = 0.1
+
+
+def _text_width_in(text, size):
+    """Width in inches of ``text`` (its longest line) at ``size`` points."""
+    from matplotlib.backends.backend_agg import RendererAgg
+    from matplotlib.font_manager import FontProperties
+
+    r = RendererAgg(1, 1, 72)
+    prop = FontProperties(size=size)
+    return max(r.get_text_width_height_descent(ln, prop, ismath=False)[0]
+               for ln in str(text).split("\n")) / 72.0
+
+
+def fit_columns(rows, width_in, size):
+    """Column widths for table ``rows`` (header first; lists of strings) so
+    that every cell's text fits its cell within ``width_in`` inches: each
+    column as wide as its widest text, the last column's text (the notes)
+    wrapped into the width left when the columns would not fit.
+
+    Returns ``(rows, widths, lines)``: the rows with wrapped notes, each
+    column's width (fractions summing to 1) and each row's number of lines."""
+    def need(text):
+        return _text_width_in(text, size) / (1 - 2 * CELL_PAD) + 0.02
+
+    widths = [max(need(r[j]) for r in rows) for j in range(len(rows[0]))]
+    spare = width_in - sum(widths[:-1])
+    if widths[-1] > spare:
+        chars = max(len(max((r[-1] for r in rows), key=len)), 12)
+        while chars > 12 and max(need(textwrap.fill(r[-1], chars) or " ") for r in rows) > spare:
+            chars -= 2
+        rows = [r[:-1] + [textwrap.fill(r[-1], chars)] for r in rows]
+        widths[-1] = max(spare, max(need(r[-1] or " ") for r in rows))
+    total = sum(widths)
+    lines = [max(str(c).count("\n") + 1 for c in r) for r in rows]
+    return rows, [w / total for w in widths], lines
 
 
 def _files_line(label, files, width=110):
@@ -285,11 +339,70 @@ def _posterior_lines(summary, m, conv):
         return [f"Posterior: {m.method}, {conv['ess_min']:.0f} independent draws"]
     if posterior_text(summary):
         return textwrap.wrap(f"Posterior: {posterior_text(summary)}", 120)
-    return [f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps,"
-            f" {Convergence.figures(conv)}, converged: {'yes' if conv['converged'] else 'NO'}"]
+    return [sampler_line(conv)]
+
+
+def sampler_line(conv):
+    """One line on a sampler's run from its ``convergence`` entry (as
+    result.json, cal.json and uvw.json hold it), in the words every report uses."""
+    return (f"Sampler: {conv['n_walkers']} walkers x {conv['n_steps']} steps,"
+            f" {Convergence.figures(conv)}, converged: {'yes' if conv['converged'] else 'NO'}")
+
+
+#: Lowest figure fraction a page's text may reach (the page's bottom margin).
+BOTTOM = 0.02
+
+
+def text_extent(fig, artist):
+    """The extent of ``artist`` (a text, table or axes) in figure fractions,
+    as matplotlib's Agg renderer lays it out: ``(x0, y0, x1, y1)``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    box = artist.get_window_extent(fig.canvas.get_renderer())
+    w, h = fig.bbox.width, fig.bbox.height
+    return box.x0 / w, box.y0 / h, box.x1 / w, box.y1 / h
+
+
+def flow_text(fig, x, y, lines, new_page, bottom=BOTTOM, **kw):
+    """Write ``lines`` from figure fraction ``(x, y)`` down (``va="top"``),
+    measuring the text's extent; the lines below ``bottom`` go on to
+    continuation pages, each made by ``new_page()`` as ``(figure, y)``.
+
+    Returns the figures written on, ``fig`` first (one when all fit)."""
+    figs = [fig]
+    lines = list(lines)
+    while lines:
+        art = fig.text(x, y, "\n".join(lines), va="top", **kw)
+        y0 = text_extent(fig, art)[1]
+        n = len(lines)
+        while y0 < bottom and n > 0:              # drop the lines that fall off, measured
+            per_line = (y - y0) / n
+            n = min(n - 1, max(int((y - bottom) / per_line), 0))
+            art.set_text("\n".join(lines[:n]))
+            y0 = text_extent(fig, art)[1] if n else y
+        if n == 0:
+            art.remove()
+        lines = lines[n:]
+        while lines and not lines[0].strip():     # a page does not start blank
+            lines.pop(0)
+        if lines:
+            fig, y = new_page()
+            figs.append(fig)
+    return figs
+
+
+def legend_beside(ax, *args, **kw):
+    """The legend of ``ax`` beside it, to the right of its top edge: never
+    over a curve (the style of every report page; the axes leave room)."""
+    return ax.legend(*args, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                     **kw)
 
 
 def page_header(fig, title, note, width):
+    """A page's title (bold) and its note (small, wrapped to the page's
+    ``width`` in inches) at the top left: the head every report page has."""
     height = fig.get_figheight()
     note = "\n".join(textwrap.fill(par, int(width * 15)) for par in note.split("\n"))
     fig.text(0.02, 1 - 0.15 / height, title, fontsize=11, fontweight="bold", va="top")

@@ -21,7 +21,8 @@ import textwrap
 import numpy as np
 
 from ..core.selfnoise import below_resolution, db
-from .layout import A4, LINESTYLES, MARKERS, style, write_pages
+from ..atomic import record_written  # noqa: E402
+from .layout import A4, LINESTYLES, MARKERS, legend_beside, style, write_pages
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
 #: Periods (s) of the table under the figure (nearest band; outside the band left out).
@@ -56,6 +57,18 @@ def _table_lines(comp):
     return lines
 
 
+def short_ids(ids):
+    """Channel ids without the leading NET.STA.LOC parts they all share
+    (``["II.XPFO.00.BHZ", "II.XPFO.10.BHZ"]`` -> ``["00.BHZ", "10.BHZ"]``;
+    one id -> its channel code), for legends beside a page that names them."""
+    parts = [str(c).split(".") for c in ids]
+    n = min(len(p) for p in parts) if parts else 0
+    keep = 1
+    while keep < n and len({tuple(p[-keep:]) for p in parts}) < len(parts):
+        keep += 1
+    return [".".join(p[-keep:]) for p in parts]
+
+
 def draw_estimates(ax, e, ids):
     """Draw self-noise estimates on ``ax``: each channel's estimate with its
     interval band and its recorded PSD (dotted), and Peterson's NLNM and
@@ -76,30 +89,50 @@ def draw_estimates(ax, e, ids):
     ax.semilogx(pl, nl, color="0.25", lw=1.6, label="NLNM")
     ax.semilogx(ph, nh, color="0.6", lw=1.6, label="NHNM")
     lo_db, hi_db = db(e.lo), db(e.hi)
-    finite_lo = lo_db[np.isfinite(lo_db)]
-    bottom = max((finite_lo.min() if finite_lo.size else -220.0) - 5, -240.0)
-    top = max(np.nanmax(db(e.signal)) + 10, -90.0)
-    for i, cid in enumerate(ids):
+    bottom, top = _db_range(per, lo_db, db(e.psd), db(e.signal), (pl, nl), (ph, nh))
+    for i, cid in enumerate(short_ids(ids)):
         c, ls = COLOURS[i % len(COLOURS)], LINESTYLES[i % len(LINESTYLES)]
         ax.semilogx(per, db(e.signal[i, order]), color=c, lw=0.7, ls=":", label=f"{cid} recorded")
         lo = np.where(np.isfinite(lo_db[i, order]), lo_db[i, order], bottom)
         hi = np.where(np.isfinite(hi_db[i, order]), hi_db[i, order], top)
         ax.fill_between(per, lo, hi, color=c, alpha=0.22, lw=0)
         below = below_resolution(np.asarray(e.lo)[i, order])
-        ax.semilogx(per, np.where(below, np.nan, db(e.psd[i, order])), color=c, ls=ls, lw=1.3,
-                    marker=MARKERS[i % len(MARKERS)], ms=2.5,
-                    label=f"{cid} self-noise, {round(100 * e.level)} % band")
+        shown = np.where(below, np.nan, db(e.psd[i, order]))
+        ax.semilogx(per, shown, color=c, ls=ls, lw=1.3, marker=MARKERS[i % len(MARKERS)], ms=2.5,
+                    label=f"{cid} self-noise, {round(100 * e.level)} % band"
+                    if np.isfinite(shown).any() else "_not drawn")   # below resolution throughout
         bound = below & np.isfinite(hi_db[i, order]) & (hi_db[i, order] > bottom)
         if bound.any():
             ax.semilogx(per[bound], hi_db[i, order][bound], ls="none",
                         marker=UPPER_BOUND_MARKER, ms=6, color=c,
-                        label=f"{cid} below resolution: upper bound")
+                        label=f"{cid} upper bound (below resolution)")
     ax.set_xlim(per.min() * 0.9, per.max() * 1.1)
     ax.set_ylim(bottom, top)
     ax.set_xlabel("period (s)")
     ax.set_ylabel("PSD, dB re 1 (m/s$^2$)$^2$/Hz")
     ax.grid(True, which="major", lw=0.4)
-    ax.legend(fontsize=6.5, loc="upper left", ncol=2)
+    # beside the axes, never over a curve
+    legend_beside(ax, fontsize=6.5)
+
+
+#: How far (dB) below the lowest of the NLNM and the estimates the axes
+#: reach: a band reaching lower runs to the axes' bottom (its lower end is
+#: then not resolved, as for a band reaching zero power).
+BAND_DEPTH_DB = 25.0
+
+
+def _db_range(per, lo_db, psd_db, signal_db, nlnm, nhnm):
+    """(bottom, top) of the PSD axis in dB: the estimates, the recordings
+    and Peterson's NLNM and NHNM over the periods ``per`` shown; interval
+    bands reach down to :data:`BAND_DEPTH_DB` below the lowest of those."""
+    shown = [np.interp(per, *m)[(per >= m[0].min()) & (per <= m[0].max())] for m in (nlnm, nhnm)]
+    values = np.concatenate([np.ravel(psd_db), np.ravel(signal_db), *shown])
+    values = values[np.isfinite(values)]
+    lowest, highest = (values.min(), values.max()) if values.size else (-200.0, -90.0)
+    finite_lo = lo_db[np.isfinite(lo_db)]
+    bottom = max(min(finite_lo.min() if finite_lo.size else lowest, lowest) - 5,
+                 lowest - BAND_DEPTH_DB)
+    return bottom, highest + 10
 
 
 def figure_component(comp, result=None):
@@ -108,7 +141,7 @@ def figure_component(comp, result=None):
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=A4)
-    ax = fig.add_axes([0.1, 0.42, 0.86, 0.48])
+    ax = fig.add_axes([0.1, 0.42, 0.6, 0.48])
     draw_estimates(ax, comp.estimate, comp.ids)
     how = "median over pairs of the other sensors" if len(comp.ids) > 3 else "three sensors"
     fig.text(0.04, 0.975, f"Self-noise, component {comp.component}", fontsize=12,
@@ -123,11 +156,11 @@ def figure_component(comp, result=None):
                    f"Interval: {m.get('method')} bootstrap, {m.get('n_boot')} replicates"
                    + ("" if allowance is None else
                       f", axis-mismatch allowance {allowance:g} rad rms") + ".")
-    fig.text(0.04, 0.945, "\n".join(textwrap.fill(t, 125) for t in sub), fontsize=7.5,
+    fig.text(0.04, 0.945, "\n".join(textwrap.fill(t, 115) for t in sub), fontsize=7.5,
              va="top")
-    lines = ["Self-noise, dB re 1 (m/s^2)^2/Hz, [90 % interval] at the band nearest each "
-             "period; '< X below resolution': the interval reaches zero power, X is its upper "
-             "bound.", ""]
+    lines = textwrap.wrap("Self-noise, dB re 1 (m/s^2)^2/Hz, [90 % interval] at the band "
+                          "nearest each period; '< X below resolution': the interval reaches "
+                          "zero power, X is its upper bound.", 110) + [""]
     lines += _table_lines(comp)
     fig.text(0.04, 0.34, "\n".join(lines), family="monospace", fontsize=6.5, va="top")
     return fig
@@ -190,4 +223,6 @@ def write_report_from_folder(folder, paper="a4"):
     """Redraw the figures of a ``bayescal noise`` folder from its files
     (:func:`read_result`, :func:`write_figures`; A4 pages whatever
     ``paper``); returns the paths written."""
-    return write_figures(read_result(folder), folder)
+    paths = write_figures(read_result(folder), folder)
+    record_written(folder, [os.path.basename(p) for p in paths])
+    return paths

@@ -41,6 +41,23 @@ def _rows(est, rows):
                            **{k: getattr(est, k)[rows] for k in ("psd", "lo", "hi", "signal")})
 
 
+#: The basis's formulas in words (result.json keeps the formulas; docs/science.md).
+PLAIN = {"diag(S_uu - S_ur T^H) and diag(S_rr - T^+ S_ur) with the fitted transfer T":
+         "each channel's power that the other sensor does not explain (what remains when "
+         "the fitted transfer between the sensors takes the common ground motion out)",
+         "Wishart variance of the band spectra plus the scatter over posterior draws of T":
+         "the spectra's own scatter plus the spread over posterior draws of the fitted "
+         "transfer",
+         "T absorbs": "the fitted transfer absorbs"}
+
+
+def plain_basis(basis):
+    """result.json's ``self_noise.basis`` in words for an instrument engineer."""
+    for formula, words in PLAIN.items():
+        basis = basis.replace(formula, words)
+    return basis
+
+
 def page_self_noise(ctx):
     """The self-noise page, or None when result.json has no ``self_noise``."""
     from matplotlib.figure import Figure
@@ -53,7 +70,7 @@ def page_self_noise(ctx):
     fig = Figure(figsize=ctx.page)
     fig.text(0.06, 0.965, "Self-noise of both sensors", fontsize=13, fontweight="bold")
     est, ids = _as_estimate(entry["channels"])
-    lines = textwrap.wrap(f"How: {entry['basis']}.", 110)
+    lines = textwrap.wrap(f"How: {plain_basis(entry['basis'])}.", 110)
     if self_noise_text(ctx.summary):
         lines += textwrap.wrap(f"Model: {self_noise_text(ctx.summary)}.", 110)
     lines += textwrap.wrap(f"Units: {entry.get('units', '')}.", 110)
@@ -75,7 +92,7 @@ def page_self_noise(ctx):
         groups = [(name, rows) for name, rows in groups if rows]
         height = 0.74 / len(groups)
         for k, (name, rows) in enumerate(groups):
-            ax = fig.add_axes([0.1, 0.08 + (len(groups) - 1 - k) * height, 0.86,
+            ax = fig.add_axes([0.1, 0.08 + (len(groups) - 1 - k) * height, 0.6,
                                height - 0.06])
             draw_estimates(ax, _rows(est, rows), [ids[i] for i in rows])
             ax.set_title(name, fontsize=9, loc="left")

@@ -32,6 +32,7 @@ class Row:
     deviation: float | None
     note: str = ""
     truth: float | None = None
+    unit: str | None = None    # the metadata's (a gain's, e.g. "V/(m/s)"); None: the quantity's
 
 
 def wrap180(x):
@@ -170,9 +171,12 @@ def response_rows(summary, truth=None):
                 dev, note = None, note or "gain-only metadata: no nominal to deviate from"
             if entry.get("set_by_prior") and entry.get("action", "").startswith("not measured"):
                 # the prior's value is not a measurement: no number is shown
-                rows.append(Row(cid, name, None, None, None, n, None, note, true))
+                rows.append(Row(cid, name, None, None, None, n, None, note, true,
+                                nom.get("gain_units") if name == "gain" else None))
                 continue
-            rows.append(interval_row(cid, name, entry, n, dev, note, truth=true))
+            row = interval_row(cid, name, entry, n, dev, note, truth=true)
+            row.unit = nom.get("gain_units") if name == "gain" else None
+            rows.append(row)
     return rows
 
 
