@@ -207,7 +207,7 @@ def _print_notes(summary, stream):
     c = summary["convergence"]
     laplace = posterior_text(summary)
     print(f"convergence: {laplace}" if laplace else f"convergence: {Convergence.figures(c)}, "
-          f"tau max {c['tau_max']:.1f}, {c['n_steps']} steps", file=stream)
+          f"autocorrelation time up to {c['tau_max']:.1f} steps, {c['n_steps']} steps", file=stream)
 
 
 def _print_check(summary, stream):

@@ -434,7 +434,7 @@ def _convergence_table(fig, ctx, table_top, table_h):
               f"{per[n]['rhat']:.4f}"] for n in names]
     ax.set_title(
         f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
-        f" {conv['n_steps']} steps; tau max {conv['tau_max']:.1f}; {Convergence.figures(conv)};"
+        f" {conv['n_steps']} steps; autocorrelation time up to {conv['tau_max']:.1f} steps; {Convergence.figures(conv)};"
         f" converged: {'yes' if conv['converged'] else 'NO'}",
         loc="left", fontsize=7.5)
     tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
@@ -496,6 +496,6 @@ def page_rejected_fit(ctx):
         y = summary_table(fig, y, resp, "Response under the rejected fit", bool(ctx.truth))
     c = rejected.get("convergence") or {}
     if c:
-        fig.text(0.06, y, f"Its sampler: {Convergence.figures(c)}, tau max {c['tau_max']:.1f}, "
+        fig.text(0.06, y, f"Its sampler: {Convergence.figures(c)}, autocorrelation time up to {c['tau_max']:.1f} steps, "
                  f"{c['n_steps']} steps.", va="top", fontsize=8)
     return fig
