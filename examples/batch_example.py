@@ -7,9 +7,10 @@ not), calibrates every station-day on a local Dask cluster (the same as
 copies the network's tables and report into ``--out``:
 
     results.csv   one row per station-day and SUT channel
-    flags.csv     stations off nominal / changed between days
+    flags.csv     flags per pair (a SUT channel against its reference channels):
+                  off nominal, or changed between days
     report.pdf    summary page + orientation against time per station
-    report.png    the orientation page
+    report.png    the first orientation page
     truth.json    what the simulation put in
 
 The archive and the per-pair result folders (posterior samples, a few MB)
@@ -29,12 +30,14 @@ def main():
     from bayescal.network.batch import run_batch
     from bayescal.simulate.network import write_network
     from bayescal.network.plan import default_options, sds_plan
+    from bayescal.report.batch import FLAG_THRESHOLD_DEG
 
     ap = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--out", default="reports/batch")
     ap.add_argument("--work", help="folder for the archive and the per-pair results")
     ap.add_argument("--workers", type=int, help="Dask workers (default: one per core)")
-    ap.add_argument("--threshold", type=float, default=2.0, help="flag threshold, degrees")
+    ap.add_argument("--threshold", type=float, default=FLAG_THRESHOLD_DEG,
+                    help=f"flag threshold, degrees (default {FLAG_THRESHOLD_DEG:g}, as bayescal batch)")
     args = ap.parse_args()
 
     work = args.work or tempfile.mkdtemp(prefix="bayescal_batch_")
@@ -50,7 +53,8 @@ def main():
     print(f"{s['computed']} calibrated, {s['skipped']} already done, {s['failed']} failed")
     for f in s["flag_list"]:
         when = f"{f['previous_day']} -> {f['day']}" if f["flag"] == "changed" else f["day"]
-        print(f"  flagged {f['channel']} {f['quantity']} {f['flag']} {when}: "
+        print(f"  flagged {f['channel']} (against {f['reference_channels']}) {f['quantity']} "
+              f"{f['flag']} {when}: "
               f"{f['value']:+.2f} {f['unit']} [{f['lo95']:+.2f}, {f['hi95']:+.2f}]")
     os.makedirs(args.out, exist_ok=True)
     for name in ("results.csv", "flags.csv", "report.pdf", "report.png"):

@@ -27,7 +27,7 @@ UNIT = "model evaluations"
 #: The work budgets of a pair fit's stages (:func:`bayescal.core.fit.run.fit_spectra`):
 #: the least squares, the mode search and the sampler, whose ``max_steps``,
 #: when not given, is what ``SAMPLE_WORK`` leaves over its walkers after the
-#: burn-in (7350 steps at 40 walkers, 4850 at 60: about twice the longest
+#: burn-in (7348 steps at 40 walkers, 4848 at 60: about twice the longest
 #: chain that met the convergence rule on the speed benchmarks and the
 #: awkward inputs, 2562 steps at 60 walkers). The least squares and the mode
 #: search use 408 and 4504 on `period_3x_all` (docs/validation/speed.md,
