@@ -159,7 +159,7 @@ def add_sampling_argument(parser):
     parser.add_argument("--max-steps", type=int, default=None, metavar="N",
                         help="most steps a sampler runs before it stops without meeting its "
                              f"convergence rule (default: what {SAMPLE_WORK} model evaluations "
-                             "allow, 7350 steps at 40 walkers; the run then ends with exit "
+                             "allow, 7348 steps at 40 walkers; the run then ends with exit "
                              "code 3 and says so)")
 
 
