@@ -26,6 +26,8 @@ relative orientation does not change within the record, so per channel:
 
     python validation/studies/short_windows.py --out validation/results/repeatability/short_windows.json
     python validation/studies/short_windows.py --every 3     # every third window (34 of 102)
+    python validation/studies/short_windows.py --own-scale-prob 0.25 --scale-floor \
+        --out validation/results/repeatability/short_windows_pooled.json   # the pooled scale
 """
 from __future__ import annotations
 
@@ -151,6 +153,10 @@ def _arguments(argv):
     ap.add_argument("--modes", nargs="+", default=["drop"], choices=["drop", "keep"])
     ap.add_argument("--misfit-shape", type=float, default=None,
                     help="the fit's misfit-scale shape (inf: Gaussian); default: the fit's own")
+    ap.add_argument("--own-scale-prob", type=float, default=None,
+                    help="each band's prior probability of its own noise scale; default: the fit's")
+    ap.add_argument("--scale-floor", action="store_true",
+                    help="every noise scale at least 1 (misfit_scale.SCALE_FLOOR on)")
     ap.add_argument("--summarise", action="store_true",
                     help="recompute the summary of the windows stored beside --out")
     return ap.parse_args(argv)
@@ -165,8 +171,13 @@ def main(argv=None):
         print(json.dumps(result["summary"], indent=1))
         return
     from obspy import UTCDateTime
+    from bayescal.core.model import misfit_scale
     from bayescal.io import read_waveforms
     warnings.simplefilter("ignore")
+    if args.own_scale_prob is not None:
+        misfit_scale.OWN_SCALE_PROB = args.own_scale_prob
+    if args.scale_floor:
+        misfit_scale.SCALE_FLOOR = True
     data = (read_waveforms(str(COWI / "C100823215422_COWI.LHx")),
             read_waveforms([str(COWI / "DT000110.LH1"), str(COWI / "DT000110.LH2")]))
     t0, t1 = UTCDateTime(START), UTCDateTime(END)
@@ -192,9 +203,14 @@ def main(argv=None):
     shape = "default" if args.misfit_shape is None else args.misfit_shape
     command = ("python validation/studies/short_windows.py"
                + ("" if args.every == 1 else f" --every {args.every}")
-               + ("" if args.misfit_shape is None else f" --misfit-shape {args.misfit_shape:g}"))
+               + ("" if args.misfit_shape is None else f" --misfit-shape {args.misfit_shape:g}")
+               + ("" if args.own_scale_prob is None
+                  else f" --own-scale-prob {args.own_scale_prob:g}")
+               + (" --scale-floor" if args.scale_floor else ""))
     result = {"command": command, "band_hz": list(BAND), "minutes": args.minutes,
               "every": args.every, "modes": args.modes, "misfit_shape": shape,
+              "own_scale_prob": misfit_scale.OWN_SCALE_PROB,
+              "scale_floor": misfit_scale.SCALE_FLOOR,
               "whole_record": whole, "summary": summarise(rows, whole, args.modes), "runs": rows}
     study_results.write(args.out, result)
     print(json.dumps(result["summary"], indent=1))
