@@ -31,6 +31,7 @@ from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
 from .inflation import lag_one_scatter, overlapping_segments, shrunk_inflation
 from .likelihood import Model
+from .noise_range import NoiseRange
 from ..priors import Priors
 
 
@@ -84,7 +85,8 @@ class EIVModel(Model):
         # mode 'estimate': the reference's noise is kept within what the
         # spectra admit (never negative beyond their sampling error, never
         # more than the incoherent power they show)
-        self._bounds = refnoise.admissible_noise(spectra) if ref_noise == "estimate" else None
+        self._bounds = (NoiseRange(self._shapes, *refnoise.admissible_noise(spectra))
+                        if ref_noise == "estimate" else None)
         # mode 'equal' has combinations of the statistic with (near) zero
         # variance whose plug-in error would dominate: directions under 1 %
         # of the largest variance are dropped; 'estimate' keeps everything
@@ -291,7 +293,7 @@ class EIVModel(Model):
             return False
         coef = self.statistic(np.atleast_2d(theta)[:1])[1][0]
         d = (self._shapes * coef[None]).sum(axis=-1)                       # (B, nr)
-        lo, hi = self._bounds
+        lo, hi = self._bounds.lower, self._bounds.upper
         tol = 1e-6 * (hi - lo)
         return bool(np.any((d >= hi - tol) | (d <= lo + tol)))
 
