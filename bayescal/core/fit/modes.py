@@ -56,6 +56,7 @@ from scipy.special import gammaincinv
 from ..orientation.geometry import Circle, Sphere, azimuth_dip
 from ..model.jacobian import forward_jacobian as _jacobian
 from ..model.jacobian import least_squares_objective
+from ...errors import BudgetSpent
 from .leastsq import solve
 from .unconstrained import information, pendulum_precision, prior_bounds
 
@@ -117,16 +118,21 @@ def theta_for(model, vectors, theta_response):
 
 def _polish(model, theta, factors, budget=None):
     """Least squares from ``theta`` with the noise model held fixed (within
-    ``budget``: :func:`bayescal.core.fit.leastsq.solve`)."""
+    ``budget``: :func:`bayescal.core.fit.leastsq.solve`). Raises
+    :class:`~bayescal.errors.BudgetSpent` when the budget ended it before it
+    converged: its point is then no optimum."""
     lo, hi = prior_bounds(model)
     theta = np.clip(theta, lo + 1e-9, hi - 1e-9)
     with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
-        return _least_squares(model, theta, factors, lo, hi, budget)
+        res = _least_squares(model, theta, factors, lo, hi, budget)
+    if res.status == -3:
+        raise BudgetSpent(res.message)
+    return res.x
 
 
 def _least_squares(model, theta, factors, lo, hi, budget):
     fun, jac = least_squares_objective(model, _jacobian(model))
-    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget).x
+    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget)
 
 
 def curvature(log_prob, theta, step):
@@ -294,7 +300,7 @@ def _from_starts(model, theta_ls, nominal_vectors, factors, budget):
     """The optima from the first fit's point and the other starts:
     ``(found, returned, skipped)``, the distinct optima (the first fit's
     first), the starts that came back to it and those ``budget`` left
-    untried."""
+    untried or cut off before their polish converged."""
     first = optimum(model, theta_ls, "closed-form start (the first fit)", factors)
     found, returned, skipped = [first], 0, 0
     for label, v in starts(model, theta_ls, nominal_vectors):
@@ -304,6 +310,9 @@ def _from_starts(model, theta_ls, nominal_vectors, factors, budget):
         chart = recharted(model, v)
         try:
             o = optimum(chart, theta_for(chart, v, theta_ls), label, factors, first, budget)
+        except BudgetSpent:         # cut off mid-polish: not an optimum, not a mode
+            skipped += 1
+            continue
         except (np.linalg.LinAlgError, ValueError):
             continue
         if o is None:
@@ -319,9 +328,9 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
     is the first fit's) and the ``multimodal`` entry of result.json.
 
     ``budget`` (a :class:`bayescal.core.budget.Budget`): the search's work;
-    once spent, the starts not yet tried are skipped (the report's
-    ``not_tried`` and ``budget`` say so) and a start being polished ends at
-    its best point."""
+    once spent, the starts not yet tried are skipped and a start being
+    polished is cut off, counted with them (the report's ``not_tried`` and
+    ``budget`` say so), never as a mode."""
     factors = model.noise.cholesky()
     with (budget.active() if budget is not None else contextlib.nullcontext()):
         found, returned, skipped = _from_starts(model, theta_ls, nominal_vectors, factors, budget)
