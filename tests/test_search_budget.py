@@ -74,3 +74,23 @@ def test_a_start_cut_off_mid_polish_is_not_a_mode(fitted, monkeypatch):
     assert budget.ended_by == "work"
     assert [m["start"][:13] for m in cut["modes"]] == ["closed-form s"]
     assert cut["not_tried"] == len(labels) - mirrored     # it and the starts after it
+
+
+def test_joint_mirror_ruled_out_ends_where_the_single_starts_did(fitted, monkeypatch):
+    """On this pair one channel's mirrored start ends away from the first fit
+    and the others come back: the start with every axis mirrored is ruled
+    out (not polished), and the modes are those the search finds when it
+    is polished (same starts' labels, log-posteriors within 1e-6)."""
+    model, theta = fitted.model, fitted.theta_ls
+    _, ruled = modes.search(model, theta)
+    assert ruled["ruled_out"] == 1
+    monkeypatch.setattr(modes, "_ruled_out", lambda *a: False)
+    _, full = modes.search(model, theta)
+    assert "ruled_out" not in full
+    assert full["starts"] == ruled["starts"] + 1
+    kept = {m["start"]: m["log_posterior_difference"] for m in ruled["modes"]}
+    for m in full["modes"]:
+        if m["start"] in kept:
+            assert m["log_posterior_difference"] == pytest.approx(kept[m["start"]], abs=1e-6)
+        else:       # the joint start: merged with, or far below, what the single starts found
+            assert m["start"] == modes.JOINT and m["mass_fraction"] < 1e-6
