@@ -177,3 +177,32 @@ def test_bounded_minimum_is_the_best_face_by_enumeration():
         for k, poly in enumerate(rng_.polygons):
             kinds.add(int(np.sum(poly.b - poly.a @ c[w, k] <= 1e-9 * np.abs(poly.b).max())))
     assert {0, 1, 2} <= kinds                      # inside, on an edge, at a vertex
+
+
+def test_face_numbers_name_the_faces_the_sweep_lands_on():
+    """Channels whose polygons have different numbers of edges: the face
+    number a sweep reports for each channel's point is the table entry
+    whose affine map holds that point (a vertex's is the point itself)."""
+    rng = np.random.default_rng(3)
+    for _ in range(50):          # the first draw whose channels' polygons differ in edges
+        shapes = rng.uniform(0.2, 1.0, (3, 2, 2))
+        r = noise_range.NoiseRange(shapes, -rng.uniform(0.02, 0.3, (3, 2)),
+                                   rng.uniform(0.3, 1.5, (3, 2)))
+        if len({p.x0.shape[0] for p in r.polygons}) > 1:
+            break
+    assert len({p.x0.shape[0] for p in r.polygons}) > 1
+    seen = set()
+    for k, poly in enumerate(r.polygons):
+        a = rng.standard_normal((400, 2, 2))
+        h = a @ np.swapaxes(a, 1, 2) + 0.3 * np.eye(2)
+        g = 4 * rng.standard_normal((400, 2))
+        x, face = noise_range._polygon_face(h, g, poly, r.n_edges)
+        p, a1, kind = r.faces[0][k, face], r.faces[2][k, face], r.faces[4][k, face]
+        scale = np.abs(x).max()
+        vertex, edge = kind == 2, kind == 1
+        np.testing.assert_allclose(x[vertex], p[vertex], atol=1e-9 * scale)
+        on_line = np.einsum("wi,wi->w", a1[edge], x[edge] - p[edge])
+        np.testing.assert_allclose(on_line, 0.0, atol=1e-9 * scale)
+        assert np.all(kind >= 0)
+        seen |= set(kind.tolist())
+    assert {0, 1, 2} <= seen

@@ -79,10 +79,11 @@ def polygon_minimum(h, g, poly):
     return _polygon_face(h, g, poly)[0]
 
 
-def _polygon_face(h, g, poly):
+def _polygon_face(h, g, poly, n=None):
     """:func:`polygon_minimum` and the face it lies on, (W,): 0 free, ``1 +
-    e`` inside edge ``e``, ``1 + E + 2 e`` (``+ 1``) at its ``lo`` (``hi``)
-    end."""
+    e`` inside edge ``e``, ``1 + n + 2 e`` (``+ 1``) at its ``lo`` (``hi``)
+    end, ``n`` the number of edges faces are counted for (None: the
+    polygon's own)."""
     a, b, x0, v, lo, hi, usable = poly[:7]
     tol = 1e-12 * (np.abs(b).max() + 1e-300)
     free = -np.linalg.solve(h, g[..., None])[..., 0]                       # (W, 2)
@@ -97,7 +98,7 @@ def _polygon_face(h, g, poly):
     rows = np.arange(h.shape[0])
     tb = t[rows, best]
     edge = x0[best] + tb[:, None] * v[best]
-    n = x0.shape[0]
+    n = x0.shape[0] if n is None else n
     face = np.where(tb == lo[best], 1 + n + 2 * best,
                     np.where(tb == hi[best], 2 + n + 2 * best, 1 + best))
     return np.where(ok[:, None], free, edge), np.where(ok, 0, face)
@@ -134,7 +135,7 @@ class NoiseRange:
         self.polygons = [polygon_edges(np.concatenate([-shapes[:, k, :], shapes[:, k, :]]),
                                        np.concatenate([-lower[:, k], upper[:, k]]))
                          for k in range(shapes.shape[1])]
-        n = max(p.x0.shape[0] for p in self.polygons)
+        n = self.n_edges = max(p.x0.shape[0] for p in self.polygons)
         self.faces = [np.stack(t) for t in zip(*(_face_table(p, n) for p in self.polygons))]
         # every channel's lines (n_r, L, 2) and (n_r, L), the right-hand sides
         # with their tolerance; its edges' unit normals and offsets, (n_r, n, ...)
@@ -211,7 +212,7 @@ class NoiseRange:
         c, todo = np.zeros((nw, nr, 2)), np.arange(nw)
         for sweep in range(BOUNDED_SWEEPS):
             before = c[todo]
-            cs, faces = _sweep(h[todo], grad[todo], before.copy(), self.polygons)
+            cs, faces = _sweep(h[todo], grad[todo], before.copy(), self.polygons, self.n_edges)
             c[todo] = cs
             exact, ok = self.face_minimum(h[todo], grad[todo], faces)
             c[todo[ok]] = exact[ok]
@@ -224,7 +225,7 @@ class NoiseRange:
         return c
 
 
-def _sweep(h, grad, c, polygons):
+def _sweep(h, grad, c, polygons, n):
     """One sweep of block coordinate descent (``c`` updated in place) and
     each channel's face at its end, (W, n_r)."""
     nw, nr, _ = c.shape
@@ -233,5 +234,5 @@ def _sweep(h, grad, c, polygons):
     for k in range(nr):
         g = grad.reshape(nw, nr, 2)[:, k] + np.einsum("wilj,wlj->wi", hb[:, k], c) \
             - np.einsum("wij,wj->wi", hb[:, k, :, k], c[:, k])
-        c[:, k], faces[:, k] = _polygon_face(hb[:, k, :, k], g, polygons[k])
+        c[:, k], faces[:, k] = _polygon_face(hb[:, k, :, k], g, polygons[k], n)
     return c, faces
