@@ -13,7 +13,6 @@ models its cause.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import gammaincc
 
 #: Family-wise false-alarm level of the mismatch test (Bonferroni over cells).
 ALPHA = 0.01
@@ -22,6 +21,8 @@ ALPHA = 0.01
 def band_p_values(misfit, n_r):
     """Upper-tail p-value of each standardised misfit cell: ``P(Gamma(n_r, 1)
     >= n_r * misfit)``."""
+    from scipy.special import gammaincc   # on use: the criticism's constants load without it
+
     return gammaincc(n_r, n_r * np.asarray(misfit, float))
 
 

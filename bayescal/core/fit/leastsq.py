@@ -19,6 +19,8 @@ information at the end point.
 """
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from scipy.optimize import least_squares
 
@@ -118,21 +120,25 @@ def refine(fun, theta0, lo, hi, reestimate, passes, *, noise_args=tuple, method=
     ``theta`` (unbounded for "lm", in the box for "trf").
 
     ``budget`` (:func:`solve`): once spent, no further pass runs; the
-    point is the best one evaluated.
+    point is the best one evaluated. The noise model's re-estimates and
+    the final Jacobian count into it too (it is active throughout; they
+    run whatever is left, so that the point has its noise model and
+    covariance).
     """
-    theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
-    if reestimate_first:
-        reestimate(theta)
-    for _ in range(passes):
-        res = solve(fun, theta, lo, hi, method=method, jac=jac, args=noise_args(),
-                    budget=budget, **TIGHT, **kw)
-        if not np.isfinite(res.x).all():
-            raise FitError("least squares left the finite parameter range (a non-finite "
-                           "residual); check the responses and the band")
-        theta = res.x
-        reestimate(theta)
-        if budget is not None and budget.spent():
-            break
-    j = jacobian(fun, theta, jac=jac, args=noise_args(),
-                 **({} if method == "lm" else dict(bounds=(lo, hi), **kw)))
+    with (budget.active() if budget is not None else contextlib.nullcontext()):
+        theta = np.clip(np.asarray(theta0, float), lo + 1e-9, hi - 1e-9)
+        if reestimate_first:
+            reestimate(theta)
+        for _ in range(passes):
+            res = solve(fun, theta, lo, hi, method=method, jac=jac, args=noise_args(),
+                        budget=budget, **TIGHT, **kw)
+            if not np.isfinite(res.x).all():
+                raise FitError("least squares left the finite parameter range (a non-finite "
+                               "residual); check the responses and the band")
+            theta = res.x
+            reestimate(theta)
+            if budget is not None and budget.spent():
+                break
+        j = jacobian(fun, theta, jac=jac, args=noise_args(),
+                     **({} if method == "lm" else dict(bounds=(lo, hi), **kw)))
     return theta, covariance(j, scale)

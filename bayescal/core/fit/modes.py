@@ -13,7 +13,11 @@ therefore also run from other starts:
   the ground hardly moves along ``w`` (a wavefield polarised in a plane, a
   single Rayleigh wave's radial-vertical plane) the two fit equally well;
   when it moves, the mirrored start falls back to the first optimum or ends
-  far below it;
+  far below it. A channel's axis enters only its own rows of the residual,
+  so the start with every axis mirrored is polished only when two or more
+  single mirrors ended away from the first fit: otherwise the data hold the
+  axes whose mirrors came back, and it would end where a single start did
+  (``ruled_out`` in the report);
 * **nominal axes** from the metadata (when they differ from the optimum by
   more than ``SAME_AXIS_DEG``).
 
@@ -56,6 +60,7 @@ from scipy.special import gammaincinv
 from ..orientation.geometry import Circle, Sphere, azimuth_dip
 from ..model.jacobian import forward_jacobian as _jacobian
 from ..model.jacobian import least_squares_objective
+from ...errors import BudgetSpent
 from .leastsq import solve
 from .unconstrained import information, pendulum_precision, prior_bounds
 
@@ -65,6 +70,9 @@ MODE_MASS = 0.01
 OVERLAP_LEVEL = 0.99
 #: A start whose axes all lie within this angle (degrees) of the optimum's is skipped.
 SAME_AXIS_DEG = 1.0
+#: The labels of the mirrored starts: one channel's (after its id), every channel's.
+SINGLE = " mirrored across the weakest ground motion"
+JOINT = "every axis mirrored across the weakest ground motion"
 
 
 @dataclass
@@ -117,16 +125,21 @@ def theta_for(model, vectors, theta_response):
 
 def _polish(model, theta, factors, budget=None):
     """Least squares from ``theta`` with the noise model held fixed (within
-    ``budget``: :func:`bayescal.core.fit.leastsq.solve`)."""
+    ``budget``: :func:`bayescal.core.fit.leastsq.solve`). Raises
+    :class:`~bayescal.errors.BudgetSpent` when the budget ended it before it
+    converged: its point is then no optimum."""
     lo, hi = prior_bounds(model)
     theta = np.clip(theta, lo + 1e-9, hi - 1e-9)
     with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
-        return _least_squares(model, theta, factors, lo, hi, budget)
+        res = _least_squares(model, theta, factors, lo, hi, budget)
+    if res.status == -3:
+        raise BudgetSpent(res.message)
+    return res.x
 
 
 def _least_squares(model, theta, factors, lo, hi, budget):
     fun, jac = least_squares_objective(model, _jacobian(model))
-    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget).x
+    return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget)
 
 
 def curvature(log_prob, theta, step):
@@ -260,12 +273,11 @@ def starts(model, theta, nominal_vectors=None):
         v = vecs.copy()
         v[k] = mirrored[k]
         if moved(v):
-            out.append((f"{model.blocks[k].channel_id} mirrored across the weakest ground "
-                        "motion", v))
+            out.append((f"{model.blocks[k].channel_id}{SINGLE}", v))
     v = vecs.copy()
     v[free] = mirrored[free]
     if len(free) > 1 and moved(v):
-        out.append(("every axis mirrored across the weakest ground motion", v))
+        out.append((JOINT, v))
     if nominal_vectors is not None:
         v = vecs.copy()
         v[free] = np.asarray(nominal_vectors, float)[free]
@@ -292,25 +304,49 @@ def physical(opt):
 
 def _from_starts(model, theta_ls, nominal_vectors, factors, budget):
     """The optima from the first fit's point and the other starts:
-    ``(found, returned, skipped)``, the distinct optima (the first fit's
-    first), the starts that came back to it and those ``budget`` left
-    untried."""
+    ``(found, returned, skipped, ruled_out)``, the distinct optima (the
+    first fit's first), the starts that came back to it, those ``budget``
+    left untried or cut off before their polish converged, and those the
+    data already rule out (:func:`_ruled_out`)."""
     first = optimum(model, theta_ls, "closed-form start (the first fit)", factors)
-    found, returned, skipped = [first], 0, 0
-    for label, v in starts(model, theta_ls, nominal_vectors):
+    found, returned, skipped, ruled_out = [first], 0, 0, 0
+    singles = {"polished": 0, "distinct": 0}
+    todo = starts(model, theta_ls, nominal_vectors)
+    n_single = sum(1 for label, _ in todo if label.endswith(SINGLE) and label != JOINT)
+    for label, v in todo:
         if budget is not None and budget.spent():
             skipped += 1
+            continue
+        if _ruled_out(label, singles, n_single):
+            ruled_out += 1
             continue
         chart = recharted(model, v)
         try:
             o = optimum(chart, theta_for(chart, v, theta_ls), label, factors, first, budget)
+        except BudgetSpent:         # cut off mid-polish: not an optimum, not a mode
+            skipped += 1
+            continue
         except (np.linalg.LinAlgError, ValueError):
             continue
+        if label.endswith(SINGLE) and label != JOINT:
+            singles["polished"] += 1
+            singles["distinct"] += o is not None
         if o is None:
             returned += 1
         else:
             found.append(o)
-    return found, returned, skipped
+    return found, returned, skipped, ruled_out
+
+
+def _ruled_out(label, singles, n_single):
+    """Whether the start ``label`` is one the data already rule out: the
+    start with every axis mirrored, once each axis's own mirrored start has
+    been polished and at most one of them ended away from the first fit.
+    A channel's axis enters only its own rows of the residual, so the
+    channels whose mirrors came back are held by the data, and the joint
+    start would end where the single starts did."""
+    return (label == JOINT and n_single > 0 and singles["polished"] == n_single
+            and singles["distinct"] <= 1)
 
 
 def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
@@ -319,12 +355,13 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
     is the first fit's) and the ``multimodal`` entry of result.json.
 
     ``budget`` (a :class:`bayescal.core.budget.Budget`): the search's work;
-    once spent, the starts not yet tried are skipped (the report's
-    ``not_tried`` and ``budget`` say so) and a start being polished ends at
-    its best point."""
+    once spent, the starts not yet tried are skipped and a start being
+    polished is cut off, counted with them (the report's ``not_tried`` and
+    ``budget`` say so), never as a mode."""
     factors = model.noise.cholesky()
     with (budget.active() if budget is not None else contextlib.nullcontext()):
-        found, returned, skipped = _from_starts(model, theta_ls, nominal_vectors, factors, budget)
+        found, returned, skipped, ruled_out = _from_starts(model, theta_ls, nominal_vectors,
+                                                           factors, budget)
     first = found[0]
     threshold = merge_threshold(model.ndim)
     modes = group(found, threshold)
@@ -336,6 +373,10 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
         "detected": bool(len(modes) > 1 and frac[1:].max() >= mass),
         "returned_to_first": returned, "starts": len(found) + returned + skipped,
         **({"not_tried": skipped, "budget": budget.note()} if skipped else {}),
+        **({"ruled_out": ruled_out, "ruled_out_why": (
+            "the start with every axis mirrored: each axis's own mirrored start was polished "
+            "and at most one ended away from the first fit, so the data hold the others")}
+           if ruled_out else {}),
         "test": (f"least squares from {len(found) + returned} starts (closed form, axes mirrored across the "
                  "weakest ground motion, nominal axes); optima within a Mahalanobis distance of "
                  f"{threshold:.2f} (99 % Laplace ellipsoids touching) are one mode; multimodal "

@@ -7,6 +7,8 @@
 * :mod:`.eiv`          the likelihood when both sensors are noisy (errors in
                        variables)
 * :mod:`.refnoise`     the reference's self-noise statistic and its covariance
+* :mod:`.noise_range`  the reference's noise profiled within the range the
+                       spectra admit
 * :mod:`.noisescale`   the SUT's self-noise held fixed in its counts
 * :mod:`.nodes`        the frequency nodes of the response ratios and their
                        interpolation to the bins

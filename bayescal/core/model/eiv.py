@@ -31,6 +31,7 @@ from . import noisescale, plugin, refnoise
 from ..spectra.dof import band_dof
 from .inflation import lag_one_scatter, overlapping_segments, shrunk_inflation
 from .likelihood import Model
+from .noise_range import NoiseRange
 from ..priors import Priors
 
 
@@ -84,7 +85,8 @@ class EIVModel(Model):
         # mode 'estimate': the reference's noise is kept within what the
         # spectra admit (never negative beyond their sampling error, never
         # more than the incoherent power they show)
-        self._bounds = refnoise.admissible_noise(spectra) if ref_noise == "estimate" else None
+        self._bounds = (NoiseRange(self._shapes, *refnoise.admissible_noise(spectra))
+                        if ref_noise == "estimate" else None)
         # mode 'equal' has combinations of the statistic with (near) zero
         # variance whose plug-in error would dominate: directions under 1 %
         # of the largest variance are dropped; 'estimate' keeps everything
@@ -117,7 +119,8 @@ class EIVModel(Model):
     def _noise_columns(self, nt):
         """(W, B, 2m, n_r) real statistic of reference channel ``k``'s noise
         term at unit size: ``nt``'s column ``k`` alone, as :func:`refnoise.as_real`
-        lays it out (entry ``i n_r + k`` and its imaginary part)."""
+        lays it out (entry ``i n_r + k`` and its imaginary part); ``B`` is
+        ``nt``'s (1 for terms the same in every band)."""
         w, b, nu, nr = nt.shape
         flat = nt.reshape(w, b, nu * nr)
         onehot = self._column_of                                          # (m, nr)
@@ -171,12 +174,11 @@ class EIVModel(Model):
         vecs, ratio = self.unpack(theta)
         t = vecs @ self.ref_pinv
         x0 = refnoise.as_real(self.plain_residual_blocks(vecs, ratio, theta)[:, 0])
-        nt = np.broadcast_to(t[:, None, :, :], (t.shape[0], self.spectra.n_bands) + t.shape[1:])
-        u = self._noise_columns(nt)
+        u = self._noise_columns(t[:, None])             # the same in every band: built once
         f = self._row_factor(ratio)
         if f is not None:
-            x0, u = x0 * f, u * f[..., None]
-        return x0, u
+            return x0 * f, u * f[..., None]
+        return x0, np.broadcast_to(u, x0.shape + u.shape[-1:])
 
     def _row_factor(self, ratio):
         """(W, B, 2m) ``|rho(a0)| / |rho(a)|`` per entry of the statistic
@@ -291,7 +293,7 @@ class EIVModel(Model):
             return False
         coef = self.statistic(np.atleast_2d(theta)[:1])[1][0]
         d = (self._shapes * coef[None]).sum(axis=-1)                       # (B, nr)
-        lo, hi = self._bounds
+        lo, hi = self._bounds.lower, self._bounds.upper
         tol = 1e-6 * (hi - lo)
         return bool(np.any((d >= hi - tol) | (d <= lo + tol)))
 

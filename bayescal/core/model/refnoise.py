@@ -51,6 +51,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .noise_range import NoiseRange
+
 MODES = ("quiet", "estimate", "equal")
 
 #: The mode for pairs of two or more channels on each side, and the default
@@ -198,10 +200,6 @@ def band_matmul(w, x):
     return (w @ xt).reshape(nb, n, nw, k).transpose(2, 0, 1, 3)
 
 
-#: Sweeps over the reference channels of the bounded profile (:func:`_bounded_minimum`).
-BOUNDED_SWEEPS = 50
-
-
 def admissible_noise(spectra):
     """(lower, upper), each (B, n_r): the range of the reference's self-noise
     (band sums) the spectra admit. The upper end is each reference
@@ -227,73 +225,6 @@ def admissible_noise(spectra):
     return -margin, power + margin
 
 
-def _polygon_edges(a, b):
-    """The lines of the polygon ``a x <= b`` (``a`` (L, 2), ``b`` (L,)): a
-    point ``x0`` on each, its direction ``v`` and the feasible range of
-    ``t`` on ``x0 + t v`` (``lo``, ``hi``), and whether the line touches the
-    polygon at all."""
-    norm2 = np.einsum("li,li->l", a, a)
-    x0 = a * (b / norm2)[:, None]                                           # (L, 2) on line l
-    v = np.stack([-a[:, 1], a[:, 0]], axis=1)                               # along line l
-    av = a @ v.T                                                            # (M, L)
-    room = b[:, None] - a @ x0.T                                            # (M, L)
-    crossing = np.abs(av) > 1e-12 * norm2[:, None]          # not parallel (a line and itself are)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = room / av
-    lo = np.max(np.where(crossing & (av < 0), bound, -np.inf), axis=0)      # (L,)
-    hi = np.min(np.where(crossing & (av > 0), bound, np.inf), axis=0)
-    tol = 1e-12 * (np.abs(b).max() + 1e-300)
-    usable = (lo <= hi) & np.all(crossing | (room >= -tol), axis=0)
-    return a, b, x0, v, lo, hi, usable
-
-
-def _polygon_minimum(h, g, edges):
-    """``argmin x^T h x + 2 g^T x`` (``h`` positive definite) over the
-    polygon of :func:`_polygon_edges` (which holds 0; it may be unbounded),
-    per walker: ``h`` (W, 2, 2), ``g`` (W, 2). The minimum is the free one
-    when feasible, else on an edge: each line is searched (the 1-D minimum
-    clipped to the line's feasible segment) and the best point kept."""
-    a, b, x0, v, lo, hi, usable = edges
-    tol = 1e-12 * (np.abs(b).max() + 1e-300)
-    free = -np.linalg.solve(h, g[..., None])[..., 0]                       # (W, 2)
-    ok = np.all(free @ a.T <= b + tol, axis=1)
-    hv, hx0 = h @ v.T, h @ x0.T                                             # (W, 2, L)
-    curv = np.sum(v.T[None] * hv, axis=1)                                   # (W, L)
-    slope = np.sum(v.T[None] * hx0, axis=1) + g @ v.T
-    f0 = np.sum(x0.T[None] * hx0, axis=1) + 2 * (g @ x0.T)
-    t = np.clip(-slope / curv, lo, hi)
-    f = np.where(usable[None], f0 + 2 * t * slope + t * t * curv, np.inf)
-    best = np.argmin(f, axis=1)
-    rows = np.arange(h.shape[0])
-    edge = x0[best] + t[rows, best][:, None] * v[best]
-    return np.where(ok[:, None], free, edge)
-
-
-def _bounded_minimum(h, grad, c, shapes, bounds):
-    """Minimise ``c^T h c + 2 grad^T c`` with each channel's noise ``d_b,k =
-    sum_j c_kj shapes_bkj`` within ``bounds`` = (lower, upper), each (B,
-    n_r), ``lower <= 0 <= upper``: block coordinate descent over
-    the reference channels, each block (its two coefficients, a polygon)
-    solved exactly; the constraints do not couple channels, so this
-    converges to the minimum. ``c`` (W, n_r, 2) a feasible start."""
-    nw, nr, _ = c.shape
-    c = c.copy()
-    hb = h.reshape(nw, nr, 2, nr, 2)
-    lower, upper = bounds
-    polygons = [_polygon_edges(np.concatenate([-shapes[:, k, :], shapes[:, k, :]], axis=0),
-                               np.concatenate([-lower[:, k], upper[:, k]])) for k in range(nr)]
-    for _ in range(BOUNDED_SWEEPS):
-        before = c.copy()
-        for k in range(nr):
-            g = grad.reshape(nw, nr, 2)[:, k] + np.einsum("wilj,wlj->wi", hb[:, k], c) \
-                - np.einsum("wij,wj->wi", hb[:, k, :, k], c[:, k])
-            c[:, k] = _polygon_minimum(hb[:, k, :, k], g, polygons[k])
-        scale = np.maximum(np.abs(c).max(axis=(1, 2)), 1e-300)
-        if nr == 1 or np.all(np.abs(c - before).max(axis=(1, 2)) <= 1e-10 * scale):
-            break
-    return c
-
-
 def profile_columns(x0, u, shapes, w, bounds=None):
     """The reference's noise profiled out of the statistic ``x0 + G c``.
 
@@ -317,11 +248,13 @@ def profile_columns(x0, u, shapes, w, bounds=None):
     gram, h, grad = _profile_system(x0, u, shapes, w)
     m_kl, gx = gram[..., 1:, 1:], gram[..., 0, 1:]
     c = -np.linalg.solve(h, grad[..., None])[..., 0].reshape(nw, nr, 2)
+    if bounds is not None and not isinstance(bounds, NoiseRange):
+        bounds = NoiseRange(shapes, *bounds)
     if bounds is not None:
         d = (shapes[None] * c[:, None]).sum(axis=-1)                   # (W, B, nr)
-        out = np.any((d > bounds[1][None]) | (d < bounds[0][None]), axis=(1, 2))
-        if out.any():                                   # from zero noise, which is feasible
-            c[out] = _bounded_minimum(h[out], grad[out], np.zeros_like(c[out]), shapes, bounds)
+        out = np.any((d > bounds.upper[None]) | (d < bounds.lower[None]), axis=(1, 2))
+        if out.any():
+            c[out] = bounds.minimum(h[out], grad[out], c[out])
     per_band = (shapes[None] * c[:, None]).sum(axis=-1)                # (W, B, nr)
     q = (gram[..., 0, 0] + 2.0 * (gx * per_band).sum(axis=-1)
          + ((m_kl @ per_band[..., None])[..., 0] * per_band).sum(axis=-1))
