@@ -62,6 +62,9 @@ def pages(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("batch")
     rb._write_csv(str(out / "results.csv"), rb.COLUMNS, ROWS)
+    (out / "2026-01-02-20").mkdir()           # one item's folder: its 68 % interval
+    (out / "2026-01-02-20" / "result.json").write_text(json.dumps(
+        {"channels": {"XX.A.10.BH1": {"azimuth_deg": {"median": 8.0, "ci68": [7.9, 8.1]}}}}))
     got = []
 
     def keep(figs, pdf_path, **kw):
@@ -101,8 +104,9 @@ def test_batch_pages_draw_in_greys(pages):
 def test_flags_table_is_the_fit_reports_with_the_flagged_numbers(pages):
     """The summary page's flags in layout.summary_table's columns: pair B
     off nominal by +5.00 and +8.00 deg, changed by +3.00 deg, XX.B's gain
-    +4.00 % off nominal and changed by +4.00 %; the failed item's message
-    on the page."""
+    +4.00 % off nominal and changed by +4.00 %; the 68 % interval of the
+    item whose folder holds a result.json, '-' for the others; the failed
+    item's message on the page."""
     fig = pages[0][1]
     tables = [t for ax in fig.axes for t in ax.tables]
     assert len(tables) == 1
@@ -111,8 +115,10 @@ def test_flags_table_is_the_fit_reports_with_the_flagged_numbers(pages):
     text = [[cells[i, j].get_text().get_text() for j in range(8)] for i in range(n_rows)]
     assert text[0] == ["channel", "quantity", "median", "68 % interval", "95 % interval",
                        "nominal", "deviation", "note"]
-    got = {(r[0], r[1], r[6], " ".join(r[7].split())) for r in text[1:]}
+    got = {(" ".join(r[0].split()), r[1], r[6], " ".join(r[7].split())) for r in text[1:]}
     pair_b, gain = "XX.A.10.BH1 vs 20.BH1,20.BH2", "XX.B.10.BH1 vs 00.BH1,00.BH2"
+    ci68 = {r[3] for r in text[1:]}
+    assert ci68 == {"[7.90, 8.10]", "-"} and [r[3] for r in text].count("[7.90, 8.10]") == 2
     assert got == {
         (pair_b, "azimuth (deg)", "+5.00", "off nominal on 2026-01-01"),
         (pair_b, "azimuth (deg)", "+8.00", "off nominal on 2026-01-02"),

@@ -283,23 +283,33 @@ def _station_panel(ax, rows, flags, sta, quantity, styles):
 
 def _legend(ax, styles):
     """The station's legend beside ``ax`` (the row's last panel): one entry
-    per pair, then the marks of flags, changes and thresholds."""
+    per pair."""
     from matplotlib.lines import Line2D
 
     from .layout import legend_beside
 
     several = len({refs for _, refs in styles}) > 1
-    handles = [Line2D([], [], mfc="white", ms=3.5, label=_pair_label(cid, refs, several), **st)
-               for (cid, refs), st in styles.items()]
-    handles += [Line2D([], [], ls="none", marker="x", color="k", ms=7, mew=1.5, label="flagged"),
-                Line2D([], [], color="k", ls="--", lw=0.8, label="changed"),
-                Line2D([], [], color="0.5", ls=":", lw=0.8, label="threshold")]
-    legend_beside(ax, handles=handles)
+    legend_beside(ax, handles=[Line2D([], [], mfc="white", ms=3.5,
+                                      label=_pair_label(cid, refs, several), **st)
+                               for (cid, refs), st in styles.items()])
+
+
+def _key(fig, page):
+    """The page's key of the marks (flags, changes, thresholds), at the top
+    right, beside the page's note."""
+    from matplotlib.lines import Line2D
+
+    fig.legend(handles=[Line2D([], [], ls="none", marker="x", color="k", ms=7, mew=1.5,
+                               label="flagged result"),
+                        Line2D([], [], color="k", ls="--", lw=0.8, label="changed"),
+                        Line2D([], [], color="0.5", ls=":", lw=0.8, label="threshold")],
+               loc="upper right", bbox_to_anchor=(0.98, 1 - 0.4 / page[1]), borderaxespad=0.0)
 
 
 def _time_axis(fig, axes, rows, stations):
     """Dates on the bottom row's x axes, each date once, tilted."""
     import matplotlib.dates as mdates
+    from matplotlib.artist import setp
 
     days = [r["day"] for r in rows if r.get("station") in stations and not r.get("error")
             and r.get("day")]
@@ -313,20 +323,18 @@ def _time_axis(fig, axes, rows, stations):
         ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
         ax.set_xlim(first - half, last + half)
         ax.set_xlabel("day")
-        for label in ax.get_xticklabels():
-            label.set_rotation(30)
-            label.set_horizontalalignment("right")
+        setp(ax.get_xticklabels(), rotation=30, horizontalalignment="right")
 
 
 def _time_note(quantities, threshold_deg, gain_threshold_pct):
-    gain = " and gain (in % of nominal)" if "gain" in quantities else ""
-    return (f"Each result's deviation from its StationXML nominal value: azimuth and dip in "
-            f"degrees{gain}; median and 95 % credible interval, one curve per pair (the SUT "
-            "channel against its reference channels), against the day recorded. A cross marks "
-            "a flagged result, a dashed line a day on which a pair's result changed from its "
-            f"result before; the dotted lines are the thresholds (+-{threshold_deg:g} deg"
-            + (f", +-{gain_threshold_pct:g} %" if gain else "") + "), beyond which and beyond "
-            "its 95 % interval a result is flagged.")
+    gain = ", gain in % of nominal" if "gain" in quantities else ""
+    return (f"Each result's deviation from its StationXML nominal value (azimuth and dip in "
+            f"degrees{gain}): median and 95 % credible interval, one curve per pair (the SUT "
+            "channel against its reference channels), against the day recorded. A result is "
+            f"flagged beyond the threshold (+-{threshold_deg:g} deg"
+            + (f", +-{gain_threshold_pct:g} %" if gain else "") + ") and beyond its 95 % "
+            "interval; a dashed line marks the day a pair's result changed from its result "
+            "before.")
 
 
 def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
@@ -336,15 +344,17 @@ def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from .layout import page_header
+    from .layout import page_header, text_extent
 
     quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
     fig = Figure(figsize=page)
     FigureCanvasAgg(fig)
     page_header(fig, "bayescal batch report: orientation" + (" and gain" if "gain" in quantities
                                                             else "") + " against time",
-                _time_note(quantities, threshold_deg, gain_threshold_pct), page[0])
-    top, bottom = 1 - 1.25 / page[1], 0.75 / page[1]
+                _time_note(quantities, threshold_deg, gain_threshold_pct), 0.75 * page[0])
+    _key(fig, page)
+    top = text_extent(fig, fig.texts[-1])[1] - 0.3 / page[1]        # below the note
+    bottom = 0.75 / page[1]
     axes = fig.subplots(len(stations), len(quantities), squeeze=False, sharex=True)
     fig.subplots_adjust(left=0.09, right=0.79, top=top, wspace=0.5, hspace=0.35,
                         bottom=top - (top - bottom) * len(stations) / max(len(stations), 3))
@@ -395,11 +405,29 @@ def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
 
 
 
-def _flag_row(flag, result):
+#: The result.json entry (keys from a channel's) of each quantity of results.csv.
+ENTRIES = {"azimuth": ("azimuth_deg",), "dip": ("dip_deg",), "gain": ("response", "gain")}
+
+
+def _ci68(folder, label, cid, quantity):
+    """The 68 % interval of a result from its item's ``folder/label/result.json``;
+    None when the file or the entry is not there."""
+    try:
+        with open(os.path.join(folder, label, "result.json")) as fh:
+            entry = json.load(fh)["channels"][cid]
+        for key in ENTRIES[quantity]:
+            entry = entry[key]
+        return list(entry["ci68"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _flag_row(flag, result, folder):
     """A flag as a line of the summary table
     (:func:`~bayescal.report.layout.summary_table`): the flagged result
-    (``result``, its row of results.csv), its nominal value and deviation,
-    and the flag in the note."""
+    (``result``, its row of results.csv; its 68 % interval from its item's
+    result.json in ``folder``), its nominal value and deviation, and the
+    flag in the note."""
     from .tables import Row
 
     q = flag["quantity"]
@@ -409,7 +437,9 @@ def _flag_row(flag, result):
     note = (f"off nominal on {flag['day']}" if flag["flag"] == "off_nominal" else
             f"changed by {flag['value']:+.2f} {flag['unit']} [{flag['lo95']:+.2f}, "
             f"{flag['hi95']:+.2f}] from {flag['previous_day']} to {flag['day']}")
-    return Row(f"{flag['channel']} vs {_short(flag['reference_channels'])}", q, val, None,
+    refs = flag["reference_channels"]
+    return Row(flag["channel"] + (f"\nvs {_short(refs)}" if refs else ""), q, val,
+               _ci68(folder, flag["label"], flag["channel"], q),
                [result[f"{q}_lo95"], result[f"{q}_hi95"]], nom, dev, note)
 
 
@@ -422,9 +452,9 @@ def _failed_lines(rows, most):
         lines += textwrap.wrap(f"{label}: {err}", 100, initial_indent="  ",
                                subsequent_indent="    ")
     return lines + [""] + textwrap.wrap(
-        "Deviation: estimate - StationXML nominal (gain: in % of nominal). The table's intervals "
-        "are those of results.csv (95 %); each item's 68 % intervals are in its folder's "
-        "result.json.", 100)
+        "Deviation: estimate - StationXML nominal (gain: in % of nominal). The table's 95 % "
+        "intervals are those of results.csv, its 68 % intervals those of each item's result.json "
+        "('-' where the item's folder holds none).", 100)
 
 
 def _continued(page):
@@ -437,9 +467,10 @@ def _continued(page):
     return fig, 0.94
 
 
-def _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page, most=25):
+def _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page, folder, most=25):
     """The summary page (and its continuations): what ran in sentences,
-    the flags in the fit report's table, the failed items."""
+    the flags in the fit report's table (68 % intervals from the items'
+    result.json files in ``folder``), the failed items."""
     from matplotlib.figure import Figure
 
     from .layout import flow_text, summary_table, text_extent
@@ -453,10 +484,9 @@ def _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page, most=25
     if flags:
         by_item = {(r["label"], r["channel"]): r for r in rows if not r.get("error")}
         more = f", the first {most} of {len(flags)}; all in flags.csv" if len(flags) > most else ""
-        top = summary_table(fig, top, [_flag_row(f, by_item[(f["label"], f["channel"])])
+        top = summary_table(fig, top, [_flag_row(f, by_item[(f["label"], f["channel"])], folder)
                                        for f in flags[:most]],
-                            f"Flags (estimate, 95 % interval, nominal value and deviation of "
-                            f"each flagged result{more})", False)
+                            f"Flags: the flagged results{more}", False)
     return flow_text(fig, 0.06, top, _failed_lines(rows, most), partial(_continued, page),
                      fontsize=8, linespacing=1.5)
 
@@ -478,7 +508,8 @@ def write_report(results_csv, out, threshold_deg=FLAG_THRESHOLD_DEG,
     page = page_size(paper)
 
     def pages():
-        for fig in _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page):
+        for fig in _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page,
+                                  os.path.dirname(os.path.abspath(results_csv))):
             yield None, fig
         for k, stas in enumerate(groups):
             yield (paths["png"] if k == 0 else None), _figure(rows, flags, stas, threshold_deg,
