@@ -83,7 +83,9 @@ def pages(tmp_path_factory):
 
 
 def test_batch_pages_lay_out_cleanly(pages):
-    assert len(pages) == 2                     # the summary page, one page of three stations
+    """No layout fault on the summary page nor on the time page (XX.A's
+    six pairs: its legend beside the row, not over a curve)."""
+    assert len(pages) == 2                     # the summary page, one page of two stations
     for k, (_, _, faults, spent) in enumerate(pages):
         assert faults == [], (k, faults)
         assert spent < BUDGET_S, (k, spent)
