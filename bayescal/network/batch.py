@@ -100,9 +100,10 @@ def _item_folder(out, item):
 
 
 def record_error(item, out, exc, seconds=0.0):
-    """Publish ``out/<label>/error.json`` (the one-line message) and
-    ``item.json`` atomically; returns the item's status dict."""
-    error = f"{type(exc).__name__}: " + (str(exc).strip().splitlines() or [""])[0]
+    """Publish ``out/<label>/error.json`` (the message's first line; the
+    exception's class name only when it has no message) and ``item.json``
+    atomically; returns the item's status dict."""
+    error = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
     with _item_folder(out, item) as tmp:
         write_json(os.path.join(tmp, "error.json"), {"label": item["label"], "error": error})
         write_json(os.path.join(tmp, "item.json"), {**item, "seconds": seconds})

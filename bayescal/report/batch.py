@@ -28,6 +28,7 @@ import datetime
 import json
 import os
 import textwrap
+from functools import partial
 
 import numpy as np
 
@@ -246,65 +247,129 @@ def _pair_label(cid, refs, several):
     return f"{code} vs {_short(refs)}" if several else code
 
 
-def _station_panel(ax, rows, flags, sta, quantity):
-    """One station's curves of ``quantity`` (one per pair) on ``ax``."""
+def _pair_styles(rows, sta):
+    """Line style of each pair of station ``sta`` (same in every panel):
+    ``{(channel, reference_channels): {color, ls, marker}}``, in the
+    report's greys, line styles and markers."""
+    from .layout import GREYS, LINESTYLES, MARKERS
+
+    pairs = sorted({(r["channel"], r.get("reference_channels") or "") for r in rows
+                    if r.get("station") == sta and not r.get("error")})
+    return {p: {"color": GREYS[k % len(GREYS)], "ls": LINESTYLES[k % len(LINESTYLES)],
+                "marker": MARKERS[k % len(MARKERS)]} for k, p in enumerate(pairs)}
+
+
+def _station_panel(ax, rows, flags, sta, quantity, styles):
+    """One station's curves of ``quantity`` (one per pair, styled by
+    ``styles``) on ``ax``: medians with their 95 % intervals, a cross on each
+    flagged result and a dashed line on each day a pair's result changed."""
     series = {k: v for k, v in sorted(_series(rows, quantity).items()) if k[0] == sta}
-    several = len({refs for _, _, refs in series}) > 1
     flagged = {(f["channel"], f["reference_channels"], f["quantity"], f["label"]) for f in flags}
     for (_, cid, refs), points in series.items():
+        st = styles[(cid, refs)]
         days = [_date(p[0]) for p in points]
         dev, lo, hi = (np.array([p[k] for p in points]) for k in (2, 3, 4))
-        line, = ax.plot(days, dev, "o-", ms=4, label=_pair_label(cid, refs, several))
-        ax.fill_between(days, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
-        ax.errorbar(days, dev, yerr=[dev - lo, hi - dev], fmt="none",
-                    ecolor=line.get_color(), capsize=3)
+        ax.errorbar(days, dev, yerr=[dev - lo, hi - dev], color=st["color"], ls=st["ls"],
+                    marker=st["marker"], ms=3.5, mfc="white", lw=0.9, elinewidth=0.8,
+                    capsize=2)
         bad = [(d, v) for d, v, p in zip(days, dev, points)
                if (cid, refs, quantity, p[1]) in flagged]
         if bad:
-            ax.plot(*zip(*bad), "x", color="red", ms=11, mew=2.5)
+            ax.plot(*zip(*bad), "x", color="k", ms=9, mew=1.5)
     for day in sorted({f["day"] for f in flags if f["station"] == sta
                        and f["quantity"] == quantity and f["flag"] == "changed"}):
-        ax.axvline(_date(day), color="red", ls="--", lw=1)
+        ax.axvline(_date(day), color="k", ls="--", lw=0.8)
+
+
+def _legend(ax, styles):
+    """The station's legend beside ``ax`` (the row's last panel): one entry
+    per pair."""
+    from matplotlib.lines import Line2D
+
+    from .layout import legend_beside
+
+    several = len({refs for _, refs in styles}) > 1
+    legend_beside(ax, handles=[Line2D([], [], mfc="white", ms=3.5,
+                                      label=_pair_label(cid, refs, several), **st)
+                               for (cid, refs), st in styles.items()])
+
+
+def _key(fig, page):
+    """The page's key of the marks (flags, changes, thresholds), at the top
+    right, beside the page's note."""
+    from matplotlib.lines import Line2D
+
+    fig.legend(handles=[Line2D([], [], ls="none", marker="x", color="k", ms=7, mew=1.5,
+                               label="flagged result"),
+                        Line2D([], [], color="k", ls="--", lw=0.8, label="changed"),
+                        Line2D([], [], color="0.5", ls=":", lw=0.8, label="threshold")],
+               loc="upper right", bbox_to_anchor=(0.98, 1 - 0.4 / page[1]), borderaxespad=0.0)
+
+
+def _time_axis(fig, axes, rows, stations):
+    """Dates on the bottom row's x axes, each date once, tilted."""
+    import matplotlib.dates as mdates
+    from matplotlib.artist import setp
+
+    days = [r["day"] for r in rows if r.get("station") in stations and not r.get("error")
+            and r.get("day")]
+    if not days:
+        return
+    first, last = (datetime.datetime.combine(_date(d), datetime.time())
+                   for d in (min(days), max(days)))
+    half = datetime.timedelta(hours=12)
+    for ax in axes[-1]:
+        ax.set_xticks(date_ticks(days))
+        ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+        ax.set_xlim(first - half, last + half)
+        ax.set_xlabel("day")
+        setp(ax.get_xticklabels(), rotation=30, horizontalalignment="right")
+
+
+def _time_note(quantities, threshold_deg, gain_threshold_pct):
+    gain = ", gain in % of nominal" if "gain" in quantities else ""
+    return (f"Each result's deviation from its StationXML nominal value (azimuth and dip in "
+            f"degrees{gain}): median and 95 % credible interval, one curve per pair (the SUT "
+            "channel against its reference channels), against the day recorded. A result is "
+            f"flagged beyond the threshold (+-{threshold_deg:g} deg"
+            + (f", +-{gain_threshold_pct:g} %" if gain else "") + ") and beyond its 95 % "
+            "interval; a dashed line marks the day a pair's result changed from its result "
+            "before.")
 
 
 def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.dates as mdates
-    import matplotlib.pyplot as plt
+    """A page of the results of ``stations`` against time: one row of
+    panels per station (azimuth, dip, and gain when fitted), the station's
+    legend beside its row."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from .layout import page_header, text_extent
 
     quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
-    fig, axes = plt.subplots(len(stations), len(quantities), figsize=page, squeeze=False,
-                             sharex=True)
+    fig = Figure(figsize=page)
+    FigureCanvasAgg(fig)
+    page_header(fig, "bayescal batch report: orientation" + (" and gain" if "gain" in quantities
+                                                            else "") + " against time",
+                _time_note(quantities, threshold_deg, gain_threshold_pct), 0.75 * page[0])
+    _key(fig, page)
+    top = text_extent(fig, fig.texts[-1])[1] - 0.3 / page[1]        # below the note
+    bottom = 0.75 / page[1]
+    axes = fig.subplots(len(stations), len(quantities), squeeze=False, sharex=True)
+    fig.subplots_adjust(left=0.09, right=0.79, top=top, wspace=0.5, hspace=0.35,
+                        bottom=top - (top - bottom) * len(stations) / max(len(stations), 3))
     for row, sta in zip(axes, stations):
+        styles = _pair_styles(rows, sta)
         for ax, quantity in zip(row, quantities):
-            _station_panel(ax, rows, flags, sta, quantity)
+            _station_panel(ax, rows, flags, sta, quantity, styles)
             thr, unit = (gain_threshold_pct, "%") if quantity == "gain" else (threshold_deg, "deg")
             for y in (-thr, thr):
-                ax.axhline(y, color="grey", ls=":", lw=1)
+                ax.axhline(y, color="0.5", ls=":", lw=0.8)
             ax.axhline(0, color="k", lw=0.6)
-            ax.set_ylabel(f"{quantity} - nominal ({unit})")
-            ax.set_title(f"{sta}: {quantity}", fontsize=10, loc="left")
-            if ax.get_legend_handles_labels()[0]:
-                ax.legend(fontsize=7, loc="best")
-    days = [r["day"] for r in rows if r.get("station") in stations and not r.get("error")
-            and r.get("day")]
-    if days:
-        ticks = date_ticks(days)
-        first, last = (datetime.datetime.combine(_date(d), datetime.time())
-                       for d in (min(days), max(days)))
-        half = datetime.timedelta(hours=12)
-        for ax in axes[-1]:
-            ax.set_xticks(ticks)
-            ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
-            ax.set_xlim(first - half, last + half)
-            ax.set_xlabel("day")
-    fig.autofmt_xdate()
-    fig.suptitle("Orientation (and gain) against time (median, 95 % credible band;\nred x: "
-                 "flagged, red dashed: changed from the pair's result before; "
-                 f"dotted: thresholds +-{threshold_deg:g} deg, +-{gain_threshold_pct:g} %)",
-                 fontsize=9)
-    fig.tight_layout()
+            ax.set_ylabel(f"deviation ({unit})")
+            ax.set_title(f"{sta}: {quantity}", loc="left")
+        _legend(row[-1], styles)
+    _time_axis(fig, axes, rows, stations)
     return fig
 
 
@@ -338,51 +403,92 @@ def summary_lines(rows, flags, threshold_deg, gain_threshold_pct):
     return lines
 
 
-def _table(fig, top, cells, labels, title):
-    """A table of ``cells`` under ``title`` whose top is at figure fraction
-    ``top``; returns the fraction just below it."""
-    from .layout import ROW_H
-    fig.text(0.05, top, title, fontweight="bold", va="top")
-    height = ROW_H * (len(cells) + 1)
-    ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
-    ax.axis("off")
-    tab = ax.table(cellText=cells, colLabels=labels, loc="upper left", cellLoc="left",
-                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(6.5)
-    tab.auto_set_column_width(list(range(len(labels))))
-    return top - 0.02 - height - 0.03
 
 
-def _summary_page(rows, flags, threshold_deg, gain_threshold_pct, page, most=30):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+#: The result.json entry (keys from a channel's) of each quantity of results.csv.
+ENTRIES = {"azimuth": ("azimuth_deg",), "dip": ("dip_deg",), "gain": ("response", "gain")}
 
-    from .layout import style
-    with style():
-        fig = plt.figure(figsize=page)
-        fig.text(0.05, 0.965, "bayescal batch: summary", fontsize=12, fontweight="bold",
-                 va="top")
-        lines = summary_lines(rows, flags, threshold_deg, gain_threshold_pct)
-        fig.text(0.05, 0.93, "\n".join(textwrap.fill(t, 110) for t in lines), va="top",
-                 fontsize=8, linespacing=1.5)
-        top = 0.80
-        cells = [[f["station"], f["channel"].split(".")[-1], _short(f["reference_channels"]),
-                  f["quantity"],
-                  f["flag"].replace("_", " "),
-                  f"{f['previous_day']} -> {f['day']}" if f["flag"] == "changed" else f["day"],
-                  f"{f['value']:+.2f} {f['unit']}", f"[{f['lo95']:+.2f}, {f['hi95']:+.2f}]"]
-                 for f in flags[:most]]
-        more = f" (first {most} of {len(flags)})" if len(flags) > most else ""
-        top = _table(fig, top, cells or [["none"] + [""] * 7],
-                     ["station", "channel", "reference", "quantity", "flag", "day", "value",
-                      "95 % interval"],
-                     f"Flags{more}")
-        errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
-        cells = [[lb, textwrap.shorten(err, 95, placeholder=" ...")] for lb, err in errors[:most]]
-        _table(fig, top, cells or [["none", ""]], ["item", "error"], "Failed items")
-    return fig
+
+def _ci68(folder, label, cid, quantity):
+    """The 68 % interval of a result from its item's ``folder/label/result.json``;
+    None when the file or the entry is not there."""
+    try:
+        with open(os.path.join(folder, label, "result.json")) as fh:
+            entry = json.load(fh)["channels"][cid]
+        for key in ENTRIES[quantity]:
+            entry = entry[key]
+        return list(entry["ci68"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _flag_row(flag, result, folder):
+    """A flag as a line of the summary table
+    (:func:`~bayescal.report.layout.summary_table`): the flagged result
+    (``result``, its row of results.csv; its 68 % interval from its item's
+    result.json in ``folder``), its nominal value and deviation, and the
+    flag in the note."""
+    from .tables import Row
+
+    q = flag["quantity"]
+    val, nom = result[q], result[f"nominal_{q}"]
+    dev = 100.0 * (val / nom - 1.0) if q == "gain" else (
+        _wrap(val - nom) if q == "azimuth" else val - nom)
+    note = (f"off nominal on {flag['day']}" if flag["flag"] == "off_nominal" else
+            f"changed by {flag['value']:+.2f} {flag['unit']} [{flag['lo95']:+.2f}, "
+            f"{flag['hi95']:+.2f}] from {flag['previous_day']} to {flag['day']}")
+    refs = flag["reference_channels"]
+    return Row(flag["channel"] + (f"\nvs {_short(refs)}" if refs else ""), q, val,
+               _ci68(folder, flag["label"], flag["channel"], q),
+               [result[f"{q}_lo95"], result[f"{q}_hi95"]], nom, dev, note)
+
+
+def _failed_lines(rows, most):
+    """The summary page's lines on the failed items and on how to read the table."""
+    errors = sorted({(r["label"], r["error"]) for r in rows if r.get("error")})
+    lines = [f"Failed items: {len(errors) or 'none'}"
+             + (f" (the first {most}; all in results.csv)" if len(errors) > most else "")]
+    for label, err in errors[:most]:
+        lines += textwrap.wrap(f"{label}: {err}", 100, initial_indent="  ",
+                               subsequent_indent="    ")
+    return lines + [""] + textwrap.wrap(
+        "Deviation: estimate - StationXML nominal (gain: in % of nominal). The table's 95 % "
+        "intervals are those of results.csv, its 68 % intervals those of each item's result.json "
+        "('-' where the item's folder holds none).", 100)
+
+
+def _continued(page):
+    """A continuation page of the summary page; returns (figure, top)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=page)
+    fig.text(0.06, 0.965, "bayescal batch report (page 1 continued)", fontsize=14,
+             fontweight="bold")
+    return fig, 0.94
+
+
+def _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page, folder, most=25):
+    """The summary page (and its continuations): what ran in sentences,
+    the flags in the fit report's table (68 % intervals from the items'
+    result.json files in ``folder``), the failed items."""
+    from matplotlib.figure import Figure
+
+    from .layout import flow_text, summary_table, text_extent
+
+    fig = Figure(figsize=page)
+    fig.text(0.06, 0.965, "bayescal batch report", fontsize=14, fontweight="bold")
+    lines = summary_lines(rows, flags, threshold_deg, gain_threshold_pct)
+    art = fig.text(0.06, 0.945, "\n".join(textwrap.fill(t, 110) for t in lines), va="top",
+                   fontsize=8, linespacing=1.5)
+    top = text_extent(fig, art)[1] - 0.02
+    if flags:
+        by_item = {(r["label"], r["channel"]): r for r in rows if not r.get("error")}
+        more = f", the first {most} of {len(flags)}; all in flags.csv" if len(flags) > most else ""
+        top = summary_table(fig, top, [_flag_row(f, by_item[(f["label"], f["channel"])], folder)
+                                       for f in flags[:most]],
+                            f"Flags: the flagged results{more}", False)
+    return flow_text(fig, 0.06, top, _failed_lines(rows, most), partial(_continued, page),
+                     fontsize=8, linespacing=1.5)
 
 
 def write_report(results_csv, out, threshold_deg=FLAG_THRESHOLD_DEG,
@@ -390,10 +496,8 @@ def write_report(results_csv, out, threshold_deg=FLAG_THRESHOLD_DEG,
     """``flags.csv``, ``report.pdf`` (summary page + orientation pages, every
     page of ``paper``, "a4" or "letter") and ``report.png`` (first
     orientation page) in ``out``; returns their paths and the flags."""
-    import matplotlib
-    matplotlib.use("Agg")
+    from .layout import page_size, style, write_pages
 
-    from .layout import page_size, write_pages
     rows = read_results(results_csv)
     flags = find_flags(rows, threshold_deg, gain_threshold_pct)
     paths = {"flags": os.path.join(out, "flags.csv"), "pdf": os.path.join(out, "report.pdf"),
@@ -404,9 +508,12 @@ def write_report(results_csv, out, threshold_deg=FLAG_THRESHOLD_DEG,
     page = page_size(paper)
 
     def pages():
-        yield None, _summary_page(rows, flags, threshold_deg, gain_threshold_pct, page)
+        for fig in _summary_pages(rows, flags, threshold_deg, gain_threshold_pct, page,
+                                  os.path.dirname(os.path.abspath(results_csv))):
+            yield None, fig
         for k, stas in enumerate(groups):
             yield (paths["png"] if k == 0 else None), _figure(rows, flags, stas, threshold_deg,
                                                               gain_threshold_pct, page)
-    write_pages(pages(), paths["pdf"], page=page, dpi=90, grey=False)
+    with style():
+        write_pages(pages(), paths["pdf"], page=page)
     return {**paths, "flag_list": flags}
