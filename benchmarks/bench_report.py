@@ -1,68 +1,100 @@
-"""Rendering time of a calibration report for a saved result (the goal:
-under 10 s).
+"""A report against its fit: ``bayescal report`` and the ``bayescal fit
+--no-report`` that made its folder, each a fresh process, alternated in one
+run (the goal: the report takes at most its fit's time).
 
-Fits a simulated pair once (not timed), saves it, then renders the report
-``--repeats`` times and prints the median wall-clock and CPU time per render
-(CPU time is less sensitive to other jobs on a shared machine). With
-``--response`` the fit includes period, damping and gain of every channel,
-which adds the response corner page and 9 more trace panels (the heaviest
-report). ``--folder DIR`` times an existing result folder instead.
+Two cases, simulated as the README simulates them (30 minutes at 10 Hz, band
+0.03-1 Hz): ``pass``, a fit whose model check passes (``seed=3``, the SUT
+turned 3 deg), and ``late``, one whose check fails, the SUT's clock 0.3 s
+late (``seed=2``, ``timing_offset_s=0.3``), so the criticism runs in the fit
+and its pages are in the report. Each repeat runs the fit, then the report
+of the first fit's folder; printed: medians of wall-clock and CPU seconds
+(the child's user + system time), their ratio report / fit, the machine's
+load (1-minute average, waiting processes on its cores) before each case,
+and whether the goal is met. ``--json`` keeps the runs.
 
-    python benchmarks/bench_report.py [--repeats 5] [--response] [--folder DIR]
+    python benchmarks/bench_report.py [--repeats 5] [--cases pass late] [--json FILE]
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 
+CASES = {"pass": {"seed": 3, "sut_azimuth": (3, 93, 0), "noise_in_counts": True},
+         "late": {"seed": 2, "timing_offset_s": 0.3}}
 
-def make_result(folder, response):
-    import bayescal
-    from bayescal.io.result import save_posterior
-    from bayescal.simulate.pair import simulate_pair
 
-    sim = simulate_pair(duration=3600, fs=10, seed=5, coherence=0.99, sut_azimuth=(2, 91, 0),
-                        sut_response=((28.0, 0.68, 780.0), (31.0, 0.72, 730.0),
-                                      (30.0, 0.70, 760.0)))
-    post = bayescal.calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref, ref_xml=sim.ref_inventory,
-                              band=(0.03, 1.0), fit_response="all" if response else "none",
-                              progress=False)
-    save_posterior(post, folder)
-    return folder
+def simulate(case, folder):
+    """Write the recordings of ``case`` into ``folder``."""
+    from bayescal import simulate_pair
+    simulate_pair(duration=1800, fs=10, **CASES[case]).write(folder)
+
+
+def timed(cmd):
+    """Run ``cmd`` (a fresh process); returns (wall s, CPU s of the child)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def commands(data, out):
+    """The fit of the recordings in ``data`` into ``out``, and its report."""
+    cli = [sys.executable, "-m", "bayescal.cli"]
+    fit = cli + ["fit", "--ref", f"{data}/ref.mseed", "--ref-xml", f"{data}/ref.xml",
+                 "--sut", f"{data}/sut.mseed", "--sut-xml", f"{data}/sut.xml",
+                 "--band", "0.03", "1", "--out", out, "--no-report", "--quiet"]
+    return fit, cli + ["report", out]
+
+
+def run_case(case, tmp, repeats):
+    """Alternate fit and report ``repeats`` times; returns the case's record."""
+    data = os.path.join(tmp, case)
+    simulate(case, data)
+    load = os.getloadavg()[0]
+    runs = {"fit": [], "report": []}
+    for i in range(repeats):
+        fit, _ = commands(data, os.path.join(tmp, f"{case}_fit{i}"))
+        runs["fit"].append(timed(fit))
+        runs["report"].append(timed(commands(data, os.path.join(tmp, f"{case}_fit0"))[1]))
+    med = {k: {"wall_s": statistics.median(w for w, _ in v),
+               "cpu_s": statistics.median(c for _, c in v)} for k, v in runs.items()}
+    return {"case": case, "repeats": repeats, "load_before": load, "runs": runs,
+            "median": med, "load_after": os.getloadavg()[0],
+            "ratio_wall": med["report"]["wall_s"] / med["fit"]["wall_s"],
+            "ratio_cpu": med["report"]["cpu_s"] / med["fit"]["cpu_s"]}
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--response", action="store_true")
-    p.add_argument("--folder", default=None)
+    p.add_argument("--cases", nargs="+", choices=sorted(CASES), default=["pass", "late"])
+    p.add_argument("--json", default="reports/benchmarks/report.json")
     a = p.parse_args(argv)
-    t0 = time.perf_counter()
-    from bayescal.report.fit import write_report
-    import_s = time.perf_counter() - t0
+    out = []
     with tempfile.TemporaryDirectory() as tmp:
-        folder = a.folder or make_result(os.path.join(tmp, "result"), a.response)
-        out = os.path.join(tmp, "report.pdf")
-        wall, cpu = [], []
-        for _ in range(a.repeats):
-            w0, c0 = time.perf_counter(), time.process_time()
-            paths = write_report(folder, out_pdf=out)
-            wall.append(time.perf_counter() - w0)
-            cpu.append(time.process_time() - c0)
-        size = sum(os.path.getsize(q) for q in paths) / 1e6
-        with open(os.path.join(folder, "result.json")) as fh:
-            free = json.load(fh)["meta"].get("free_response", "none")
-        print(f"result: {folder} (response fitted: {free})")
-        print(f"pages/figures: {len(paths) - 1}, output {size:.2f} MB")
-        print(f"import of bayescal.report: {import_s:.2f} s (once per process)")
-        print(f"render, median of {a.repeats}: wall {statistics.median(wall):.2f} s "
-              f"(min {min(wall):.2f}, max {max(wall):.2f}), CPU {statistics.median(cpu):.2f} s; "
-              f"requirement < 10 s: {'met' if statistics.median(wall) < 10 else 'NOT met'}")
-        print(f"load average at the end: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        for case in a.cases:
+            r = run_case(case, tmp, a.repeats)
+            out.append(r)
+            m = r["median"]
+            print(f"{case}: fit {m['fit']['wall_s']:.2f} s wall, {m['fit']['cpu_s']:.2f} s CPU; "
+                  f"report {m['report']['wall_s']:.2f} s wall, {m['report']['cpu_s']:.2f} s CPU; "
+                  f"report / fit {r['ratio_wall']:.2f} (wall), {r['ratio_cpu']:.2f} (CPU); "
+                  f"load {r['load_before']:.1f} -> {r['load_after']:.1f} on {os.cpu_count()} "
+                  f"cores; medians of {a.repeats}; goal (report <= its fit): "
+                  f"{'met' if r['ratio_wall'] <= 1 and r['ratio_cpu'] <= 1 else 'NOT met'}")
+    if a.json:
+        os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
+        with open(a.json, "w") as fh:
+            json.dump(out, fh, indent=1)
 
 
 if __name__ == "__main__":

@@ -14,6 +14,19 @@ from .tables import truth_values, wrap180
 from .layout import CORNER_LEVELS, CORNER_QUANTILES, page_header
 
 
+#: Most posterior draws a corner plot is drawn from: its histograms have 30
+#: bins a side, smoothed over one bin, and more draws do not change what the
+#: eye sees (the intervals printed on every page are result.json's, from all
+#: draws).
+CORNER_DRAWS = 5000
+
+
+def thinned(data, most=CORNER_DRAWS):
+    """Every k-th row of ``data`` (N, D), k the smallest stride that leaves
+    at most ``most`` rows: the draws a corner plot is drawn from."""
+    return data[::max(1, -(-len(data) // most))]
+
+
 def _truth_or_nan(value):
     return np.nan if value is None else value
 
@@ -97,6 +110,7 @@ def _corner(fig, data, labels, truths, width, height, box):
     the page whatever the number of panels. Returns True if truths were drawn."""
     import corner
 
+    data = thinned(data)
     k = data.shape[1]
     truths = None if truths is None or np.all(np.isnan(truths)) else list(truths)
     if k > 4:                                   # narrow panels: channel above quantity
@@ -121,6 +135,13 @@ def _corner(fig, data, labels, truths, width, height, box):
     return truths is not None
 
 
+def _draws_line(n):
+    """The note's line on the draws drawn, for ``n`` posterior draws."""
+    drawn = len(thinned(range(n)))
+    return ("" if drawn == n else f"\nDrawn from {drawn} of the {n} posterior draws (one in "
+            f"{-(-n // CORNER_DRAWS)}); the intervals printed on the other pages are from all.")
+
+
 def _corner_note(truths_drawn, labels):
     lv = " and ".join(f"{100 * x:g} %" for x in CORNER_LEVELS)
     q = ", ".join(f"{100 * x:g}" for x in CORNER_QUANTILES)
@@ -143,7 +164,8 @@ def page_corner_angles(ctx):
     fig = Figure(figsize=(width, width + box[3] - box[1]))
     drawn = _corner(fig, data, labels, truths if ctx.truth else None, width,
                     fig.get_figheight(), box)
-    page_header(fig, "Posterior of the orientation angles", _corner_note(drawn, labels), width)
+    page_header(fig, "Posterior of the orientation angles",
+                _corner_note(drawn, labels) + _draws_line(len(data)), width)
     return fig
 
 
@@ -169,7 +191,7 @@ def page_corner_response(ctx):
         drawn |= _corner(sf, data, labels, truths if ctx.truth else None, sub_w, sub_h, box)
         sf.text(0.5, 1 - 0.12 / sub_h, cid, ha="center", va="top", fontweight="bold")
     page_header(fig, "Posterior of the response parameters, per channel",
-            _corner_note(drawn, []) + "\nGain: first-stage sensitivity in the StationXML's"
+            _corner_note(drawn, []) + _draws_line(len(blocks[0][1])) + "\nGain: first-stage sensitivity in the StationXML's"
             " stage-1 output units (e.g. V) per m/s."
             + ("\nh/T0: damping over period, what a band above the corner fixes; a period or"
                " damping set by the prior spreads along it." if any(

@@ -17,7 +17,7 @@ from functools import partial
 import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from scipy import stats
+from scipy.special import gammaincinv
 
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
@@ -276,7 +276,7 @@ def page_intervals(ctx):
 def misfit_range(n_r, p=0.95):
     """Central ``p`` range of a band misfit for a model that fits: the mean of
     ``n_r`` unit-variance complex Gaussian energies, Gamma(n_r, 1/n_r)."""
-    lo, hi = stats.gamma.ppf([(1 - p) / 2, (1 + p) / 2], a=n_r, scale=1.0 / n_r)
+    lo, hi = gammaincinv(n_r, [(1 - p) / 2, (1 + p) / 2]) / n_r    # Gamma quantiles
     return float(lo), float(hi)
 
 
@@ -436,7 +436,7 @@ def _convergence_table(fig, ctx, table_top, table_h):
         f"Acceptance fraction {conv['acceptance']:.3f}; {conv['n_walkers']} walkers x"
         f" {conv['n_steps']} steps; autocorrelation time up to {conv['tau_max']:.1f} steps; {Convergence.figures(conv)};"
         f" converged: {'yes' if conv['converged'] else 'NO'}",
-        loc="left", fontsize=7.5)
+        loc="left", fontsize=7)
     tab = ax.table(cellText=cells, colLabels=["parameter", "tau (steps)", "ESS", "split R-hat"],
                    loc="upper left", cellLoc="left", colLoc="left", edges="horizontal",
                    bbox=[0, 0, 1, 1])
