@@ -434,7 +434,7 @@ def test_a_run_too_short_for_its_fit_is_refused_in_one_line(tmp_path, capsys):
     paths = sim.write(str(tmp_path / "in"))
     out = tmp_path / "out"
     rc = cli.main(["cal", "--cal", paths["cal"], "--input-channel", "BC0", "--output-channel",
-                   "LHZ", "--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out",
+                   "MHZ", "--sut-xml", paths["xml"], "--coil-constant", str(COIL), "--out",
                    str(out), "--fit", "lp", "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1, err

@@ -181,7 +181,7 @@ def test_cal_pages_lay_out_cleanly(tmp_path):
                         seed=1).write(str(tmp_path / "run"))
     out = tmp_path / "cal"
     _coil_run(tmp_path, ["cal", "--cal", tmp_path / "run" / "cal_cal.mseed", "--input-channel",
-                         "BC0", "--output-channel", "LHZ", "--sut-xml",
+                         "BC0", "--output-channel", "MHZ", "--sut-xml",
                          tmp_path / "run" / "sut.xml", "--coil-constant", "1e-9", "--out", out,
                          "--quiet"])
     summary, arrays = read_folder(str(out))

@@ -59,7 +59,7 @@ def test_a_start_cut_off_mid_polish_is_not_a_mode(fitted, monkeypatch):
     mode is listed (its cut-off point is no optimum)."""
     model, theta = fitted.model, fitted.theta_ls
     labels = [label for label, _ in modes.starts(model, theta)]
-    mirrored = next(k for k, label in enumerate(labels) if label.startswith("XX.SIM.10.LH2"))
+    mirrored = next(k for k, label in enumerate(labels) if label.startswith("XX.SIM.10.MH2"))
     entries, polish = [], modes._polish
 
     def recorded(model_, theta_, factors, budget=None):
@@ -68,7 +68,7 @@ def test_a_start_cut_off_mid_polish_is_not_a_mode(fitted, monkeypatch):
 
     monkeypatch.setattr(modes, "_polish", recorded)
     _, full = modes.search(model, theta, budget=Budget("mode search", 10**7))
-    assert [m["start"][:13] for m in full["modes"]] == ["closed-form s", "XX.SIM.10.LH2"]
+    assert [m["start"][:13] for m in full["modes"]] == ["closed-form s", "XX.SIM.10.MH2"]
     budget = Budget("mode search", entries[mirrored] + 3)
     _, cut = modes.search(model, theta, budget=budget)
     assert budget.ended_by == "work"
