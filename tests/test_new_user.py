@@ -170,7 +170,7 @@ def test_cal_and_uvw_consoles_say_which_interval(capsys):
     xyz = {"gain": e, "period_s": e, "damping": e}
     uvw_print({"mode": "all-outputs", "gain_units": "V/(m/s)",
                "elements": {"U": {"period_s": e, "damping": e, "gain": e}},
-               "xyz": {"X": xyz}, "cross_talk_max": e, "cross_talk_max_pair": "X-Y"}, "out")
+               "xyz": {"X": xyz}, "cross_talk_max": e, "cross_talk_max_pair": "X-Y"})
     out = capsys.readouterr().out
     assert "95 %" in out
     x = next(ln for ln in out.splitlines() if ln.strip().startswith("X:"))

@@ -146,6 +146,10 @@ def print_summary(summary, stream=None):
     modes = multimodal_line(summary)
     if modes:
         print(modes, file=stream)
+    meta = summary.get("meta", {})
+    if meta.get("band_hz"):   # with the results on stdout: `> out.txt` keeps it
+        lo, hi = meta["band_hz"]
+        print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.get('band_choice', '')})", file=stream)
     print("channel                 azimuth deg [95%]           dip deg [95%]", file=stream)
     for cid, e in summary["channels"].items():
         az = e["azimuth_deg"]
@@ -309,8 +313,6 @@ def run(args):
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)
     elapsed = time.perf_counter() - t_start
     summary = post.summary()
-    lo, hi = meta.band_hz    # with the results on stdout: `> out.txt` keeps it
-    print(f"band used: {lo:.4g} - {hi:.4g} Hz ({meta.band_choice})")
     print_summary(summary)   # --quiet removes the progress display only
     for line in spent:       # a stage's budget ended it: said as the NOT CONVERGED line is
         print(line)

@@ -25,6 +25,7 @@ from functools import partial
 
 from ..errors import InputError
 from .tables import load_truth
+from .batch import FLAG_THRESHOLD_DEG
 
 
 #: Figures, in page order.
@@ -78,7 +79,8 @@ def load_result(folder):
         raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
 
 
-def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, paper="a4"):
+def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG, truth=None,
+                 paper="a4"):
     """Render the calibration report of the result saved in ``folder``.
 
     Writes ``folder/report.pdf`` (or ``out_pdf``) and one PNG per figure
@@ -95,7 +97,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=5.0, truth=None, pa
     folder : result folder written by :func:`bayescal.write_results`.
     out_pdf : path of the PDF (default ``folder/report.pdf``).
     nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
-        which a channel is flagged.
+        which a channel is flagged (default: as `bayescal batch` and `report`).
     truth : simulation truth (dict or JSON path) for truth markers; default
         the meta's ``truth`` entry or ``folder/truth.json`` when present.
     paper : "a4" (default) or "letter": every page of the PDF has this size.

@@ -90,7 +90,7 @@ def page_summary(ctx):
         text.append("Gain: first-stage sensitivity at its normalisation frequency, in the"
                     " StationXML's stage-1 output units (e.g. V) per m/s.")
     figs = flow_text(fig, 0.06, y, [ln for t in text for ln in t.split("\n")],
-                     partial(_continued, ctx), fontsize=8, linespacing=1.5)
+                     partial(_continued, ctx), fontsize=8, linespacing=1.35)
     return figs[0] if len(figs) == 1 else figs
 
 
