@@ -1,6 +1,6 @@
 """Step calibration of one output channel: the response to one or more steps
 of coil current (an acceleration step ``C du``), fitted in the time domain
-(:mod:`.timedomain`: AR noise estimated from the residual after
+(:mod:`.timedomain`: fractionally integrated AR noise estimated from the residual after
 :func:`acceleration_prefilter`, offset and drift marginalised) with the
 long-period pair and the gain free (:class:`bayescal.coil.hf.PZSpec`
 ``fit="lp"``): period and damping, as the
@@ -56,9 +56,9 @@ class StepModel(TimeModel):
         super().__init__(x, fs, predictor)
         self.set_prefilter(*acceleration_prefilter(fam, fs))
 
-    def set_noise(self, a, s2):
+    def set_noise(self, a, s2, d=0.0):
         self._cache = {}
-        super().set_noise(a, s2)
+        super().set_noise(a, s2, d)
 
     def bounds(self):
         return self._bounds
