@@ -11,7 +11,10 @@ the nominal response with the free parts replaced, applied to the recorded
 input (its plateaus freed of the input channel's own noise,
 :func:`bayescal.coil.drive.step_drive`) through a zero-padded FFT. The record is assumed to start with the
 input at rest for long enough that the sensor has settled (the input's
-first level is taken as its rest level).
+first level is taken as its rest level); the samples before the first step
+are conditioned on (whitened, then left out of the likelihood): the noise
+model's fractional difference starts from rest, and the record's missing
+past leaves a slowly decaying transient at its start.
 """
 from __future__ import annotations
 
@@ -134,10 +137,8 @@ def least_squares_step(run, coil_constant, priors=Priors()):
     spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
                                 priors=priors)
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
-    # the samples before the first step are conditioned on (left out of the
-    # likelihood after whitening): the fractional difference starts from
-    # rest, and with long-memory noise the record's missing past leaves a
-    # slowly decaying transient that biased the period by about 1 sd
+    # the samples before the first step are conditioned on (module docstring):
+    # with 1/f noise the missing past's transient biased the period by 1 sd
     model = StepModel(x, run.fs, pred, spec, skip=max(first_move(u) - 1, 0))
     model.input = u
     theta0, scale = _start(model, spec)
