@@ -3,12 +3,19 @@ frequency ``f0`` (amplitude and phase), with its posterior.
 
 The model is that of :mod:`.timedomain` with the nominal response's output
 to the drive (the least-squares sine of the recorded input,
-:func:`bayescal.coil.drive.sine_drive`), ``p(t)``, and its quadrature ``q(t)`` (the same with
-the spectrum multiplied by ``i``) combined as
+:func:`bayescal.coil.drive.sine_drive`), ``p(t)``, and its output to the
+quadrature drive (the same sine a quarter period ahead,
+:func:`quadrature_drive`), ``q(t)``, combined as
 
     m(t; theta) = Re(rho) p(t) + Im(rho) q(t),   rho = H(f0) / H_nom(f0) = A e^{i phi},
 
-exact for a steady sine (``irfft(rho P) = Re(rho) irfft(P) + Im(rho) irfft(iP)``).
+exact once the sine's switch-on transient has decayed. (Multiplying the
+drive's spectrum by ``i`` gives the quadrature of a sine that fills the FFT
+buffer periodically; the drive is cut to the record and zero-padded, and
+``i`` times its spectrum is the Hilbert transform of the cut sine, whose
+tails and low-frequency content are no sine: with red self-noise the
+whitened fit leant on them and the amplitude came out 30-41 % low,
+docs/validation/coil.md.)
 ``theta = (ln A, phi)``. The first ``SETTLE_DECAYS`` decay times of the
 nominal pendulum are left out of the likelihood: there the model holds the
 transient of a sine switched on at the record's start, which a record cut
@@ -33,7 +40,7 @@ from ..errors import FitError, InputError
 from ..core.threads import single_threaded_blas
 from .drive import sine_drive, with_drive_error
 from .result import SCHEMA
-from .timedomain import (Predictor, TimeModel, ar_fit, checked_arrays, coil_transfer,
+from .timedomain import (Predictor, TimeModel, checked_arrays, coil_transfer,
                          least_squares_time, padding)
 
 #: Decay times ``1 / (h w0)`` of the nominal pendulum left out at the start.
@@ -62,19 +69,37 @@ def sine_frequency(u, fs):
     return float(res.x), 1.0 - res.fun / float(u @ u)
 
 
+def quadrature_drive(drive, fs, freq):
+    """The sine ``drive`` (offset removed) advanced by a quarter period:
+    ``a cos + b sin`` becomes ``b cos - a sin``, the drive whose response
+    is ``irfft(i X)`` for the drive's steady-state response ``irfft(X)``."""
+    t = np.arange(drive.size) / fs
+    c, s = np.cos(2 * np.pi * freq * t), np.sin(2 * np.pi * freq * t)
+    coef, *_ = np.linalg.lstsq(np.column_stack([c, s, np.ones(drive.size)]), drive, rcond=None)
+    return coef[1] * c - coef[0] * s
+
+
 class SineModel(TimeModel):
-    """:class:`TimeModel` with ``m = Re(rho) p + Im(rho) q``."""
+    """:class:`TimeModel` with ``m = Re(rho) p + Im(rho) q``: ``p`` from
+    ``predictor`` (the drive), ``q`` from ``quadrature`` (the quadrature
+    drive, :func:`quadrature_drive`); without ``quadrature``, ``q`` is
+    ``predictor``'s spectrum times ``i``, right only for a drive periodic in
+    the FFT buffer."""
 
     names = ("log_amplitude_ratio", "phase_rad")
     ndim = 2
+    #: An AR alone: the sine's information is at ``f0``, where the AR follows
+    #: the noise (its 200-run calibration, docs/validation/coil.md).
+    d_grid = (0.0,)
 
-    def __init__(self, x, fs, predictor, skip):
+    def __init__(self, x, fs, predictor, skip, quadrature=None):
         self._cache = {}
+        self.quadrature = quadrature
         super().__init__(x, fs, predictor, skip)
 
-    def set_noise(self, a, s2):
+    def set_noise(self, a, s2, d=0.0):
         self._cache = {}
-        super().set_noise(a, s2)
+        super().set_noise(a, s2, d)
 
     def bounds(self):
         return np.array([np.log(0.1), -np.pi]), np.array([np.log(10.0), np.pi])
@@ -93,13 +118,18 @@ class SineModel(TimeModel):
         pq = self.predict(np.array([[0.0, 0.0], [0.0, np.pi / 2]])).T
         w = np.sqrt(np.hanning(r.size - self.skip))[:, None]
         coef, *_ = np.linalg.lstsq(w * pq[self.skip:], w[:, 0] * r[self.skip:], rcond=None)
-        self.set_noise(*ar_fit(self._pre(r - pq @ coef)[self.skip:]))
+        self.fit_noise(r - pq @ coef)
 
     def predict(self, theta, weight=None):
         theta = np.atleast_2d(theta)
         key = "raw" if weight is None else "whitened"
         if key not in self._cache:
-            self._cache[key] = self.predictor(np.array([[1.0], [1j]]), weight)   # p, q
+            if self.quadrature is None:
+                self._cache[key] = self.predictor(np.array([[1.0], [1j]]), weight)   # p, q
+            else:
+                one = np.ones((1, 1))
+                self._cache[key] = np.concatenate([self.predictor(one, weight),
+                                                   self.quadrature(one, weight)])
         pq = self._cache[key]
         rho = np.exp(theta[:, 0]) * np.exp(1j * theta[:, 1])
         return rho.real[:, None] * pq[0][None] + rho.imag[:, None] * pq[1][None]
@@ -177,8 +207,9 @@ def fit_sine(run, coil_constant, seed=0, progress=False, **sample_kw):
                          "cycles")
     # the drive: the fitted sine, not the input channel's noise (coil.drive)
     drive, drive_sd = sine_drive(u, run.fs, f0)
-    pred = Predictor(drive, run.fs, coil_transfer(run, coil_constant), padding(fam, run.fs))
-    model = SineModel(x, run.fs, pred, skip)
+    transfer, pad = coil_transfer(run, coil_constant), padding(fam, run.fs)
+    model = SineModel(x, run.fs, Predictor(drive, run.fs, transfer, pad), skip,
+                      Predictor(quadrature_drive(drive, run.fs, f0), run.fs, transfer, pad))
     # start: least squares of x on (p, q) with offset and drift
     design = np.column_stack([model.predict(np.array([0.0, 0.0]))[0],
                               model.predict(np.array([0.0, np.pi / 2]))[0], model.nuisance])

@@ -1,6 +1,6 @@
 """Step calibration of one output channel: the response to one or more steps
 of coil current (an acceleration step ``C du``), fitted in the time domain
-(:mod:`.timedomain`: AR noise estimated from the residual after
+(:mod:`.timedomain`: fractionally integrated AR noise estimated from the residual after
 :func:`acceleration_prefilter`, offset and drift marginalised) with the
 long-period pair and the gain free (:class:`bayescal.coil.hf.PZSpec`
 ``fit="lp"``): period and damping, as the
@@ -11,7 +11,10 @@ the nominal response with the free parts replaced, applied to the recorded
 input (its plateaus freed of the input channel's own noise,
 :func:`bayescal.coil.drive.step_drive`) through a zero-padded FFT. The record is assumed to start with the
 input at rest for long enough that the sensor has settled (the input's
-first level is taken as its rest level).
+first level is taken as its rest level); the samples before the first step
+are conditioned on (whitened, then left out of the likelihood): the noise
+model's fractional difference starts from rest, and the record's missing
+past leaves a slowly decaying transient at its start.
 """
 from __future__ import annotations
 
@@ -35,7 +38,7 @@ class StepModel(TimeModel):
     """:class:`TimeModel` with the response of a :class:`PZSpec`; the AR
     noise model is fitted after :func:`acceleration_prefilter`."""
 
-    def __init__(self, x, fs, predictor, spec):
+    def __init__(self, x, fs, predictor, spec, skip=0):
         self.spec = spec
         self.names = spec.names
         self.ndim = spec.ndim
@@ -53,12 +56,12 @@ class StepModel(TimeModel):
         self._sn = 2j * np.pi * fam.norm_freq
         self._dn = abs(pendulum_denominator(self._sn, c1, c0)) * fam.gain
         self._cache = {}
-        super().__init__(x, fs, predictor)
+        super().__init__(x, fs, predictor, skip)
         self.set_prefilter(*acceleration_prefilter(fam, fs))
 
-    def set_noise(self, a, s2):
+    def set_noise(self, a, s2, d=0.0):
         self._cache = {}
-        super().set_noise(a, s2)
+        super().set_noise(a, s2, d)
 
     def bounds(self):
         return self._bounds
@@ -99,13 +102,17 @@ def acceleration_prefilter(family, fs):
     return b, np.array([1.0, -1.0])
 
 
+def first_move(u):
+    """Index of the input's first sample that differs from its first by
+    more than half its range (``u.size`` if none)."""
+    moved = np.flatnonzero(np.abs(u - u[0]) > 0.5 * np.ptp(u))
+    return int(moved[0]) if moved.size else u.size
+
+
 def rest_level(u):
     """The input's level before its first change: the median of the samples
     before it first moves by half its range."""
-    span = np.ptp(u)
-    moved = np.flatnonzero(np.abs(u - u[0]) > 0.5 * span)
-    first = moved[0] if moved.size else u.size
-    return float(np.median(u[:max(first, 1)]))
+    return float(np.median(u[:max(first_move(u), 1)]))
 
 
 def _start(model, spec):
@@ -130,7 +137,9 @@ def least_squares_step(run, coil_constant, priors=Priors()):
     spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
                                 priors=priors)
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
-    model = StepModel(x, run.fs, pred, spec)
+    # the samples before the first step are conditioned on (module docstring):
+    # with 1/f noise the missing past's transient biased the period by 1 sd
+    model = StepModel(x, run.fs, pred, spec, skip=max(first_move(u) - 1, 0))
     model.input = u
     theta0, scale = _start(model, spec)
     theta0 = scale_start(run, spec, theta0, scale)

@@ -9,12 +9,20 @@ with ``m`` the response of the channel to the recorded input (computed by
 :func:`Predictor`: FFT of the input over a zero-padded buffer, so the
 convolution is linear, not circular), an offset and a linear drift
 (nuisance, marginalised with a flat prior by projecting them out), and
-``n`` stationary, autocorrelated noise modelled as an autoregression
-AR(p) estimated from the data: the residual of the least-squares fit over
-the whole record (before, during and after the step(s), or around the sine),
-its order chosen by BIC (at most ``MAX_AR_ORDER``), the fit and the noise
-re-estimated in turn. With the AR prediction-error filter ``L`` (innovation
-variance ``s2``) the log likelihood is
+``n`` autocorrelated noise modelled as a fractionally integrated
+autoregression ARFIMA(p, d, 0), ``(1 - B)^d n`` an AR(p), estimated from the
+data: the residual of the least-squares fit over the whole record (before,
+during and after the step(s), or around the sine), ``d`` on the grid
+``D_GRID`` and the order ``p`` (at most ``MAX_AR_ORDER``) chosen together by
+BIC (:func:`noise_fit`), the fit and the noise re-estimated in turn. The
+fractional difference lets the model follow a power-law spectrum
+(``f^-2d`` at low frequency) down to the record's lowest frequencies, which
+a low-order AR alone, fitted where most samples' variance is, does not:
+with self-noise as 1/f in acceleration the AR alone put 2-7 times too little
+power below 2 mHz and twice too much at 5-50 mHz, so a step's period and
+damping came out 1.5 times too narrow (docs/validation/coil.md). With the
+whitening filter ``L`` (the AR prediction-error filter times the fractional
+difference, innovation variance ``s2``) the log likelihood is
 
     log L(theta) = -|| P (L x - L m(theta)) ||^2 / (2 s2),
 
@@ -37,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.fft import irfft, next_fast_len, rfft, rfftfreq
-from scipy.signal import lfilter
+from scipy.signal import fftconvolve, lfilter
 from scipy.stats import chi2
 
 from ..core.fit import refine
@@ -46,6 +54,9 @@ from .bounded import BoundedPosterior
 
 #: Largest autoregression order tried for the noise.
 MAX_AR_ORDER = 20
+#: Fractional differencing orders ``d`` tried for the noise (0: an AR alone;
+#: 0.5: 1/f noise made white; 1: a random walk).
+D_GRID = np.round(np.arange(0.0, 1.0001, 0.05), 2)
 #: Lags of the Ljung-Box whiteness check of the innovations.
 LB_LAGS = 20
 #: Zero padding after the record, in decay times ``1 / (h w0)`` of the
@@ -59,20 +70,61 @@ def ar_fit(r, max_order=MAX_AR_ORDER):
 
     Returns ``(a, s2)``: ``r_t = sum_k a_k r_{t-k} + e_t``, ``var e = s2``.
     """
+    return _ar_bic(r, max_order)[1:]
+
+
+def _ar_bic(r, max_order, extra=0):
+    """``(bic, a, s2)`` of the BIC-best autoregression of ``r`` (the order
+    0 included; ``extra`` parameters added to every order's count). The
+    first ``min(max_order, n // 20)`` samples are conditioned on, whatever
+    the order, so the BIC of two series of one length compare."""
     r = np.asarray(r, float) - np.mean(r)
     n = r.size
-    best = (n * np.log(np.mean(r * r)), np.zeros(0), float(np.mean(r * r)))
     p_max = min(max_order, n // 20)
-    lagged = np.column_stack([r[p_max - k:n - k] for k in range(1, p_max + 1)])
     y = r[p_max:]
+    s2 = float(np.mean(y * y))
+    best = (y.size * np.log(s2) + extra * np.log(y.size), np.zeros(0), s2)
+    lagged = np.column_stack([r[p_max - k:n - k] for k in range(1, p_max + 1)])
     for p in range(1, p_max + 1):
         a, *_ = np.linalg.lstsq(lagged[:, :p], y, rcond=None)
         e = y - lagged[:, :p] @ a
         s2 = float(np.mean(e * e))
-        bic = y.size * np.log(s2) + p * np.log(y.size)
+        bic = y.size * np.log(s2) + (p + extra) * np.log(y.size)
         if bic < best[0]:
             best = (bic, a, s2)
-    return best[1], best[2]
+    return best
+
+
+def fractional_difference(d, n):
+    """The first ``n`` coefficients of ``(1 - B)^d``: ``pi_0 = 1``,
+    ``pi_k = pi_{k-1} (k - 1 - d) / k`` (Hosking 1981)."""
+    k = np.arange(1, n)
+    return np.cumprod(np.r_[1.0, (k - 1 - d) / k])
+
+
+def fir(b, y):
+    """``y`` (n,) or (n, m) through the FIR filter ``b`` from rest, first
+    ``n`` samples (scipy's ``lfilter`` for short filters, FFT convolution
+    for long ones)."""
+    if len(b) <= 64:
+        return lfilter(b, 1.0, y, axis=0)
+    b = np.asarray(b, float).reshape((-1,) + (1,) * (np.ndim(y) - 1))
+    return fftconvolve(y, b, axes=0)[:len(y)]
+
+
+def noise_fit(r, max_order=MAX_AR_ORDER, d_grid=D_GRID):
+    """ARFIMA(p, d, 0) of ``r``: ``d`` from ``d_grid`` and ``p`` together by
+    BIC (the fractional difference applied from rest is unit lower
+    triangular, so each ``d``'s innovations give the likelihood of ``r``
+    itself; ``d > 0`` counts as one parameter). Returns ``(a, s2, d)``."""
+    r = np.asarray(r, float) - np.mean(r)
+    best = None
+    for d in d_grid:
+        series = r if d == 0 else fir(fractional_difference(d, r.size), r)
+        bic, a, s2 = _ar_bic(series, max_order, extra=int(d != 0))
+        if best is None or bic < best[0]:
+            best = (bic, a, s2, float(d))
+    return best[1:]
 
 
 def prediction_error_filter(a):
@@ -151,9 +203,11 @@ class TimeModel(BoundedPosterior):
         self.skip = int(skip)
         t = np.arange(self.x.size) / fs
         self.nuisance = np.column_stack([np.ones_like(t), t - t.mean()])
-        self.set_noise(np.zeros(0), 1.0)
+        self.set_noise(np.zeros(0), 1.0, 0.0)
 
     # --- noise ---------------------------------------------------------------
+    #: Fractional orders ``d`` the noise model chooses from.
+    d_grid = D_GRID
     #: Fixed IIR prefilter ``(b, a)`` applied before the AR whitening (the
     #: identity by default; :meth:`set_prefilter`).
     prefilter = (np.ones(1), np.ones(1))
@@ -164,27 +218,31 @@ class TimeModel(BoundedPosterior):
         ``a = [1, -1]`` (an integrator) the integration constant joins the
         nuisance (offset, drift) and is projected out."""
         self.prefilter = (np.asarray(b, float), np.asarray(a, float))
-        self.set_noise(self.ar, self.s2)
+        self.set_noise(self.ar, self.s2, self.d)
 
     def _pre(self, y):
         b, a = self.prefilter
         return lfilter(b, a, y, axis=0)
 
-    def set_noise(self, a, s2):
-        """Use AR coefficients ``a`` and innovation variance ``s2``."""
-        self.ar, self.s2 = np.asarray(a, float), float(s2)
+    def set_noise(self, a, s2, d=0.0):
+        """Use AR coefficients ``a``, innovation variance ``s2`` and
+        fractional differencing order ``d``."""
+        self.ar, self.s2, self.d = np.asarray(a, float), float(s2), float(d)
         b = prediction_error_filter(self.ar)
+        if self.d:
+            b = np.convolve(b, fractional_difference(self.d, self.x.size))[:self.x.size]
         zinv = np.exp(-2j * np.pi * self.predictor.freqs / self.fs)
         pb, pa = self.prefilter
         with np.errstate(divide="ignore", invalid="ignore"):
-            w = np.polyval(b[::-1], zinv) * np.polyval(pb[::-1], zinv) / np.polyval(pa[::-1], zinv)
+            w = (rfft(b, n=self.predictor.nfft) * np.polyval(pb[::-1], zinv)
+                 / np.polyval(pa[::-1], zinv))
         self._weight = np.where(np.isfinite(w), w, 0.0)
         self._keep = slice(max(self.skip, self.ar.size), None)
-        xw = lfilter(b, 1.0, self._pre(self.x))[self._keep]
+        xw = fir(b, self._pre(self.x))[self._keep]
         cols = self._pre(self.nuisance)
         if pa.size > 1:
             cols = np.column_stack([cols, np.ones(self.x.size)])
-        nw = lfilter(b, 1.0, cols, axis=0)[self._keep]
+        nw = fir(b, cols)[self._keep]
         self._q, _ = np.linalg.qr(nw)
         self._xw = xw - self._q @ (self._q.T @ xw)
 
@@ -195,9 +253,14 @@ class TimeModel(BoundedPosterior):
         return r - self.nuisance @ c
 
     def estimate_noise(self, theta):
-        """AR noise model from the residual at ``theta`` (after ``skip``)."""
-        a, s2 = ar_fit(self._pre(self.raw_residual(theta))[self.skip:])
-        self.set_noise(a, s2)
+        """Noise model from the residual at ``theta`` (:meth:`fit_noise`)."""
+        self.fit_noise(self.raw_residual(theta))
+
+    def fit_noise(self, r):
+        """Set the noise model to :func:`noise_fit` of the residual ``r``
+        after the prefilter (over the whole record, as the likelihood
+        filters) and after ``skip``."""
+        self.set_noise(*noise_fit(self._pre(r)[self.skip:], d_grid=self.d_grid))
 
     # --- likelihood ----------------------------------------------------------
     def innovations(self, theta):
@@ -235,17 +298,28 @@ class TimeModel(BoundedPosterior):
         return {"misfit": float(np.mean(e * e)), "n_samples": int(n),
                 "p_value": float(chi2.sf(q, LB_LAGS)),
                 "test": f"Ljung-Box on the innovations, {LB_LAGS} lags",
-                "ar_order": int(self.ar.size)}
+                "ar_order": int(self.ar.size), "fractional_d": self.d}
 
 
 def least_squares_time(model, theta0, passes=3):
     """Least squares on the whitened residual (and the pendulum prior's rows
-    of a model of the pendulum pair), the AR noise re-estimated after each
-    pass. Returns ``(theta, Laplace covariance (J^T J)^-1)``."""
+    of a model of the pendulum pair), the noise model re-estimated after
+    each pass, in two stages: an AR alone (``d = 0``) from ``theta0``; then
+    ``d`` chosen (from the model's ``d_grid``, BIC) at that point and held
+    while the AR is re-estimated. (With ``d`` free in every pass, a misfit of the
+    response left by an early pass is taken for red noise, which then
+    hides it: white-noise runs settled 3 sd off.) Returns ``(theta,
+    Laplace covariance (J^T J)^-1)``; the model keeps ``d_grid = (d,)``."""
     lo, hi = model.bounds()
 
     def fun(t):
         return np.concatenate([model.innovations(t[None])[0], model.prior_residual(t)])
 
-    return refine(fun, theta0, lo, hi, model.estimate_noise, passes, method="trf", scale=1.0,
+    grid, model.d_grid = model.d_grid, (0.0,)
+    theta, _ = refine(fun, theta0, lo, hi, model.estimate_noise, passes, method="trf",
+                      scale=1.0, x_scale="jac")
+    model.d_grid = grid
+    model.estimate_noise(theta)
+    model.d_grid = (model.d,)
+    return refine(fun, theta, lo, hi, model.estimate_noise, passes, method="trf", scale=1.0,
                   reestimate_first=False, x_scale="jac")
