@@ -341,3 +341,29 @@ def test_step_noise_model_follows_one_over_f_self_noise():
             power[k].extend(p[(f >= lo) & (f < hi)])
     low, mid = np.mean(power[0]), np.mean(power[1])
     assert 0.6 < low < 1.5 and 0.85 < mid < 1.2, (low, mid, len(power[0]), len(power[1]))
+
+
+def test_a_record_long_whitening_filter_is_a_linear_convolution():
+    """The step kind whitens with a filter as long as the record (the
+    fractional difference): applied as a weight on the Predictor's FFT grid
+    it must equal the same filter run from rest over the model in time (a
+    step still on at the record's end, where a circular product wraps the
+    record's own samples into its start)."""
+    from bayescal.coil.timedomain import Predictor, fir, fractional_difference
+    from scipy.fft import rfft
+
+    fs, n = 10.0, 3000
+    u = np.zeros(n)
+    u[600:] = 1.0                                      # on until the end
+    fc = 0.05
+
+    def transfer(f):
+        return 1.0 / (1.0 + 1j * np.asarray(f) / fc)  # causal one-pole low-pass
+
+    b = fractional_difference(0.4, n)
+    pred = Predictor(u, fs, transfer, pad=2000, span=n)
+    linear = fir(b, pred(1.0)[0])
+    weighted = pred(1.0, weight=rfft(b, n=pred.nfft))[0]
+    # 2e-2 of the model with a buffer of n + taper + pad (the record wrapped in);
+    # what is left is the buffer's own ringing tail (a step through an ideal filter)
+    assert np.max(np.abs(weighted - linear)) < 1e-4 * np.max(np.abs(linear))

@@ -136,7 +136,8 @@ def least_squares_step(run, coil_constant, priors=Priors()):
     u = step_drive(u)
     spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
                                 priors=priors)
-    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs))
+    pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs),
+                     span=u.size)     # the fractional difference's filter: the record's length
     # the samples before the first step are conditioned on (module docstring):
     # with 1/f noise the missing past's transient biased the period by 1 sd
     model = StepModel(x, run.fs, pred, spec, skip=max(first_move(u) - 1, 0))

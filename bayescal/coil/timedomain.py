@@ -141,14 +141,17 @@ class Predictor:
     whitening filter) and returns the first ``n`` samples, shape (W, n).
     """
 
-    def __init__(self, u, fs, transfer, pad):
+    def __init__(self, u, fs, transfer, pad, span=0):
         self.n = u.size
         # after the record the input is held at its last value and brought to
         # zero smoothly (half a Hann window, ``pad // 4`` samples), then zeros:
         # an abrupt end would ring back into the record (band-limited signal)
         taper = max(int(pad) // 4, 64)
         tail = u[-1] * 0.5 * (1 + np.cos(np.pi * np.arange(1, taper + 1) / taper))
-        self.nfft = next_fast_len(self.n + taper + int(pad), real=True)
+        # ``span``: the length of a whitening filter applied as a ``weight``;
+        # the buffer holds it too, so its product is a linear (not circular)
+        # convolution over the record
+        self.nfft = next_fast_len(self.n + taper + int(pad) + int(span), real=True)
         self.freqs = rfftfreq(self.nfft, 1.0 / fs)
         self.spectrum = rfft(np.r_[u, tail], n=self.nfft) * transfer(self.freqs)
 
