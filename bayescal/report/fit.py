@@ -120,8 +120,10 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
                                page=layout.page_size(paper))
     stale = [f"{stem}_{name}.png" for name in PAGES] + [   # an earlier report's, if not redrawn
         n for n in (os.listdir(out_dir) if os.path.isdir(out_dir) else ())
-        if n.startswith(f"{stem}_summary_") and n.endswith(".png")]
-    with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale, record=True),
+        if n.startswith(f"{stem}_summary_") and n.endswith(".png")
+        and n[len(stem) + 9:-4].isdigit()]   # page 1's continuations only: _summary_2.png ...
+    own = os.path.abspath(out_dir) == os.path.abspath(folder)   # a report in its result's folder
+    with layout.style(), staging(out_dir, finish=partial(move_files, stale=stale, record=own),
                                  within=out_dir) as tmp:
         drawn = list(figures(ctx))
         meta = {"Title": f"bayescal calibration report: {', '.join(post.channel_ids)}",
