@@ -225,6 +225,17 @@ def _innovation_power_at_truth(seed, slope):
     return np.fft.rfftfreq(e.size, 1.0 / m.fs), np.abs(np.fft.rfft(e)) ** 2 / e.size
 
 
+
+def _band_means(seeds, slope, bands):
+    """The innovations' mean power at the truth in each of ``bands`` (Hz),
+    pooled over the runs ``seeds`` with self-noise slope ``slope``."""
+    power = [[] for _ in bands]
+    for seed in seeds:
+        f, p = _innovation_power_at_truth(seed, slope)
+        for k, (lo, hi) in enumerate(bands):
+            power[k].extend(p[(f >= lo) & (f < hi)])
+    return [np.mean(q) for q in power]
+
 def test_step_noise_model_right_where_the_information_is():
     """The AR noise model (fitted after the prefilter back to acceleration)
     describes the noise below and just above the pendulum's corner: the
@@ -235,13 +246,8 @@ def test_step_noise_model_right_where_the_information_is():
     and 1.45 here: the output noise has a zero at 0 Hz that an
     autoregression cannot represent (docs/cal.md, "Model (step and sine kinds):
     time domain"; docs/validation/coil.md, "Step and sine runs")."""
-    power = [[], []]
-    for seed in range(51, 57):
-        f, p = _innovation_power_at_truth(seed, 0.0)
-        for k, (lo, hi) in enumerate(((1e-3, 5e-3), (5e-3, 2.5e-2))):
-            power[k].extend(p[(f >= lo) & (f < hi)])
-    low, mid = np.mean(power[0]), np.mean(power[1])
-    assert 0.5 < low < 1.6 and 0.75 < mid < 1.25, (low, mid, len(power[0]), len(power[1]))
+    low, mid = _band_means(range(51, 57), 0.0, ((1e-3, 5e-3), (5e-3, 2.5e-2)))
+    assert 0.5 < low < 1.6 and 0.75 < mid < 1.25, (low, mid)
 
 
 # --- the input channel's own noise --------------------------------------------
@@ -334,13 +340,8 @@ def test_step_noise_model_follows_one_over_f_self_noise():
     (72 and 352 DFT bins: the means' sd 0.12 and 0.053; measured 1.17 and
     1.07). An AR alone (``d`` held at 0), fitted where most samples'
     variance is, does not follow 1/f down to the corner: 2.4 and 0.67."""
-    power = [[], []]
-    for seed in range(61, 69):
-        f, p = _innovation_power_at_truth(seed, 1.0)
-        for k, (lo, hi) in enumerate(((1e-3, 1e-2), (1e-2, 5e-2))):
-            power[k].extend(p[(f >= lo) & (f < hi)])
-    low, mid = np.mean(power[0]), np.mean(power[1])
-    assert 0.6 < low < 1.5 and 0.85 < mid < 1.2, (low, mid, len(power[0]), len(power[1]))
+    low, mid = _band_means(range(61, 69), 1.0, ((1e-3, 1e-2), (1e-2, 5e-2)))
+    assert 0.6 < low < 1.5 and 0.85 < mid < 1.2, (low, mid)
 
 
 def test_a_record_long_whitening_filter_is_a_linear_convolution():
