@@ -184,3 +184,38 @@ def test_memory_holds_the_results_and_one_chunk():
     kept = sp.total.nbytes + sp.block_totals.nbytes + sp.per_segment.nbytes
     assert sp.n_segments * sp.freqs.size * 36 * 16 > 8 * CHUNK_BYTES    # what is never held
     assert peak < 2 * x.nbytes + kept + 3.5 * CHUNK_BYTES, (peak / 2**20, kept / 2**20)
+
+
+def _at_offset(x, offset):
+    """A copy of ``x`` whose data start ``offset`` bytes past a 64-byte boundary."""
+    buf = np.empty(x.nbytes + 128, np.uint8)
+    start = (-buf.ctypes.data) % 64 + offset
+    out = buf[start:start + x.nbytes].view(x.dtype).reshape(x.shape)
+    out[...] = x
+    return out
+
+
+def test_spectra_are_the_same_bits_on_one_or_two_blas_threads_and_any_alignment():
+    """The cross-spectra are sums in an order of the code's choosing: the
+    same bits whatever BLAS's thread count (a process-wide setting that
+    another thread's fit may change while these spectra are computed) and
+    wherever the samples lie in memory. A record of 36 000 samples per
+    channel, deconvolved: OpenBLAS's dot product of two such vectors sums in
+    two halves on two threads, so a BLAS dot anywhere on the path shows."""
+    from threadpoolctl import threadpool_limits
+    from bayescal.core.response.family import paz_velocity_response
+    sut, ref = _data(n=36_000)
+    sut[0, 20_000:20_020] = np.nan                           # two runs, each deconvolved alone
+
+    def resp(n):
+        return lambda f: np.repeat(paz_velocity_response(f, 30.0, 0.7, 800.0)[None], n, axis=0)
+
+    def digest(s, r, threads):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            sp = cross_spectra(s, r, FS, resp(2), resp(1), (0.05, 2.0), nperseg=1024)
+        return [a.tobytes() for a in (sp.total, sp.per_segment, sp.block_totals)]
+
+    want = digest(sut, ref, 1)
+    for threads, offset in ((2, 0), (1, 8), (2, 24), (1, 40)):
+        got = digest(_at_offset(sut, offset), _at_offset(ref, offset + 16), threads)
+        assert got == want, (threads, offset)

@@ -32,11 +32,16 @@ def hann(m, sym=False):
 
 def remove_line(x):
     """Subtract from ``x`` (..., m), in place, its least-squares straight line
-    along the last axis; returns ``x``."""
+    along the last axis; returns ``x``.
+
+    The sums are numpy's own loops (``einsum``, ``mean``), not BLAS: their
+    order is fixed by the array's shape, whereas OpenBLAS splits a long dot
+    product among its threads, whose number is a process-wide setting that
+    another thread may change meanwhile."""
     m = x.shape[-1]
     t = np.arange(m, dtype=float) - (m - 1) / 2.0
     x -= x.mean(axis=-1, keepdims=True)
-    x -= ((x @ t) / (t @ t))[..., None] * t
+    x -= (np.einsum("...m,m->...", x, t) / np.einsum("m,m->", t, t))[..., None] * t
     return x
 
 

@@ -29,6 +29,12 @@ of the totals alone, F x n x n numbers each) and the small per-segment band
 matrices, so memory holds one chunk of segments beyond what the fit keeps;
 it does not grow with the record beyond ``K x B x n x n`` numbers and the
 record itself (the deconvolution holds one run of one sensor at a time).
+
+Every sum is one of numpy's own loops (``einsum``, ``mean``), none a BLAS
+call: the order of its terms is fixed by the arrays' shapes, so the spectra
+are the same bits whatever BLAS's thread count (a process-wide setting that
+another thread's fit may change meanwhile) and wherever the samples lie in
+memory.
 """
 from __future__ import annotations
 
@@ -400,7 +406,7 @@ def _accumulate(data, starts, win, bins, bounds, *, chunk, exclude, time_blocks,
         k = z.shape[0]
         for b, fb in enumerate(band_bins):
             zb = z[:, :, fb]
-            per_segment[c0:c0 + k, b] = zb @ zb.conj().transpose(0, 2, 1)
+            per_segment[c0:c0 + k, b] = np.einsum("kif,kjf->kij", zb, zb.conj())
         ids = block_of[c0:c0 + k]
         for g in np.unique(ids):
             zg = z[ids == g]
