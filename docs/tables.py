@@ -1,0 +1,153 @@
+"""The tables the validation pages show, generated from stored results.
+
+A page marks a generated table by an HTML comment on the line before it and
+one on the line after it::
+
+    <!-- table: coverage -->
+    | parameter | ... |
+    |---|---|
+    | azimuth | ... |
+    <!-- /table -->
+
+and ``docs/tables.toml`` says, for each name, the stored results (JSON files
+of the repository, each bound to a short name), the table's head (its
+literal first lines) and how each row is written: ``row`` is a Python
+f-string template filled once per entry of ``rows`` (each entry bound to
+the names of ``vars``; a plain string is bound to ``key``), in which the
+stored results read as ``cov.table[key].inside`` (attribute or item access,
+``cov.channels['US.COWI..LHN']``) and the helpers of :data:`HELPERS` are at
+hand. ``python docs/example_outputs.py --no-run`` rewrites every marked
+table from its source; ``tests/test_doc_numbers.py`` checks that each is
+what its source gives.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The generated tables: name -> page, sources, head and rows.
+TABLES = ROOT / "docs" / "tables.toml"
+START = re.compile(r"^<!-- table: ([\w.-]+) -->\s*$")
+END = "<!-- /table -->"
+
+
+class Stored:
+    """A stored result's entry read by attribute or item: containers stay
+    :class:`Stored`, leaves are the values themselves."""
+
+    def __init__(self, data, where):
+        self.data, self.where = data, where
+
+    def __getitem__(self, step):
+        try:
+            return wrap(self.data[step], f"{self.where}[{step!r}]")
+        except (KeyError, IndexError, TypeError):
+            raise LookupError(f"{self.where} has no entry {step!r}") from None
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return self[name]
+
+    def __iter__(self):
+        return iter(self.data)
+
+    def __len__(self):
+        return len(self.data)
+
+    def values(self):
+        """The entries' values, in order (a list's items)."""
+        items = self.data.values() if isinstance(self.data, dict) else self.data
+        return [wrap(v, self.where) for v in items]
+
+
+def wrap(value, where):
+    """``value`` as read from a stored result: containers wrapped."""
+    return Stored(value, where) if isinstance(value, (dict, list)) else value
+
+
+def binomial_band(n, p=0.9, level=0.99):
+    """Central ``level`` band of the count of successes of ``n`` trials
+    with probability ``p`` (the studies' :func:`binom.ppf` band)."""
+    from scipy.stats import binom
+
+    alpha = 1 - level
+    return int(binom.ppf(alpha / 2, n, p)), int(binom.ppf(1 - alpha / 2, n, p))
+
+
+#: Names a template may use besides its sources.
+HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
+           "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted}
+
+
+def load(sources):
+    """The named stored results of ``sources`` (name -> path under the
+    repository), each wrapped as :class:`Stored`."""
+    return {name: wrap(json.loads((ROOT / path).read_text()), path)
+            for name, path in sources.items()}
+
+
+def fill(template, names):
+    """``template`` (a Python f-string's body) filled from ``names``."""
+    return eval("f" + repr(template), {"__builtins__": {}, **HELPERS, **names})  # noqa: S307
+
+
+def rows_of(spec):
+    """The bindings of each row of ``spec``: ``vars`` -> the row's entry."""
+    names = spec.get("vars", ["key"])
+    return [dict(zip(names, row if isinstance(row, list) else [row])) for row in spec["rows"]]
+
+
+def table_text(spec):
+    """The lines of the table ``spec`` describes, head first."""
+    stored = load(spec["sources"])
+    head = spec.get("head", "").strip("\n")
+    rows = [fill(spec["row"], {**stored, **row}) for row in rows_of(spec)]
+    return (head.splitlines() if head else []) + rows
+
+
+def specs():
+    """Each table of :data:`TABLES`: name -> spec."""
+    return tomllib.loads(TABLES.read_text()).get("table", {})
+
+
+def marked(text):
+    """name -> (first line, line after the last) of each table marked in
+    ``text`` (the lines between its two comments)."""
+    lines, out, i = text.split("\n"), {}, 0
+    while i < len(lines):
+        m = START.match(lines[i])
+        if m:
+            j = i + 1
+            while j < len(lines) and lines[j].strip() != END:
+                j += 1
+            out[m.group(1)] = (i + 1, j)
+            i = j
+        i += 1
+    return out
+
+
+def refresh_tables():
+    """Rewrite every marked table from its source; returns the tables of
+    :data:`TABLES` that are not marked on their page."""
+    missing = []
+    for name, spec in specs().items():
+        page = ROOT / spec["page"]
+        lines = page.read_text().split("\n")
+        where = marked("\n".join(lines)).get(name)
+        if where is None:
+            missing.append(f"{spec['page']}: table {name}")
+            continue
+        lines[where[0]:where[1]] = table_text(spec)
+        page.write_text("\n".join(lines))
+    return missing
+
+
+def tables_on(page):
+    """The marked tables' lines of ``page``: name -> list of lines."""
+    lines = Path(page).read_text().split("\n")
+    return {name: lines[a:b] for name, (a, b) in marked("\n".join(lines)).items()}
