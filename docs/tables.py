@@ -13,7 +13,8 @@ and ``docs/tables.toml`` says, for each name, the stored results (JSON files
 of the repository, each bound to a short name), the table's head (its
 literal first lines) and how each row is written: ``row`` is a Python
 f-string template filled once per entry of ``rows`` (each entry bound to
-the names of ``vars``; a plain string is bound to ``key``), in which the
+the names of ``vars``; a plain string is bound to ``key``), or ``lines``
+lists one such template per row (a table whose rows differ), in which the
 stored results read as ``cov.table[key].inside`` (attribute or item access,
 ``cov.channels['US.COWI..LHN']``) and the helpers of :data:`HELPERS` are at
 hand. ``python docs/example_outputs.py --no-run`` rewrites every marked
@@ -25,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 import tomllib
 from pathlib import Path
 
@@ -79,9 +81,20 @@ def binomial_band(n, p=0.9, level=0.99):
     return int(binom.ppf(alpha / 2, n, p)), int(binom.ppf(1 - alpha / 2, n, p))
 
 
+def example(name):
+    """The module ``examples/<name>.py``: a study's own definitions (how it
+    summarises its result) for a template to call."""
+    import importlib
+
+    if str(ROOT / "examples") not in sys.path:
+        sys.path.insert(0, str(ROOT / "examples"))
+    return importlib.import_module(name)
+
+
 #: Names a template may use besides its sources.
 HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
-           "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted}
+           "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
+           "list": list, "zip": zip, "example": example}
 
 
 def load(sources):
@@ -106,7 +119,10 @@ def table_text(spec):
     """The lines of the table ``spec`` describes, head first."""
     stored = load(spec["sources"])
     head = spec.get("head", "").strip("\n")
-    rows = [fill(spec["row"], {**stored, **row}) for row in rows_of(spec)]
+    if "lines" in spec:
+        rows = [fill(line, stored) for line in spec["lines"]]
+    else:
+        rows = [fill(spec["row"], {**stored, **row}) for row in rows_of(spec)]
     return (head.splitlines() if head else []) + rows
 
 

@@ -26,12 +26,13 @@ ROOT = tables.ROOT
 QUOTED = ROOT / "docs" / "quoted.toml"
 #: The pages whose numbers must be accounted for.
 PAGES = [*sorted((ROOT / "docs" / "validation").glob("*.md")), ROOT / "docs" / "science.md"]
-#: A number standing alone (not a digit inside a name such as ``BH1``).
-NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w])")
+#: A number standing alone (not a digit inside a name such as ``BH1`` or
+#: ``STS-1``).
+NUMBER = re.compile(r"(?<![\w.])(?<![A-Za-z]-)[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w])")
 #: Spans that hold no result: fenced code, inline code, cross-references,
-#: link targets and images, HTML comments.
+#: link targets and images, HTML comments, inline mathematics.
 CODE = [re.compile(r"^(`{3,}).*?^\1\s*$", re.S | re.M), re.compile(r"`[^`]+`"),
-        re.compile(r"\]\([^)]*\)"), re.compile(r"<!--.*?-->", re.S)]
+        re.compile(r"\]\([^)]*\)"), re.compile(r"<!--.*?-->", re.S), re.compile(r"\$[^$\n]+\$")]
 #: Numbers that are never results on these pages: the levels of intervals
 #: and bands (68, 90, 95, 99 %), channel counts (3+3), seed ranges, the
 #: numbers of a numbered list and of a section title.
