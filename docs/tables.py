@@ -16,8 +16,8 @@ f-string template filled once per entry of ``rows`` (each entry bound to
 the names of ``vars``; a plain string is bound to ``key``), or ``lines``
 lists one such template per row (a table whose rows differ), in which the
 stored results read as ``cov.table[key].inside`` (attribute or item access,
-``cov.channels['US.COWI..LHN']``) and the helpers of :data:`HELPERS` are at
-hand. ``python docs/example_outputs.py --no-run`` rewrites every marked
+``cov.channels['US.COWI..LHN']``; ``source[name]`` is the source a row's
+entry names) and the helpers of :data:`HELPERS` are at hand. ``python docs/example_outputs.py --no-run`` rewrites every marked
 table from its source; ``tests/test_doc_numbers.py`` checks that each is
 what its source gives.
 """
@@ -94,7 +94,7 @@ def example(name):
 #: Names a template may use besides its sources.
 HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
            "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
-           "list": list, "zip": zip, "example": example}
+           "list": list, "zip": zip, "format": format, "example": example}
 
 
 def load(sources):
@@ -122,7 +122,7 @@ def table_text(spec):
     if "lines" in spec:
         rows = [fill(line, stored) for line in spec["lines"]]
     else:
-        rows = [fill(spec["row"], {**stored, **row}) for row in rows_of(spec)]
+        rows = [fill(spec["row"], {**stored, **row, "source": stored}) for row in rows_of(spec)]
     return (head.splitlines() if head else []) + rows
 
 

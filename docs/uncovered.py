@@ -7,7 +7,8 @@ from stored results (:mod:`tables`), inside a quote of
 fenced block, an inline ``code`` span: commands, paths, arguments), a link
 or a cross-reference, or inside a phrase of the page's ``[allow]`` list in
 ``docs/quoted.toml``: the numbers that are not results (a study's settings,
-interval levels, band edges, seeds). :func:`uncovered` gives the others;
+interval levels, band edges, seeds). Results whose runs are not stored are
+listed apart, in ``[unstored]``, and the page says that they are not stored. :func:`uncovered` gives the others;
 ``tests/test_doc_numbers.py`` asks that there be none, so a result typed by
 hand onto a page fails.
 ``python docs/uncovered.py`` lists them, page by page, with their line.
@@ -68,7 +69,7 @@ def uncovered(page, config=None):
     text = "\n".join(lines)
     text = blank(text, CODE[0])
     phrases = [q["text"] for q in config.get("quote", []) if q["page"] == name]
-    phrases += config.get("allow", {}).get(name, [])
+    phrases += config.get("allow", {}).get(name, []) + config.get("unstored", {}).get(name, [])
     for phrase in sorted(phrases, key=len, reverse=True):
         text = blank(text, words_of(phrase))
     for pattern in CODE[1:] + GENERIC:
