@@ -212,8 +212,10 @@ def refresh_quotes():
     import tomllib
 
     text, missing = QUOTED.read_text(), []
-    for quote in tomllib.loads(text)["quote"]:
-        new, page = quoted_value(quote), ROOT / quote["page"]
+    quotes = tomllib.loads(text)["quote"]
+    values = [quoted_value(quote) for quote in quotes]      # all, before any page is written
+    for quote, new in zip(quotes, values):
+        page = ROOT / quote["page"]
         body = page.read_text()
         if not words_of(quote["text"]).search(body):
             missing.append(f"{quote['page']}: {quote['text']}")

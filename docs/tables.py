@@ -81,6 +81,14 @@ def binomial_band(n, p=0.9, level=0.99):
     return int(binom.ppf(alpha / 2, n, p)), int(binom.ppf(1 - alpha / 2, n, p))
 
 
+def chi2_ppf(q, dof):
+    """The ``q`` quantile of the chi-square distribution with ``dof``
+    degrees of freedom."""
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(q, dof))
+
+
 def example(name):
     """The module ``examples/<name>.py``: a study's own definitions (how it
     summarises its result) for a template to call."""
@@ -94,7 +102,8 @@ def example(name):
 #: Names a template may use besides its sources.
 HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
            "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
-           "list": list, "zip": zip, "format": format, "example": example}
+           "list": list, "zip": zip, "format": format, "example": example,
+           "chi2_ppf": chi2_ppf, "all": all, "any": any, "str": str}
 
 
 def load(sources):
@@ -150,7 +159,7 @@ def marked(text):
 def refresh_tables():
     """Rewrite every marked table from its source; returns the tables of
     :data:`TABLES` that are not marked on their page."""
-    missing = []
+    missing, texts = [], {name: table_text(spec) for name, spec in specs().items()}
     for name, spec in specs().items():
         page = ROOT / spec["page"]
         lines = page.read_text().split("\n")
@@ -158,7 +167,7 @@ def refresh_tables():
         if where is None:
             missing.append(f"{spec['page']}: table {name}")
             continue
-        lines[where[0]:where[1]] = table_text(spec)
+        lines[where[0]:where[1]] = texts[name]
         page.write_text("\n".join(lines))
     return missing
 

@@ -36,10 +36,12 @@ CODE = [re.compile(r"^(`{3,}).*?^\1\s*$", re.S | re.M), re.compile(r"`[^`]+`"),
         re.compile(r"\]\([^)]*\)"), re.compile(r"<!--.*?-->", re.S), re.compile(r"\$[^$\n]+\$")]
 #: Numbers that are never results on these pages: the levels of intervals
 #: and bands (68, 90, 95, 99 %), channel counts (3+3), seed ranges, the
-#: numbers of a numbered list and of a section title.
+#: numbers of a numbered list and of a section title, dates and times of
+#: day (a record's window).
 GENERIC = [re.compile(r"(?<![\w.])(?:68|90|95|99) ?%"), re.compile(r"\b\d\+\d\b"),
            re.compile(r"\bseeds? \d+(?:-\d+)?(?:(?:,| and) \d+(?:-\d+)?)*"),
-           re.compile(r"^\s*\d+\. ", re.M), re.compile(r"^#+ .*$", re.M)]
+           re.compile(r"^\s*\d+\. ", re.M), re.compile(r"^#+ .*$", re.M),
+           re.compile(r"\b\d{4}-\d\d-\d\dT\d\d:\d\d(?::\d\d)?(?:-\d\d:\d\d)?")]
 
 
 def settings():
