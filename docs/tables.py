@@ -11,15 +11,17 @@ one on the line after it::
 
 and ``docs/tables.toml`` says, for each name, the stored results (JSON files
 of the repository, each bound to a short name), the table's head (its
-literal first lines) and how each row is written: ``row`` is a Python
-f-string template filled once per entry of ``rows`` (each entry bound to
-the names of ``vars``; a plain string is bound to ``key``), or ``lines``
-lists one such template per row (a table whose rows differ), in which the
-stored results read as ``cov.table[key].inside`` (attribute or item access,
+literal first lines) and how each row is written: ``row`` is a template
+filled once per entry of ``rows`` (each entry bound to the names of
+``vars``; a plain string is bound to ``key``), or ``lines`` lists one
+template per row (a table whose rows differ). A template is filled as a
+Python f-string would be (:func:`fill`); in it the stored results read as
+``cov.table[key].inside`` (attribute or item access,
 ``cov.channels['US.COWI..LHN']``; ``source[name]`` is the source a row's
-entry names) and the helpers of :data:`HELPERS` are at hand. ``python docs/example_outputs.py --no-run`` rewrites every marked
-table from its source; ``tests/test_doc_numbers.py`` checks that each is
-what its source gives.
+entry names) and the helpers of :data:`HELPERS` are at hand.
+``python docs/example_outputs.py --no-run`` rewrites every marked table
+from its source; ``tests/test_doc_numbers.py`` checks that each is what its
+source gives.
 """
 from __future__ import annotations
 
@@ -56,7 +58,10 @@ class Stored:
         return self[name]
 
     def __iter__(self):
-        return iter(self.data)
+        """A dict's keys; a list's items, containers wrapped."""
+        if isinstance(self.data, dict):
+            return iter(self.data)
+        return iter(self.values())
 
     def __len__(self):
         return len(self.data)
@@ -89,6 +94,37 @@ def chi2_ppf(q, dof):
     return float(chi2.ppf(q, dof))
 
 
+def chi2_sf(x, dof):
+    """The probability that a chi-square variable with ``dof`` degrees of
+    freedom exceeds ``x``."""
+    from scipy.stats import chi2
+
+    return float(chi2.sf(x, dof))
+
+
+def md_table(text, n=0):
+    """The rows of the ``n``-th markdown table in ``text`` (a study's
+    printed summary), each a dict of its head's cells."""
+    tables, rows = [], []
+    for line in [*str(text).splitlines(), ""]:
+        if line.startswith("|"):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif rows:
+            tables.append([dict(zip(rows[0], r)) for r in rows[2:]])
+            rows = []
+    return wrap(tables[n], "a markdown table")
+
+
+def numbers(text):
+    """The numbers written in ``text``, as floats."""
+    return [float(x) for x in re.findall(r"[-+]?\d+\.?\d*(?:[eE][-+]?\d+)?", str(text))]
+
+
+def grab(pattern, text):
+    """The first group of ``pattern`` in ``text``."""
+    return re.search(pattern, str(text)).group(1)
+
+
 def example(name):
     """The module ``examples/<name>.py``: a study's own definitions (how it
     summarises its result) for a template to call."""
@@ -103,7 +139,9 @@ def example(name):
 HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
            "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
            "list": list, "zip": zip, "format": format, "example": example,
-           "chi2_ppf": chi2_ppf, "all": all, "any": any, "str": str}
+           "chi2_ppf": chi2_ppf, "chi2_sf": chi2_sf, "log": math.log, "all": all, "any": any,
+           "str": str, "lines_of": str.splitlines, "md_table": md_table, "numbers": numbers,
+           "grab": grab, "float": float, "int": int}
 
 
 def load(sources):
@@ -113,9 +151,49 @@ def load(sources):
             for name, path in sources.items()}
 
 
+def field_end(text, start):
+    """The index of the brace closing the field opened at ``start``, and
+    that of the field's format-spec colon (or -1): brackets, parentheses,
+    braces and quoted strings inside the expression are skipped."""
+    depth, quote, colon, i = 0, None, -1, start + 1
+    while i < len(text):
+        c = text[i]
+        if quote:
+            quote = None if c == quote else quote
+        elif c in "'\"":
+            quote = c
+        elif c in "([{":
+            depth += 1
+        elif c in ")]}" and depth:
+            depth -= 1
+        elif c == "}":
+            return i, colon
+        elif c == ":" and depth == 0 and colon < 0:
+            colon = i
+        i += 1
+    raise ValueError(f"unclosed field in {text!r}")
+
+
 def fill(template, names):
-    """``template`` (a Python f-string's body) filled from ``names``."""
-    return eval("f" + repr(template), {"__builtins__": {}, **HELPERS, **names})  # noqa: S307
+    """``template`` filled from ``names`` as a Python f-string would be:
+    each ``{expression:spec}`` evaluated (the spec may hold fields too),
+    ``{{`` and ``}}`` for braces."""
+    scope = {"__builtins__": {}, **HELPERS, **names}
+    out, i = [], 0
+    while i < len(template):
+        if template[i:i + 2] in ("{{", "}}"):
+            out.append(template[i])
+            i += 2
+        elif template[i] == "{":
+            end, colon = field_end(template, i)
+            expr = template[i + 1:colon if colon >= 0 else end]
+            spec = fill(template[colon + 1:end], names) if colon >= 0 else ""
+            out.append(format(eval(expr, scope), spec))  # noqa: S307  (the repository's own templates)
+            i = end + 1
+        else:
+            out.append(template[i])
+            i += 1
+    return "".join(out)
 
 
 def rows_of(spec):

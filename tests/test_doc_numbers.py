@@ -69,7 +69,7 @@ def quoted_numbers():
 @pytest.mark.parametrize("quote", quoted_numbers(), ids=lambda q: f"{q['page']}:{q['text']}")
 def test_prose_numbers_are_the_stored_results(quote):
     text = example_outputs.quoted_value(quote)
-    assert text == quote["text"], f"{quote['source']} {quote['path']}: {text!r}"
+    assert text == quote["text"], f"{quote.get('source', quote.get('sources'))}: {text!r}"
     page = " ".join((ROOT / quote["page"]).read_text().split())
     assert quote["text"] in page, f"{quote['page']} does not quote {quote['text']!r}"
 
