@@ -206,6 +206,15 @@ def words_of(text):
     return re.compile(r"\s+".join(map(re.escape, text.split())))
 
 
+def respaced(new, old):
+    """``new`` laid out as ``old`` is (its line breaks kept) when both have
+    as many words; ``new`` itself otherwise."""
+    words, gaps = new.split(), re.findall(r"\s+", old.strip())
+    if len(words) != len(old.split()):
+        return new
+    return words[0] + "".join(gap + word for gap, word in zip(gaps, words[1:]))
+
+
 def refresh_quotes():
     """Rewrite each number of :data:`QUOTED` on its page and in the file
     from its stored result; returns the quotes not found on their page."""
@@ -220,8 +229,8 @@ def refresh_quotes():
         if not words_of(quote["text"]).search(body):
             missing.append(f"{quote['page']}: {quote['text']}")
             continue
-        page.write_text(words_of(quote["text"]).sub(
-            lambda m: m.group(0) if " ".join(m.group(0).split()) == new else new, body, count=1))
+        page.write_text(words_of(quote["text"]).sub(lambda m: respaced(new, m.group(0)), body,
+                                                    count=1))
         text = text.replace(f"text = {json.dumps(quote['text'])}", f"text = {json.dumps(new)}")
     QUOTED.write_text(text)
     return missing

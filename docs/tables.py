@@ -11,7 +11,7 @@ one on the line after it::
 
 and ``docs/tables.toml`` says, for each name, the stored results (JSON files
 of the repository, each bound to a short name), the table's head (its
-literal first lines) and how each row is written: ``row`` is a template
+first lines, a template as the rows are) and how each row is written: ``row`` is a template
 filled once per entry of ``rows`` (each entry bound to the names of
 ``vars``; a plain string is bound to ``key``), or ``lines`` lists one
 template per row (a table whose rows differ). A template is filled as a
@@ -205,7 +205,7 @@ def rows_of(spec):
 def table_text(spec):
     """The lines of the table ``spec`` describes, head first."""
     stored = load(spec["sources"])
-    head = spec.get("head", "").strip("\n")
+    head = fill(spec.get("head", "").strip("\n"), stored)
     if "lines" in spec:
         rows = [fill(line, stored) for line in spec["lines"]]
     else:

@@ -72,8 +72,9 @@ def uncovered(page, config=None):
     text = blank(text, CODE[0])
     phrases = [q["text"] for q in config.get("quote", []) if q["page"] == name]
     phrases += config.get("allow", {}).get(name, []) + config.get("unstored", {}).get(name, [])
-    for phrase in sorted(phrases, key=len, reverse=True):
-        text = blank(text, words_of(phrase))
+    spans = [m.span() for phrase in phrases for m in words_of(phrase).finditer(text)]
+    for a, b in spans:                  # every phrase found before any is blanked
+        text = text[:a] + re.sub(r"[^\n]", " ", text[a:b]) + text[b:]
     for pattern in CODE[1:] + GENERIC:
         text = blank(text, pattern)
     out = []
