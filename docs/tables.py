@@ -120,6 +120,19 @@ def numbers(text):
     return [float(x) for x in re.findall(r"[-+]?\d+\.?\d*(?:[eE][-+]?\d+)?", str(text))]
 
 
+def where(rows, **match):
+    """The entries of ``rows`` whose fields equal ``match``."""
+    return [r for r in rows if all(r[k] == v for k, v in match.items())]
+
+
+def one(rows, **match):
+    """The one entry of ``rows`` whose fields equal ``match``."""
+    found = where(rows, **match)
+    if len(found) != 1:
+        raise LookupError(f"{len(found)} entries match {match}")
+    return found[0]
+
+
 def grab(pattern, text):
     """The first group of ``pattern`` in ``text``."""
     return re.search(pattern, str(text)).group(1)
@@ -141,7 +154,7 @@ HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": 
            "list": list, "zip": zip, "format": format, "example": example,
            "chi2_ppf": chi2_ppf, "chi2_sf": chi2_sf, "log": math.log, "all": all, "any": any,
            "str": str, "lines_of": str.splitlines, "md_table": md_table, "numbers": numbers,
-           "grab": grab, "float": float, "int": int}
+           "grab": grab, "float": float, "int": int, "where": where, "one": one}
 
 
 def load(sources):
