@@ -33,15 +33,20 @@ NUMBER = re.compile(r"(?<![\w.])(?<![A-Za-z]-)[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+
 #: Spans that hold no result: fenced code, inline code, cross-references,
 #: link targets and images, HTML comments, inline mathematics.
 CODE = [re.compile(r"^(`{3,}).*?^\1\s*$", re.S | re.M), re.compile(r"`[^`]+`"),
-        re.compile(r"\]\([^)]*\)"), re.compile(r"<!--.*?-->", re.S), re.compile(r"\$[^$\n]+\$")]
+        re.compile(r"\]\([^)]*\)"), re.compile(r"<!--.*?-->", re.S), re.compile(r"\$\$.*?\$\$", re.S),
+        re.compile(r"(?<!\$)\$(?!\$)[^$]+\$")]
 #: Numbers that are never results on these pages: the levels of intervals
 #: and bands (68, 90, 95, 99 %), channel counts (3+3), seed ranges, the
 #: numbers of a numbered list and of a section title, dates and times of
-#: day (a record's window).
+#: day (a record's window), the years of citations and the entries of a
+#: reference list.
 GENERIC = [re.compile(r"(?<![\w.])(?:68|90|95|99) ?%"), re.compile(r"\b\d\+\d\b"),
            re.compile(r"\bseeds? \d+(?:-\d+)?(?:(?:,| and) \d+(?:-\d+)?)*"),
            re.compile(r"^\s*\d+\. ", re.M), re.compile(r"^#+ .*$", re.M),
-           re.compile(r"\b\d{4}-\d\d-\d\dT\d\d:\d\d(?::\d\d)?(?:-\d\d:\d\d)?")]
+           re.compile(r"\b\d{4}-\d\d-\d\dT\d\d:\d\d(?::\d\d)?(?:-\d\d:\d\d)?"),
+           re.compile(r"^- .*\((?:19|20)\d\d\)\..*$", re.M),
+           re.compile(r"\b\d\d:\d\d\b"),
+           re.compile(r"\b(?:19|20)\d\d\)|\((?:19|20)\d\d\)|\b(?:et al\.|and \w+) (?:19|20)\d\d\b")]
 
 
 def settings():
