@@ -41,7 +41,7 @@ CODE = [re.compile(r"^(`{3,}).*?^\1\s*$", re.S | re.M), re.compile(r"`[^`]+`"),
 #: day (a record's window), the years of citations and the entries of a
 #: reference list.
 GENERIC = [re.compile(r"(?<![\w.])(?:68|90|95|99) ?%"), re.compile(r"\b\d\+\d\b"),
-           re.compile(r"\bseeds? \d+(?:-\d+)?(?:(?:,| and) \d+(?:-\d+)?)*"),
+           re.compile(r"\bseeds? \d+(?:-\d+)?(?:(?:,| and) \d+(?:-\d+)?)*", re.I),
            re.compile(r"^\s*\d+\. ", re.M), re.compile(r"^#+ .*$", re.M),
            re.compile(r"\b\d{4}-\d\d-\d\dT\d\d:\d\d(?::\d\d)?(?:-\d\d:\d\d)?"),
            re.compile(r"^- .*\((?:19|20)\d\d\)\..*$", re.M),

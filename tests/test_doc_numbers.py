@@ -146,3 +146,27 @@ def test_validation_numbers_come_from_stored_results(page):
         assert left, f"{name} has no number left by hand: take it off [pending]"
         return
     assert not left, "\n".join(f"{name}:{line}: {number} ({text})" for line, number, text in left)
+
+
+def test_only_numbers_nothing_accounts_for_are_reported(tmp_path, monkeypatch):
+    """A number in a marked table, a quote, code, mathematics, an allowed
+    phrase or a generic form (an interval level, a seed range, a year) is
+    accounted for; a result typed into prose is not, and is reported with
+    its line."""
+    page = tmp_path / "p.md"
+    page.write_text("# Study 1\n\n<!-- table: t -->\n| a | 12 |\n<!-- /table -->\n\n"
+                    "Seeds 0-99 of 200 simulated pairs, 95 % intervals ($a = 2$), `--n 7`.\n"
+                    "The fit holds 183 of 200 (Sleeman 2006); the bias is\n0.31 sd.\n"
+                    "```text\nrun 44\n```\n")
+    config = {"quote": [{"page": "p.md", "text": "holds 183 of 200"}],
+              "allow": {"p.md": ["of 200 simulated pairs"]}}
+    monkeypatch.setattr(uncovered, "ROOT", tmp_path)
+    assert [(line, number) for line, number, _ in uncovered.uncovered(page, config)] == [(9, "0.31")]
+
+
+def test_a_template_is_filled_as_an_f_string():
+    """Fields with quotes, brackets and colons inside, a spec holding a
+    field, and doubled braces, as Python's own f-strings give them."""
+    names = {"d": tables.wrap({"a b": [1.23456, 2], "k": {"x": 3}}, "d"), "f": ".2f"}
+    template = "{{doc}} {d['a b'][0]:{f}} {d.k.x:+d} {':'.join(['p', 'q'])} {d['a b'][0:1][0]:.1e}"
+    assert tables.fill(template, names) == "{doc} 1.23 +3 p:q 1.2e+00"
