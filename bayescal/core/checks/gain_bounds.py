@@ -293,14 +293,19 @@ def off_scale(model, theta):
     either sensor's noise; when even the outer 95 % interval of those bounds
     (each end one-sided 97.5 %) lies beyond the prior's range (a factor
     :func:`~bayescal.core.response.family.gain_prior_factor` either side of
-    the metadata gain), no gain the prior allows fits the recordings: the
-    two sensors' metadata disagree in scale, and a posterior would sit at
-    the prior's bound, set by the prior alone. Each entry holds ``implied``
-    (the geometric mean of the two bounds: the relative gain the spectra
-    give), ``interval95``, ``prior`` (the range of relative gains the prior
-    allows) and ``fit`` (the gain at ``theta``). The response's shape is
-    taken at ``theta``, the least-squares point (with ``--fit-response
-    all`` its period and damping have taken up what they can)."""
+    the metadata gain) by more than :data:`OFF_SCALE_MARGIN`, no gain the
+    prior allows fits the recordings, by orders of magnitude: the two
+    sensors' metadata disagree in scale (a stage or a unit left out), and a
+    posterior would sit at the prior's bound, set by the prior alone. (Nearer
+    the prior's range the fit runs, and flags the gain as pinned.)
+
+    The axes and the response's shape are ``theta``'s. The closed-form
+    start's axes (:func:`bayescal.core.fit.run.closed_form_transfer`) do not
+    depend on the gains' scale, where a least-squares point with a gain held
+    at the prior's bound turns the axes to shrink the misfit. Each entry
+    holds ``implied`` (the geometric mean of the two bounds: the relative
+    gain the spectra give), ``interval95``, ``prior`` (the range of relative
+    gains the prior allows) and ``fit`` (the gain at ``theta``)."""
     from ..response.family import gain_prior_factor
     from ..spectra.dof import band_dof
 
@@ -312,7 +317,8 @@ def off_scale(model, theta):
         lower, upper, sd_l, sd_u = bounds(a[i], c[i], y[i], dof)
         lo95, hi95 = lower - Z95 * sd_l, upper + Z95 * sd_u
         span = gain_prior_factor(model.blocks[i].family, model.priors)
-        if np.isfinite(lo95) and np.isfinite(hi95) and (lo95 > span or 0 < hi95 < 1.0 / span):
+        far = span * OFF_SCALE_MARGIN
+        if np.isfinite(lo95) and np.isfinite(hi95) and (lo95 > far or 0 < hi95 < 1.0 / far):
             out[model.blocks[i].channel_id] = {
                 "implied": float(np.sqrt(lower * upper)), "interval95": [float(lo95), float(hi95)],
                 "prior": [1.0 / span, float(span)], "fit": g}
@@ -348,6 +354,10 @@ def _sci(x):
     return f"{mantissa}e{int(exponent)}" if abs(int(exponent)) > 2 else f"{x:.2g}"
 
 
+#: How far beyond the gain prior's range (a factor) the spectra must place a
+#: gain for :func:`off_scale`: with the default prior (a factor 10 either
+#: side), gains more than 100 times from the metadata's.
+OFF_SCALE_MARGIN = 10.0
 #: Factors between two sensors' metadata that a missing or extra digitizer
 #: stage makes (counts per volt of common digitizers: about 1e5 to 1e6).
 DIGITIZER_RANGE = (1e4, 1e7)
