@@ -28,7 +28,8 @@ def no_digitizer(tmp_path_factory):
     from bayescal import io
 
     root = tmp_path_factory.mktemp("off_scale")
-    files = simulate_pair(duration=1200.0, fs=10.0, seed=44, sut_response=((120.0, 0.707, GAIN),) * 3,
+    files = simulate_pair(duration=1200.0, fs=10.0, seed=44,
+                          sut_response=((120.0, 0.707, GAIN),) * 3,
                           nominal_response=(120.0, 0.707, GAIN)).write(str(root / "pair"))
     ref_xml = str(root / "ref_short.xml")
     io.two_pole_inventory(io.read_waveforms(files["ref.mseed"]), period_s=120.0, damping=0.707,
@@ -37,14 +38,16 @@ def no_digitizer(tmp_path_factory):
             "--sut-xml", files["sut.xml"], "--band", "0.05", "1", "--quiet", "--no-report"]
 
 
-def test_metadata_off_in_scale_are_refused_at_once_with_the_factor(no_digitizer, tmp_path,
-                                                                    capsys):
+@pytest.mark.parametrize("response", [[], ["--fit-response", "none"]])
+def test_metadata_off_in_scale_are_refused_at_once_with_the_factor(no_digitizer, response,
+                                                                    tmp_path, capsys):
+    """Gains fitted (the default) or held at the metadata's."""
     from bayescal.cli import main
 
     out = tmp_path / "out"
     whole = Budget("the whole command", 10 ** 9)
     with whole.active():
-        code = main(["fit", *no_digitizer, "--out", str(out)])
+        code = main(["fit", *no_digitizer, *response, "--out", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
     assert len(err) == 1 and err[0].startswith("bayescal: error: "), err
@@ -59,6 +62,7 @@ def test_metadata_off_in_scale_are_refused_at_once_with_the_factor(no_digitizer,
     assert "reference's sensitivity is that much too small" in err[0]
     assert "digitizer stage of the --ref-xml and --sut-xml files" in err[0]
     assert "--sut-xml flat" in err[0]
+    assert ("held with --fit-response none" in err[0]) == bool(response)
     # refused from the closed-form start, before the least squares: within a work budget
     # smaller than three steps of a 40-walker chain
     assert whole.used <= SMALL_WORK, whole.used

@@ -261,12 +261,14 @@ def identified_gains(model, theta, cov):
     return out
 
 
-def _fitted_sums(model, theta, shapes=False):
+def _fitted_sums(model, theta, shapes=False, held=False):
     """The fitted gains at ``theta`` (1, ndim), ``{SUT channel index: (relative
     gain, its parameter's index)}``, and the band sums :func:`channel_sums`
     gives along the fitted axes with the fitted response's shape (its gain
     left out, so that the spectra bound the relative gain itself); with
-    ``shapes``, :func:`side_shapes` too (else None)."""
+    ``shapes``, :func:`side_shapes` too (else None). With ``held``, the
+    channels whose gain is held at the metadata's (``--fit-response
+    none``) too, as ``(1.0, None)``."""
     sp = model.spectra
     vecs, ratio = model.unpack(theta)
     factor = ratio[0] @ model.node_weights.T                               # (n_u, F)
@@ -277,6 +279,8 @@ def _fitted_sums(model, theta, shapes=False):
             g = float(values[b.channel_id][0, 2] / b.family.gain)
             fitted[i] = (g, model.names.index(name))
             factor[i] = factor[i] * g
+        elif held and b.free == "none" and b.family is not None:
+            fitted[i] = (1.0, None)
     if not fitted:
         return fitted, (None,) * 3, (None,) * 2
     directions = vecs[0] @ model.ref_pinv
@@ -285,8 +289,9 @@ def _fitted_sums(model, theta, shapes=False):
 
 
 def off_scale(model, theta):
-    """The SUT channels whose fitted gain the spectra place wholly outside
-    its prior's range, whatever the two sensors' self-noise: ``{channel id:
+    """The SUT channels whose gain (fitted, or held at the metadata's with
+    ``--fit-response none``) the spectra place wholly outside the range of
+    the gain's prior, whatever the two sensors' self-noise: ``{channel id:
     entry}``, empty when there are none.
 
     The relative gain lies within :func:`bounds` over the band whatever
@@ -305,15 +310,16 @@ def off_scale(model, theta):
     at the prior's bound turns the axes to shrink the misfit. Each entry
     holds ``implied`` (the geometric mean of the two bounds: the relative
     gain the spectra give), ``interval95``, ``prior`` (the range of relative
-    gains the prior allows) and ``fit`` (the gain at ``theta``)."""
+    gains the prior allows), ``fit`` (the gain at ``theta``) and ``held``
+    (whether the fit holds the gain at the metadata's)."""
     from ..response.family import gain_prior_factor
     from ..spectra.dof import band_dof
 
     theta = np.atleast_2d(np.asarray(theta, float))[:1]
-    fitted, (a, c, y), _ = _fitted_sums(model, theta)
+    fitted, (a, c, y), _ = _fitted_sums(model, theta, held=True)
     dof = band_dof(model.spectra) if fitted else None
     out = {}
-    for i, (g, _) in fitted.items():
+    for i, (g, j) in fitted.items():
         lower, upper, sd_l, sd_u = bounds(a[i], c[i], y[i], dof)
         lo95, hi95 = lower - Z95 * sd_l, upper + Z95 * sd_u
         span = gain_prior_factor(model.blocks[i].family, model.priors)
@@ -321,7 +327,7 @@ def off_scale(model, theta):
         if np.isfinite(lo95) and np.isfinite(hi95) and (lo95 > far or 0 < hi95 < 1.0 / far):
             out[model.blocks[i].channel_id] = {
                 "implied": float(np.sqrt(lower * upper)), "interval95": [float(lo95), float(hi95)],
-                "prior": [1.0 / span, float(span)], "fit": g}
+                "prior": [1.0 / span, float(span)], "fit": g, "held": j is None}
     return out
 
 
@@ -338,13 +344,19 @@ def off_scale_message(channels):
     stage = ("(a digitizer's gain in counts per volt is of this order): check the digitizer "
              "stage" if DIGITIZER_RANGE[0] <= max(implied, 1.0 / implied) <= DIGITIZER_RANGE[1]
              else ": check the stages")
-    return (f"the recordings imply gains far outside the prior's range ({lo:g} to {hi:g} times "
-            f"the metadata's), whatever either sensor's self-noise; fitted / metadata gain: "
-            f"{per}. The two sensors' metadata disagree in scale by about {factor}: the "
-            f"reference's sensitivity is that much too {small}, or the SUT's that much too "
-            f"{large} {stage} of the --ref-xml and --sut-xml files. Nothing was sampled (the "
-            "gains would sit at the prior's bound). --sut-xml flat, with --fit-response gain "
-            "(the default), fits the orientation and each gain without this limit")
+    held = any(e.get("held") for e in channels.values())
+    where = (f"the prior's range ({lo:g} to {hi:g} times the metadata's)" if not held else
+             f"the metadata's (held with --fit-response none; a fitted gain's prior allows "
+             f"{lo:g} to {hi:g} times)")
+    ends = "be held at values the data exclude" if held else "sit at the prior's bound"
+    return (f"the recordings imply gains far outside {where}, whatever either sensor's "
+            f"self-noise; the gains they imply over the metadata's: {per}. The two sensors' "
+            f"metadata disagree in scale by about {factor}: the reference's sensitivity is that "
+            f"much too {small}, or the SUT's that much too {large} {stage} of the --ref-xml and "
+            "--sut-xml files. "
+            f"Nothing was sampled (the gains would {ends}). --sut-xml flat, with "
+            "--fit-response gain (the default), fits the orientation and each gain without "
+            "this limit")
 
 
 def _sci(x):
