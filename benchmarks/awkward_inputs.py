@@ -31,8 +31,8 @@ started, and peak memory as the child's ``resource.getrusage``
   0.333`` (the configuration of a day-long GSN pair that ran for 25 minutes);
 * ``day_1hz_no_digitizer``: the same with the reference's nominal
   StationXML lacking the digitizer's gain (its gain 4e5 times too small:
-  every SUT gain pinned at the prior's bound, a misfit no parameter can
-  take up);
+  the spectra place every SUT gain far outside the prior, and the fit is
+  refused from its start, naming the factor and the files to check);
 * ``extra_pole_100hz``: 20 min at 100 Hz, a real pole at 8 Hz that the
   SUT's metadata lack (validation/studies/wrong_instrument.py's
   ``extra_pz`` kind), the criticism on.

@@ -245,6 +245,30 @@ def identified_gains(model, theta, cov):
     from ..spectra.dof import band_dof
 
     theta = np.atleast_2d(np.asarray(theta, float))[:1]
+    fitted, (a, c, y), (su, sr) = _fitted_sums(model, theta, shapes=True)
+    if not fitted:
+        return {}
+    dof = band_dof(model.spectra)
+    channels = {model.blocks[i].channel_id: channel_entry(
+        bounds(a[i], c[i], y[i], dof), _sides_or_none(a[i], c[i], y[i], dof, su[i], sr[i]),
+        g, g * float(np.sqrt(max(cov[j, j], 0.0))))
+        for i, (g, j) in fitted.items()}
+    out = {"channels": channels, "basis": BASIS}
+    if getattr(model, "ref_noise", "quiet") != "fixed":
+        note = not_separable_note(channels)
+        if note:
+            out["note"] = note
+    return out
+
+
+def _fitted_sums(model, theta, shapes=False, held=False):
+    """The fitted gains at ``theta`` (1, ndim), ``{SUT channel index: (relative
+    gain, its parameter's index)}``, and the band sums :func:`channel_sums`
+    gives along the fitted axes with the fitted response's shape (its gain
+    left out, so that the spectra bound the relative gain itself); with
+    ``shapes``, :func:`side_shapes` too (else None). With ``held``, the
+    channels whose gain is held at the metadata's (``--fit-response
+    none``) too, as ``(1.0, None)``."""
     sp = model.spectra
     vecs, ratio = model.unpack(theta)
     factor = ratio[0] @ model.node_weights.T                               # (n_u, F)
@@ -252,25 +276,103 @@ def identified_gains(model, theta, cov):
     for i, b in enumerate(model.blocks):
         name = f"{b.channel_id}:log_gain"
         if name in model.names and b.family is not None:
-            j = model.names.index(name)
             g = float(values[b.channel_id][0, 2] / b.family.gain)
-            fitted[i] = (g, g * float(np.sqrt(max(cov[j, j], 0.0))))
+            fitted[i] = (g, model.names.index(name))
             factor[i] = factor[i] * g
+        elif held and b.free == "none" and b.family is not None:
+            fitted[i] = (1.0, None)
     if not fitted:
-        return {}
+        return fitted, (None,) * 3, (None,) * 2
     directions = vecs[0] @ model.ref_pinv
-    a, c, y = channel_sums(sp, directions, factor)
-    su, sr = side_shapes(sp, directions, factor)
-    dof = band_dof(sp)
-    channels = {model.blocks[i].channel_id: channel_entry(
-        bounds(a[i], c[i], y[i], dof), _sides_or_none(a[i], c[i], y[i], dof, su[i], sr[i]),
-        g, g_sd) for i, (g, g_sd) in fitted.items()}
-    out = {"channels": channels, "basis": BASIS}
-    if getattr(model, "ref_noise", "quiet") != "fixed":
-        note = not_separable_note(channels)
-        if note:
-            out["note"] = note
+    return (fitted, channel_sums(sp, directions, factor),
+            side_shapes(sp, directions, factor) if shapes else (None, None))
+
+
+def off_scale(model, theta):
+    """The SUT channels whose gain (fitted, or held at the metadata's with
+    ``--fit-response none``) the spectra place wholly outside the range of
+    the gain's prior, whatever the two sensors' self-noise: ``{channel id:
+    entry}``, empty when there are none.
+
+    The relative gain lies within :func:`bounds` over the band whatever
+    either sensor's noise; when even the outer 95 % interval of those bounds
+    (each end one-sided 97.5 %) lies beyond the prior's range (a factor
+    :func:`~bayescal.core.response.family.gain_prior_factor` either side of
+    the metadata gain) by more than :data:`OFF_SCALE_MARGIN`, no gain the
+    prior allows fits the recordings, by orders of magnitude: the two
+    sensors' metadata disagree in scale (a stage or a unit left out), and a
+    posterior would sit at the prior's bound, set by the prior alone. (Nearer
+    the prior's range the fit runs, and flags the gain as pinned.)
+
+    The axes and the response's shape are ``theta``'s. The closed-form
+    start's axes (:func:`bayescal.core.fit.run.closed_form_transfer`) do not
+    depend on the gains' scale, where a least-squares point with a gain held
+    at the prior's bound turns the axes to shrink the misfit. Each entry
+    holds ``implied`` (the geometric mean of the two bounds: the relative
+    gain the spectra give), ``interval95``, ``prior`` (the range of relative
+    gains the prior allows), ``fit`` (the gain at ``theta``) and ``held``
+    (whether the fit holds the gain at the metadata's)."""
+    from ..response.family import gain_prior_factor
+    from ..spectra.dof import band_dof
+
+    theta = np.atleast_2d(np.asarray(theta, float))[:1]
+    fitted, (a, c, y), _ = _fitted_sums(model, theta, held=True)
+    dof = band_dof(model.spectra) if fitted else None
+    out = {}
+    for i, (g, j) in fitted.items():
+        lower, upper, sd_l, sd_u = bounds(a[i], c[i], y[i], dof)
+        lo95, hi95 = lower - Z95 * sd_l, upper + Z95 * sd_u
+        span = gain_prior_factor(model.blocks[i].family, model.priors)
+        far = span * OFF_SCALE_MARGIN
+        if np.isfinite(lo95) and np.isfinite(hi95) and (lo95 > far or 0 < hi95 < 1.0 / far):
+            out[model.blocks[i].channel_id] = {
+                "implied": float(np.sqrt(lower * upper)), "interval95": [float(lo95), float(hi95)],
+                "prior": [1.0 / span, float(span)], "fit": g, "held": j is None}
     return out
+
+
+def off_scale_message(channels):
+    """The refusal of a fit whose gains ``channels`` (as :func:`off_scale`
+    gives them) the spectra place outside the prior: each channel and the
+    gain its spectra imply, which metadata to check, and what helps."""
+    per = "; ".join(f"{cid} {_sci(e['implied'])} (95 %: {_sci(e['interval95'][0])} to "
+                    f"{_sci(e['interval95'][1])})" for cid, e in channels.items())
+    lo, hi = next(iter(channels.values()))["prior"]
+    implied = float(np.exp(np.median([np.log(e["implied"]) for e in channels.values()])))
+    factor = _sci(max(implied, 1.0 / implied))
+    small, large = ("small", "large") if implied < 1.0 else ("large", "small")
+    stage = ("(a digitizer's gain in counts per volt is of this order): check the digitizer "
+             "stage" if DIGITIZER_RANGE[0] <= max(implied, 1.0 / implied) <= DIGITIZER_RANGE[1]
+             else ": check the stages")
+    held = any(e.get("held") for e in channels.values())
+    where = (f"the prior's range ({lo:g} to {hi:g} times the metadata's)" if not held else
+             f"the metadata's (held with --fit-response none; a fitted gain's prior allows "
+             f"{lo:g} to {hi:g} times)")
+    ends = "be held at values the data exclude" if held else "sit at the prior's bound"
+    return (f"the recordings imply gains far outside {where}, whatever either sensor's "
+            f"self-noise; the gains they imply over the metadata's: {per}. The two sensors' "
+            f"metadata disagree in scale by about {factor}: the reference's sensitivity is that "
+            f"much too {small}, or the SUT's that much too {large} {stage} of the --ref-xml and "
+            "--sut-xml files. "
+            f"Nothing was sampled (the gains would {ends}). --sut-xml flat, with "
+            "--fit-response gain (the default), fits the orientation and each gain without "
+            "this limit")
+
+
+def _sci(x):
+    """``x`` with two significant digits, as ``3.8e5`` or ``2.3e-6``."""
+    text = f"{x:.1e}"
+    mantissa, exponent = text.split("e")
+    return f"{mantissa}e{int(exponent)}" if abs(int(exponent)) > 2 else f"{x:.2g}"
+
+
+#: How far beyond the gain prior's range (a factor) the spectra must place a
+#: gain for :func:`off_scale`: with the default prior (a factor 10 either
+#: side), gains more than 100 times from the metadata's.
+OFF_SCALE_MARGIN = 10.0
+#: Factors between two sensors' metadata that a missing or extra digitizer
+#: stage makes (counts per volt of common digitizers: about 1e5 to 1e6).
+DIGITIZER_RANGE = (1e4, 1e7)
 
 
 def _sides_or_none(a, c, y, dof, sut_shapes, ref_shapes):

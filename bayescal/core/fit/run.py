@@ -324,6 +324,10 @@ def _optimise(setup, nominal):
     :meth:`~bayescal.core.budget.Budget.summary`. A stage that ends by its
     budget goes on from its best point, with a :class:`BudgetWarning`."""
     helps = _budget_help(setup.model)
+    from ..checks.gain_bounds import off_scale, off_scale_message
+    off = off_scale(setup.model, setup.theta0)   # metadata off in scale: no gain the prior fits
+    if off:
+        raise FitError(off_scale_message(off))
     ls = work.Budget("least squares", work.LEAST_SQUARES_WORK, helps=helps)
     with stage("least squares", ls) as st:
         theta_ls, cov = least_squares_fit(setup.model, setup.theta0, budget=ls)
