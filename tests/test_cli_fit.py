@@ -331,3 +331,13 @@ def test_console_95_percent_columns_are_those_of_the_written_samples(cli_fit):
                                    err_msg=f"{key} {names[path]}: {cli_fit['proc'].stdout}")
         checked += 1
     assert checked == 13, (checked, rows)
+
+
+def test_an_entry_without_a_value_prints_as_a_dash_not_a_format_error():
+    """A summary entry whose median is None (an angle the data leave
+    undefined) prints as a dash with its reason; a valued one with its
+    interval."""
+    from bayescal.cli.fit import _fmt
+    assert _fmt({"median": None, "note": "near-vertical channel: azimuth is not constrained"}) \
+        == "- (near-vertical channel)"
+    assert _fmt({"median": 1.0, "ci95": [0.5, 1.5]}) == "1.000 [0.500, 1.500]"

@@ -75,6 +75,10 @@ def configure(parser):
 
 
 def _fmt(entry):
+    """An entry's median with its 95 % interval, "(fixed)" without one, or
+    "-" when it has no value (an angle the data leave undefined)."""
+    if entry.get("median") is None:
+        return "- (" + entry.get("note", "undefined").split(":")[0] + ")"
     if "ci95" in entry:
         lo, hi = entry["ci95"]
         modes = " MULTIMODAL: see modes" if entry.get("multimodal") else ""

@@ -353,7 +353,8 @@ def off_scale_message(channels):
             f"self-noise; the gains they imply over the metadata's: {per}. The two sensors' "
             f"metadata disagree in scale by about {factor}: the reference's sensitivity is that "
             f"much too {small}, or the SUT's that much too {large} {stage} of the --ref-xml and "
-            "--sut-xml files. "
+            "--sut-xml files, or 'flat' was given for one sensor and a full response for the "
+            "other. "
             f"Nothing was sampled (the gains would {ends}). --sut-xml flat, with "
             "--fit-response gain (the default), fits the orientation and each gain without "
             "this limit")
