@@ -248,3 +248,33 @@ def test_gain_separation_compares_like_with_like():
     plain = gain_separation(model, theta, information_cov())["gain_sd_ratio"]
     for cid in plain:
         assert weighted[cid] == pytest.approx(plain[cid], rel=0.02), cid
+
+
+def test_walker_blocks_give_each_walker_its_own_value():
+    """The profiled statistic is evaluated a block of walkers at a time
+    (memory): every walker's energy, statistic and noise coefficients equal
+    those of that walker evaluated alone, walkers far enough from the fit
+    that the noise range binds included."""
+    from bayescal.core.model import eiv
+
+    # a quiet reference: walkers off the fit put its noise at the range's ends
+    sim = simulate_pair(duration=1800, fs=10, seed=3, coherence=0.95, ref_coherence=0.999,
+                        noise_in_counts=True)
+    setup = _estimate_model(sim)
+    model = setup.model
+    theta, _ = least_squares_fit(model, setup.theta0)
+    rng = np.random.default_rng(1)
+    n = 2 * eiv.WALKER_BLOCK + 7
+    walkers = theta + rng.normal(0.0, 0.02, (n, theta.size)) * rng.choice([0.01, 1.0], (n, 1))
+    q, dof = model.band_energy(walkers)
+    x, coef = model.statistic(walkers)
+    alone = [(model.band_energy(w[None])[0][0], *(v[0] for v in model.statistic(w[None])))
+             for w in walkers]
+    assert q.shape == (n, model.spectra.n_bands) and coef.shape[0] == n
+    np.testing.assert_allclose(q, [a[0] for a in alone], rtol=1e-12)
+    np.testing.assert_allclose(x, [a[1] for a in alone], rtol=1e-12, atol=1e-12 * np.abs(x).max())
+    np.testing.assert_allclose(coef, [a[2] for a in alone], rtol=1e-12,
+                               atol=1e-12 * np.abs(coef).max())
+    # the spread walkers reach the noise range's ends, the close ones do not
+    on_end = [model.on_bound(w) for w in walkers]
+    assert any(on_end) and not all(on_end)

@@ -25,7 +25,10 @@ def assemble_posterior(model, samples, log_prob, convergence, meta, free, *, nam
     a dict or a :class:`~bayescal.result.meta.Meta`.
     """
     full = samples if full is None else full
-    vecs, _ = model.unpack(full)
+    # axes only, a block of samples at a time (unpack's response factors
+    # for every sample would set the fit's peak memory)
+    vecs = np.concatenate([model.unpack(full[i:i + 256])[0]
+                           for i in range(0, max(len(full), 1), 256)])
     theta = np.median(full, axis=0)
     return FitState(channel_ids=[b.channel_id for b in model.blocks],
                     kinds=[KINDS[b.manifold.n_params] for b in model.blocks], vectors=vecs,
