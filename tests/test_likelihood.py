@@ -77,3 +77,21 @@ def test_non_finite_least_squares_point_is_a_fit_error(monkeypatch):
                         lambda fun, x0, **kw: SimpleNamespace(x=np.full_like(x0, np.nan)))
     with pytest.raises(FitError, match="non-finite"):
         least_squares_fit(setup.model, setup.theta0)
+
+
+def test_band_sums_are_the_sums_over_each_bands_bins():
+    """likelihood.band_sums: (G, B, i, j) sums of per-bin matrices (G, F, i, j)
+    over the bins of each band, against the sums written out bin by bin."""
+    from bayescal.core.model.likelihood import band_sums
+
+    rng = np.random.default_rng(7)
+    g, f, b = 3, 40, 5
+    per_bin = (rng.standard_normal((g, f, 2, 4))
+               + 1j * rng.standard_normal((g, f, 2, 4))).astype(np.complex64)
+    band_of = rng.integers(0, b, f)
+    want = np.zeros((g, b, 2, 4), complex)
+    for k in range(f):
+        want[:, band_of[k]] += per_bin[:, k]
+    got = band_sums(np.eye(b)[band_of], per_bin)
+    assert got.shape == want.shape and got.flags["C_CONTIGUOUS"]
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)
