@@ -16,7 +16,8 @@ the result files prose quotes (:data:`SAVED`) into ``docs/gallery/``, then
 rewrites every quoted output line of the pages (a ``text`` block after a
 block that ran) as the stored line that says the same, and every number of
 ``docs/quoted.toml`` from its stored result (``--no-run``: only the
-rewriting). The example scripts of :data:`SCRIPTS` run too, and the
+rewriting), and every table marked on a page from its stored results
+(:mod:`tables`, ``docs/tables.toml``). The example scripts of :data:`SCRIPTS` run too, and the
 files they write that the docs quote are stored the same way.
 ``tests/test_doc_numbers.py`` checks each quoted line and
 number against the stored ones, and ``tests/test_docs.py`` runs the
@@ -36,6 +37,9 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import tables  # noqa: E402  (docs/tables.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -180,7 +184,11 @@ def quoted_value(quote):
     """A ``[[quote]]`` of :data:`QUOTED` formatted from its stored results:
     ``format`` filled, in order, with the entry at ``path`` of each
     ``source`` (``{0[median]:.2f}``). ``source`` is one file or a list;
-    with a list, ``path`` is one path for all or a list of paths, one each."""
+    with a list, ``path`` is one path for all or a list of paths, one each.
+    With ``sources`` (short name -> file) instead, ``format`` is a template
+    as a table's row (:mod:`tables`): ``{cov.table.all.inside}``."""
+    if "sources" in quote:
+        return tables.fill(quote["format"], tables.load(quote["sources"]))
     sources = quote["source"] if isinstance(quote["source"], list) else [quote["source"]]
     paths = quote["path"] if quote["path"] and isinstance(quote["path"][0], list) \
         else [quote["path"]] * len(sources)
@@ -198,20 +206,31 @@ def words_of(text):
     return re.compile(r"\s+".join(map(re.escape, text.split())))
 
 
+def respaced(new, old):
+    """``new`` laid out as ``old`` is (its line breaks kept) when both have
+    as many words; ``new`` itself otherwise."""
+    words, gaps = new.split(), re.findall(r"\s+", old.strip())
+    if len(words) != len(old.split()):
+        return new
+    return words[0] + "".join(gap + word for gap, word in zip(gaps, words[1:]))
+
+
 def refresh_quotes():
     """Rewrite each number of :data:`QUOTED` on its page and in the file
     from its stored result; returns the quotes not found on their page."""
     import tomllib
 
     text, missing = QUOTED.read_text(), []
-    for quote in tomllib.loads(text)["quote"]:
-        new, page = quoted_value(quote), ROOT / quote["page"]
+    quotes = tomllib.loads(text)["quote"]
+    values = [quoted_value(quote) for quote in quotes]      # all, before any page is written
+    for quote, new in zip(quotes, values):
+        page = ROOT / quote["page"]
         body = page.read_text()
         if not words_of(quote["text"]).search(body):
             missing.append(f"{quote['page']}: {quote['text']}")
             continue
-        page.write_text(words_of(quote["text"]).sub(
-            lambda m: m.group(0) if " ".join(m.group(0).split()) == new else new, body, count=1))
+        page.write_text(words_of(quote["text"]).sub(lambda m: respaced(new, m.group(0)), body,
+                                                    count=1))
         text = text.replace(f"text = {json.dumps(quote['text'])}", f"text = {json.dumps(new)}")
     QUOTED.write_text(text)
     return missing
@@ -260,6 +279,7 @@ def main(argv=None):
         print(f"{len(stored)} blocks' outputs written to {STORED}")
     stored = json.loads(STORED.read_text())
     missing = [m for page in PAGES for m in refresh_page(page, stored)] + refresh_quotes()
+    missing += tables.refresh_tables()
     for m in missing:
         print(f"not rewritten (no stored output says it): {m}")
 

@@ -8,6 +8,10 @@
 * Every number quoted in prose is listed in ``docs/quoted.toml`` with the
   stored result (a JSON file in the repository) and the entry it comes
   from; each is formatted from that entry and must appear on its page.
+* Every table a page marks (``<!-- table: NAME -->``) is what
+  ``docs/tables.toml`` formats from its stored results.
+* Every number of a validation page is in such a table, a quote, code, or
+  a phrase its ``[allow]`` list names as a setting (``docs/uncovered.py``).
 
 ``tests/test_docs.py`` runs the examples again and checks the quoted
 lines' words (numbers masked) against the live output.
@@ -65,7 +69,7 @@ def quoted_numbers():
 @pytest.mark.parametrize("quote", quoted_numbers(), ids=lambda q: f"{q['page']}:{q['text']}")
 def test_prose_numbers_are_the_stored_results(quote):
     text = example_outputs.quoted_value(quote)
-    assert text == quote["text"], f"{quote['source']} {quote['path']}: {text!r}"
+    assert text == quote["text"], f"{quote.get('source', quote.get('sources'))}: {text!r}"
     page = " ".join((ROOT / quote["page"]).read_text().split())
     assert quote["text"] in page, f"{quote['page']} does not quote {quote['text']!r}"
 
@@ -84,3 +88,85 @@ def test_refresh_rewrites_each_quoted_line_from_its_own_output_line(tmp_path):
     assert page.read_text().splitlines()[6:9] == ["BH2 0.3-1 4.0", "BH1 0.25-0.3 1.0",
                                                   "not printed 1"]
     assert missing == ["page.md:9: not printed 1"]
+
+
+import tables  # noqa: E402  (docs/tables.py)
+import uncovered  # noqa: E402  (docs/uncovered.py)
+
+
+@pytest.mark.parametrize("name", sorted(tables.specs()))
+def test_marked_tables_are_the_stored_results(name):
+    """Each table of docs/tables.toml, marked on its page, is line for line
+    what its stored results give."""
+    spec = tables.specs()[name]
+    shown = tables.tables_on(ROOT / spec["page"]).get(name)
+    assert shown is not None, f"{spec['page']} marks no table {name!r}"
+    assert shown == tables.table_text(spec), (
+        f"{spec['page']}: table {name} is not what {spec['sources']} give "
+        "(python docs/example_outputs.py --no-run)")
+
+
+def test_every_marked_table_has_a_source():
+    specs = tables.specs()
+    for page in uncovered.PAGES + example_outputs.PAGES:
+        for name in tables.tables_on(page):
+            assert specs.get(name, {}).get("page") == str(page.relative_to(ROOT)), (page, name)
+
+
+def test_a_table_is_rewritten_from_its_source(tmp_path, monkeypatch):
+    """A hand-edited cell is put back from the stored result, a derived
+    column (a pooled binomial band) included; the text around is kept."""
+    (tmp_path / "r.json").write_text(json.dumps({"t": {"a": {"k": 91, "n": 100}}}))
+    page = tmp_path / "p.md"
+    page.write_text("before\n<!-- table: t -->\n| a | 99 | [1, 2] |\n<!-- /table -->\nafter\n")
+    (tmp_path / "t.toml").write_text(
+        '[table.t]\npage = "p.md"\nsources = {r = "r.json"}\nrows = ["a"]\n'
+        'row = "| {key} | {r.t[key].k} | [{band(r.t[key].n)[0]}, {band(r.t[key].n)[1]}] |"\n')
+    monkeypatch.setattr(tables, "ROOT", tmp_path)
+    monkeypatch.setattr(tables, "TABLES", tmp_path / "t.toml")
+    assert tables.refresh_tables() == []
+    # 99 % binomial band of 100 trials at 0.9: [82, 97] (binom.ppf 0.005, 0.995)
+    assert page.read_text() == ("before\n<!-- table: t -->\n| a | 91 | [82, 97] |\n"
+                                "<!-- /table -->\nafter\n")
+
+
+def _pending():
+    return uncovered.settings().get("pending", {})
+
+
+@pytest.mark.parametrize("page", uncovered.PAGES, ids=lambda p: p.name)
+def test_validation_numbers_come_from_stored_results(page):
+    """Every number of a validation page is in a generated table, a quote
+    of docs/quoted.toml, code, or a phrase the page's [allow] list names as
+    a setting; a page of [pending] still has numbers typed by hand (it
+    leaves the list when it has none)."""
+    left = uncovered.uncovered(page)
+    name = str(page.relative_to(ROOT))
+    if name in _pending():
+        assert left, f"{name} has no number left by hand: take it off [pending]"
+        return
+    assert not left, "\n".join(f"{name}:{line}: {number} ({text})" for line, number, text in left)
+
+
+def test_only_numbers_nothing_accounts_for_are_reported(tmp_path, monkeypatch):
+    """A number in a marked table, a quote, code, mathematics, an allowed
+    phrase or a generic form (an interval level, a seed range, a year) is
+    accounted for; a result typed into prose is not, and is reported with
+    its line."""
+    page = tmp_path / "p.md"
+    page.write_text("# Study 1\n\n<!-- table: t -->\n| a | 12 |\n<!-- /table -->\n\n"
+                    "Seeds 0-99 of 200 simulated pairs, 95 % intervals ($a = 2$), `--n 7`.\n"
+                    "The fit holds 183 of 200 (Sleeman 2006); the bias is\n0.31 sd.\n"
+                    "```text\nrun 44\n```\n")
+    config = {"quote": [{"page": "p.md", "text": "holds 183 of 200"}],
+              "allow": {"p.md": ["of 200 simulated pairs"]}}
+    monkeypatch.setattr(uncovered, "ROOT", tmp_path)
+    assert [(line, number) for line, number, _ in uncovered.uncovered(page, config)] == [(9, "0.31")]
+
+
+def test_a_template_is_filled_as_an_f_string():
+    """Fields with quotes, brackets and colons inside, a spec holding a
+    field, and doubled braces, as Python's own f-strings give them."""
+    names = {"d": tables.wrap({"a b": [1.23456, 2], "k": {"x": 3}}, "d"), "f": ".2f"}
+    template = "{{doc}} {d['a b'][0]:{f}} {d.k.x:+d} {':'.join(['p', 'q'])} {d['a b'][0:1][0]:.1e}"
+    assert tables.fill(template, names) == "{doc} 1.23 +3 p:q 1.2e+00"

@@ -117,3 +117,105 @@ def test_segments_lengthen_for_a_narrow_band_while_enough_remain():
     assert default_nperseg(1.0, 1 / 8, 600, fmax=1 / 3) == 64        # 14 bins, 17 segments
     assert default_nperseg(1.0, 1 / 8, 300, fmax=1 / 3) == 32        # 64 s would leave 8
     assert default_nperseg(10.0, 0.02, 36_000, fmax=2.0) == default_nperseg(10.0, 0.02, 36_000)
+
+
+def _stft_truth(data, fs, nperseg):
+    """(K, n, F) windowed, linearly detrended segment spectra by scipy's
+    ``stft`` (half-overlapping Hann segments, no padding), in the units of
+    ``cross_spectra`` (``stft`` divides by the window's sum)."""
+    from scipy.signal import stft
+    from scipy.signal.windows import hann
+    _, _, z = stft(data, fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
+                   detrend="linear", boundary=None, padded=False)
+    return np.moveaxis(z, -1, 0) * hann(nperseg, sym=False).sum()
+
+
+@pytest.mark.parametrize("chunk", [None, 1, 3])
+def test_segment_band_and_block_sums_match_scipy_stft(chunk):
+    """Every segment's band matrices, the totals and the time blocks equal
+    sums of ``Z Z^H`` over scipy's segment spectra, whatever the chunking
+    (chunks of 3 segments split blocks of 2-3 segments), with a gap."""
+    sut, ref = _data(n=20_000)
+    sut[1, 7_000:7_010] = np.nan
+    sp = cross_spectra(sut, ref, FS, None, None, (0.05, 2.0), nperseg=512, chunk=chunk)
+    # the segments touching the gap are left out: zeros there change no segment kept
+    z = _stft_truth(np.nan_to_num(np.vstack([sut, ref])), FS, 512)[sp.segment_starts // sp.step]
+    all_f = np.fft.rfftfreq(512, 1 / FS)
+    z = z[:, :, (all_f >= 0.05) & (all_f <= 2.0)]                  # (K, n, F)
+    prod = np.einsum("kif,kjf->kfij", z, z.conj())
+    assert sp.n_segments_possible - sp.n_segments == 2
+    np.testing.assert_allclose(sp.total, prod.sum(axis=0), rtol=1e-12, atol=1e-12 * np.abs(prod).max())
+    bands = np.eye(sp.n_bands)[sp.band_of]                          # (F, B)
+    want = np.einsum("kfij,fb->kbij", prod, bands)
+    np.testing.assert_allclose(sp.per_segment, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    blocks = np.stack([prod[sp.block_of == g].sum(axis=0) for g in range(sp.block_totals.shape[0])])
+    np.testing.assert_allclose(sp.block_totals, blocks, rtol=1e-6, atol=1e-6 * np.abs(blocks).max())
+
+
+def test_line_removal_and_gap_test_match_their_definitions():
+    from scipy.signal import detrend
+    from bayescal.core.spectra.segments import gap_free, remove_line
+    rng = np.random.default_rng(5)
+    noise = rng.standard_normal((2, 3, 1000))
+    # a line plus noise less its line: the noise less its own line (scipy's, on the noise alone)
+    x = 1e4 + 3.0 * np.arange(1000) / 1000 + noise
+    np.testing.assert_allclose(remove_line(x), detrend(noise, type="linear"), rtol=0, atol=1e-11)
+    data = rng.standard_normal((2, 1000))
+    data[1, 500] = np.inf
+    starts = np.arange(0, 1000 - 100 + 1, 50)
+    want = [np.all(np.isfinite(data[:, s:s + 100])) for s in starts]
+    np.testing.assert_array_equal(gap_free(data, starts, 100), want)
+
+
+def test_memory_holds_the_results_and_one_chunk():
+    """The cross-spectra's peak memory: the record twice (the samples and
+    their deconvolved copy), the results, and one chunk of segments (samples,
+    spectra, one temporary): never a segments x frequencies x n x n array."""
+    import tracemalloc
+    from bayescal.core.spectra.segments import CHUNK_BYTES
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((6, 150_000))
+    tracemalloc.start()
+    try:
+        sp = cross_spectra(x[:3], x[3:], FS, None, None, (0.02, 4.9), nperseg=4096)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    kept = sp.total.nbytes + sp.block_totals.nbytes + sp.per_segment.nbytes
+    assert sp.n_segments * sp.freqs.size * 36 * 16 > 8 * CHUNK_BYTES    # what is never held
+    assert peak < 2 * x.nbytes + kept + 3.5 * CHUNK_BYTES, (peak / 2**20, kept / 2**20)
+
+
+def _at_offset(x, offset):
+    """A copy of ``x`` whose data start ``offset`` bytes past a 64-byte boundary."""
+    buf = np.empty(x.nbytes + 128, np.uint8)
+    start = (-buf.ctypes.data) % 64 + offset
+    out = buf[start:start + x.nbytes].view(x.dtype).reshape(x.shape)
+    out[...] = x
+    return out
+
+
+def test_spectra_are_the_same_bits_on_one_or_two_blas_threads_and_any_alignment():
+    """The cross-spectra are sums in an order of the code's choosing: the
+    same bits whatever BLAS's thread count (a process-wide setting that
+    another thread's fit may change while these spectra are computed) and
+    wherever the samples lie in memory. A record of 36 000 samples per
+    channel, deconvolved: OpenBLAS's dot product of two such vectors sums in
+    two halves on two threads, so a BLAS dot anywhere on the path shows."""
+    from threadpoolctl import threadpool_limits
+    from bayescal.core.response.family import paz_velocity_response
+    sut, ref = _data(n=36_000)
+    sut[0, 20_000:20_020] = np.nan                           # two runs, each deconvolved alone
+
+    def resp(n):
+        return lambda f: np.repeat(paz_velocity_response(f, 30.0, 0.7, 800.0)[None], n, axis=0)
+
+    def digest(s, r, threads):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            sp = cross_spectra(s, r, FS, resp(2), resp(1), (0.05, 2.0), nperseg=1024)
+        return [a.tobytes() for a in (sp.total, sp.per_segment, sp.block_totals)]
+
+    want = digest(sut, ref, 1)
+    for threads, offset in ((2, 0), (1, 8), (2, 24), (1, 40)):
+        got = digest(_at_offset(sut, offset), _at_offset(ref, offset + 16), threads)
+        assert got == want, (threads, offset)

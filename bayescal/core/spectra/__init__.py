@@ -1,7 +1,8 @@
 """Spectra of the recordings.
 
-* :mod:`.welch`     streamed Welch cross-spectra, per-band matrices, the Hann
-                    window
+* :mod:`.welch`     streamed Welch cross-spectra, per-band matrices
+* :mod:`.segments`  detrended, windowed segments' spectra, a chunk at a time;
+                    the Hann window
 * :mod:`.coherence` Welch multiple coherence alone (the band choice's)
 * :mod:`.dof`       degrees of freedom of Welch band averages
 * :mod:`.bandfold`  per-time-block spectra folded into bands and nodes
@@ -17,7 +18,8 @@ import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "welch": ["CrossSpectra", "band_refusal", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
-              "hann", "make_bands"],
+              "make_bands"],
+    "segments": ["hann"],
     "dof": ["band_dof"],
     "bandfold": ["fold"],
     "coherence": ["welch_multiple_coherence"],

@@ -22,52 +22,33 @@ dampings by about 0.1 % (measured on noise-free simulations: 8e-4 per
 segment, 1e-5 per run). Samples within two periods of the band's lower edge
 from a run's ends, where the inverse filter's transient lives, are left out.
 
-Segments stream through in chunks, so memory holds one chunk of segments plus
-the per-frequency totals (whole record, and 16 time blocks in single
-precision: 9 times the memory of the totals alone, F x n x n numbers each)
-and the small per-segment band matrices; it does not grow with the record
-beyond ``K x B x n x n`` numbers (the deconvolution holds one run of one
-sensor at a time).
+Segments stream through in chunks (:mod:`.segments`: one FFT per channel
+and segment), each chunk's spectra summed into the per-frequency totals
+(whole record, and 16 time blocks in single precision: 9 times the memory
+of the totals alone, F x n x n numbers each) and the small per-segment band
+matrices, so memory holds one chunk of segments beyond what the fit keeps;
+it does not grow with the record beyond ``K x B x n x n`` numbers and the
+record itself (the deconvolution holds one run of one sensor at a time).
+
+Every sum is one of numpy's own loops (``einsum``, ``mean``), none a BLAS
+call: the order of its terms is fixed by the arrays' shapes, so the spectra
+are the same bits whatever BLAS's thread count (a process-wide setting that
+another thread's fit may change meanwhile) and wherever the samples lie in
+memory.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import linalg
 from scipy.fft import next_fast_len
 
 from ...errors import SpectraError
+from .segments import gap_free, hann, remove_line, segment_spectra
 
 
 #: Time blocks kept of the per-frequency totals (see ``CrossSpectra.block_totals``).
 TIME_BLOCKS = 16
-
-
-def hann(m, sym=False):
-    """Periodic Hann window of ``m`` samples, the same numbers as
-    ``scipy.signal.windows.hann(m, sym=False)`` (importing scipy.signal would
-    cost a command about a second of start-up: it imports scipy.stats)."""
-    assert not sym
-    fac = np.linspace(-np.pi, np.pi, m + 1)
-    w = np.zeros(m + 1)
-    for k, a in enumerate((0.5, 0.5)):
-        w += a * np.cos(k * fac)
-    return w[:-1]
-
-
-def detrend(x, axis=-1, type="linear"):
-    """Least-squares line removed along the last axis, the same numbers as
-    ``scipy.signal.detrend(x, axis=-1, type="linear")`` (same design matrix,
-    same LAPACK solver); see :func:`hann` for why it is not imported."""
-    assert axis in (-1, x.ndim - 1) and type == "linear"
-    n = x.shape[-1]
-    a = np.ones((n, 2))
-    a[:, 0] = np.arange(1, n + 1, dtype=float) / n
-    moved = np.moveaxis(np.asarray(x, dtype=float), -1, 0)
-    flat = moved.reshape(n, -1).copy()
-    flat = flat - a @ linalg.lstsq(a, flat)[0]
-    return np.moveaxis(flat.reshape(moved.shape), 0, -1)
 
 
 @dataclass
@@ -264,14 +245,18 @@ def band_taper(freqs, band):
     return t
 
 
-def deconvolve_runs(data, fs, response, band, margin):
+def deconvolve_runs(data, fs, response, band, margin, out=None):
     """Ground velocity from counts, run by run (runs of finite samples): a
     band-limited inverse of ``response`` (``band_taper`` around ``band``)
     applied with a zero-padded FFT; ``margin`` samples at each end of every
-    run are set to NaN (the inverse filter's transient)."""
+    run are set to NaN (the inverse filter's transient). Written into
+    ``out`` (an array of ``data``'s shape) when given."""
+    if out is None:
+        out = np.empty(np.shape(data))
     if response is None:                      # already ground velocity
-        return np.asarray(data, dtype=float)
-    out = np.full(data.shape, np.nan)
+        out[...] = data
+        return out
+    out[...] = np.nan
     finite = np.all(np.isfinite(data), axis=0).astype(np.int8)
     edges = np.flatnonzero(np.diff(np.r_[0, finite, 0]))
     cache = {}
@@ -283,19 +268,20 @@ def deconvolve_runs(data, fs, response, band, margin):
         if nfft not in cache:
             f = np.fft.rfftfreq(nfft, 1.0 / fs)
             taper = band_taper(f, band)
-            use = taper > 0
+            use = slice(np.argmax(taper > 0), taper.size - np.argmax(taper[::-1] > 0))
             cache[nfft] = (use, taper[use] / np.atleast_2d(response(f[use])))
         use, inverse = cache[nfft]
-        x = detrend(data[:, a:b], axis=1, type="linear")
-        spec = np.fft.rfft(x, n=nfft, axis=1)
-        y = np.zeros_like(spec)
-        y[:, use] = spec[:, use] * inverse
-        out[:, a + margin:b - margin] = np.fft.irfft(y, n=nfft, axis=1)[:, margin:n - margin]
+        for row in range(out.shape[0]):                 # one channel at a time
+            spec = np.fft.rfft(remove_line(np.array(data[row, a:b], dtype=float)), n=nfft)
+            spec[:use.start] = 0
+            spec[use.stop:] = 0
+            spec[use] *= inverse[row % inverse.shape[0]]
+            out[row, a + margin:b - margin] = np.fft.irfft(spec, n=nfft)[margin:n - margin]
     return out
 
 
 def cross_spectra(sut, ref, fs, sut_response, ref_response, band, *, nperseg=None, overlap=0.5,
-                  bands_per_decade=6, min_bins=8, chunk=64, sut_ids=(), ref_ids=(),
+                  bands_per_decade=6, min_bins=8, chunk=None, sut_ids=(), ref_ids=(),
                   edge_periods=2.0, time_blocks=TIME_BLOCKS, exclude=None):
     """Compute :class:`CrossSpectra` from SUT and reference samples.
 
@@ -310,6 +296,8 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, *, nperseg=Non
     band : (fmin, fmax) analysis band (Hz).
     nperseg : segment length (samples); default from :func:`default_nperseg`.
     overlap : fraction of segment overlap (Welch), 0.5 by default.
+    chunk : segments transformed at once; None: as many as hold
+        :data:`~bayescal.core.spectra.segments.CHUNK_BYTES` of samples.
     edge_periods : periods of the band's lower edge left out at the ends of
         every gap-free run (the deconvolution's transient).
     time_blocks : number of equal time blocks of ``block_totals``.
@@ -325,15 +313,16 @@ def cross_spectra(sut, ref, fs, sut_response, ref_response, band, *, nperseg=Non
         raise SpectraError(
             f"too little data for the band: {n_samples / fs:.0f} s recorded, the band's lower "
             f"edge {fmin:g} Hz needs segments of {nperseg / fs:.0f} s and at least 4 of them")
-    keep, freqs, edges, band_of, bounds = _band_grid(fs, nperseg, fmin, fmax, bands_per_decade,
+    bins, freqs, edges, band_of, bounds = _band_grid(fs, nperseg, fmin, fmax, bands_per_decade,
                                                      min_bins)
     margin = int(round(edge_periods * fs / fmin))
-    data = np.vstack([deconvolve_runs(sut, fs, sut_response, (fmin, fmax), margin),
-                      deconvolve_runs(ref, fs, ref_response, (fmin, fmax), margin)])
+    data = np.empty((sut.shape[0] + ref.shape[0], n_samples))
+    deconvolve_runs(sut, fs, sut_response, (fmin, fmax), margin, out=data[:sut.shape[0]])
+    deconvolve_runs(ref, fs, ref_response, (fmin, fmax), margin, out=data[sut.shape[0]:])
     win = hann(nperseg, sym=False)
     starts = np.arange(0, n_samples - nperseg + 1, step)
     total, per_segment, segment_starts, blocks, block_of = _accumulate(
-        data, starts, win, keep, bounds, chunk=chunk, exclude=exclude,
+        data, starts, win, bins, bounds, chunk=chunk, exclude=exclude,
         time_blocks=time_blocks, n_samples=n_samples)
     if per_segment.shape[0] < 4:
         raise SpectraError(f"only {per_segment.shape[0]} gap-free segments of {nperseg / fs:.0f} s:"
@@ -381,55 +370,50 @@ def band_refusal(band, fs):
 
 
 def _band_grid(fs, nperseg, fmin, fmax, bands_per_decade, min_bins):
-    """The segment's frequencies in the band: ``(keep, freqs, edges,
-    band_of, bounds)``, the mask on the FFT grid, the frequencies, the
+    """The segment's frequencies in the band: ``(bins, freqs, edges,
+    band_of, bounds)``, their slice of the FFT grid, the frequencies, the
     averaging bands' edges, each frequency's band and each band's first bin."""
     all_f = np.fft.rfftfreq(nperseg, 1.0 / fs)
-    keep = (all_f >= fmin) & (all_f <= fmax)
-    freqs = all_f[keep]
+    bins = slice(np.searchsorted(all_f, fmin, "left"), np.searchsorted(all_f, fmax, "right"))
+    freqs = all_f[bins]
     edges = make_bands(freqs, fmin, fmax, bands_per_decade, min_bins)
     band_of = np.clip(np.searchsorted(edges, freqs, side="right") - 1, 0, edges.size - 2)
     bounds = np.r_[0, np.flatnonzero(np.diff(band_of)) + 1]
-    return keep, freqs, edges, band_of, bounds
+    return bins, freqs, edges, band_of, bounds
 
 
-def _accumulate(data, starts, win, keep, bounds, *, chunk, exclude, time_blocks, n_samples):
+def _accumulate(data, starts, win, bins, bounds, *, chunk, exclude, time_blocks, n_samples):
     """Sum the windowed segments' cross-products: ``(total, per_segment,
     segment_starts, blocks, block_of)``, the sum over gap-free segments, each
     segment's sums over the averaging bands, the segments' first samples,
     the sums over time blocks (those a gap left empty dropped) and each
     segment's block."""
     nperseg = win.size
-    n = data.shape[0]
-    total = np.zeros((int(keep.sum()), n, n), dtype=complex)
     n_blocks = max(1, min(int(time_blocks), starts.size // 2))
     block_of_start = np.minimum((starts * n_blocks) // max(n_samples - nperseg + 1, 1), n_blocks - 1)
-    blocks = np.zeros((n_blocks,) + total.shape, dtype=np.complex64)
-    per_seg, used = [], []
-    for c0 in range(0, starts.size, chunk):
-        s = starts[c0:c0 + chunk]
-        idx = s[:, None] + np.arange(nperseg)[None, :]
-        seg = data[:, idx].transpose(1, 0, 2)                 # (k, n, nperseg)
-        ok = np.all(np.isfinite(seg), axis=(1, 2))
-        if exclude is not None:
-            ok &= ~np.isin(s, exclude)
-        if not ok.any():
-            continue
-        seg = detrend(seg[ok], axis=-1, type="linear") * win
-        z = np.fft.rfft(seg, axis=-1)[:, :, keep]                    # (k, n, F), m/s
-        prod = np.einsum("kif,kjf->kfij", z, z.conj())
-        total += prod.sum(axis=0)
-        ids = block_of_start[c0:c0 + chunk][ok]
-        for g in np.unique(ids):
-            blocks[g] += prod[ids == g].sum(axis=0)
-        per_seg.append(np.add.reduceat(prod, bounds, axis=1))
-        used.append(s[ok])
-    if not per_seg:
+    ok = gap_free(data, starts, nperseg)
+    if exclude is not None:
+        ok &= ~np.isin(starts, exclude)
+    if not ok.any():
         raise SpectraError("no segment without gaps: every window touches missing data")
-    per_segment = np.concatenate(per_seg)
-    segment_starts = np.concatenate(used)
+    segment_starts, block_of = starts[ok], block_of_start[ok]
+    n, n_f = data.shape[0], bins.stop - bins.start
+    total = np.zeros((n_f, n, n), dtype=complex)
+    blocks = np.zeros((n_blocks,) + total.shape, dtype=np.complex64)
+    per_segment = np.empty((segment_starts.size, bounds.size, n, n), dtype=complex)
+    band_bins = [slice(a, b) for a, b in zip(bounds, np.r_[bounds[1:], n_f])]
+    for c0, z in segment_spectra(data, segment_starts, win, bins, chunk):   # (k, n, F), m/s
+        k = z.shape[0]
+        for b, fb in enumerate(band_bins):
+            zb = z[:, :, fb]
+            per_segment[c0:c0 + k, b] = np.einsum("kif,kjf->kij", zb, zb.conj())
+        ids = block_of[c0:c0 + k]
+        for g in np.unique(ids):
+            zg = z[ids == g]
+            part = np.einsum("kif,kjf->fij", zg, zg.conj())
+            total += part
+            blocks[g] += part
     # blocks that a gap left empty are dropped (numbered anew)
-    block_of = block_of_start[np.searchsorted(starts, segment_starts)]
     filled = np.bincount(block_of, minlength=n_blocks) > 0
     blocks, block_of = blocks[filled], (np.cumsum(filled) - 1)[block_of]
     return total, per_segment, segment_starts, blocks, block_of
