@@ -27,9 +27,9 @@ Wall and CPU (user + system) time of each child are kept, and its peak
 memory (``ru_maxrss``); on a shared machine the CPU time is the steadier of
 the two, and the machine's load (``os.getloadavg``) is printed with every
 repeat. Goals: fit <= 1.5 x floor, huddle <= obspy, help <= 0.3 s, peak
-memory of the fit <= 226 MiB. ``--before DIR`` also times the bayescal
-commands of another source tree (e.g. ``/work/main``) in the same run, as
-``*_before``.
+memory of the fit <= 226 MiB (without the criticism and with it).
+``--before DIR`` also times the bayescal commands of another source tree
+(e.g. ``/work/main``) in the same run, as ``*_before``.
 
     python benchmarks/bench_process.py [--repeats 7] [--before /work/main]
                                        [--out reports/benchmarks/process.json]
@@ -304,7 +304,8 @@ def main(argv=None):
         result[kind] = _summary(kind, record[kind], emcee_s)
     result["peak_mib"] = _medians(record["peak_mib"])
     result["criticism_median_s"] = _medians(record["criticism_s"])
-    result["goals_met"] = {"fit peak memory <= 226 MiB": result["peak_mib"]["fit"] <= 226.0}
+    result["goals_met"] = {f"{k} peak memory <= 226 MiB": result["peak_mib"][k] <= 226.0
+                           for k in ("fit_nodiag", "fit")}
     print("peak memory, MiB (median):", {k: round(v) for k, v in result["peak_mib"].items()})
     print("criticism, s (median, from result.json; 0: it did not run):",
           {k: round(v, 2) for k, v in result["criticism_median_s"].items()})
