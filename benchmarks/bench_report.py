@@ -10,9 +10,13 @@ and its pages are in the report. Each repeat runs the fit, then the report
 of the first fit's folder; printed: medians of wall-clock and CPU seconds
 (the child's user + system time), their ratio report / fit, the machine's
 load (1-minute average, waiting processes on its cores) before each case,
-and whether the goal is met. ``--json`` keeps the runs.
+and whether the goal is met. ``--json`` keeps the runs. ``--baseline DIR``
+(a source tree of bayescal, e.g. ``git worktree add /tmp/base <commit>``)
+adds that tree's report of the same folder, alternated with the others, and
+the ratio candidate / baseline.
 
     python benchmarks/bench_report.py [--repeats 5] [--cases pass late] [--json FILE]
+                                      [--baseline DIR]
 """
 from __future__ import annotations
 
@@ -36,11 +40,15 @@ def simulate(case, folder):
     simulate_pair(duration=1800, fs=10, **CASES[case]).write(folder)
 
 
-def timed(cmd):
-    """Run ``cmd`` (a fresh process); returns (wall s, CPU s of the child)."""
+def timed(cmd, tree=None):
+    """Run ``cmd`` (a fresh process; in source tree ``tree`` when given, so
+    that ``-m bayescal.cli`` runs that tree's code); returns (wall s, CPU s
+    of the child)."""
+    env = None if tree is None else {**os.environ, "PYTHONPATH": os.path.abspath(tree)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   cwd=tree, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -55,22 +63,30 @@ def commands(data, out):
     return fit, cli + ["report", out]
 
 
-def run_case(case, tmp, repeats):
-    """Alternate fit and report ``repeats`` times; returns the case's record."""
+def run_case(case, tmp, repeats, baseline=None):
+    """Alternate fit and report (and the baseline's report) ``repeats``
+    times; returns the case's record."""
     data = os.path.join(tmp, case)
     simulate(case, data)
     load = os.getloadavg()[0]
-    runs = {"fit": [], "report": []}
+    runs = {"fit": [], "report": []} | ({"baseline_report": []} if baseline else {})
     for i in range(repeats):
         fit, _ = commands(data, os.path.join(tmp, f"{case}_fit{i}"))
         runs["fit"].append(timed(fit))
-        runs["report"].append(timed(commands(data, os.path.join(tmp, f"{case}_fit0"))[1]))
+        report = commands(data, os.path.join(tmp, f"{case}_fit0"))[1]
+        runs["report"].append(timed(report))
+        if baseline:
+            runs["baseline_report"].append(timed(report, baseline))
     med = {k: {"wall_s": statistics.median(w for w, _ in v),
                "cpu_s": statistics.median(c for _, c in v)} for k, v in runs.items()}
-    return {"case": case, "repeats": repeats, "load_before": load, "runs": runs,
-            "median": med, "load_after": os.getloadavg()[0],
-            "ratio_wall": med["report"]["wall_s"] / med["fit"]["wall_s"],
-            "ratio_cpu": med["report"]["cpu_s"] / med["fit"]["cpu_s"]}
+    out = {"case": case, "repeats": repeats, "load_before": load, "runs": runs,
+           "median": med, "load_after": os.getloadavg()[0],
+           "ratio_wall": med["report"]["wall_s"] / med["fit"]["wall_s"],
+           "ratio_cpu": med["report"]["cpu_s"] / med["fit"]["cpu_s"]}
+    if baseline:
+        out["baseline"] = os.path.abspath(baseline)
+        out["ratio_to_baseline_cpu"] = med["report"]["cpu_s"] / med["baseline_report"]["cpu_s"]
+    return out
 
 
 def main(argv=None):
@@ -78,11 +94,12 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--cases", nargs="+", choices=sorted(CASES), default=["pass", "late"])
     p.add_argument("--json", default="reports/benchmarks/report.json")
+    p.add_argument("--baseline", metavar="DIR", help="source tree of the baseline's report")
     a = p.parse_args(argv)
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         for case in a.cases:
-            r = run_case(case, tmp, a.repeats)
+            r = run_case(case, tmp, a.repeats, a.baseline)
             out.append(r)
             m = r["median"]
             print(f"{case}: fit {m['fit']['wall_s']:.2f} s wall, {m['fit']['cpu_s']:.2f} s CPU; "
@@ -91,6 +108,10 @@ def main(argv=None):
                   f"load {r['load_before']:.1f} -> {r['load_after']:.1f} on {os.cpu_count()} "
                   f"cores; medians of {a.repeats}; goal (report <= its fit): "
                   f"{'met' if r['ratio_wall'] <= 1 and r['ratio_cpu'] <= 1 else 'NOT met'}")
+            if a.baseline:
+                b = m["baseline_report"]
+                print(f"  baseline report {b['wall_s']:.2f} s wall, {b['cpu_s']:.2f} s CPU; "
+                      f"report / baseline {r['ratio_to_baseline_cpu']:.2f} (CPU)")
     if a.json:
         os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
         with open(a.json, "w") as fh:

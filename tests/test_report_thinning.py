@@ -1,10 +1,13 @@
 """The report's shortcuts that leave what it shows unchanged: corner plots
 from at most :data:`~bayescal.report.corner_pages.CORNER_DRAWS` evenly
-spaced draws, said on the page, and the misfit panel's expected range from
-the Gamma quantiles in closed form."""
+spaced draws, said on the page, the misfit panel's expected range from
+the Gamma quantiles in closed form, and Peterson's noise models read from
+ObsPy's data file without importing ``obspy.signal``."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -39,3 +42,27 @@ def test_misfit_range_is_the_gamma_central_interval(n_r):
     assert cdf(hi) == pytest.approx(0.975, abs=1e-10)
     if n_r == 1:
         assert (lo, hi) == pytest.approx((-math.log(0.975), -math.log(0.025)), rel=1e-12)
+
+
+def test_noise_models_are_obspys():
+    spectral = pytest.importorskip("obspy.signal.spectral_estimation")
+    from bayescal.report.noise import peterson_models
+
+    (pl, nl), (ph, nh) = peterson_models()
+    for got, want in (((pl, nl), spectral.get_nlnm()), ((ph, nh), spectral.get_nhnm())):
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+    assert np.all(nl < nh)
+
+
+def test_drawing_the_noise_models_imports_no_obspy_signal():
+    code = ("import sys; import numpy as np; from types import SimpleNamespace; "
+            "from matplotlib.figure import Figure; "
+            "from bayescal.report.noise import draw_estimates; "
+            "p = np.array([1.0, 10.0]); one = np.ones((1, 2)) * 1e-15; "
+            "e = SimpleNamespace(period_s=p, psd=one, lo=one / 2, hi=one * 2, signal=one * 10, "
+            "level=0.95); draw_estimates(Figure().add_subplot(), e, ['XX.A..BHZ']); "
+            "print(sorted(m for m in sys.modules if m.startswith('obspy.signal')))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "[]"

@@ -15,6 +15,7 @@
 * :mod:`.cal`        the coil calibration report of one channel (random, step)
 * :mod:`.cal_time`   its time-series pages (step, sine)
 * :mod:`.batch`      the network tables and report
+* :mod:`.flags`      the flag rule the fit and batch reports share (off nominal)
 * :mod:`.noise`      the self-noise pages (against the NLNM and NHNM)
 
 May import core, io, criticism and coil; never network or cli.
@@ -27,7 +28,8 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "fit": ["load_result", "write_report"],
     "layout": ["A4", "ReportContext"],
-    "batch": ["COLUMNS", "find_flags", "read_results", "results_table"],
+    "batch": ["COLUMNS", "read_results", "results_table"],
+    "flags": ["find_flags", "off_nominal"],
     "diagnosis": ["build_figure", "write_page"],
     "fit_pages": ["page_convergence", "page_data_fit", "page_summary"],
     "noise": ["figure_component", "write_figures"],

@@ -8,7 +8,9 @@ Flags (``flags.csv`` and the report), per station, channel and quantity
 (azimuth, dip, gain):
 
 * ``off_nominal``: the estimate differs from the StationXML value by more
-  than the threshold AND the 95 % interval excludes the nominal value;
+  than the threshold AND the 95 % interval excludes the nominal value
+  (:func:`bayescal.report.flags.off_nominal`, the rule of ``bayescal
+  report`` too);
 * ``changed``: between two consecutive results of the same pair (the same
   SUT channel against the same reference channels, column
   ``reference_channels``; results in order of day, then label), the
@@ -19,7 +21,7 @@ Flags (``flags.csv`` and the report), per station, channel and quantity
 
 Angle thresholds are in degrees (default :data:`FLAG_THRESHOLD_DEG`, the
 default of ``bayescal report`` too), the gain threshold in percent (default
-:data:`FLAG_THRESHOLD_PCT`).
+:data:`FLAG_THRESHOLD_PCT`). The rules are in :mod:`bayescal.report.flags`.
 """
 from __future__ import annotations
 
@@ -34,11 +36,9 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..criticism.words import LAPLACE, posterior_text
+from .flags import (FLAG_COLUMNS, FLAG_THRESHOLD_DEG, FLAG_THRESHOLD_PCT, deviation_series,
+                    find_flags, wrap_deg)
 
-
-#: Default flag thresholds: angles (degrees) and gains (percent).
-FLAG_THRESHOLD_DEG = 2.0
-FLAG_THRESHOLD_PCT = 2.0
 
 COLUMNS = ("label", "station", "day", "channel", "reference_channels", "kind",
            "azimuth", "azimuth_lo95", "azimuth_hi95", "nominal_azimuth",
@@ -47,9 +47,6 @@ COLUMNS = ("label", "station", "day", "channel", "reference_channels", "kind",
            "gain", "gain_lo95", "gain_hi95", "nominal_gain",
            "ess_min", "tau_max", "rhat_max", "converged", "effects", "effects_not_heading",
            "notes", "error")
-FLAG_COLUMNS = ("station", "channel", "reference_channels", "quantity", "flag", "day",
-                "previous_day", "label", "previous_label", "value", "lo95", "hi95", "reference",
-                "threshold", "unit")
 #: results.csv's columns that hold text (the others are numbers).
 TEXT_COLUMNS = ("label", "station", "day", "channel", "reference_channels", "kind", "effects",
                 "effects_not_heading", "notes", "error", "converged")
@@ -165,63 +162,6 @@ def read_results(path):
     return rows
 
 
-def _wrap(d):
-    return (d + 180.0) % 360.0 - 180.0
-
-
-def _series(rows, quantity):
-    """Per pair (station, SUT channel, reference channels): the list of
-    (day, label, dev, lo, hi, nominal) of the deviation from nominal
-    (degrees, or percent for the gain), in order of day and label."""
-    out = {}
-    for r in rows:
-        val, nom = r.get(quantity), r.get(f"nominal_{quantity}")
-        if r.get("error") or val is None or nom is None or r.get(f"{quantity}_lo95") is None:
-            continue
-        lo, hi = r[f"{quantity}_lo95"], r[f"{quantity}_hi95"]
-        if quantity == "gain":
-            dev, dlo, dhi = (100.0 * (x / nom - 1.0) for x in (val, lo, hi))
-        else:
-            dev = _wrap(val - nom) if quantity == "azimuth" else val - nom
-            dlo, dhi = dev - (val - lo), dev + (hi - val)
-        key = (r["station"], r["channel"], r.get("reference_channels") or "")
-        out.setdefault(key, []).append((r["day"], r["label"], dev, dlo, dhi, nom))
-    return {k: sorted(v) for k, v in out.items()}
-
-
-def find_flags(rows, threshold_deg=FLAG_THRESHOLD_DEG, gain_threshold_pct=FLAG_THRESHOLD_PCT):
-    """Flags (list of dicts, columns :data:`FLAG_COLUMNS`) from results rows,
-    by the rule of the module docstring; each pair's results form one series."""
-    flags = []
-    for quantity, thr, unit in (("azimuth", threshold_deg, "deg"), ("dip", threshold_deg, "deg"),
-                                ("gain", gain_threshold_pct, "%")):
-        for (sta, cid, refs), series in sorted(_series(rows, quantity).items()):
-            base = {"station": sta, "channel": cid, "reference_channels": refs,
-                    "quantity": quantity, "threshold": thr, "unit": unit}
-            for day, label, dev, lo, hi, nom in series:
-                if abs(dev) > thr and not lo <= 0.0 <= hi:
-                    flags.append({**base, "flag": "off_nominal", "day": day, "previous_day": "",
-                                  "label": label, "previous_label": "", "value": dev,
-                                  "lo95": lo, "hi95": hi, "reference": nom})
-            for before, after in zip(series, series[1:]):
-                flag = _change(before, after, quantity, thr)
-                if flag:
-                    flags.append({**base, **flag})
-    return flags
-
-
-def _change(before, after, quantity, thr):
-    """The ``changed`` flag's entries between two results of one pair, or None."""
-    (d0, lb0, v0, lo0, hi0, _), (d1, lb1, v1, lo1, hi1, _) = before, after
-    delta = _wrap(v1 - v0) if quantity == "azimuth" else v1 - v0
-    combined = np.hypot((hi0 - lo0) / 2, (hi1 - lo1) / 2)
-    if not (abs(delta) > thr and abs(delta) > combined):
-        return None
-    return {"flag": "changed", "day": d1, "previous_day": d0, "label": lb1,
-            "previous_label": lb0, "value": delta, "lo95": delta - combined,
-            "hi95": delta + combined, "reference": v0}
-
-
 def _date(day):
     return datetime.date.fromisoformat(day)
 
@@ -263,7 +203,7 @@ def _station_panel(ax, rows, flags, sta, quantity, styles):
     """One station's curves of ``quantity`` (one per pair, styled by
     ``styles``) on ``ax``: medians with their 95 % intervals, a cross on each
     flagged result and a dashed line on each day a pair's result changed."""
-    series = {k: v for k, v in sorted(_series(rows, quantity).items()) if k[0] == sta}
+    series = {k: v for k, v in sorted(deviation_series(rows, quantity).items()) if k[0] == sta}
     flagged = {(f["channel"], f["reference_channels"], f["quantity"], f["label"]) for f in flags}
     for (_, cid, refs), points in series.items():
         st = styles[(cid, refs)]
@@ -346,7 +286,7 @@ def _figure(rows, flags, stations, threshold_deg, gain_threshold_pct, page):
 
     from .layout import page_header, text_extent
 
-    quantities = ("azimuth", "dip") + (("gain",) if _series(rows, "gain") else ())
+    quantities = ("azimuth", "dip") + (("gain",) if deviation_series(rows, "gain") else ())
     fig = Figure(figsize=page)
     FigureCanvasAgg(fig)
     page_header(fig, "bayescal batch report: orientation" + (" and gain" if "gain" in quantities
@@ -433,7 +373,7 @@ def _flag_row(flag, result, folder):
     q = flag["quantity"]
     val, nom = result[q], result[f"nominal_{q}"]
     dev = 100.0 * (val / nom - 1.0) if q == "gain" else (
-        _wrap(val - nom) if q == "azimuth" else val - nom)
+        wrap_deg(val - nom) if q == "azimuth" else val - nom)
     note = (f"off nominal on {flag['day']}" if flag["flag"] == "off_nominal" else
             f"changed by {flag['value']:+.2f} {flag['unit']} [{flag['lo95']:+.2f}, "
             f"{flag['hi95']:+.2f}] from {flag['previous_day']} to {flag['day']}")

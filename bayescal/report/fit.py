@@ -25,7 +25,7 @@ from functools import partial
 
 from ..errors import InputError
 from .tables import load_truth
-from .batch import FLAG_THRESHOLD_DEG
+from .flags import FLAG_THRESHOLD_DEG
 
 
 #: Figures, in page order.
@@ -97,7 +97,9 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
     folder : result folder written by :func:`bayescal.write_results`.
     out_pdf : path of the PDF (default ``folder/report.pdf``).
     nominal_tolerance_deg : azimuth/dip/tilt deviation from nominal above
-        which a channel is flagged (default: as `bayescal batch` and `report`).
+        which a channel is flagged when its 95 % interval excludes nominal
+        too: the rule and default (2 deg) of ``bayescal batch``
+        (:func:`bayescal.report.flags.off_nominal`).
     truth : simulation truth (dict or JSON path) for truth markers; default
         the meta's ``truth`` entry or ``folder/truth.json`` when present.
     paper : "a4" (default) or "letter": every page of the PDF has this size.

@@ -115,7 +115,8 @@ def _flag_lines(ctx, flags, modes):
     sensor order and the sampler."""
     verdict = fit_check(ctx.summary)
     crit = ctx.summary.get("criticism") or {}
-    text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt):"]
+    text = [f"Flags (tolerance {ctx.tolerance_deg:g} deg on azimuth, dip and tilt; flagged when the"
+            " 95 % interval excludes nominal too):"]
     if headline(ctx.summary):
         text += textwrap.wrap(f"  ESTIMATES UNDER THE IMPROVED MODEL: {headline(ctx.summary)} "
                               "(the rejected fit's table: page \"rejected fit\")", 130,
@@ -258,7 +259,7 @@ def page_intervals(ctx):
                Line2D([], [], color="k", lw=1, label="95 % interval"),
                Line2D([], [], color="0.3", ls="--", label="nominal (StationXML)"),
                Patch(facecolor="none", edgecolor="0.6", hatch="////",
-                     label=f"beyond nominal +/- {ctx.tolerance_deg:g} deg (flagged)")]
+                     label=f"beyond nominal +/- {ctx.tolerance_deg:g} deg (tolerance)")]
     if ctx.truth:
         handles.append(Line2D([], [], marker="v", color="k", ls="none", label="simulation truth"))
     fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False,

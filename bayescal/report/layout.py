@@ -83,11 +83,14 @@ class ReportContext:
 
 @contextlib.contextmanager
 def style():
-    """Report style: TrueType fonts in the PDF (extractable text), ASCII
-    minus signs, thin grid, small fonts that stay inside the page. Titles
-    sit just above their axes (``axes.titley``; no report axes has tick
-    labels on top), so drawing does not measure every axis to place them."""
-    with matplotlib.rc_context({"pdf.fonttype": 42, "axes.unicode_minus": False,
+    """Report style: Type 3 fonts in the PDF (matplotlib's default: the
+    same DejaVu glyphs as outlines, Latin-1 text extractable; a PDF with Type 42
+    TrueType fonts looks the same but costs a font subsetting of each font
+    when it is closed), ASCII minus signs, thin grid, small fonts that stay
+    inside the page. Titles sit just above their axes (``axes.titley``; no
+    report axes has tick labels on top), so drawing does not measure every
+    axis to place them."""
+    with matplotlib.rc_context({"pdf.fonttype": 3, "axes.unicode_minus": False,
                                 "axes.titley": 1.0,
                                 "font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8,
                                 "xtick.labelsize": 7, "ytick.labelsize": 7,

@@ -6,8 +6,8 @@ full precision in ``noise_curves.npz`` (:func:`save_curves`,
 
 Each page shows every sensor's self-noise estimate with its interval band,
 each channel's recorded PSD (ambient signal plus self-noise, dotted), and
-Peterson's NLNM and NHNM (ObsPy ``get_nlnm``/``get_nhnm``), in dB re
-1 (m/s^2)^2/Hz against period; below, a table of the estimates at a few
+Peterson's NLNM and NHNM (ObsPy's noise-model data, :func:`peterson_models`),
+in dB re 1 (m/s^2)^2/Hz against period; below, a table of the estimates at a few
 periods. Where an estimate is below resolution (its interval reaches zero
 power) no point is drawn: a downward caret sits on the upper bound and the
 band runs from the bottom of the axes to it (an upper bound only).
@@ -15,6 +15,8 @@ Drawn with matplotlib's object API (no display, no pyplot state).
 """
 from __future__ import annotations
 
+import functools
+import importlib.util
 import os
 import textwrap
 
@@ -69,6 +71,27 @@ def short_ids(ids):
     return [".".join(p[-keep:]) for p in parts]
 
 
+@functools.lru_cache(maxsize=1)
+def peterson_models():
+    """Peterson's (1993) NLNM and NHNM as ObsPy ships them (the data file
+    its ``obspy.signal.spectral_estimation.get_nlnm`` and ``get_nhnm``
+    read), loaded with numpy from ObsPy's package folder without importing
+    ``obspy.signal``, whose import brings scipy.signal and scipy.stats.
+
+    Returns
+    -------
+    ((period_s, nlnm_db), (period_s, nhnm_db)) : arrays, periods in s, PSDs
+        in dB re 1 (m/s^2)^2/Hz.
+    """
+    spec = importlib.util.find_spec("obspy")     # locates ObsPy without importing it
+    path = os.path.join(os.path.dirname(spec.origin), "signal", "data", "noise_models.npz")
+    with np.load(path) as data:
+        period, low, high = (data[k] for k in ("model_periods", "low_noise", "high_noise"))
+    for a in (period, low, high):
+        a.flags.writeable = False                 # shared by every caller (cached)
+    return (period, low), (period, high)
+
+
 def draw_estimates(ax, e, ids):
     """Draw self-noise estimates on ``ax``: each channel's estimate with its
     interval band and its recorded PSD (dotted), and Peterson's NLNM and
@@ -80,12 +103,9 @@ def draw_estimates(ax, e, ids):
     Where an interval reaches zero power (below resolution) the estimate is
     not drawn as a point: a downward caret (:data:`UPPER_BOUND_MARKER`) marks
     the upper bound."""
-    from obspy.signal.spectral_estimation import get_nhnm, get_nlnm
-
     order = np.argsort(e.period_s)
     per = e.period_s[order]
-    pl, nl = get_nlnm()
-    ph, nh = get_nhnm()
+    (pl, nl), (ph, nh) = peterson_models()
     ax.semilogx(pl, nl, color="0.25", lw=1.6, label="NLNM")
     ax.semilogx(ph, nh, color="0.6", lw=1.6, label="NHNM")
     lo_db, hi_db = db(e.lo), db(e.hi)

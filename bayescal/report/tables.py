@@ -11,6 +11,7 @@ import numpy as np
 
 from ..core.orientation import NEAR_VERTICAL_DIP_DEG, unit_vector
 from ..errors import InputError
+from .flags import entry_off_nominal
 
 
 #: A channel whose axis lies within this angle (degrees) of the opposite of
@@ -83,7 +84,9 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
 
     Returns ``(rows, flags)``; ``flags`` maps a channel id to a list of
     messages (azimuth, dip or tilt off nominal by more than
-    ``tolerance_deg``; axis reversed). ``truth`` (simulate's format) fills
+    ``tolerance_deg`` with its 95 % interval excluding nominal, the rule of
+    ``bayescal batch``, :func:`bayescal.report.flags.off_nominal`; axis
+    reversed). ``truth`` (simulate's format) fills
     :attr:`Row.truth`.
     """
     rows, flags = [], {}
@@ -110,20 +113,21 @@ def angle_rows(post, summary, tolerance_deg, truth=None):
             lean = ("vertical within the 95 % region" if tilt.get("holds_zero")
                     else f"toward az {ch['tilt_toward_azimuth_deg']:.1f}")
             rows.append(interval_row(cid, "tilt", tilt, ntilt, dev, lean, ttilt))
-            if dev is not None and abs(dev) > tolerance_deg and not msgs:
+            if dev is not None and entry_off_nominal(tilt, dev, tolerance_deg) and not msgs:
                 msgs.append(f"TILT OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         else:
             dev = None if naz is None else float(wrap180(az["median"] - naz))
             note = "fixed (not estimable)" if az.get("fixed") else ""
             rows.append(interval_row(cid, "azimuth", az, naz, dev, note, tru.get("azimuth_deg")))
-            if dev is not None and abs(dev) > tolerance_deg and not msgs and not az.get("fixed"):
+            if (dev is not None and not az.get("fixed") and not msgs
+                    and entry_off_nominal(az, dev, tolerance_deg)):
                 msgs.append(f"AZIMUTH OFF: {dev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         if post.kinds[k] != "fixed":
             ddev = None if ndip is None else dip["median"] - ndip
             note = "fixed (reference plane)" if dip.get("fixed") else ""
             rows.append(interval_row(cid, "dip", dip, ndip, ddev, note, tru.get("dip_deg")))
-            if ("tilt_deg" not in ch and ddev is not None and abs(ddev) > tolerance_deg
-                    and not msgs and not dip.get("fixed")):
+            if ("tilt_deg" not in ch and ddev is not None and not msgs and not dip.get("fixed")
+                    and entry_off_nominal(dip, ddev, tolerance_deg)):
                 msgs.append(f"DIP OFF: {ddev:+.2f} deg from nominal (tolerance {tolerance_deg:g})")
         if msgs:
             flags[cid] = msgs
