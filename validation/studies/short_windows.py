@@ -189,6 +189,8 @@ def _arguments(argv):
                                          / "short_windows.json"))
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--every", type=int, default=1, help="every n-th window only (evenly spaced)")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="window k's sampler seed is k plus this (0: k)")
     ap.add_argument("--modes", nargs="+", default=["drop"], choices=["drop", "keep"])
     ap.add_argument("--misfit-shape", type=float, default=None,
                     help="the fit's misfit-scale shape (inf: Gaussian); default: the fit's own")
@@ -234,8 +236,8 @@ def main(argv=None):
         row = {"start": str(UTCDateTime(s))}
         for mode in args.modes:
             try:
-                row[mode] = fit_window(data, UTCDateTime(s), UTCDateTime(s + args.minutes * 60), k,
-                                       mode, args.misfit_shape)
+                row[mode] = fit_window(data, UTCDateTime(s), UTCDateTime(s + args.minutes * 60),
+                                       k + args.seed_offset, mode, args.misfit_shape)
             except Exception as exc:     # a window the pipeline refuses (gaps): recorded
                 row[mode] = {"refused": f"{type(exc).__name__}: {exc}"}
         print(row["start"], {m: {c: (round(row[m][c]["median"], 2),
@@ -248,7 +250,8 @@ def main(argv=None):
     command = " ".join(["python validation/studies/short_windows.py"]
                        + [shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)])
     result = {"command": command, "band_hz": list(BAND), "minutes": args.minutes,
-              "every": args.every, "modes": args.modes, "misfit_shape": shape,
+              "every": args.every, "seed_offset": args.seed_offset, "modes": args.modes,
+              "misfit_shape": shape,
               "own_scale_prob": misfit_scale.OWN_SCALE_PROB,
               "scale_floor": misfit_scale.SCALE_FLOOR, "factor_floor": misfit_scale.FACTOR_FLOOR,
               "shape_a": misfit_scale.MISFIT_SHAPE if args.misfit_shape is None
