@@ -107,7 +107,7 @@ def test_cli_unconverged_says_so_and_exits_3(sim_files, tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 3, proc.stderr
     lines = [ln for ln in proc.stdout.splitlines() if "NOT CONVERGED" in ln]
-    steps = mcmc.DE_BURN + mcmc.ADAPT + 20        # the burn-in, adaptation and 20 kept
+    steps = mcmc.ADAPT + 20      # a pair fit's Laplace trial (its burn-in) and 20 kept
     assert len(lines) == 1 and f"stopped at {steps} steps" in lines[0], proc.stdout
     assert "Warning" not in proc.stderr and "Traceback" not in proc.stderr
     res = json.loads((out / "result.json").read_text())
@@ -155,3 +155,38 @@ def test_chain_convergence_is_the_result_container():
     assert (conv.burn, conv.n_steps, conv.n_walkers, conv.ess_min) == (120, 900, 8, 300.0)
     assert ch.summary() == {"ess_min": 300.0, "tau_max": 5.0, "rhat_max": 1.01, "n_steps": 900,
                             "n_walkers": 8, "acceptance": 0.3, "converged": True}
+
+
+def test_laplace_trial_replaces_the_burn_in_and_samples_the_target():
+    """sample(laplace=True) from the target's own mean and covariance: the
+    trial of the t proposal around them accepts, no DE step runs, and the
+    kept draws have the target's mean and covariance (4 Monte Carlo errors)."""
+    t = Gaussian()
+    ch = mcmc.sample(t, np.zeros(4), t.cov, seed=2, progress=False, laplace=True)
+    phases = ch.sampler["phases"]
+    assert [(p["label"], p["steps"]) for p in phases[:1]] == [(mcmc.LAPLACE_TRIAL, mcmc.ADAPT)]
+    assert phases[0]["acceptance"] >= mcmc.LAPLACE_ACCEPTANCE
+    assert not any("differential-evolution" in p["label"] for p in phases)
+    assert ch.converged and ch.n_steps == sum(p["steps"] for p in phases)
+    se = np.sqrt(np.diag(t.cov) / ch.ess)
+    np.testing.assert_array_less(np.abs(ch.samples.mean(axis=0)), 4 * se)
+    np.testing.assert_allclose(ch.samples.std(axis=0), np.sqrt(np.diag(t.cov)),
+                               atol=4 * np.sqrt(0.5) * se.max() * np.sqrt(np.diag(t.cov)).max())
+
+
+def test_a_poor_laplace_trial_leaves_the_de_burn_in_as_without_it():
+    """Started 30 sd off in a small ball, the Laplace trial accepts too
+    rarely: the DE burn-in then runs from the walkers' start with the same
+    random stream, so the chain is the one sample(laplace=False) gives."""
+    t = Gaussian()
+    start, cov = np.array([30.0, 0.0, 0.0, 0.0]), 0.01 * np.eye(4)
+    ch = mcmc.sample(t, start, cov, seed=4, progress=False, laplace=True)
+    plain = mcmc.sample(t, start, cov, seed=4, progress=False)
+    first = ch.sampler["phases"][0]
+    assert first["label"] == f"{mcmc.LAPLACE_TRIAL}, accepted too rarely"
+    assert first["acceptance"] < mcmc.LAPLACE_ACCEPTANCE
+    assert ch.sampler["phases"][1:] == plain.sampler["phases"]
+    np.testing.assert_array_equal(ch.samples, plain.samples)
+    # the trial's cost: its steps and the walkers' start, evaluated by its sampler
+    extra = (mcmc.ADAPT + 1) * 32
+    assert ch.converged and ch.sampler["evaluations"] == plain.sampler["evaluations"] + extra

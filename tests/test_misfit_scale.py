@@ -22,7 +22,7 @@ def test_closed_form_is_the_integral_over_the_scale(a, k):
                     epsabs=0, epsrel=1e-11)[0]
     qs = np.array([0.5 * k, k, 3 * k, 20 * k])
     num = np.log([marginal(q) for q in qs])
-    closed = band_loglik(qs[:, None], [k], a)
+    closed = band_loglik(qs[:, None], [k], a, floor=0.0)
     # equal up to a constant independent of q
     assert np.allclose(num - num[0], closed - closed[0], rtol=0, atol=1e-6)
 
@@ -35,6 +35,32 @@ def test_gaussian_limit_and_variance_factor():
     assert d[0] == pytest.approx(-37.0, rel=1e-4)
     # a band at its expectation keeps its weight; 10x the misfit: (2 + 30) / (2 + 3)
     assert band_scale(np.array([3.0, 30.0]), [3.0, 3.0], 2.0).tolist() == [1.0, 6.4]
+
+
+@pytest.mark.parametrize("a,k,floor", [(3.0, 4.0, 1.0), (3.0, 9.0, 1.0), (2.0, 1.0, 0.8)])
+def test_floored_factor_is_gaussian_below_and_the_marginal_above(a, k, floor):
+    """The scale per band with its variance factor at least ``floor``: the
+    likelihood's slope in q is min(1 / floor, (a + k) / (a + q)) (the
+    Gaussian of variance ``floor`` below q* = floor (a + k) - a, the
+    marginal's above), the term continuous at q*, and the variance factor
+    the inverse of that slope."""
+    q_star = floor * (a + k) - a
+    qs = np.array([0.1, 0.5, 0.999, 1.001, 2.0, 10.0, 100.0]) * q_star
+    h = 1e-6 * q_star
+    slope = -(band_loglik((qs + h)[:, None], [k], a, floor=floor)
+              - band_loglik((qs - h)[:, None], [k], a, floor=floor)) / (2 * h)
+    expected = np.minimum(1 / floor, (a + k) / (a + qs))
+    np.testing.assert_allclose(slope, expected, rtol=1e-6)
+    np.testing.assert_allclose(band_scale(qs, [k] * qs.size, a, floor=floor), 1 / expected,
+                               rtol=1e-12)
+    below = band_loglik(np.array([[q_star * (1 - 1e-9)]]), [k], a, floor=floor)
+    above = band_loglik(np.array([[q_star * (1 + 1e-9)]]), [k], a, floor=floor)
+    assert below[0] == pytest.approx(-q_star / floor, rel=1e-8)
+    assert above[0] == pytest.approx(below[0], rel=1e-8)
+    # above q* it is the marginal up to a constant: the marginal's slope
+    marg = band_loglik(qs[qs > q_star][:, None], [k], a, floor=0.0)
+    got = band_loglik(qs[qs > q_star][:, None], [k], a, floor=floor)
+    np.testing.assert_allclose(got - got[0], marg - marg[0], rtol=1e-10, atol=1e-10)
 
 
 def _gain_sds(sim, shapes):

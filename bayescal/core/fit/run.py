@@ -287,7 +287,8 @@ def _sample(setup, sut_nominal_vectors, *, seed, progress, **sample_kw):
                                                                         budget=refit)
         budgets = budgets + _spent_refit(refit, set_by_prior)
         from ..sampling.mcmc import sample
-        chain = sample(target, start, cov, seed=seed, progress=progress, **sample_kw)
+        chain = sample(target, start, cov, seed=seed, progress=progress,
+                       **{"laplace": True, **sample_kw})
     full = full_samples(target, chain.samples)
     held = [j for j, n in enumerate(model.names) if n in set_by_prior]
     set_by_prior.update(describe_late(model, late_flags(model, full, skip=held)))

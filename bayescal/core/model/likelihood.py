@@ -184,7 +184,7 @@ class Model:
             # per time block, as _cur_rows: (G, nu, Q, B*nr)
             self._cur_blocks = fold(self.node_weights, spectra.band_of, spectra.n_bands,
                                     bt[:, :, :nu, nu:])
-            band = np.einsum("fb,gfij->gbij", self._onehot, bt)
+            band = band_sums(spectra.band_of, spectra.n_bands, bt)
             self._sur_blocks, self._srr_blocks = band[:, :, :nu, nu:], band[:, :, nu:, nu:]
         if self.per_block:
             self.n_time_blocks = bt.shape[0]
@@ -471,6 +471,19 @@ class Model:
         r = self.residual(np.atleast_2d(theta))[0]
         z = np.einsum("bji,bjk,bkl->bil", la.conj(), r, lb)
         return np.sum(np.abs(z) ** 2, axis=2) / self.spectra.n_r
+
+
+def band_sums(band_of, n_bands, per_bin):
+    """``einsum("fb,gfij->gbij", onehot(band_of), per_bin)``, the (G, B, i, j)
+    band sums of per-bin matrices (G, F, i, j). Each band's bins are summed
+    by numpy's own loop (no BLAS product), so the sums are the same bits
+    whatever the number of BLAS threads (the einsum loops over all five
+    indices, several times slower)."""
+    dtype = np.result_type(per_bin.dtype, np.float64)
+    out = np.empty((per_bin.shape[0], n_bands) + per_bin.shape[2:], dtype=dtype)
+    for b in range(n_bands):
+        out[:, b] = per_bin[:, band_of == b].sum(axis=1, dtype=dtype)
+    return out
 
 
 def _times_blocks(t, s):

@@ -14,7 +14,16 @@ noise model carries sampling error enters with weight ``w_b``
 ``s_b ~ InverseGamma(a, a)``, integrated out:
 ``int s^-k exp(-q / s) IG(s; a, a) ds ∝ (1 + q / a)^-(a + k)``, so each band
 contributes ``-w_b (a + k_b) log(1 + q_b / a)`` and its variance is scaled
-by about ``(a + q_b) / (a + k_b)``.
+by about ``(a + q_b) / (a + k_b)``, below 1 where ``q_b < k_b``.
+
+**Per band, its factor floored** (on request, :data:`FACTOR_FLOOR` ``f0 >
+0``). The term's slope in ``q_b`` is ``min(1 / f0, (a + k_b) / (a + q_b))``:
+the Gaussian of variance ``f0`` times the noise model's up to ``q* = f0 (a +
+k_b) - a``, the marginal's above, joined in value and slope, so that a band
+whose residual is small by chance does not narrow the intervals below
+``f0`` times the noise model's while a band that misses keeps the
+marginal's widening. A floor on the variance factor, not on the prior of
+``s_b`` (which widens every band that fits, ``SCALE_FLOOR``).
 
 **Pooled.** With ``Q_b = w_b q_b`` and ``K_b = w_b k_b``, band b's noise
 covariance is multiplied by a scale ``s_b``. With probability
@@ -74,6 +83,12 @@ OWN_SCALE_PROB = 1.0
 #: ``s > 0``; with ``OWN_SCALE_PROB = 1`` that is a scale per band,
 #: ``-(a + k_b) log(1 + q_b / a)`` each.
 SCALE_FLOOR = False
+#: The least variance factor of the scale per band, on request: where a
+#: band's residual energy is below ``FACTOR_FLOOR (a + k_b) - a`` its term is
+#: Gaussian with the noise model's variance times this factor, above it the
+#: marginal's, joined in value and slope (module notes). 0 (the default):
+#: the marginal ``-(a + k_b) log(1 + q_b / a)`` over every ``q_b``.
+FACTOR_FLOOR = 0.0
 #: At most this many configurations of pooled and own bands are summed:
 #: every one for up to 8 bands, else those with the fewest own scales.
 MAX_CONFIGS = 256
@@ -180,7 +195,22 @@ def _per_band(pi):
     return (OWN_SCALE_PROB if pi is None else pi) >= 1 and not SCALE_FLOOR
 
 
-def band_loglik(q, k, a, weight=None, pi=None):
+def floored_band_terms(q, k, a, floor):
+    """(W, B) each band's term of the scale per band with its variance factor
+    at least ``floor`` (:data:`FACTOR_FLOOR`; module notes), unweighted:
+    ``-q / floor`` for ``q <= q*``, ``q* = floor (a + k) - a``, else
+    ``-q* / floor - (a + k) log((a + q) / (a + q*))`` (``floor = 0``: the
+    marginal, ``-(a + k) log(1 + q / a)``)."""
+    q, k = np.asarray(q, float), np.asarray(k, float)
+    if floor <= 0:
+        return -(a + k) * np.log1p(q / a)
+    q_star = floor * (a + k) - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tail = q_star / floor + (a + k) * np.log((a + q) / (a + q_star))
+    return -np.where(q <= q_star, q / floor, tail)
+
+
+def band_loglik(q, k, a, weight=None, pi=None, floor=None):
     """Log likelihood over the bands with the noise scales marginalised.
 
     Parameters
@@ -192,6 +222,8 @@ def band_loglik(q, k, a, weight=None, pi=None):
         noise model's sampling error, :mod:`bayescal.core.model.plugin`).
     pi : each band's prior probability of its own scale (0: one pooled
         scale; None: :data:`OWN_SCALE_PROB`).
+    floor : the scale per band's least variance factor (None:
+        :data:`FACTOR_FLOOR`; 0: the plain marginal).
 
     Returns
     -------
@@ -203,20 +235,23 @@ def band_loglik(q, k, a, weight=None, pi=None):
         return -np.sum(_weighted(q, k, weight)[0], axis=1)
     if _per_band(pi):
         w = 1.0 if weight is None else np.asarray(weight, float)
-        return -np.sum(w * (a + np.asarray(k, float)) * np.log1p(np.asarray(q, float) / a), axis=1)
+        terms = floored_band_terms(q, k, a, FACTOR_FLOOR if floor is None else floor)
+        return np.sum(w * terms, axis=1)
     return logsumexp(_config_terms(q, k, a, weight, pi)[0], axis=1) - _log_prior_mass(a)
 
 
-def band_scale(q, k, a, weight=None, pi=None):
+def band_scale(q, k, a, weight=None, pi=None, floor=None):
     """(B,) the factor ``1 / E[1 / s_b | q]`` by which each band's noise
     variance is effectively scaled at residual energies ``q`` (B,): the
-    inverse of the likelihood's slope in ``Q_b``; at least 1; 1 for
-    ``a = inf``."""
+    inverse of the likelihood's slope in ``Q_b``; for the scale per band at
+    least ``floor`` (None: :data:`FACTOR_FLOOR`), for the pooled one with
+    :data:`SCALE_FLOOR` at least 1; 1 for ``a = inf``."""
     q = np.asarray(q, float)
     if a is None or not np.isfinite(a):
         return np.ones(q.shape[-1])
     if _per_band(pi):
-        return (a + q) / (a + np.asarray(k, float))
+        return np.maximum((a + q) / (a + np.asarray(k, float)),
+                          FACTOR_FLOOR if floor is None else floor)
     terms, pooled, big_q, big_k, q_s, k_s = _config_terms(q[None], k, a, weight, pi)
     post = np.exp(terms[0] - logsumexp(terms[0]))                              # (C,)
     # E[u | configuration] for the pooled scale, E[u_b] for a band's own
@@ -234,8 +269,10 @@ def describe(a, q=None, k=None, weight=None):
     elif _per_band(None):
         model = (f"per-band noise scale s_b ~ InverseGamma({a:g}, {a:g}), marginalised: each "
                  "band's term is -(a + k_b) log(1 + q_b / a); bands whose residual exceeds "
-                 "the noise model are down-weighted and intervals widen "
-                 "(docs/validation/misfit_scale.md)")
+                 "the noise model are down-weighted and intervals widen"
+                 + (f"; each band's variance factor at least {FACTOR_FLOOR:g} (below "
+                    "q_b = k_b its term is Gaussian)" if FACTOR_FLOOR > 0 else "")
+                 + " (docs/validation/misfit_scale.md)")
     else:
         model = (f"one noise scale pooled across bands, each band with probability "
                  f"{OWN_SCALE_PROB:g} its own; every scale s ~ InverseGamma({a:g}, {a:g})"
@@ -245,6 +282,8 @@ def describe(a, q=None, k=None, weight=None):
     out = {"shape_a": None if gaussian else float(a), "model": model}
     if not gaussian and not _per_band(None):
         out.update(own_scale_prob=OWN_SCALE_PROB, scale_floor=SCALE_FLOOR)
+    elif not gaussian and FACTOR_FLOOR > 0:
+        out["factor_floor"] = FACTOR_FLOOR
     if q is not None:
         out["band_variance_factor"] = [round(float(v), 4) for v in band_scale(q, k, a, weight)]
     return out

@@ -2,6 +2,8 @@
 
 * :mod:`.mcmc` every chain is run here, by emcee, with its moves and its
                convergence rule
+* :mod:`.independence` the kept chain's move: a t proposal drawn and
+               evaluated in batches, whatever the walkers' positions
 * :mod:`.display` what a running chain says: a bar on a terminal, lines in a log
 
 May import :mod:`bayescal.core.posterior` (how convergence is told).

@@ -19,6 +19,11 @@ random stream handed on:
   posteriors of pair and coil fits it mixes in one or two steps where the
   DE moves need 10-40. If it accepts less than :data:`MIN_ACCEPTANCE` (a posterior
   far from Gaussian), the DE sampler carries on from its burn-in instead.
+  With ``laplace=True`` (pair fits, which start from a least-squares point
+  and its Laplace covariance) a trial of the t proposal around that point
+  comes first; where it accepts at least :data:`LAPLACE_ACCEPTANCE` it
+  takes the DE burn-in's place (100 steps of DE moves cost as much as the
+  kept chain of a pair fit), else the DE burn-in runs as above.
 
 Convergence rule (all must hold, checked after every chunk of steps):
 
@@ -52,6 +57,7 @@ from ...result.convergence import Convergence
 from ..budget import SAMPLE_WORK
 from ..posterior.convergence import not_converged_line
 from .display import progress_display
+from .independence import IndependenceMove, TProposal
 
 #: ``move="independence"``: DE steps before the first proposal is fitted (from
 #: their second half), independence steps before it is refitted, and the
@@ -70,42 +76,12 @@ DE_RETRY = 300
 #: them; a chain run to its work budget at a tau of 3 kept 290,000 draws of
 #: 15 parameters and took 1.6 GB (docs/validation/speed.md, "Awkward inputs").
 MAX_KEPT = 40_000
-#: Points per log-probability call of :class:`IndependenceMove`'s batches.
-BATCH = 2048
-#: Degrees of freedom of the t proposal (tau about 1.6 at d = 9, 2.3 at d = 15
-#: for a Gaussian target with the covariance fitted from 3600 draws).
-NU = 10.0
+#: ``sample(..., laplace=True)``: the phase that tries the t proposal around
+#: the start and covariance given, and the acceptance it must reach to be
+#: kept (where the Laplace approximation is poor, the DE burn-in runs).
+LAPLACE_TRIAL, LAPLACE_ACCEPTANCE = "trial of the Laplace approximation's proposal", 0.4
 #: The differential-evolution mixture: (move, weight).
 DE_WEIGHTS = (("DEMove", 0.8), ("DESnookerMove", 0.2))
-
-
-class TProposal:
-    """Multivariate Student t with location ``mean``, scale matrix ``cov`` and
-    ``nu`` degrees of freedom: heavier tails than a near-Gaussian posterior,
-    so the ratio target / proposal stays bounded."""
-
-    def __init__(self, mean, cov, nu=NU):
-        self.mean = np.asarray(mean, float)
-        self.nu = float(nu)
-        self.chol = np.linalg.cholesky(np.atleast_2d(cov))
-        self.ndim = self.mean.size
-
-    @classmethod
-    def fit(cls, draws, nu=NU):
-        """Mean and covariance of ``draws`` (n, ndim)."""
-        draws = np.asarray(draws, float)
-        return cls(draws.mean(axis=0), np.atleast_2d(np.cov(draws, rowvar=False)), nu)
-
-    def draw(self, random, n):
-        """``n`` draws, from a ``numpy.random.RandomState`` (emcee's)."""
-        z = random.standard_normal((n, self.ndim)) @ self.chol.T
-        w = np.sqrt(random.chisquare(self.nu, size=(n, 1)) / self.nu)
-        return self.mean + z / w
-
-    def log_pdf(self, x):
-        """Log density up to a constant (it cancels in the acceptance ratio)."""
-        y = np.linalg.solve(self.chol, (np.atleast_2d(x) - self.mean).T)
-        return -0.5 * (self.nu + self.ndim) * np.log1p(np.sum(y * y, axis=0) / self.nu)
 
 
 class VectorSampler(emcee.EnsembleSampler):
@@ -134,56 +110,6 @@ class VectorSampler(emcee.EnsembleSampler):
         if np.any(np.isnan(log_prob)):
             raise ValueError("Probability function returned NaN")
         return log_prob, None
-
-
-class IndependenceMove(emcee.moves.Move):
-    """Independence Metropolis-Hastings as an emcee move: every walker
-    proposes a fresh draw ``q`` of a fixed :class:`TProposal` ``g``, whatever
-    its position ``x``, accepted with probability
-    ``min(1, pi(q) g(x) / (pi(x) g(q)))``, which leaves the posterior ``pi``
-    invariant. Each walker is its own Markov chain.
-
-    Proposals do not depend on the walkers' positions, so the proposals of a
-    run of steps announced by :meth:`plan` are drawn, and their
-    log-probabilities computed through emcee's ``compute_log_prob_fn``, in a
-    few calls of up to :data:`BATCH` points; each ``propose`` (one emcee
-    step) then takes its step's proposals and decides acceptance, as
-    :class:`emcee.moves.MHMove` would."""
-
-    def __init__(self, proposal):
-        self.proposal = proposal
-        self._planned = 1
-        self._queue = []         # [(q, log pi(q), log g(q)) per step]
-        self._lg = None          # log g at the walkers' current positions
-
-    def plan(self, n_steps):
-        """The next run of emcee steps is ``n_steps`` long: draw and evaluate
-        that many steps of proposals at once (proposals left over are dropped)."""
-        self._planned, self._queue = max(1, int(n_steps)), []
-
-    def _refill(self, model, n_walkers):
-        n = self._planned * n_walkers
-        q = self.proposal.draw(model.random, n)
-        lp = np.concatenate([model.compute_log_prob_fn(q[i:i + BATCH])[0]
-                             for i in range(0, n, BATCH)])
-        lg = self.proposal.log_pdf(q)
-        shape = (self._planned, n_walkers)
-        self._queue = list(zip(q.reshape(shape + (-1,)), lp.reshape(shape), lg.reshape(shape)))
-        self._queue.reverse()
-        self._planned = 1
-
-    def propose(self, model, state):
-        """One step: returns the new state and which walkers accepted."""
-        n_walkers = state.coords.shape[0]
-        if not self._queue:
-            self._refill(model, n_walkers)
-        q, lp_q, lg_q = self._queue.pop()
-        if self._lg is None or self._lg.shape[0] != n_walkers:
-            self._lg = self.proposal.log_pdf(state.coords)
-        accepted = np.log(model.random.rand(n_walkers)) < lp_q - state.log_prob + self._lg - lg_q
-        state = self.update(state, emcee.State(q, log_prob=lp_q), accepted)
-        self._lg = np.where(accepted, lg_q, self._lg)
-        return state, accepted
 
 
 def integrated_time(x):
@@ -300,7 +226,8 @@ def default_walkers(ndim):
 
 
 def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_tau=50,
-           rhat_max=1.01, max_steps=None, progress=True, move="independence", what=None):
+           rhat_max=1.01, max_steps=None, progress=True, move="independence", what=None,
+           laplace=False):
     """Sample ``model``'s posterior with emcee from around ``theta_start``
     until the convergence rule holds or ``max_steps`` steps are run.
 
@@ -317,21 +244,20 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
         step runs); None: what :data:`bayescal.core.budget.SAMPLE_WORK`
         evaluations leave after the burn-in.
     progress : a bar toward the rule on a terminal, else lines (:mod:`.display`).
-    what : what is sampled, named in every progress line ("element U");
-        None: nothing named.
-    move : "independence" (the default: a DE burn-in, then
-        :class:`IndependenceMove`; the DE moves carry on where it accepts too
-        rarely) or "de" (emcee's differential-evolution moves throughout).
+    what : what is sampled, named in every progress line ("element U"), or None.
+    move, laplace : "independence" (the default: a DE burn-in, then
+        :class:`IndependenceMove`; with ``laplace``, a trial of the t proposal
+        around ``theta_start`` and ``cov`` first, the burn-in where it accepts
+        enough) or "de" (emcee's DE moves throughout): module docstring.
 
     Returns
     -------
     Chain
-        Kept samples; ``sampler`` records emcee's version, the walkers,
-        each phase's moves, weights, steps and acceptance, and the
-        log-probability evaluations made (``evaluations``, every walker
-        start and every phase, a failed adaptation's included) and allowed
-        (``evaluation_limit``). An unconverged
-        chain also raises a :class:`NotConvergedWarning`.
+        Kept samples; ``sampler`` records emcee's version, the walkers, each
+        phase's moves, weights, steps and acceptance, and the log-probability
+        evaluations made (``evaluations``, every walker start and every
+        phase, a failed trial's included) and allowed (``evaluation_limit``).
+        An unconverged chain also raises a :class:`NotConvergedWarning`.
     """
     if move not in ("de", "independence"):
         raise ValueError(f"unknown move {move!r}")
@@ -345,7 +271,8 @@ def sample(model, theta_start, cov, *, seed=0, n_walkers=None, min_ess=1000, n_t
     sampler = phases.new(_de_moves(), "kept chain, differential-evolution moves")
     state = emcee.State(p0, random_state=np.random.RandomState(seed).get_state())
     pre, sampler, state, pace = _burn_in(phases, sampler, state, rule,
-                                         independence=move == "independence")
+                                         independence=move == "independence",
+                                         laplace=(theta_start, cov) if laplace else None)
     rule, limit = _kept_limit(rule, log_prob.n, sampler.iteration, n_walkers)
     bar.limit(pre.shape[0] + rule.max_steps)     # a DE fallback's sampler holds its burn-in
     kept = _run_to_rule(phases, sampler, state, rule, pace, pre.shape[0])
@@ -429,16 +356,24 @@ def _start_walkers(log_prob, theta_start, cov, rng, n_walkers):
     return p0
 
 
-def _burn_in(phases, sampler, state, rule, independence):
+def _burn_in(phases, sampler, state, rule, independence, laplace=None):
     """The burn-in before the kept phase: ``(pre, sampler, state, pace)``,
     the chain run before the kept phase's sampler (none for the DE moves
     alone), that sampler, its start state and ``pace`` = (first chunk of
-    steps, least burn-in, least chunk)."""
+    steps, least burn-in, least chunk). ``laplace`` (mean, covariance): the
+    t proposal around them is tried first; where it accepts less than
+    :data:`LAPLACE_ACCEPTANCE` the DE burn-in runs from the walkers' start,
+    as without it."""
     pre, pace = np.empty((0, phases.n_walkers, phases.ndim)), (1000, 100, 200)
     if not independence:
         return pre, sampler, state, pace
-    state = phases.run(sampler, state, DE_BURN)
-    frozen = _frozen_proposal(phases, sampler, state, DE_BURN // 2)
+    frozen = None
+    if laplace is not None:
+        frozen = _trial(phases, lambda: TProposal(*laplace), state, LAPLACE_TRIAL,
+                        LAPLACE_ACCEPTANCE)
+    if frozen is None:
+        state = phases.run(sampler, state, DE_BURN)
+        frozen = _frozen_proposal(phases, sampler, state, DE_BURN // 2)
     if frozen is None:      # once more, from DE draws that have had longer to settle
         state = phases.run(sampler, state, DE_RETRY)
         frozen = _frozen_proposal(phases, sampler, state, DE_BURN + DE_RETRY // 2)
@@ -494,18 +429,28 @@ def _frozen_proposal(phases, de, state, discard):
     sampler carries on) when the proposal cannot be fitted or accepts too
     rarely."""
     phases.close(de, "burn-in, differential-evolution moves")
+    frozen = _trial(phases, lambda: TProposal.fit(de.get_chain(discard=discard, flat=True)),
+                    state, "trial of the proposal fitted to the burn-in", MIN_ACCEPTANCE)
+    if frozen is None:
+        return None
+    return (np.concatenate([de.get_chain(), frozen[0]]),) + frozen[1:]
+
+
+def _trial(phases, proposal, state, label, least):
+    """:data:`ADAPT` steps of :class:`IndependenceMove` from ``state`` with
+    the :class:`TProposal` that ``proposal()`` makes: ``(the trial's chain,
+    a sampler with the proposal refitted to its draws, its last state)``, or
+    None when a proposal cannot be made (a degenerate spread) or the trial
+    accepts less than ``least`` of its proposals."""
     try:
-        adapt = phases.new([(IndependenceMove(TProposal.fit(
-            de.get_chain(discard=discard, flat=True))), 1.0)],
-            "trial of the proposal fitted to the burn-in")
+        adapt = phases.new([(IndependenceMove(proposal()), 1.0)], label)
         last = phases.run(adapt, state, ADAPT)
-        if np.mean(adapt.acceptance_fraction) < MIN_ACCEPTANCE:
-            phases.close(adapt, "trial of the proposal fitted to the burn-in, accepted too "
-                                "rarely")
+        if np.mean(adapt.acceptance_fraction) < least:
+            phases.close(adapt, f"{label}, accepted too rarely")
             return None
         phases.close(adapt)
         final = phases.new([(IndependenceMove(TProposal.fit(adapt.get_chain(flat=True))), 1.0)],
                            "kept chain, proposal fitted to the trial")
     except np.linalg.LinAlgError:   # a degenerate spread: no proposal
         return None
-    return np.concatenate([de.get_chain(), adapt.get_chain()]), final, last
+    return adapt.get_chain(), final, last

@@ -1,0 +1,202 @@
+"""Forms of the misfit scale on the ten-minute COWI windows, by
+importance reweighting of one set of fits.
+
+``short_windows.py`` refits the 102 windows for each form of the noise
+scale. The forms differ only in the likelihood's band term (the noise model
+is fixed before sampling, :mod:`bayescal.core.model.misfit_scale`), so the
+posterior under a form ``f`` is the default's posterior reweighted by
+``exp(loglik_f - loglik_default)`` at each draw, from the draws' band
+energies ``q``. Here every window (and the whole record) is fitted once with
+the default, and each form's windows are summarised exactly as
+``short_windows.py`` does (weighted quantiles for the medians and
+intervals; the whole record's value reweighted too). Each form's smallest
+effective-sample fraction (Kish) is stored beside it. A form's
+reweighted summary agrees with its own refitted run to Monte Carlo error:
+``check`` compares the stored runs of ``short_windows.py`` (``--recheck``:
+that comparison alone, on the stored result).
+
+Forms: the scale per band, free (the default) or with ``s_b >= 1``, or with
+another shape; the pooled scale with each band its own with probability
+``pi`` (``s >= 1`` or free); the Gaussian; and a scale per band whose
+variance factor may not fall below ``f0`` (``FACTOR_FLOOR``: the
+likelihood's slope in ``q_b`` is ``min(1 / f0, (a + k_b) / (a + q_b))``, the
+marginal's where a band's residual exceeds ``f0 (a + k_b) - a``, a Gaussian
+of variance ``f0`` below), with the default shape or another.
+
+    python validation/studies/scale_candidates.py --out validation/results/repeatability/scale_candidates.json
+    python validation/studies/scale_candidates.py --recheck   # after a refitted run is stored
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import short_windows as sw                    # the sibling module, run as a script
+import study_results
+
+from bayescal.core.model import misfit_scale
+
+ROOT = Path(__file__).resolve().parents[2]
+SHAPE = misfit_scale.MISFIT_SHAPE
+
+
+def _settings(pi, floor, a=SHAPE, factor_floor=0.0):
+    """The module's likelihood with ``OWN_SCALE_PROB = pi``, ``SCALE_FLOOR =
+    floor`` and, for the scale per band, its least variance factor
+    ``factor_floor`` (:data:`~bayescal.core.model.misfit_scale.FACTOR_FLOOR`)."""
+    def loglik(q, k, w):
+        old = misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR
+        misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = pi, floor
+        try:
+            return misfit_scale.band_loglik(q, k, a, w, floor=factor_floor)
+        finally:
+            misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = old
+    return loglik
+
+
+def _fitted(q, k, w):
+    """The likelihood the fits sampled: the module's defaults."""
+    return misfit_scale.band_loglik(q, k, SHAPE, w)
+
+
+#: label -> (log likelihood of (q, k, weight), what it is)
+FORMS = {
+    "per band, free (default)": _settings(1.0, False),
+    "Gaussian": lambda q, k, w: -np.sum(w * q, axis=1),
+    "per band, s >= 1": _settings(1.0, True),
+    "per band, free, a = 3": _settings(1.0, False, 3.0),
+    "per band, factor >= 1": _settings(1.0, False, factor_floor=1.0),
+    "per band, factor >= 0.9": _settings(1.0, False, factor_floor=0.9),
+    "per band, factor >= 0.8": _settings(1.0, False, factor_floor=0.8),
+    "per band, factor >= 1, a = 2.5": _settings(1.0, False, 2.5, 1.0),
+    "per band, factor >= 1, a = 3": _settings(1.0, False, 3.0, 1.0),
+    "per band, factor >= 0.9, a = 3": _settings(1.0, False, 3.0, 0.9),
+    "per band, factor >= 1, a = 4": _settings(1.0, False, 4.0, 1.0),
+    "pooled alone (pi = 0), s >= 1": _settings(0.0, True),
+    "pooled alone (pi = 0), free": _settings(0.0, False),
+    "pooled, pi = 0.1, s >= 1": _settings(0.1, True),
+    "pooled, pi = 0.25, s >= 1": _settings(0.25, True),
+    "pooled, pi = 0.5, s >= 1": _settings(0.5, True),
+    "pooled, pi = 0.25, free": _settings(0.25, False),
+    "pooled, pi = 0.5, free": _settings(0.5, False),
+}
+
+
+def weighted_quantiles(x, w, probs):
+    """Quantiles ``probs`` of draws ``x`` with normalised weights ``w``."""
+    i = np.argsort(x)
+    c = (np.cumsum(w[i]) - 0.5 * w[i]) / np.sum(w)
+    return np.interp(probs, c, x[i])
+
+
+def reweighted(draws, form):
+    """``(azimuth summaries per channel, Kish fraction)`` of one fit's
+    draws under ``form``: median, 68 and 95 % intervals, sd from the 68 %."""
+    log_w = form(draws["q"], draws["k"], draws["weight"]) - _fitted(draws["q"], draws["k"],
+                                                                    draws["weight"])
+    w = np.exp(log_w - np.max(log_w))
+    w /= w.sum()
+    out = {}
+    for j, c in enumerate(("LHN", "LHE")):
+        p = weighted_quantiles(draws["az"][:, j], w, [0.025, 0.16, 0.5, 0.84, 0.975])
+        out[c] = {"median": float(p[2]), "ci95": [float(p[0]), float(p[4])],
+                  "sd68": float(p[3] - p[1]) / 2}
+    return out, float(1.0 / (w.size * np.sum(w ** 2)))
+
+
+def evaluate(fits, whole_draws, form):
+    """One form's summary over the windows (``short_windows.channel_summary``)."""
+    whole, _ = reweighted(whole_draws, form)
+    ok, kish = [], []
+    for row, draws in fits:
+        est, frac = reweighted(draws, form)
+        kish.append(frac)
+        ok.append({c: {**est[c], "bound_sd": row[c]["bound_sd"],
+                       "bound_width95": row[c]["bound_width95"]} for c in ("LHN", "LHE")})
+    out = {c: sw.channel_summary(ok, c, whole[c]["median"]) for c in ("LHN", "LHE")}
+    out["min_kish_fraction"] = float(np.min(kish))
+    out["whole_record"] = {c: whole[c]["median"] for c in ("LHN", "LHE")}
+    return out
+
+
+def fit_all(every):
+    """The default fit of every ``every``-th window and of the whole record,
+    with their draws."""
+    from obspy import UTCDateTime
+    from bayescal.io import read_waveforms
+    data = (read_waveforms(str(sw.COWI / "C100823215422_COWI.LHx")),
+            read_waveforms([str(sw.COWI / "DT000110.LH1"), str(sw.COWI / "DT000110.LH2")]))
+    t0, t1 = UTCDateTime(sw.START), UTCDateTime(sw.END)
+    whole_draws = {}
+    sw.whole_record(data, t0, t1, ["drop"], None, whole_draws)
+    fits = []
+    starts = np.arange(t0.timestamp, t1.timestamp - 1, 600.0)
+    for k in range(0, starts.size, every):
+        draws = {}
+        row = sw.fit_window(data, UTCDateTime(starts[k]), UTCDateTime(starts[k] + 600.0), k,
+                            "drop", None, draws)
+        fits.append((row, draws))
+        print(str(UTCDateTime(starts[k])), flush=True)
+    return fits, whole_draws
+
+
+def check(result, stored):
+    """Each refitted run of ``short_windows.py`` in ``stored`` (label ->
+    summary file) beside its reweighted form: the numbers the docs quote."""
+    keys = ("width_over_bound_median", "scatter_over_bound", "narrower_than_bound",
+            "holds_whole_record", "repeatability_ratio")
+    out = {}
+    for label, path in stored.items():
+        run = json.loads(Path(path).read_text())["summary"]["drop"]
+        out[label] = {c: {k: [result["forms"][label][c][k], run[c][k]] for k in keys}
+                      for c in ("LHN", "LHE")}
+    return out
+
+
+#: The forms refitted by ``short_windows.py``: label -> its stored summary.
+REFITTED = {"per band, free (default)": "short_windows.json",
+            "per band, s >= 1": "short_windows_floor.json",
+            "pooled, pi = 0.1, s >= 1": "short_windows_pooled_0.1.json",
+            "pooled, pi = 0.25, s >= 1": "short_windows_pooled.json",
+            "per band, factor >= 1, a = 3": "short_windows_factor_floor.json"}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=str(ROOT / "validation" / "results" / "repeatability"
+                                         / "scale_candidates.json"))
+    ap.add_argument("--every", type=int, default=1, help="every n-th window only")
+    ap.add_argument("--recheck", action="store_true",
+                    help="only compare the stored result with the refitted runs stored beside it")
+    args = ap.parse_args(argv)
+    warnings.simplefilter("ignore")
+    res = Path(args.out).parent
+    if args.recheck:
+        result = study_results.read(args.out)
+    else:
+        fits, whole_draws = fit_all(args.every)
+        result = {"command": " ".join(["python validation/studies/scale_candidates.py"]
+                                      + [shlex.quote(a) for a in (sys.argv[1:] if argv is None
+                                                                  else argv)]),
+                  "windows": len(fits), "shape_a": SHAPE,
+                  "forms": {label: evaluate(fits, whole_draws, form)
+                            for label, form in FORMS.items()}}
+    if result["windows"] == 102:
+        result["refitted_runs"] = check(result, {label: res / name for label, name
+                                                 in REFITTED.items() if (res / name).exists()})
+    study_results.write(args.out, result)
+    forms = result["forms"]
+    for label, f in forms.items():
+        print(label, {c: {k: f[c][k] for k in ("width_over_bound_median", "scatter_over_bound",
+                                               "width_over_bound_min", "holds_whole_record",
+                                               "repeatability_ratio")} for c in ("LHN", "LHE")},
+              f["min_kish_fraction"])
+
+
+if __name__ == "__main__":
+    main()
