@@ -36,7 +36,7 @@ from ..priors import Priors
 
 
 #: Walkers whose profiled statistic is evaluated at once: the temporaries of
-#: the profile (about 60 kB per walker on a 14-band 3+3 pair) stay a few MiB
+#: the profile (about 40 kB per walker on a 14-band 3+3 pair) stay a few MiB
 #: when the sampler asks for thousands of walkers at a time.
 WALKER_BLOCK = 128
 
