@@ -442,18 +442,6 @@ def test_a_run_too_short_for_its_fit_is_refused_in_one_line(tmp_path, capsys):
     assert "record a longer run" in err[0] and not out.exists()
 
 
-@pytest.mark.parametrize("k, adjacent", [(2, [0]), (1, [])])
-def test_centred_scatter_of_too_few_segments_is_refused(k, adjacent):
-    """Two overlapping segments (one degree of freedom for v and w) or one:
-    an InputError naming the cause; two independent segments give v alone,
-    Var R = 2 v from E q0' = v (closed form)."""
-    from bayescal.coil.scatter import centred_weights
-    from bayescal.errors import InputError
-    with pytest.raises(InputError, match="record a longer run"):
-        centred_weights(k, np.array(adjacent, int))
-    np.testing.assert_allclose(centred_weights(2, np.array([], int)), [2.0, 0.0])
-
-
 def test_sine_noise_model_is_fitted_to_the_series_the_likelihood_whitens():
     """A sine model with a 50-tap prefilter: its AR noise model is that of
     the residual (less its sine at f0, Hann-weighted least squares after
