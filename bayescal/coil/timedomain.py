@@ -84,6 +84,8 @@ def _ar_bic(r, max_order, extra=0):
     y = r[p_max:]
     s2 = float(np.mean(y * y))
     best = (y.size * np.log(s2) + extra * np.log(y.size), np.zeros(0), s2)
+    if p_max == 0:
+        return best
     lagged = np.column_stack([r[p_max - k:n - k] for k in range(1, p_max + 1)])
     for p in range(1, p_max + 1):
         a, *_ = np.linalg.lstsq(lagged[:, :p], y, rcond=None)
