@@ -78,9 +78,10 @@ class RunModel(BoundedPosterior):
     ``coef`` is ``m_c`` per output, ``families`` the outputs' parametric
     responses, ``base`` (n_out, F) the response ratio the spectra were
     deconvolved by (ones at first), ``band_variance`` the run's
-    :class:`bayescal.coil.bandvariance.BandVariance` (needed by
-    :meth:`estimate_noise`; a model used only for its transfer may go
-    without). Vectorised: ``log_prob(theta (W, 3))``.
+    :class:`bayescal.coil.bandvariance.BandVariance` (every fit passes it;
+    without it :meth:`estimate_noise` takes the bins as independent,
+    ``c_b = 1``, about half the variance of a Hann-windowed, half-overlapped
+    band residual). Vectorised: ``log_prob(theta (W, 3))``.
     """
 
     names = (*PENDULUM_NAMES, "log_gain")
@@ -203,7 +204,8 @@ class RunModel(BoundedPosterior):
         s_inv = np.linalg.inv(sigma)
         # the bins' and segments' correlations, from the recorded input
         # (bayescal.coil.bandvariance)
-        c = self.band_variance.inflation(np.einsum("fii->f", e).real / no, saa)
+        c = (np.ones(sp.n_bands) if self.band_variance is None else
+             self.band_variance.inflation(np.einsum("fii->f", e).real / no, saa))
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self.band_input_power)[:, None, None]
         return self.noise
