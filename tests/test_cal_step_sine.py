@@ -205,6 +205,12 @@ def test_cli_sine(tmp_path):
     ("sine", simulate_step_cal(duration=600.0, fs=10.0), [], "not a single sine"),
     ("step", simulate_step_cal(duration=600.0, fs=10.0), ["--band", "0.01", "1"],
      "--band does not apply"),
+    # the step 2 s (20 samples) before the end: the noise fit had no sample to
+    # fit and raised a bare ValueError
+    ("step", simulate_step_cal(duration=600.0, fs=10.0, steps=((598.0, 1.0),)), [],
+     "2 s (20 samples) before the record ends"),
+    ("step", simulate_step_cal(duration=600.0, fs=10.0, steps=((599.0, 1.0),)), [],
+     "record longer after it"),
 ])
 def test_cli_bad_input_exit_2_nothing_written(tmp_path, capsys, kind, sim, extra, words):
     rc, out = _cli(tmp_path, sim, kind, extra)
@@ -264,27 +270,6 @@ def test_step_fit_does_not_take_the_input_noise_for_a_drive():
     for name, t in zip(("period_s", "damping", "gain"), truth):
         z = (p[name]["median"] - t) / p[name]["sd"]
         assert abs(z) < Z_001, (name, z, p[name])
-
-
-def test_centred_scatter_is_unbiased_whatever_the_mean():
-    """``coil.scatter.centred_band_variance`` against the closed form: K = 12
-    half-overlapping segments whose residuals have unit variance, covariance
-    0.3 between neighbours and a common mean the fit has not removed;
-    ``Var sum_k r_k = K + 2 (K - 1) 0.3``. Over 20000 draws the estimate's
-    mean is within 4 standard errors of it (the uncentred lag-one sum is
-    off by ``K |mean|^2 (1 + 2 (K - 1) / K)``)."""
-    from bayescal.coil.scatter import centred_band_variance
-    k, rho, n = 12, 0.3, 20_000
-    rng = np.random.default_rng(3)
-    # r_k = a e_k + b e_{k+1}: unit variance, lag-one covariance rho, none beyond
-    b = np.sqrt(0.5 * (1 - np.sqrt(1 - 4 * rho ** 2)))
-    a = rho / b
-    e = rng.standard_normal((k + 1, n, 1))
-    r = a * e[:-1] + b * e[1:] + 0.7                       # (K, draws, 1), mean 0.7
-    est = centred_band_variance(lambda x, y: np.einsum("kbi,kbi->b", x, y), r,
-                                np.arange(k - 1))
-    want = k + 2 * (k - 1) * rho
-    assert abs(est.mean() - want) < 4 * est.std() / np.sqrt(n), (est.mean(), want)
 
 
 def test_sine_model_is_the_steady_state_response_of_a_cut_sine():
@@ -368,3 +353,49 @@ def test_a_record_long_whitening_filter_is_a_linear_convolution():
     # 2e-2 of the model with a buffer of n + taper + pad (the record wrapped in);
     # what is left is the buffer's own ringing tail (a step through an ideal filter)
     assert np.max(np.abs(weighted - linear)) < 1e-4 * np.max(np.abs(linear))
+
+
+def test_least_squares_time_restores_the_d_grid_when_it_fails():
+    """:func:`least_squares_time` narrows the model's ``d_grid`` to ``(0,)``
+    for its first stage; a failure inside that stage leaves the model's
+    grid as it was."""
+    from bayescal.coil.timedomain import D_GRID, least_squares_time
+    sim = simulate_step_cal(truth=TRUE_LP, seed=33, noise_ratio=0.01, **SHORT)
+    model, _, theta, _ = least_squares_step(_run(sim), COIL)
+    model.d_grid = D_GRID
+
+    class Stop(Exception):
+        pass
+
+    def fail(theta):
+        raise Stop
+
+    model.estimate_noise = fail
+    with pytest.raises(Stop):
+        least_squares_time(model, theta)
+    assert model.d_grid is D_GRID
+
+
+def test_noise_fit_whitens_from_the_first_sample_as_the_likelihood():
+    """:func:`noise_fit` with ``skip``: the fractional difference runs from
+    the series' first sample and is cut at ``skip``, as
+    :meth:`TimeModel.set_noise` whitens. A series of 2000 samples whose
+    fractional difference of order 0.9 from its first sample is exactly
+    ``e``, +-1 alternating after ``skip`` = 1000 (mean 0) and before it
+    (the conditioned samples) ones shifted so that the series has mean 0
+    after ``skip`` (``noise_fit`` takes that mean out): with ``d`` held at
+    0.9 and no autoregression the innovation variance is the mean square of
+    ``e`` after ``skip``, 1 (to round-off); restarted from rest at ``skip``
+    (the long-memory filter's past dropped) it comes out 0.99955."""
+    from bayescal.coil.timedomain import fir, fractional_difference, noise_fit
+    n, skip, d = 2000, 1000, 0.9
+    after = np.r_[np.zeros(skip), (-1.0) ** np.arange(n - skip)]
+    before = np.r_[np.ones(skip), np.zeros(n - skip)]
+    integrate = fractional_difference(-d, n)
+    c0, c1 = (fir(integrate, v)[skip:].mean() for v in (after, before))
+    e = after - (c0 / c1) * before
+    x = fir(integrate, e)
+    assert abs(x[skip:].mean()) < 1e-9
+    a, s2, d_fit = noise_fit(x, max_order=0, d_grid=(d,), skip=skip)
+    assert a.size == 0 and d_fit == d
+    assert s2 == pytest.approx(1.0, abs=1e-9)

@@ -3,7 +3,7 @@
 Holds the symmetric triaxial geometry (:mod:`.triaxial`), one calibration
 run read and turned into spectra (:mod:`.runs`), the likelihood and fit of
 one element from one run (:mod:`.element`) with the variance of its band
-residuals measured from their centred scatter (:mod:`.scatter`), the coil-by-coil calibration
+residuals computed from the recorded input (:mod:`.bandvariance`), the coil-by-coil calibration
 of UVW sensors with the derived XYZ responses (:mod:`.uvw`), and the
 calibration of one ordinary channel: response parametrisation with the
 high-frequency poles (:mod:`.hf`), random runs (:mod:`.random`), the

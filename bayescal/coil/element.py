@@ -13,11 +13,10 @@ from ..core.response import (NAMES as PENDULUM_NAMES, damping_over_period, set_b
 from ..core.sampling import sample
 from ..errors import FitError, InputError, SpectraError
 from ..core.fit import refine
-from ..core.model import overlapping_segments, shrunk_inflation
 from ..core.priors import Priors
 from ..core.posterior import interval_summary
 from ..core.spectra import cross_spectra
-from .scatter import centred_band_variance
+from .bandvariance import BandVariance
 from .bounded import BoundedPosterior, mark_set_by_prior, prior_meta
 from .triaxial import PARAMS
 from .runs import BANDS_PER_DECADE, EDGE_PERIODS, calibration_nperseg
@@ -78,7 +77,11 @@ class RunModel(BoundedPosterior):
 
     ``coef`` is ``m_c`` per output, ``families`` the outputs' parametric
     responses, ``base`` (n_out, F) the response ratio the spectra were
-    deconvolved by (ones at first). Vectorised: ``log_prob(theta (W, 3))``.
+    deconvolved by (ones at first), ``band_variance`` the run's
+    :class:`bayescal.coil.bandvariance.BandVariance` (every fit passes it;
+    without it :meth:`estimate_noise` takes the bins as independent,
+    ``c_b = 1``, about half the variance of a Hann-windowed, half-overlapped
+    band residual). Vectorised: ``log_prob(theta (W, 3))``.
     """
 
     names = (*PENDULUM_NAMES, "log_gain")
@@ -87,8 +90,10 @@ class RunModel(BoundedPosterior):
     #: ``-log L`` is the whitened residual's squared norm.
     LIKELIHOOD_SCALE = 1.0
 
-    def __init__(self, spectra, coef, families, nominal, priors=Priors(), base=None):
+    def __init__(self, spectra, coef, families, nominal, priors=Priors(), base=None,
+                 band_variance=None):
         self.spectra = spectra
+        self.band_variance = band_variance
         self.coef = np.asarray(coef, float)
         self.families = families
         self.nominal = nominal
@@ -176,8 +181,10 @@ class RunModel(BoundedPosterior):
         return np.concatenate([self.whitened_residual(theta, chol), self.prior_residual(theta)])
 
     def estimate_noise(self, theta):
-        """Plug-in noise model at ``theta``: per-band ``Sigma_b`` and inflation
-        ``c_b`` (see module docstring); sets ``self.noise`` (B, no, no)."""
+        """Plug-in noise model at ``theta``: per-band ``Sigma_b`` (the
+        residual's power weighted by the input's) and inflation ``c_b`` (the
+        correlations of bins and segments, from the recorded input:
+        :mod:`bayescal.coil.bandvariance`); sets ``self.noise`` (B, no, no)."""
         sp = self.spectra
         no = sp.n_u
         mu = self.mu(theta)[0].T                                     # (F, no)
@@ -195,16 +202,10 @@ class RunModel(BoundedPosterior):
         sigma = regularise(0.5 * (sigma + sigma.conj().transpose(0, 2, 1)),
                            np.einsum("fb,fii->bi", self.band_membership, self._cyy).real / n_bins[:, None])
         s_inv = np.linalg.inv(sigma)
-        mu_b = (mu * saa[:, None]).T @ self.band_membership / self.band_input_power       # (no, B)
-        seg = sp.per_segment                                          # (K, B, n, n)
-        r_k = seg[:, :, :no, no] - mu_b.T[None] * seg[:, :, no, no][:, :, None]
-        # centred on their mean, so that the fit's share of the band
-        # residuals does not lower it (bayescal.coil.scatter)
-        scatter = centred_band_variance(
-            lambda x, y: np.einsum("kbi,bij,kbj->b", x.conj(), s_inv, y).real,
-            r_k, overlapping_segments(sp.segment_starts, sp.nperseg))
-        c = shrunk_inflation(scatter / (no * self.band_input_power), sp.n_segments * no,
-                             pooled_floor=1e-12)
+        # the bins' and segments' correlations, from the recorded input
+        # (bayescal.coil.bandvariance)
+        c = (np.ones(sp.n_bands) if self.band_variance is None else
+             self.band_variance.inflation(np.einsum("fii->f", e).real / no, saa))
         self.sigma, self.inflation = sigma, c
         self.noise = s_inv / (c * self.band_input_power)[:, None, None]
         return self.noise
@@ -273,17 +274,20 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
     ``bayescal cal --kind random`` (:func:`bayescal.coil.random.fit_random`).
 
     First pass: spectra of the outputs deconvolved by their nominal response,
-    ``make_model(spectra, None)``, the start ``start(model) -> theta0``, least
-    squares. Second pass: the outputs deconvolved again by the fitted response
-    ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the segment windows smooth
-    only the nearly flat ratio of true to fitted response),
-    ``make_model(spectra, base)``, least squares, then the posterior sampled by
-    :func:`bayescal.core.sampling.mcmc.sample`. Returns ``(model, chain, spectra,
-    theta_ls, cov_ls)`` (the second pass's least-squares point and Laplace
-    covariance).
+    ``make_model(spectra, None, band_variance)`` (the run's
+    :class:`bayescal.coil.bandvariance.BandVariance`, the same in both
+    passes: it depends on the input alone), the start ``start(model) ->
+    theta0``, least squares. Second pass: the outputs deconvolved again by
+    the fitted response ``ratio_at(f, theta_ls) -> (n_out, F)`` (so the
+    segment windows smooth only the nearly flat ratio of true to fitted
+    response), ``make_model(spectra, base, band_variance)``, least squares,
+    then the posterior sampled by :func:`bayescal.core.sampling.mcmc.sample`.
+    Returns ``(model, chain, spectra, theta_ls, cov_ls)`` (the second pass's
+    least-squares point and Laplace covariance).
     """
     sp = run_spectra(run, coil_constant, band, nperseg)
-    model = make_model(sp, None)
+    variance = BandVariance(run, coil_constant, sp, band)
+    model = make_model(sp, None, variance)
     theta = start(model)
     _check_enough_bands(run, sp, band, theta.size)
     theta, _ = least_squares_run(model, theta)
@@ -293,7 +297,7 @@ def fit_two_pass(run, coil_constant, band, nperseg, make_model, start, ratio_at,
         return ratio_at(f, t_ls)
 
     sp = run_spectra(run, coil_constant, band, nperseg, base=base)
-    model = make_model(sp, base(sp.freqs))
+    model = make_model(sp, base(sp.freqs), variance)
     theta, cov = least_squares_run(model, theta)
     chain = sample(model, theta, cov, seed=seed, progress=progress, **sample_kw)
     return model, chain, sp, theta, cov
@@ -344,8 +348,9 @@ def fit_run(run, m, coil_constant, band, nperseg=None, seed=0, progress=False,
                          f"{run.element} in this geometry")
     nominal = run.families[-1]
 
-    def make_model(sp, base):
-        return RunModel(sp, coef, run.families, nominal, priors, base=base)
+    def make_model(sp, base, variance):
+        return RunModel(sp, coef, run.families, nominal, priors, base=base,
+                        band_variance=variance)
 
     def start(model):
         # start from the Z output when there is one: every element shows in Z

@@ -1,6 +1,7 @@
 """Random (broadband, e.g. pseudo-random binary) calibration of one output
 channel: the transfer function from the input-output cross-spectra, with the
-noise model measured from their scatter across segments (the likelihood of
+noise model measured from the residual's power and the correlations of its
+bins and segments computed from the recorded input (the likelihood of
 :class:`bayescal.coil.element.RunModel`, one output with coefficient 1), and
 the response parametrised by :class:`bayescal.coil.hf.PZSpec` (``--fit lp``,
 ``hf`` or ``all``).
@@ -33,8 +34,9 @@ HF_FMAX_FRACTION = 0.4
 class PZModel(RunModel):
     """:class:`RunModel` of one output with the response of a :class:`PZSpec`."""
 
-    def __init__(self, spectra, spec, base=None):
-        super().__init__(spectra, [1.0], [spec.family], spec.family, spec.priors, base=base)
+    def __init__(self, spectra, spec, base=None, band_variance=None):
+        super().__init__(spectra, [1.0], [spec.family], spec.family, spec.priors, base=base,
+                         band_variance=band_variance)
         self.spec = spec
         self.names = spec.names
         self.ndim = spec.ndim
@@ -135,6 +137,6 @@ def fit_random(run, coil_constant, fit="lp", band=None, seed=0, progress=False, 
         return scale_start(run, spec, theta0, model.transfer_scale(theta0))
 
     model, chain, _, _, _ = fit_two_pass(run, coil_constant, band, nperseg,
-                                         lambda sp, base: PZModel(sp, spec, base=base), start,
+                                         lambda sp, base, bv: PZModel(sp, spec, base, bv), start,
                                          spec.ratio, seed=seed, progress=progress, **sample_kw)
     return CalFit.from_chain("random", run, spec, model, chain, coil_constant, band)

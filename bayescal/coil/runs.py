@@ -22,7 +22,7 @@ BANDS_PER_DECADE = 20
 #: is the nearly flat ratio of true to assumed response, not the response.
 SEGMENT_CYCLES = 10
 #: Segments are shortened (by halving) until the record gives at least this
-#: many half-overlapping ones: the noise model is measured from their scatter.
+#: many half-overlapping ones: the noise model's power is measured over them.
 MIN_SEGMENTS = 12
 #: Periods of the band's lower edge cut at each end of a gap-free run (the
 #: deconvolution's transient).

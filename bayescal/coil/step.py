@@ -115,6 +115,24 @@ def rest_level(u):
     return float(np.median(u[:max(first_move(u), 1)]))
 
 
+#: Fewest samples after the first step: the noise model's autoregression
+#: needs 20 samples per order (:func:`bayescal.coil.timedomain.ar_fit`).
+MIN_SAMPLES_AFTER_STEP = 20
+
+
+def _check_after_step(run, first, period_s):
+    """Refuse a run whose record after the input's first step (sample
+    ``first``) is shorter than the sensor's nominal natural period or than
+    :data:`MIN_SAMPLES_AFTER_STEP` samples: :class:`InputError`."""
+    n_after = run.input.size - first
+    if n_after < max(MIN_SAMPLES_AFTER_STEP, period_s * run.fs):
+        raise InputError(
+            f"{run.source}: the input's first step comes {n_after / run.fs:.4g} s "
+            f"({n_after} samples) before the record ends; a step's response needs at least "
+            f"the sensor's natural period ({period_s:.4g} s) and {MIN_SAMPLES_AFTER_STEP} "
+            "samples recorded after the step: record longer after it")
+
+
 def _start(model, spec):
     """Nominal theta with the gain scaled by least squares (offset, drift free)."""
     theta = spec.nominal_theta()
@@ -136,6 +154,7 @@ def least_squares_step(run, coil_constant, priors=Priors()):
     u = step_drive(u)
     spec = PZSpec.from_response(run.responses[0], "lp", run.fs / 2, source=run.source,
                                 priors=priors)
+    _check_after_step(run, first_move(u), spec.family.period_s)
     pred = Predictor(u, run.fs, coil_transfer(run, coil_constant), padding(spec.family, run.fs),
                      span=u.size)     # the fractional difference's filter: the record's length
     # the samples before the first step are conditioned on (module docstring):

@@ -84,6 +84,8 @@ def _ar_bic(r, max_order, extra=0):
     y = r[p_max:]
     s2 = float(np.mean(y * y))
     best = (y.size * np.log(s2) + extra * np.log(y.size), np.zeros(0), s2)
+    if p_max == 0:
+        return best
     lagged = np.column_stack([r[p_max - k:n - k] for k in range(1, p_max + 1)])
     for p in range(1, p_max + 1):
         a, *_ = np.linalg.lstsq(lagged[:, :p], y, rcond=None)
@@ -112,16 +114,21 @@ def fir(b, y):
     return fftconvolve(y, b, axes=0)[:len(y)]
 
 
-def noise_fit(r, max_order=MAX_AR_ORDER, d_grid=D_GRID):
-    """ARFIMA(p, d, 0) of ``r``: ``d`` from ``d_grid`` and ``p`` together by
-    BIC (the fractional difference applied from rest is unit lower
-    triangular, so each ``d``'s innovations give the likelihood of ``r``
-    itself; ``d > 0`` counts as one parameter). Returns ``(a, s2, d)``."""
-    r = np.asarray(r, float) - np.mean(r)
+def noise_fit(r, max_order=MAX_AR_ORDER, d_grid=D_GRID, skip=0):
+    """ARFIMA(p, d, 0) of ``r[skip:]``: ``d`` from ``d_grid`` and ``p``
+    together by BIC (the fractional difference applied from rest is unit
+    lower triangular, so each ``d``'s innovations give the likelihood of
+    ``r`` itself; ``d > 0`` counts as one parameter). The fractional
+    difference runs from ``r``'s first sample and is cut at ``skip``, as the
+    likelihood whitens (:meth:`TimeModel.set_noise`): the first ``skip``
+    samples are its past, not left out as if the noise had started from
+    rest there. Returns ``(a, s2, d)``."""
+    r = np.asarray(r, float)
+    r = r - np.mean(r[skip:])
     best = None
     for d in d_grid:
         series = r if d == 0 else fir(fractional_difference(d, r.size), r)
-        bic, a, s2 = _ar_bic(series, max_order, extra=int(d != 0))
+        bic, a, s2 = _ar_bic(series[skip:], max_order, extra=int(d != 0))
         if best is None or bic < best[0]:
             best = (bic, a, s2, float(d))
     return best[1:]
@@ -261,9 +268,10 @@ class TimeModel(BoundedPosterior):
 
     def fit_noise(self, r):
         """Set the noise model to :func:`noise_fit` of the residual ``r``
-        after the prefilter (over the whole record, as the likelihood
-        filters) and after ``skip``."""
-        self.set_noise(*noise_fit(self._pre(r)[self.skip:], d_grid=self.d_grid))
+        after the prefilter and after ``skip``, both filters (the prefilter
+        and the fractional difference) run over the whole record as the
+        likelihood runs them."""
+        self.set_noise(*noise_fit(self._pre(r), d_grid=self.d_grid, skip=self.skip))
 
     # --- likelihood ----------------------------------------------------------
     def innovations(self, theta):
@@ -319,9 +327,11 @@ def least_squares_time(model, theta0, passes=3):
         return np.concatenate([model.innovations(t[None])[0], model.prior_residual(t)])
 
     grid, model.d_grid = model.d_grid, (0.0,)
-    theta, _ = refine(fun, theta0, lo, hi, model.estimate_noise, passes, method="trf",
-                      scale=1.0, x_scale="jac")
-    model.d_grid = grid
+    try:
+        theta, _ = refine(fun, theta0, lo, hi, model.estimate_noise, passes, method="trf",
+                          scale=1.0, x_scale="jac")
+    finally:
+        model.d_grid = grid
     model.estimate_noise(theta)
     model.d_grid = (model.d,)
     return refine(fun, theta, lo, hi, model.estimate_noise, passes, method="trf", scale=1.0,

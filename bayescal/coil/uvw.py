@@ -42,11 +42,11 @@ residual per narrow band b (20 per decade) is
 zero-mean at the truth; its covariance is ``c_b Sigma_b S_AA,b`` with
 ``Sigma_b`` the per-bin covariance of the output residual (full matrix across
 outputs: element noise mixes into X, Y, Z) and ``c_b`` the ratio of the
-scatter of per-segment band residuals (with the lag-one term of overlapping
-segments) to the independent-bin formula, shrunk toward its pooled value, as
-in :mod:`bayescal.core.model.likelihood`. After the least-squares fit the spectra are
-recomputed deconvolved by the fitted response, so the per-segment residuals
-that calibrate ``c_b`` are free of in-band model curvatu"""
+band residual's variance to the independent-bin formula (the correlations
+of neighbouring bins and of overlapping segments), computed from the
+recorded input (:mod:`bayescal.coil.bandvariance`). After the least-squares fit the spectra are
+recomputed deconvolved by the fitted response, so the residual's power that
+sets ``Sigma_b`` is free of in-band model curvature."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
