@@ -56,6 +56,5 @@ def test_design_rate_is_wilks():
 
 
 def _sci(x):
-    """``x`` as the docs write it: 3.5e-4."""
-    m, e = f"{x:.1e}".split("e")
-    return f"{m}e{int(e)}"
+    """``x`` as the docs write it: 3.5e-04."""
+    return f"{x:.1e}"

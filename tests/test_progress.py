@@ -80,7 +80,7 @@ def test_lines_in_a_log(capsys):
 SMALL = dict(duration=1800.0, fs=5.0, seed=1)
 BAND = ("0.05", "1")
 
-STAGES = ("least squares:", "mode search:", "sampling, trial of the Laplace approximation's proposal:",
+STAGES = ("least squares:", "mode search:", "sampling, trial of a proposal around the least-squares point:",
           "sampling to convergence:")
 
 

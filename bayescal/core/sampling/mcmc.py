@@ -79,7 +79,7 @@ MAX_KEPT = 40_000
 #: ``sample(..., laplace=True)``: the phase that tries the t proposal around
 #: the start and covariance given, and the acceptance it must reach to be
 #: kept (where the Laplace approximation is poor, the DE burn-in runs).
-LAPLACE_TRIAL, LAPLACE_ACCEPTANCE = "trial of the Laplace approximation's proposal", 0.4
+LAPLACE_TRIAL, LAPLACE_ACCEPTANCE = "trial of a proposal around the least-squares point", 0.4
 #: The differential-evolution mixture: (move, weight).
 DE_WEIGHTS = (("DEMove", 0.8), ("DESnookerMove", 0.2))
 
