@@ -145,9 +145,9 @@ class Chain:
     ess: np.ndarray           # (ndim,)
     rhat: np.ndarray          # (ndim,)
     acceptance: float
-    n_steps: int
-    n_walkers: int
-    burn: int
+    n_steps: int              # steps of the chain held (trace), burn-in included; a
+    n_walkers: int            # trial that accepted too rarely is not in it, but in
+    burn: int                 # sampler["phases"] and sampler["steps"]
     converged: bool
     trace: np.ndarray         # (steps, W, ndim), thinned for plots
     sampler: dict = field(default_factory=dict)   # what was run: see :func:`sample`
