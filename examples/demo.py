@@ -68,7 +68,7 @@ def run(out, seed=2026, quiet=False):
             lo, hi = est.get("ci95", (float("nan"), float("nan")))
             print(f"{cid:16s} {name:12s} {tv:10.4f} {est['median']:10.4f}   [{lo:.4f}, {hi:.4f}]")
     c = result["convergence"]
-    print(f"convergence: ESS min {c['ess_min']:.0f}, tau max {c['tau_max']:.0f}, "
+    print(f"convergence: ESS min {c['ess_min']:.0f}, autocorrelation time up to {c['tau_max']:.1f} steps, "
           f"R-hat max {c['rhat_max']:.4f}, {c['n_steps']} steps")
     print(f"outputs in {fit_dir}: " + ", ".join(sorted(n for n in os.listdir(fit_dir)
                                                       if not n.startswith("."))))
