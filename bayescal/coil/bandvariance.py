@@ -76,7 +76,7 @@ class BandVariance:
         self.m = ratio * n                            # DFT length, >= twice the record
         group = ratio // SUB_BINS
         self.g2 = np.vstack([self._kernels(z, keep, win, spectra, b, group)
-                             for b in self._band_chunks(spectra.n_bands, a.size)])
+                             for b in self._band_chunks(spectra.n_bands)])
         self.nu = np.abs(np.fft.fftfreq(SUB_BINS * n, 1.0 / fs)[:, None]
                          + np.arange(group)[None, :] * fs / self.m).mean(axis=1)
         d = np.arange(-LEAKAGE_BINS * SUB_BINS, LEAKAGE_BINS * SUB_BINS + 1)
@@ -85,7 +85,7 @@ class BandVariance:
         self.leak_idx = (keep[:, None] * SUB_BINS + d[None, :]) % (SUB_BINS * n)
         self.taper2 = band_taper(self.nu, self.band) ** 2
 
-    def _band_chunks(self, n_bands, n_rec):
+    def _band_chunks(self, n_bands):
         size = max(1, CHUNK_VALUES // (2 * self.m))
         return [np.arange(i, min(i + size, n_bands)) for i in range(0, n_bands, size)]
 
@@ -94,10 +94,11 @@ class BandVariance:
         points: (len(bands), SUB_BINS nperseg)."""
         n = spectra.nperseg
         g = np.zeros((bands.size, self.m), complex)
+        inb = np.isin(spectra.band_of, bands)
+        rows = np.searchsorted(bands, spectra.band_of[inb])
         for zk, s in zip(z, spectra.segment_starts):
             x = np.zeros((bands.size, n), complex)
-            inb = np.isin(spectra.band_of, bands)
-            x[np.searchsorted(bands, spectra.band_of[inb]), keep[inb]] = zk[inb].conj()
+            x[rows, keep[inb]] = zk[inb].conj()
             # the detrend is a symmetric projection: its adjoint is itself
             g[:, s:s + n] += detrend(np.fft.fft(x, axis=1) * win, axis=1)
         g2 = np.abs(np.fft.ifft(g, axis=1) * self.m) ** 2

@@ -271,7 +271,7 @@ def describe(a, q=None, k=None, weight=None):
                  "band's term is -(a + k_b) log(1 + q_b / a); bands whose residual exceeds "
                  "the noise model are down-weighted and intervals widen"
                  + (f"; each band's variance factor at least {FACTOR_FLOOR:g} (below "
-                    "q_b = k_b its term is Gaussian)" if FACTOR_FLOOR > 0 else "")
+                    f"q_b = {FACTOR_FLOOR:g} (a + k_b) - a its term is Gaussian)" if FACTOR_FLOOR > 0 else "")
                  + " (docs/validation/misfit_scale.md)")
     else:
         model = (f"one noise scale pooled across bands, each band with probability "
