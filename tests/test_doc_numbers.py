@@ -10,8 +10,10 @@
   from; each is formatted from that entry and must appear on its page.
 * Every table a page marks (``<!-- table: NAME -->``) is what
   ``docs/tables.toml`` formats from its stored results.
-* Every number of a validation page is in such a table, a quote, code, or
-  a phrase its ``[allow]`` list names as a setting (``docs/uncovered.py``).
+* Every number of the README, the user guide and the validation pages is
+  in such a table, a quote, an example's stored output, code, or a phrase
+  its ``[allow]`` list names as a setting (``docs/uncovered.py``); an
+  output pasted on a guide page without its example counts as prose.
 
 ``tests/test_docs.py`` runs the examples again and checks the quoted
 lines' words (numbers masked) against the live output.
@@ -134,12 +136,13 @@ def _pending():
     return uncovered.settings().get("pending", {})
 
 
-@pytest.mark.parametrize("page", uncovered.PAGES, ids=lambda p: p.name)
-def test_validation_numbers_come_from_stored_results(page):
-    """Every number of a validation page is in a generated table, a quote
-    of docs/quoted.toml, code, or a phrase the page's [allow] list names as
-    a setting; a page of [pending] still has numbers typed by hand (it
-    leaves the list when it has none)."""
+@pytest.mark.parametrize("page", uncovered.PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_numbers_come_from_stored_results(page):
+    """Every number of the README, a user-guide page or a validation page
+    is in a generated table, a quote of docs/quoted.toml, an example's
+    output checked against its stored one, code, or a phrase the page's
+    [allow] list names as a setting; a page of [pending] still has numbers
+    typed by hand (it leaves the list when it has none)."""
     left = uncovered.uncovered(page)
     name = str(page.relative_to(ROOT))
     if name in _pending():
