@@ -167,6 +167,24 @@ def test_only_numbers_nothing_accounts_for_are_reported(tmp_path, monkeypatch):
     assert [(line, number) for line, number, _ in uncovered.uncovered(page, config)] == [(9, "0.31")]
 
 
+def test_a_pasted_output_on_a_guide_page_reads_as_prose(tmp_path, monkeypatch):
+    """On a README or user-guide page the output shown after an example is
+    checked against its stored output, so its numbers are accounted for;
+    an output pasted without its example is prose, its numbers reported.
+    Interval levels listed together, units and exponents are generic."""
+    page = tmp_path / "guide.md"
+    page.write_text("Run it:\n\n```bash\nbayescal fit --band 0.03 1\n```\n\n```text\n"
+                    "azimuth 3.253 [2.681, 3.814]\n```\n\nAnother run prints:\n\n```text\n"
+                    "azimuth 4.5 [4.1, 4.9]\n```\n\nIts 68/90/95 % intervals, in dB re 1 "
+                    "(m/s^2)^2/Hz and 1/s.\n")
+    monkeypatch.setattr(uncovered, "ROOT", tmp_path)
+    monkeypatch.setattr(uncovered, "GUIDE", [page])
+    assert [(line, number) for line, number, _ in uncovered.uncovered(page, {})] == [
+        (14, "4.5"), (14, "4.1"), (14, "4.9")]
+    monkeypatch.setattr(uncovered, "GUIDE", [])         # a validation page: fenced blocks are code
+    assert uncovered.uncovered(page, {}) == []
+
+
 def test_a_template_is_filled_as_an_f_string():
     """Fields with quotes, brackets and colons inside, a spec holding a
     field, and doubled braces, as Python's own f-strings give them."""
