@@ -167,6 +167,17 @@ def test_only_numbers_nothing_accounts_for_are_reported(tmp_path, monkeypatch):
     assert [(line, number) for line, number, _ in uncovered.uncovered(page, config)] == [(9, "0.31")]
 
 
+@pytest.mark.parametrize("page", uncovered.GUIDE, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_allowed_phrase_of_a_guide_page_is_on_it(page):
+    """An [allow] phrase of the README or a guide page that the page no
+    longer holds is stale: a setting list names only what the page says."""
+    name = str(page.relative_to(ROOT))
+    text = page.read_text()
+    stale = [phrase for phrase in uncovered.settings().get("allow", {}).get(name, [])
+             if not uncovered.words_of(phrase).search(text)]
+    assert not stale, f"{name}: [allow] phrases not on the page: {stale}"
+
+
 def test_a_pasted_output_on_a_guide_page_reads_as_prose(tmp_path, monkeypatch):
     """On a README or user-guide page the output shown after an example is
     checked against its stored output, so its numbers are accounted for;
