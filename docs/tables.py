@@ -158,8 +158,8 @@ def package(name):
 
 
 #: Names a template may use besides its sources.
-HELPERS = {"bayescal": package, "abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
-           "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
+HELPERS = {"bayescal": package, "abs": abs, "max": max, "min": min, "sum": sum, "len": len,
+           "round": round, "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
            "list": list, "zip": zip, "format": format, "example": example,
            "chi2_ppf": chi2_ppf, "chi2_sf": chi2_sf, "log": math.log, "all": all, "any": any,
            "str": str, "lines_of": str.splitlines, "md_table": md_table, "numbers": numbers,

@@ -84,12 +84,10 @@ def pasted(page):
     an output pasted without its example, or a file's content."""
     if Path(page) not in GUIDE:
         return []
-    out, last = [], None
-    for lang, body, skip, _, line in example_outputs.blocks(page):
-        if lang == "text" and last is None:
-            out.append((line, line + len(body.splitlines())))
-        last = body if lang in ("python", "bash") and not skip else None
-    return out
+    shown = {line for _, line, _, _ in example_outputs.quoted([page])}
+    return [(line, line + len(body.splitlines()))
+            for lang, body, _, _, line in example_outputs.blocks(page)
+            if lang == "text" and line not in shown]
 
 
 def uncovered(page, config=None):
