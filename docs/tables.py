@@ -148,9 +148,18 @@ def example(name):
     return importlib.import_module(name)
 
 
+def package(name):
+    """The module ``bayescal.<name>``: a number a page derives from the
+    package's own defaults (a segment length, a default band) is computed by
+    the package's function, so the page follows the code."""
+    import importlib
+
+    return importlib.import_module(f"bayescal.{name}")
+
+
 #: Names a template may use besides its sources.
-HELPERS = {"abs": abs, "max": max, "min": min, "sum": sum, "len": len, "round": round,
-           "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
+HELPERS = {"bayescal": package, "abs": abs, "max": max, "min": min, "sum": sum, "len": len,
+           "round": round, "sqrt": math.sqrt, "band": binomial_band, "sorted": sorted, "enumerate": enumerate,
            "list": list, "zip": zip, "format": format, "example": example,
            "chi2_ppf": chi2_ppf, "chi2_sf": chi2_sf, "log": math.log, "all": all, "any": any,
            "str": str, "lines_of": str.splitlines, "md_table": md_table, "numbers": numbers,

@@ -10,8 +10,10 @@
   from; each is formatted from that entry and must appear on its page.
 * Every table a page marks (``<!-- table: NAME -->``) is what
   ``docs/tables.toml`` formats from its stored results.
-* Every number of a validation page is in such a table, a quote, code, or
-  a phrase its ``[allow]`` list names as a setting (``docs/uncovered.py``).
+* Every number of the README, the user guide and the validation pages is
+  in such a table, a quote, an example's stored output, code, or a phrase
+  its ``[allow]`` list names as a setting (``docs/uncovered.py``); an
+  output pasted on a guide page without its example counts as prose.
 
 ``tests/test_docs.py`` runs the examples again and checks the quoted
 lines' words (numbers masked) against the live output.
@@ -134,12 +136,13 @@ def _pending():
     return uncovered.settings().get("pending", {})
 
 
-@pytest.mark.parametrize("page", uncovered.PAGES, ids=lambda p: p.name)
-def test_validation_numbers_come_from_stored_results(page):
-    """Every number of a validation page is in a generated table, a quote
-    of docs/quoted.toml, code, or a phrase the page's [allow] list names as
-    a setting; a page of [pending] still has numbers typed by hand (it
-    leaves the list when it has none)."""
+@pytest.mark.parametrize("page", uncovered.PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_numbers_come_from_stored_results(page):
+    """Every number of the README, a user-guide page or a validation page
+    is in a generated table, a quote of docs/quoted.toml, an example's
+    output checked against its stored one, code, or a phrase the page's
+    [allow] list names as a setting; a page of [pending] still has numbers
+    typed by hand (it leaves the list when it has none)."""
     left = uncovered.uncovered(page)
     name = str(page.relative_to(ROOT))
     if name in _pending():
@@ -162,6 +165,35 @@ def test_only_numbers_nothing_accounts_for_are_reported(tmp_path, monkeypatch):
               "allow": {"p.md": ["of 200 simulated pairs"]}}
     monkeypatch.setattr(uncovered, "ROOT", tmp_path)
     assert [(line, number) for line, number, _ in uncovered.uncovered(page, config)] == [(9, "0.31")]
+
+
+@pytest.mark.parametrize("page", uncovered.GUIDE, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_allowed_phrase_of_a_guide_page_is_on_it(page):
+    """An [allow] phrase of the README or a guide page that the page no
+    longer holds is stale: a setting list names only what the page says."""
+    name = str(page.relative_to(ROOT))
+    text = page.read_text()
+    stale = [phrase for phrase in uncovered.settings().get("allow", {}).get(name, [])
+             if not uncovered.words_of(phrase).search(text)]
+    assert not stale, f"{name}: [allow] phrases not on the page: {stale}"
+
+
+def test_a_pasted_output_on_a_guide_page_reads_as_prose(tmp_path, monkeypatch):
+    """On a README or user-guide page the output shown after an example is
+    checked against its stored output, so its numbers are accounted for;
+    an output pasted without its example is prose, its numbers reported.
+    Interval levels listed together, units and exponents are generic."""
+    page = tmp_path / "guide.md"
+    page.write_text("Run it:\n\n```bash\nbayescal fit --band 0.03 1\n```\n\n```text\n"
+                    "azimuth 3.253 [2.681, 3.814]\n```\n\nAnother run prints:\n\n```text\n"
+                    "azimuth 4.5 [4.1, 4.9]\n```\n\nIts 68/90/95 % intervals, in dB re 1 "
+                    "(m/s^2)^2/Hz and 1/s.\n")
+    monkeypatch.setattr(uncovered, "ROOT", tmp_path)
+    monkeypatch.setattr(uncovered, "GUIDE", [page])
+    assert [(line, number) for line, number, _ in uncovered.uncovered(page, {})] == [
+        (14, "4.5"), (14, "4.1"), (14, "4.9")]
+    monkeypatch.setattr(uncovered, "GUIDE", [])         # a validation page: fenced blocks are code
+    assert uncovered.uncovered(page, {}) == []
 
 
 def test_a_template_is_filled_as_an_f_string():
