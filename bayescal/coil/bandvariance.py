@@ -22,12 +22,11 @@ residual's periodogram, times the deconvolution's band taper squared). A
 level error of ``S_0`` cancels in the ratio; its shape enters only through
 the leakage of a few bins.
 
-For 1 hour at 5 Hz (12 segments) the ratio measured from the scatter of the
-segments' residuals varies from run to run by 19 % (standard deviation over
-40 runs of one sensor and noise), and the intervals' widths with it;
-``c_b`` from the input varies by under 0.2 % between noise realisations of
-one run, and matches the variance of 400 simulated noise realisations
-within their 5 % error per band (docs/validation/coil.md).
+Measured from the scatter of a few segments' residuals (12 for an hour at
+5 Hz) the ratio is noisy from run to run, and the intervals' widths with it;
+``c_b`` from the input depends on the noise only through its smooth shape,
+and matches the variance of 400 simulated noise realisations within their
+5 % error per band (``tests/test_cal.py``, docs/validation/coil.md).
 """
 from __future__ import annotations
 
