@@ -35,7 +35,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.stats import binom, norm
+from scipy.stats import binom, chi2, norm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import study_results  # noqa: E402
@@ -152,7 +152,6 @@ def summary(rows, seed_run):
            "seed1_z": dict(zip(NAMES, z1.tolist())), "seed1_exact_z": dict(zip(NAMES, zx1.tolist())),
            "seed1_p_fit_given_exact": dict(zip(NAMES, p_cond.tolist()))}
     # chi-square band of a scatter/sd ratio from n replicas at level 0.01
-    from scipy.stats import chi2
     out["ratio_band_99"] = [float(np.sqrt(chi2.ppf(0.005, n - 1) / (n - 1))),
                             float(np.sqrt(chi2.isf(0.005, n - 1) / (n - 1)))]
     return out
