@@ -22,19 +22,16 @@ residual's periodogram, times the deconvolution's band taper squared). A
 level error of ``S_0`` cancels in the ratio; its shape enters only through
 the leakage of a few bins.
 
-For 1 hour at 5 Hz (12 segments) the ratio measured from the scatter of the
-segments' residuals varies from run to run by 19 % (standard deviation over
-40 runs of one sensor and noise), and the intervals' widths with it;
-``c_b`` from the input varies by under 0.2 % between noise realisations of
-one run, and matches the variance of 400 simulated noise realisations
-within their 5 % error per band (docs/validation/coil.md).
+Measured from the scatter of a few segments' residuals (12 for an hour at
+5 Hz) the ratio is noisy from run to run, and the intervals' widths with it;
+``c_b`` from the input depends on the noise only through its smooth shape,
+and matches the variance of 400 simulated noise realisations within their
+5 % error per band (``tests/test_cal.py``, docs/validation/coil.md).
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import detrend
-
-from ..core.spectra import band_taper, deconvolve_runs, hann
+from ..core.spectra import band_taper, deconvolve_runs, hann, remove_line
 from .runs import EDGE_PERIODS
 
 #: Sub-bins per segment bin on which the kernels are summed (the shape
@@ -70,7 +67,7 @@ class BandVariance:
                             self.band, margin)[0]
         keep = np.flatnonzero(np.isin(np.fft.rfftfreq(n, 1.0 / fs), spectra.freqs))
         win = hann(n)
-        z = np.array([np.fft.rfft(detrend(a[s:s + n]) * win)[keep]
+        z = np.array([np.fft.rfft(remove_line(a[s:s + n].copy()) * win)[keep]
                       for s in spectra.segment_starts])                      # (K, F)
         ratio = SUB_BINS * int(np.ceil(2.0 * a.size / (SUB_BINS * n)))
         self.m = ratio * n                            # DFT length, >= twice the record
@@ -99,8 +96,8 @@ class BandVariance:
         for zk, s in zip(z, spectra.segment_starts):
             x = np.zeros((bands.size, n), complex)
             x[rows, keep[inb]] = zk[inb].conj()
-            # the detrend is a symmetric projection: its adjoint is itself
-            g[:, s:s + n] += detrend(np.fft.fft(x, axis=1) * win, axis=1)
+            # the line's removal is a symmetric projection: its adjoint is itself
+            g[:, s:s + n] += remove_line(np.fft.fft(x, axis=1) * win)
         g2 = np.abs(np.fft.ifft(g, axis=1) * self.m) ** 2
         return g2.reshape(bands.size, -1, group).sum(axis=2)
 

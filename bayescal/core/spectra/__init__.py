@@ -19,7 +19,7 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "welch": ["CrossSpectra", "band_refusal", "band_taper", "cross_spectra", "deconvolve_runs", "default_nperseg",
               "make_bands"],
-    "segments": ["hann"],
+    "segments": ["hann", "remove_line"],
     "dof": ["band_dof"],
     "bandfold": ["fold"],
     "coherence": ["welch_multiple_coherence"],
