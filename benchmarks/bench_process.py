@@ -23,6 +23,12 @@ alternated within each repeat, medians over ``--repeats`` (default 7):
   imported ObsPy and bayescal's fit path (emcee imports scipy.stats): the
   cost every sampling command pays once, stated apart.
 
+Each tree's package runs from a copy compiled to bytecode first, as an
+installation is (pip compiles what it installs), so that no child spends
+its start-up compiling bayescal's sources whatever
+``PYTHONDONTWRITEBYTECODE`` says (the libraries run from their installed
+bytecode either way).
+
 Wall and CPU (user + system) time of each child are kept, and its peak
 memory (``ru_maxrss``); on a shared machine the CPU time is the steadier of
 the two, and the machine's load (``os.getloadavg``) is printed with every
@@ -43,9 +49,11 @@ criticism whole, the result, writing), in
 from __future__ import annotations
 
 import argparse
+import compileall
 import contextlib
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -148,7 +156,17 @@ print(json.dumps(spent))
 """
 
 
-def stages(cmds, cwd):
+def installed(tree, folder):
+    """``folder`` holding a copy of ``tree``'s package compiled to bytecode
+    (module docstring): the PYTHONPATH its commands run with."""
+    dest = os.path.join(folder, "bayescal")
+    shutil.copytree(os.path.join(tree, "bayescal"), dest,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    compileall.compile_dir(dest, quiet=1)
+    return folder
+
+
+def stages(cmds, cwd, path=ROOT):
     """Each command's CPU seconds by stage, in one fresh process each
     (:data:`STAGES`: the time inside a stage's calls, less the stages
     nested in them; the criticism whole; "start-up and imports" up to the
@@ -160,7 +178,7 @@ def stages(cmds, cwd):
         argv = cmds[name][0]
         child = subprocess.run([sys.executable, "-c", STAGES] + argv[2:], capture_output=True,
                                text=True, check=True, cwd=cwd,
-                               env=dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1"))
+                               env=dict(os.environ, PYTHONPATH=str(path), OMP_NUM_THREADS="1"))
         result[name] = json.loads(child.stdout.strip().splitlines()[-1])
         print(name, {k: round(v, 3) for k, v in result[name].items()})
     return result
@@ -276,20 +294,22 @@ def main(argv=None):
         cmds = json.loads(subprocess.run([sys.executable, __file__, "--prepare", tmp],
                                          capture_output=True, text=True, check=True,
                                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout)
+        ours_path = installed(ROOT, os.path.join(tmp, "candidate"))
         if a.stages:
             return _write(os.path.join(os.path.dirname(a.out), "process_stages.json"),
                           {"command": "python benchmarks/bench_process.py --stages",
-                           "cpu_s_by_stage": stages(cmds, tmp)})
-        runs = [(name, argv_, ROOT, folder) for name, (argv_, _, folder) in cmds.items()]
+                           "cpu_s_by_stage": stages(cmds, tmp, ours_path)})
+        runs = [(name, argv_, ours_path, folder) for name, (argv_, _, folder) in cmds.items()]
         if a.before:
+            before = installed(a.before, os.path.join(tmp, "before"))
             runs += [(f"{name}_before", [x.replace(folder, folder + "_before") for x in argv_]
-                      if folder else argv_, a.before, folder and folder + "_before")
+                      if folder else argv_, before, folder and folder + "_before")
                      for name, (argv_, ours, folder) in cmds.items() if ours]
         for r in range(a.repeats):
             record["load"].append(os.getloadavg())
             _repeat(runs, tmp, record)
             imports.append(float(subprocess.run(
-                [sys.executable, "-c", IMPORT], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                [sys.executable, "-c", IMPORT], env=dict(os.environ, PYTHONPATH=ours_path),
                 capture_output=True, text=True, check=True, cwd=tmp).stdout.strip()))
             print(f"repeat {r + 1}/{a.repeats}, load {record['load'][-1][0]:.1f} (wall/CPU s): "
                   + ", ".join(f"{k} {record['wall'][k][-1]:.2f}/{record['cpu'][k][-1]:.2f}"
