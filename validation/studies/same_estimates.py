@@ -4,9 +4,11 @@ The pair is ``benchmarks/bench_process.py``'s 2-hour 20-Hz 3+3 simulated
 pair (its ``DEMO_TRUTH``), fitted with seeds 0 .. ``--seeds`` - 1, no
 criticism, each in a fresh subprocess per tree. Deterministic values (the
 least-squares point, the reference's noise coefficients and inflation, the
-plug-in precision's sum, the modes' log-posterior differences) are compared
-by their largest difference over the seeds, relative and, for the
-least-squares point, absolute. The sampled medians are compared as two
+plug-in precision's sum, the log-posterior differences of the modes both
+trees list) are compared by their largest difference over the seeds,
+relative and, for the least-squares point, absolute; the modes one tree
+lists and the other does not, and each fit's count of starts run off
+their chart, are listed. The sampled medians are compared as two
 independent Monte Carlo estimates: ``z = (m_a - m_b) / sqrt(e_a^2 + e_b^2)``,
 ``e`` a median's Monte Carlo error (``sqrt(pi / 2)`` sd over the square root
 of the chain's smallest ESS, which overstates it for the other
@@ -50,6 +52,7 @@ json.dump({"least_squares": s["meta"]["least_squares"],
            "noise_W_sum": float(np.sum(m.noise.W)),
            "modes": [[x["start"], x["log_posterior_difference"]]
                      for x in s["multimodal"]["modes"]],
+           "off_chart": s["multimodal"].get("off_chart", 0),
            "channels": s["channels"], "ess_min": s["convergence"]["ess_min"]},
           open(sys.argv[2], "w"), default=float)
 """
@@ -81,6 +84,14 @@ def _medians(a, b):
     return out
 
 
+def _modes(a, b):
+    """Largest difference of the log-posterior differences of the modes both
+    fits list (by their start; a start one tree lists and the other does
+    not is kept apart, :func:`compare`)."""
+    ma, mb = dict(a["modes"]), dict(b["modes"])
+    return max(abs(ma[k] - mb[k]) for k in ma if k in mb)
+
+
 def compare(pairs):
     """The differences the module docstring lists over ``pairs``, each
     ``(a, b)`` one seed's fits, ``a`` the reference tree's."""
@@ -94,13 +105,16 @@ def compare(pairs):
                                                         b["noise_inflation"])),
                        ("noise_rho_max_rel", _rel(a["noise_rho"], b["noise_rho"])),
                        ("noise_W_sum_rel", _rel(a["noise_W_sum"], b["noise_W_sum"])),
-                       ("modes_log_posterior_max_abs", float(np.max(np.abs(
-                           np.array([m[1] for m in a["modes"]])
-                           - np.array([m[1] for m in b["modes"]])))))):
+                       ("modes_log_posterior_max_abs", _modes(a, b))):
             worst[key] = max(worst.get(key, 0.0), v)
     z = np.array([v for a, b in pairs for v in _medians(a, b).values()])
     over = int(np.sum(np.abs(z) > 2))
+    only = {"before": [m for a, b in pairs for m in a["modes"] if m[0] not in dict(b["modes"])],
+            "after": [m for a, b in pairs for m in b["modes"] if m[0] not in dict(a["modes"])]}
     return {**worst, "modes": {"before": pairs[0][0]["modes"], "after": pairs[0][1]["modes"]},
+            "modes_in_one_tree_only": only,
+            "off_chart": {"before": [a.get("off_chart", 0) for a, _ in pairs],
+                          "after": [b.get("off_chart", 0) for _, b in pairs]},
             "median_z": {"n": int(z.size), "max_abs": float(np.max(np.abs(z))),
                          "sd": float(np.sqrt(np.mean(z ** 2))), "over_2": over,
                          "p_at_least_that_many_by_chance": float(binom.sf(over - 1, z.size,

@@ -21,6 +21,17 @@ therefore also run from other starts:
 * **nominal axes** from the metadata (when they differ from the optimum by
   more than ``SAME_AXIS_DEG``).
 
+A polish runs in a chart centred on its start's axes (gnomonic: the
+hemisphere around each axis). When the posterior's better fits lie beyond
+the hemisphere (a mirror that reverses an axis whose polarity the data
+fix), least squares runs its axis toward the chart's edge, 90 degrees from
+the start, where the coordinates grow without bound and the fit stops
+changing: that end point is no optimum of the posterior, whose rise goes on
+past the edge. A polish is therefore stopped once one of its accepted points
+inside the prior's box puts an axis at :data:`CHART_EDGE`, or ends there,
+and counted as run off its chart (``off_chart`` in the report), never
+listed as a mode.
+
 Each end point is polished with the noise model of the first fit held
 fixed, its log-posterior ``l_m`` and the curvature ``H_m`` of the
 log-posterior measured there (finite differences, the per-band noise scale
@@ -73,6 +84,11 @@ SAME_AXIS_DEG = 1.0
 #: The labels of the mirrored starts: one channel's (after its id), every channel's.
 SINGLE = " mirrored across the weakest ground motion"
 JOINT = "every axis mirrored across the weakest ground motion"
+#: Gnomonic radius of a chart's edge: an axis 89.4 degrees from the chart's
+#: centre (tan 89.4 deg = 100); a polish whose axis reaches it ran off its chart.
+CHART_EDGE = 100.0
+#: What :func:`optimum` returns for a start whose polish ran off its chart.
+OFF_CHART = "ran off its chart"
 
 
 @dataclass
@@ -125,21 +141,51 @@ def theta_for(model, vectors, theta_response):
 
 def _polish(model, theta, factors, budget=None):
     """Least squares from ``theta`` with the noise model held fixed (within
-    ``budget``: :func:`bayescal.core.fit.leastsq.solve`). Raises
+    ``budget``: :func:`bayescal.core.fit.leastsq.solve`); None when it ran
+    off its chart (:func:`off_chart`). Raises
     :class:`~bayescal.errors.BudgetSpent` when the budget ended it before it
     converged: its point is then no optimum."""
     lo, hi = prior_bounds(model)
     theta = np.clip(theta, lo + 1e-9, hi - 1e-9)
-    with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
-        res = _least_squares(model, theta, factors, lo, hi, budget)
+    try:
+        with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
+            res = _least_squares(model, theta, factors, lo, hi, budget)
+    except StopIteration:                   # an accepted point at the chart's edge
+        return None
     if res.status == -3:
         raise BudgetSpent(res.message)
-    return res.x
+    return None if off_chart(model, res.x) else res.x
+
+
+def off_chart(model, theta):
+    """Whether an axis of ``model`` at ``theta`` lies at its chart's edge
+    (gnomonic radius at least :data:`CHART_EDGE`)."""
+    return any(isinstance(b.manifold, Sphere) and np.hypot(*theta[so]) >= CHART_EDGE
+               for b, (so, _) in zip(model.blocks, model.slices))
 
 
 def _least_squares(model, theta, factors, lo, hi, budget):
     fun, jac = least_squares_objective(model, _jacobian(model))
+    if callable(jac):
+        jac = _EdgeWatch(model, jac, lo, hi)
     return solve(fun, theta, lo, hi, method="lm", jac=jac, args=(factors,), budget=budget)
+
+
+class _EdgeWatch:
+    """A least-squares ``jac`` that raises :class:`StopIteration` (scipy's
+    own signal to stop a run) at a point inside the box ``[lo, hi]`` with
+    an axis at its chart's edge: scipy's methods evaluate the Jacobian only
+    at the points they accept, so the polish has settled on running off
+    its chart (:func:`off_chart`)."""
+
+    def __init__(self, model, jac, lo, hi):
+        self.model, self.jac, self.lo, self.hi = model, jac, lo, hi
+
+    def __call__(self, theta, *args):
+        inside = np.all(theta >= self.lo) and np.all(theta <= self.hi)
+        if inside and off_chart(self.model, theta):
+            raise StopIteration("an axis at its chart's edge")
+        return self.jac(theta, *args)
 
 
 def curvature(log_prob, theta, step):
@@ -167,9 +213,12 @@ def curvature(log_prob, theta, step):
 def optimum(model, theta, label, factors, first=None, budget=None):
     """Polish ``theta`` (within ``budget``) and describe the end point
     (chart centred on it); None when it came back within
-    :func:`merge_threshold` of ``first``."""
+    :func:`merge_threshold` of ``first``, :data:`OFF_CHART` when the polish
+    ran off its chart."""
     if first is not None:
         theta = _polish(model, theta, factors, budget)
+        if theta is None:
+            return OFF_CHART
     vecs = model.unpack(theta)[0][0]
     model = recharted(model, vecs)
     theta = theta_for(model, vecs, theta)
@@ -304,38 +353,40 @@ def physical(opt):
 
 def _from_starts(model, theta_ls, nominal_vectors, factors, budget):
     """The optima from the first fit's point and the other starts:
-    ``(found, returned, skipped, ruled_out)``, the distinct optima (the
-    first fit's first), the starts that came back to it, those ``budget``
-    left untried or cut off before their polish converged, and those the
-    data already rule out (:func:`_ruled_out`)."""
+    ``(found, count)``, the distinct optimum of each start (the first fit's
+    first) and the count of the starts that came back to it
+    (``returned``), those ``budget`` left untried or cut off before their
+    polish converged (``skipped``), those the data already rule out
+    (``ruled_out``, :func:`_ruled_out`) and those whose polish ran off its
+    chart (``off_chart``, :func:`off_chart`)."""
     first = optimum(model, theta_ls, "closed-form start (the first fit)", factors)
-    found, returned, skipped, ruled_out = [first], 0, 0, 0
+    found, count = [first], dict.fromkeys(("returned", "skipped", "ruled_out", "off_chart"), 0)
     singles = {"polished": 0, "distinct": 0}
     todo = starts(model, theta_ls, nominal_vectors)
     n_single = sum(1 for label, _ in todo if label.endswith(SINGLE) and label != JOINT)
     for label, v in todo:
         if budget is not None and budget.spent():
-            skipped += 1
+            count["skipped"] += 1
             continue
         if _ruled_out(label, singles, n_single):
-            ruled_out += 1
+            count["ruled_out"] += 1
             continue
         chart = recharted(model, v)
         try:
             o = optimum(chart, theta_for(chart, v, theta_ls), label, factors, first, budget)
         except BudgetSpent:         # cut off mid-polish: not an optimum, not a mode
-            skipped += 1
+            count["skipped"] += 1
             continue
         except (np.linalg.LinAlgError, ValueError):
             continue
         if label.endswith(SINGLE) and label != JOINT:
             singles["polished"] += 1
-            singles["distinct"] += o is not None
-        if o is None:
-            returned += 1
+            singles["distinct"] += o is not None      # off its chart: away from the first fit
+        if o is None or o is OFF_CHART:
+            count["returned" if o is None else "off_chart"] += 1
         else:
             found.append(o)
-    return found, returned, skipped, ruled_out
+    return found, count
 
 
 def _ruled_out(label, singles, n_single):
@@ -360,8 +411,7 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
     ``budget`` say so), never as a mode."""
     factors = model.noise.cholesky()
     with (budget.active() if budget is not None else contextlib.nullcontext()):
-        found, returned, skipped, ruled_out = _from_starts(model, theta_ls, nominal_vectors,
-                                                           factors, budget)
+        found, count = _from_starts(model, theta_ls, nominal_vectors, factors, budget)
     first = found[0]
     threshold = merge_threshold(model.ndim)
     modes = group(found, threshold)
@@ -369,15 +419,12 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
         modes[0] = first                 # the first fit's mode: keep its point (no restart)
     frac = mass_fractions([m.log_mass for m in modes])
     best = modes[0]
+    tried = len(found) + count["returned"] + count["off_chart"]
     report = {
         "detected": bool(len(modes) > 1 and frac[1:].max() >= mass),
-        "returned_to_first": returned, "starts": len(found) + returned + skipped,
-        **({"not_tried": skipped, "budget": budget.note()} if skipped else {}),
-        **({"ruled_out": ruled_out, "ruled_out_why": (
-            "the start with every axis mirrored: each axis's own mirrored start was polished "
-            "and at most one ended away from the first fit, so the data hold the others")}
-           if ruled_out else {}),
-        "test": (f"least squares from {len(found) + returned} starts (closed form, axes mirrored across the "
+        "returned_to_first": count["returned"], "starts": tried + count["skipped"],
+        **_counted(count, budget),
+        "test": (f"least squares from {tried} starts (closed form, axes mirrored across the "
                  "weakest ground motion, nominal axes); optima within a Mahalanobis distance of "
                  f"{threshold:.2f} (99 % Laplace ellipsoids touching) are one mode; multimodal "
                  f"when a second mode holds at least {mass:g} of the Laplace mass"),
@@ -390,3 +437,20 @@ def search(model, theta_ls, nominal_vectors=None, mass=MODE_MASS, budget=None):
                    "channels": physical(m)} for k, (m, f) in enumerate(zip(modes, frac))],
     }
     return best, report
+
+
+def _counted(count, budget):
+    """The report's entries for the starts not tried, ruled out or run off
+    their chart (none when there are none)."""
+    out = {}
+    if count["skipped"]:
+        out.update(not_tried=count["skipped"], budget=budget.note())
+    if count["ruled_out"]:
+        out.update(ruled_out=count["ruled_out"], ruled_out_why=(
+            "the start with every axis mirrored: each axis's own mirrored start was polished "
+            "and at most one ended away from the first fit, so the data hold the others"))
+    if count["off_chart"]:
+        out.update(off_chart=count["off_chart"], off_chart_why=(
+            "least squares ran an axis to the edge of its start's chart (90 degrees from the "
+            "start), where the fit stops changing: no optimum of the posterior"))
+    return out
