@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import shlex
 import sys
 import warnings
@@ -39,35 +40,41 @@ import numpy as np
 import short_windows as sw                    # the sibling module, run as a script
 import study_results
 
-from bayescal.core.model import misfit_scale
+from bayescal.core.model import channel_scale, misfit_scale
 
 ROOT = Path(__file__).resolve().parents[2]
 SHAPE = misfit_scale.MISFIT_SHAPE
 
 
-def _settings(pi, floor, a=SHAPE, factor_floor=0.0):
+def _settings(pi, floor, a=SHAPE, factor_floor=0.0, per_channel=False):
     """The module's likelihood with ``OWN_SCALE_PROB = pi``, ``SCALE_FLOOR =
     floor`` and, for the scale per band, its least variance factor
-    ``factor_floor`` (:data:`~bayescal.core.model.misfit_scale.FACTOR_FLOOR`)."""
-    def loglik(q, k, w):
+    ``factor_floor`` (:data:`~bayescal.core.model.misfit_scale.FACTOR_FLOOR`),
+    of a fit's draws (:func:`short_windows.posterior_draws`): the bands'
+    energies, or with ``per_channel`` each SUT channel's shares of them
+    (:mod:`bayescal.core.model.channel_scale`)."""
+    def loglik(d):
         old = misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR
         misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = pi, floor
         try:
-            return misfit_scale.band_loglik(q, k, a, w, floor=factor_floor)
+            if per_channel:
+                return channel_scale.channel_loglik(d["qc"], d["kc"], a, d["weight"],
+                                                    floor=factor_floor)
+            return misfit_scale.band_loglik(d["q"], d["k"], a, d["weight"], floor=factor_floor)
         finally:
             misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = old
     return loglik
 
 
-def _fitted(q, k, w):
+def _fitted(d):
     """The likelihood the fits sampled: the module's defaults."""
-    return misfit_scale.band_loglik(q, k, SHAPE, w)
+    return misfit_scale.band_loglik(d["q"], d["k"], SHAPE, d["weight"])
 
 
-#: label -> (log likelihood of (q, k, weight), what it is)
+#: label -> log likelihood of a fit's draws
 FORMS = {
     "per band, free (default)": _settings(1.0, False),
-    "Gaussian": lambda q, k, w: -np.sum(w * q, axis=1),
+    "Gaussian": lambda d: -np.sum(d["weight"] * d["q"], axis=1),
     "per band, s >= 1": _settings(1.0, True),
     "per band, free, a = 3": _settings(1.0, False, 3.0),
     "per band, factor >= 1": _settings(1.0, False, factor_floor=1.0),
@@ -85,6 +92,28 @@ FORMS = {
     "pooled, pi = 0.25, free": _settings(0.25, False),
     "pooled, pi = 0.5, free": _settings(0.5, False),
 }
+#: The same forms with a scale per SUT channel (its shares of each band).
+CHANNEL_FORMS = {
+    "per channel and band, free": _settings(1.0, False, per_channel=True),
+    "per channel and band, free, a = 3": _settings(1.0, False, 3.0, per_channel=True),
+    "per channel and band, free, a = 4": _settings(1.0, False, 4.0, per_channel=True),
+    "per channel and band, s >= 1": _settings(1.0, True, per_channel=True),
+    "per channel and band, factor >= 1": _settings(1.0, False, factor_floor=1.0,
+                                                   per_channel=True),
+    "per channel and band, factor >= 1, a = 3": _settings(1.0, False, 3.0, 1.0, True),
+    "per channel and band, factor >= 1, a = 4": _settings(1.0, False, 4.0, 1.0, True),
+    "per channel and band, factor >= 0.9, a = 3": _settings(1.0, False, 3.0, 0.9, True),
+    "per channel, pooled (pi = 0), free": _settings(0.0, False, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1": _settings(0.0, True, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1, a = 1": _settings(0.0, True, 1.0, per_channel=True),
+    "per channel, pooled, pi = 0.1, s >= 1": _settings(0.1, True, per_channel=True),
+    "per channel, pooled, pi = 0.25, s >= 1": _settings(0.25, True, per_channel=True),
+    "per channel, pooled, pi = 0.5, s >= 1": _settings(0.5, True, per_channel=True),
+    "per channel, pooled, pi = 0.25, free": _settings(0.25, False, per_channel=True),
+    "per channel, pooled, pi = 0.5, free": _settings(0.5, False, per_channel=True),
+    "per channel, pooled, pi = 0.25, s >= 1, a = 3": _settings(0.25, True, 3.0,
+                                                               per_channel=True),
+}
 
 
 def weighted_quantiles(x, w, probs):
@@ -97,8 +126,7 @@ def weighted_quantiles(x, w, probs):
 def reweighted(draws, form):
     """``(azimuth summaries per channel, Kish fraction)`` of one fit's
     draws under ``form``: median, 68 and 95 % intervals, sd from the 68 %."""
-    log_w = form(draws["q"], draws["k"], draws["weight"]) - _fitted(draws["q"], draws["k"],
-                                                                    draws["weight"])
+    log_w = form(draws) - _fitted(draws)
     w = np.exp(log_w - np.max(log_w))
     w /= w.sum()
     out = {}
@@ -124,8 +152,9 @@ def evaluate(fits, whole_draws, form):
     return out
 
 
-def fit_all(every):
-    """The default fit of every ``every``-th window and of the whole record,
+def fit_all(every, seed_offset=0):
+    """The default fit of every ``every``-th window (window k's sampler seed
+    ``k + seed_offset``, as ``short_windows.py``) and of the whole record,
     with their draws."""
     from obspy import UTCDateTime
     from bayescal.io import read_waveforms
@@ -138,8 +167,8 @@ def fit_all(every):
     starts = np.arange(t0.timestamp, t1.timestamp - 1, 600.0)
     for k in range(0, starts.size, every):
         draws = {}
-        row = sw.fit_window(data, UTCDateTime(starts[k]), UTCDateTime(starts[k] + 600.0), k,
-                            "drop", None, draws)
+        row = sw.fit_window(data, UTCDateTime(starts[k]), UTCDateTime(starts[k] + 600.0),
+                            k + seed_offset, "drop", None, draws)
         fits.append((row, draws))
         print(str(UTCDateTime(starts[k])), flush=True)
     return fits, whole_draws
@@ -166,11 +195,29 @@ REFITTED = {"per band, free (default)": "short_windows.json",
             "per band, factor >= 1, a = 3": "short_windows_factor_floor.json"}
 
 
+def kept_fits(args):
+    """:func:`fit_all`, or its draws read back from ``args.draws``."""
+    path = None if args.draws is None else Path(args.draws)
+    if path is not None and path.exists():
+        with path.open("rb") as f:
+            return pickle.load(f)
+    fits = fit_all(args.every, args.seed_offset)
+    if path is not None:
+        with path.open("wb") as f:
+            pickle.dump(fits, f)
+    return fits
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "validation" / "results" / "repeatability"
                                          / "scale_candidates.json"))
     ap.add_argument("--every", type=int, default=1, help="every n-th window only")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="window k's sampler seed is k plus this (0: k)")
+    ap.add_argument("--draws", default=None,
+                    help="a file keeping the fits' draws (pickle): read if it exists, else "
+                         "written, so that forms can be added without refitting")
     ap.add_argument("--recheck", action="store_true",
                     help="only compare the stored result with the refitted runs stored beside it")
     args = ap.parse_args(argv)
@@ -179,13 +226,13 @@ def main(argv=None):
     if args.recheck:
         result = study_results.read(args.out)
     else:
-        fits, whole_draws = fit_all(args.every)
+        fits, whole_draws = kept_fits(args)
         result = {"command": " ".join(["python validation/studies/scale_candidates.py"]
                                       + [shlex.quote(a) for a in (sys.argv[1:] if argv is None
                                                                   else argv)]),
-                  "windows": len(fits), "shape_a": SHAPE,
+                  "windows": len(fits), "shape_a": SHAPE, "seed_offset": args.seed_offset,
                   "forms": {label: evaluate(fits, whole_draws, form)
-                            for label, form in FORMS.items()}}
+                            for label, form in {**FORMS, **CHANNEL_FORMS}.items()}}
     if result["windows"] == 102:
         result["refitted_runs"] = check(result, {label: res / name for label, name
                                                  in REFITTED.items() if (res / name).exists()})
