@@ -28,6 +28,9 @@ relative orientation does not change within the record, so per channel:
     python validation/studies/short_windows.py --every 3     # every third window (34 of 102)
     python validation/studies/short_windows.py --own-scale-prob 0.25 --scale-floor \
         --out validation/results/repeatability/short_windows_pooled.json   # the pooled scale
+    python validation/studies/short_windows.py --per-channel --own-scale-prob 0 --scale-floor \
+        --misfit-shape 2.5 --out validation/results/repeatability/short_windows_channel.json
+        # a pooled scale per SUT channel (bayescal.core.model.channel_scale)
 """
 from __future__ import annotations
 
@@ -113,6 +116,8 @@ def summarise(rows, whole, modes):
         per = {c: channel_summary(ok, c, whole[mode][c]) for c in ("LHN", "LHE")}
         per["median_seconds"] = float(np.median([o["seconds"] for o in ok]))
         per["windows_with_drops"] = int(sum(o["dropped"] > 0 for o in ok))
+        per["median_dropped"] = float(np.median([o["dropped"] for o in ok]))
+        per["median_segments"] = float(np.median([o["segments"] + o["dropped"] for o in ok]))
         per["shown"] = {r["start"][:19]: {c: {"median": r[mode][c]["median"],
                                               "ci95": r[mode][c]["ci95"],
                                               "width95": r[mode][c]["ci95"][1]
