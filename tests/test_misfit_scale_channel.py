@@ -5,14 +5,19 @@ shares. The closed form against numerical integration over the channels'
 scales of the Gaussian whose covariance they scale (``V^(1/2) D V^(1/2)``,
 channels correlated); the pooling across bands by simulation-based
 calibration: scales drawn from their prior, residuals from the model, each
-channel's posterior of its pooled scale holds the truth at its rate."""
+channel's posterior of its pooled scale holds the truth at its rate; and on
+fitted models (base and errors in variables) the shares against the model's
+own band energies and likelihood."""
 import numpy as np
 from scipy.integrate import simpson
 from scipy.stats import binom, gamma
 
-from bayescal.core.model.channel_scale import (channel_loglik, channel_scale,
+from bayescal.core.model import misfit_scale
+from bayescal.core.model.channel_scale import (channel_energy, channel_loglik, channel_scale,
                                                complex_channel_energy, real_channel_energy,
                                                sym_sqrt)
+from bayescal.pair.workflow import calibrate
+from bayescal.simulate.pair import simulate_pair
 
 A = 2.0
 
@@ -110,3 +115,30 @@ def test_pooled_scale_per_channel_holds_its_truth():
         assert np.allclose(factor, ((A + big_q) / (A + big_k))[None])
     lo, hi = binom.ppf([0.005, 0.995], 2 * n, 0.9)
     assert lo <= inside <= hi, (inside, lo, hi)
+
+
+def test_fitted_models_split_their_band_energy(monkeypatch):
+    """On a simulated 3+3 pair, for the base model (reference quiet) and the
+    errors-in-variables one (its noise estimated): each channel's shares of
+    a fit's draws sum to the model's band energies and their degrees of
+    freedom to the band's; with ``PER_CHANNEL`` on, the model's likelihood
+    is the sum over channels of the shares' marginal."""
+    sim = simulate_pair(duration=900.0, fs=5.0, seed=5, coherence=0.95)
+    for ref_noise in ("quiet", "estimate"):
+        post = calibrate(sut=sim.sut, sut_xml=sim.sut_inventory, ref=sim.ref,
+                         ref_xml=sim.ref_inventory, band=(0.05, 1.0), seed=1, progress=False,
+                         diagnose=False, ref_noise=ref_noise)
+        model = post.state.model
+        theta = post.samples[::max(1, len(post.samples) // 40)]
+        q, k = model.band_energy(theta)
+        qc, kc = channel_energy(model, theta)
+        assert qc.shape == q.shape + (3,)
+        assert np.allclose(qc.sum(axis=-1), q, rtol=1e-9)
+        assert np.allclose(kc.sum(axis=-1), k)
+        assert np.all(qc >= 0)
+        with monkeypatch.context() as m:
+            m.setattr(misfit_scale, "PER_CHANNEL", True)
+            got = model.log_likelihood(theta)
+        want = channel_loglik(qc, kc, model.misfit_shape, model.noise.weight)
+        assert np.allclose(got, want)
+        assert not np.allclose(got, model.log_likelihood(theta))
