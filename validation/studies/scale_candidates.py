@@ -21,15 +21,23 @@ another shape; the pooled scale with each band its own with probability
 variance factor may not fall below ``f0`` (``FACTOR_FLOOR``: the
 likelihood's slope in ``q_b`` is ``min(1 / f0, (a + k_b) / (a + q_b))``, the
 marginal's where a band's residual exceeds ``f0 (a + k_b) - a``, a Gaussian
-of variance ``f0`` below), with the default shape or another.
+of variance ``f0`` below), with the default shape or another. The same
+forms per SUT channel (:mod:`bayescal.core.model.channel_scale`: each
+channel's share of the bands' energies), and the Gaussian with a fixed
+variance factor per channel. Beside the forms, per channel: the room a
+constant factor has (:func:`channel_room`) and how the default's window
+estimates stray from the whole record's (:func:`wander`).
 
     python validation/studies/scale_candidates.py --out validation/results/repeatability/scale_candidates.json
+    python validation/studies/scale_candidates.py --seed-offset 1000 \
+        --out validation/results/repeatability/scale_candidates_seeds1000.json
     python validation/studies/scale_candidates.py --recheck   # after a refitted run is stored
 """
 from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import shlex
 import sys
 import warnings
@@ -39,35 +47,52 @@ import numpy as np
 import short_windows as sw                    # the sibling module, run as a script
 import study_results
 
-from bayescal.core.model import misfit_scale
+from bayescal.core.model import channel_scale, misfit_scale
 
 ROOT = Path(__file__).resolve().parents[2]
 SHAPE = misfit_scale.MISFIT_SHAPE
 
 
-def _settings(pi, floor, a=SHAPE, factor_floor=0.0):
+def _settings(pi, floor, a=SHAPE, factor_floor=0.0, per_channel=False):
     """The module's likelihood with ``OWN_SCALE_PROB = pi``, ``SCALE_FLOOR =
     floor`` and, for the scale per band, its least variance factor
-    ``factor_floor`` (:data:`~bayescal.core.model.misfit_scale.FACTOR_FLOOR`)."""
-    def loglik(q, k, w):
+    ``factor_floor`` (:data:`~bayescal.core.model.misfit_scale.FACTOR_FLOOR`),
+    of a fit's draws (:func:`short_windows.posterior_draws`): the bands'
+    energies, or with ``per_channel`` each SUT channel's shares of them
+    (:mod:`bayescal.core.model.channel_scale`)."""
+    def loglik(d):
         old = misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR
         misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = pi, floor
         try:
-            return misfit_scale.band_loglik(q, k, a, w, floor=factor_floor)
+            if per_channel:
+                return channel_scale.channel_loglik(d["qc"], d["kc"], a, d["weight"],
+                                                    floor=factor_floor)
+            return misfit_scale.band_loglik(d["q"], d["k"], a, d["weight"], floor=factor_floor)
         finally:
             misfit_scale.OWN_SCALE_PROB, misfit_scale.SCALE_FLOOR = old
     return loglik
 
 
-def _fitted(q, k, w):
+def _fitted(d):
     """The likelihood the fits sampled: the module's defaults."""
-    return misfit_scale.band_loglik(q, k, SHAPE, w)
+    return misfit_scale.band_loglik(d["q"], d["k"], SHAPE, d["weight"])
 
 
-#: label -> (log likelihood of (q, k, weight), what it is)
+def fixed_factors(f_north, f_east):
+    """The Gaussian with each channel's noise variance times a fixed factor
+    (its shares of every band divided by it): a widening per channel set
+    from outside the window's data."""
+    f = np.array([f_north, f_east])
+
+    def loglik(d):
+        return -np.sum(d["weight"][:, None] * d["qc"] / f, axis=(1, 2))
+    return loglik
+
+
+#: label -> log likelihood of a fit's draws
 FORMS = {
     "per band, free (default)": _settings(1.0, False),
-    "Gaussian": lambda q, k, w: -np.sum(w * q, axis=1),
+    "Gaussian": lambda d: -np.sum(d["weight"] * d["q"], axis=1),
     "per band, s >= 1": _settings(1.0, True),
     "per band, free, a = 3": _settings(1.0, False, 3.0),
     "per band, factor >= 1": _settings(1.0, False, factor_floor=1.0),
@@ -85,6 +110,32 @@ FORMS = {
     "pooled, pi = 0.25, free": _settings(0.25, False),
     "pooled, pi = 0.5, free": _settings(0.5, False),
 }
+#: The same forms with a scale per SUT channel (its shares of each band).
+CHANNEL_FORMS = {
+    "per channel and band, free": _settings(1.0, False, per_channel=True),
+    "per channel and band, free, a = 3": _settings(1.0, False, 3.0, per_channel=True),
+    "per channel and band, free, a = 4": _settings(1.0, False, 4.0, per_channel=True),
+    "per channel and band, s >= 1": _settings(1.0, True, per_channel=True),
+    "per channel and band, factor >= 1": _settings(1.0, False, factor_floor=1.0,
+                                                   per_channel=True),
+    "per channel and band, factor >= 1, a = 3": _settings(1.0, False, 3.0, 1.0, True),
+    "per channel and band, factor >= 1, a = 4": _settings(1.0, False, 4.0, 1.0, True),
+    "per channel and band, factor >= 0.9, a = 3": _settings(1.0, False, 3.0, 0.9, True),
+    "per channel, pooled (pi = 0), free": _settings(0.0, False, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1": _settings(0.0, True, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1, a = 1": _settings(0.0, True, 1.0, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1, a = 2.5": _settings(0.0, True, 2.5, per_channel=True),
+    "per channel, pooled (pi = 0), s >= 1, a = 3": _settings(0.0, True, 3.0, per_channel=True),
+    "per channel, pooled, pi = 0.1, s >= 1": _settings(0.1, True, per_channel=True),
+    "per channel, pooled, pi = 0.25, s >= 1": _settings(0.25, True, per_channel=True),
+    "per channel, pooled, pi = 0.5, s >= 1": _settings(0.5, True, per_channel=True),
+    "per channel, pooled, pi = 0.25, free": _settings(0.25, False, per_channel=True),
+    "per channel, pooled, pi = 0.5, free": _settings(0.5, False, per_channel=True),
+    "per channel, pooled, pi = 0.25, s >= 1, a = 3": _settings(0.25, True, 3.0,
+                                                               per_channel=True),
+    "per channel, Gaussian, fixed factors 1.6 (N), 2.2 (E)": fixed_factors(1.6, 2.2),
+    "per channel, Gaussian, fixed factors 1.5 (N), 2.0 (E)": fixed_factors(1.5, 2.0),
+}
 
 
 def weighted_quantiles(x, w, probs):
@@ -97,8 +148,7 @@ def weighted_quantiles(x, w, probs):
 def reweighted(draws, form):
     """``(azimuth summaries per channel, Kish fraction)`` of one fit's
     draws under ``form``: median, 68 and 95 % intervals, sd from the 68 %."""
-    log_w = form(draws["q"], draws["k"], draws["weight"]) - _fitted(draws["q"], draws["k"],
-                                                                    draws["weight"])
+    log_w = form(draws) - _fitted(draws)
     w = np.exp(log_w - np.max(log_w))
     w /= w.sum()
     out = {}
@@ -124,8 +174,55 @@ def evaluate(fits, whole_draws, form):
     return out
 
 
-def fit_all(every):
-    """The default fit of every ``every``-th window and of the whole record,
+def channel_room(fits, whole_draws):
+    """Per channel, the room a constant widening has, from the Gaussian's
+    windows (reweighted; a width scales as the square root of its channel's
+    variance factor): the least factor that keeps every window at or above
+    its bound, ``(1 / min width/bound)^2``, and the most the scatter allows,
+    ``(1.1 scatter/bound / median width/bound)^2``; beside them the
+    channel's excess residual energy in its windows, the median over windows
+    of the posterior median of ``Q_c / K_c`` (weighted sums over the bands)."""
+    g = evaluate(fits, whole_draws, FORMS["Gaussian"])
+    excess = np.array([np.median(np.sum(d["weight"][:, None] * d["qc"], axis=1)
+                                 / np.sum(d["weight"][:, None] * d["kc"], axis=0), axis=0)
+                       for _, d in fits])                                   # (windows, 2)
+    out = {}
+    for j, c in enumerate(("LHN", "LHE")):
+        x = g[c]
+        out[c] = {"gaussian_width_over_bound_min": x["width_over_bound_min"],
+                  "gaussian_width_over_bound_median": x["width_over_bound_median"],
+                  "gaussian_scatter_over_bound": x["scatter_over_bound"],
+                  "least_factor": x["width_over_bound_min"] ** -2,
+                  "most_factor": (1.1 * x["scatter_over_bound"]
+                                  / x["width_over_bound_median"]) ** 2,
+                  "residual_excess_median": float(np.median(excess[:, j])),
+                  "windows_east_excess_above_north": int(np.sum(excess[:, 1] > excess[:, 0]))}
+    return out
+
+
+def wander(fits, whole_draws):
+    """Per channel, how the default's window medians stray from the whole
+    record's: their errors ``z`` in units of each window's bound, the
+    standard deviation of ``z``, its lag-one autocorrelation, the scatter of
+    successive differences ``sqrt(mean(diff(z)^2) / 2)`` (the window-to-window
+    scatter, blind to a drift slower than a window), and the means of ``z``
+    over consecutive two-hour blocks (12 windows)."""
+    whole = np.median(whole_draws["az"], axis=0)
+    out = {}
+    for j, c in enumerate(("LHN", "LHE")):
+        med = np.array([np.median(d["az"][:, j]) for _, d in fits])
+        z = (med - whole[j]) / np.array([row[c]["bound_sd"] for row, _ in fits])
+        zc = z - z.mean()
+        out[c] = {"sd": float(np.std(z, ddof=1)),
+                  "lag_one_correlation": float(np.sum(zc[1:] * zc[:-1]) / np.sum(zc ** 2)),
+                  "successive_difference_scatter": float(np.sqrt(np.mean(np.diff(z) ** 2) / 2)),
+                  "two_hour_means": [float(z[i:i + 12].mean()) for i in range(0, z.size, 12)]}
+    return out
+
+
+def fit_all(every, seed_offset=0):
+    """The default fit of every ``every``-th window (window k's sampler seed
+    ``k + seed_offset``, as ``short_windows.py``) and of the whole record,
     with their draws."""
     from obspy import UTCDateTime
     from bayescal.io import read_waveforms
@@ -138,8 +235,8 @@ def fit_all(every):
     starts = np.arange(t0.timestamp, t1.timestamp - 1, 600.0)
     for k in range(0, starts.size, every):
         draws = {}
-        row = sw.fit_window(data, UTCDateTime(starts[k]), UTCDateTime(starts[k] + 600.0), k,
-                            "drop", None, draws)
+        row = sw.fit_window(data, UTCDateTime(starts[k]), UTCDateTime(starts[k] + 600.0),
+                            k + seed_offset, "drop", None, draws)
         fits.append((row, draws))
         print(str(UTCDateTime(starts[k])), flush=True)
     return fits, whole_draws
@@ -163,7 +260,21 @@ REFITTED = {"per band, free (default)": "short_windows.json",
             "per band, s >= 1": "short_windows_floor.json",
             "pooled, pi = 0.1, s >= 1": "short_windows_pooled_0.1.json",
             "pooled, pi = 0.25, s >= 1": "short_windows_pooled.json",
-            "per band, factor >= 1, a = 3": "short_windows_factor_floor.json"}
+            "per band, factor >= 1, a = 3": "short_windows_factor_floor.json",
+            "per channel, pooled (pi = 0), s >= 1, a = 2.5": "short_windows_channel.json"}
+
+
+def kept_fits(args):
+    """:func:`fit_all`, or its draws read back from ``args.draws``."""
+    path = None if args.draws is None else Path(args.draws)
+    if path is not None and path.exists():
+        with path.open("rb") as f:
+            return pickle.load(f)
+    fits = fit_all(args.every, args.seed_offset)
+    if path is not None:
+        with path.open("wb") as f:
+            pickle.dump(fits, f)
+    return fits
 
 
 def main(argv=None):
@@ -171,6 +282,11 @@ def main(argv=None):
     ap.add_argument("--out", default=str(ROOT / "validation" / "results" / "repeatability"
                                          / "scale_candidates.json"))
     ap.add_argument("--every", type=int, default=1, help="every n-th window only")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="window k's sampler seed is k plus this (0: k)")
+    ap.add_argument("--draws", default=None,
+                    help="a file keeping the fits' draws (pickle): read if it exists, else "
+                         "written, so that forms can be added without refitting")
     ap.add_argument("--recheck", action="store_true",
                     help="only compare the stored result with the refitted runs stored beside it")
     args = ap.parse_args(argv)
@@ -179,14 +295,18 @@ def main(argv=None):
     if args.recheck:
         result = study_results.read(args.out)
     else:
-        fits, whole_draws = fit_all(args.every)
+        fits, whole_draws = kept_fits(args)
+        given = sys.argv[1:] if argv is None else argv
+        kept = [a for i, a in enumerate(given)             # the cache is not part of the command
+                if a != "--draws" and (i == 0 or given[i - 1] != "--draws")]
         result = {"command": " ".join(["python validation/studies/scale_candidates.py"]
-                                      + [shlex.quote(a) for a in (sys.argv[1:] if argv is None
-                                                                  else argv)]),
-                  "windows": len(fits), "shape_a": SHAPE,
+                                      + [shlex.quote(a) for a in kept]),
+                  "windows": len(fits), "shape_a": SHAPE, "seed_offset": args.seed_offset,
                   "forms": {label: evaluate(fits, whole_draws, form)
-                            for label, form in FORMS.items()}}
-    if result["windows"] == 102:
+                            for label, form in {**FORMS, **CHANNEL_FORMS}.items()},
+                  "channel_room": channel_room(fits, whole_draws),
+                  "wander": wander(fits, whole_draws)}
+    if result["windows"] == 102 and result.get("seed_offset", 0) == 0:   # the refits' seeds
         result["refitted_runs"] = check(result, {label: res / name for label, name
                                                  in REFITTED.items() if (res / name).exists()})
     study_results.write(args.out, result)

@@ -28,6 +28,9 @@ relative orientation does not change within the record, so per channel:
     python validation/studies/short_windows.py --every 3     # every third window (34 of 102)
     python validation/studies/short_windows.py --own-scale-prob 0.25 --scale-floor \
         --out validation/results/repeatability/short_windows_pooled.json   # the pooled scale
+    python validation/studies/short_windows.py --per-channel --own-scale-prob 0 --scale-floor \
+        --misfit-shape 2.5 --out validation/results/repeatability/short_windows_channel.json
+        # a pooled scale per SUT channel (bayescal.core.model.channel_scale)
 """
 from __future__ import annotations
 
@@ -113,6 +116,8 @@ def summarise(rows, whole, modes):
         per = {c: channel_summary(ok, c, whole[mode][c]) for c in ("LHN", "LHE")}
         per["median_seconds"] = float(np.median([o["seconds"] for o in ok]))
         per["windows_with_drops"] = int(sum(o["dropped"] > 0 for o in ok))
+        per["median_dropped"] = float(np.median([o["dropped"] for o in ok]))
+        per["median_segments"] = float(np.median([o["segments"] + o["dropped"] for o in ok]))
         per["shown"] = {r["start"][:19]: {c: {"median": r[mode][c]["median"],
                                               "ci95": r[mode][c]["ci95"],
                                               "width95": r[mode][c]["ci95"][1]
@@ -127,14 +132,18 @@ def summarise(rows, whole, modes):
 def posterior_draws(post):
     """The draws a likelihood's reweighting needs (``scale_candidates.py``):
     the azimuths (N, 2) of LHN and LHE, each draw's band energies ``q``
-    (N, B), the bands' degrees of freedom ``k`` (B,) and weights (B,)."""
+    (N, B), the bands' degrees of freedom ``k`` (B,) and weights (B,), and
+    each SUT channel's share of them ``qc`` (N, B, 2) with its degrees of
+    freedom ``kc`` (B, 2) (:mod:`bayescal.core.model.channel_scale`)."""
+    from bayescal.core.model.channel_scale import channel_energy
     from bayescal.core.posterior.samples import sampled_azimuth_dip
     az, _ = sampled_azimuth_dip(post.vectors)
     cols = [post.channel_ids.index(f"US.COWI..{c}") for c in ("LHN", "LHE")]
     model = post.state.model
     q, k = model.band_energy(post.samples)
+    qc, kc = channel_energy(model, post.samples)
     weight = getattr(model.noise, "weight", None)
-    return {"az": az[:, cols], "q": q, "k": k,
+    return {"az": az[:, cols], "q": q, "k": k, "qc": qc[..., cols], "kc": kc[:, cols],
             "weight": np.ones(k.size) if weight is None else np.asarray(weight, float)}
 
 
@@ -201,6 +210,8 @@ def _arguments(argv):
     ap.add_argument("--factor-floor", type=float, default=None,
                     help="the scale per band's least variance factor (misfit_scale.FACTOR_FLOOR; "
                          "0: the plain marginal); default: the fit's")
+    ap.add_argument("--per-channel", action="store_true",
+                    help="a noise scale per SUT channel (misfit_scale.PER_CHANNEL on)")
     ap.add_argument("--summarise", action="store_true",
                     help="recompute the summary of the windows stored beside --out")
     return ap.parse_args(argv)
@@ -224,6 +235,8 @@ def main(argv=None):
         misfit_scale.SCALE_FLOOR = True
     if args.factor_floor is not None:
         misfit_scale.FACTOR_FLOOR = args.factor_floor
+    if args.per_channel:
+        misfit_scale.PER_CHANNEL = True
     data = (read_waveforms(str(COWI / "C100823215422_COWI.LHx")),
             read_waveforms([str(COWI / "DT000110.LH1"), str(COWI / "DT000110.LH2")]))
     t0, t1 = UTCDateTime(START), UTCDateTime(END)
@@ -254,6 +267,7 @@ def main(argv=None):
               "misfit_shape": shape,
               "own_scale_prob": misfit_scale.OWN_SCALE_PROB,
               "scale_floor": misfit_scale.SCALE_FLOOR, "factor_floor": misfit_scale.FACTOR_FLOOR,
+              "per_channel": misfit_scale.PER_CHANNEL,
               "shape_a": misfit_scale.MISFIT_SHAPE if args.misfit_shape is None
               else args.misfit_shape,
               "whole_record": whole, "summary": summarise(rows, whole, args.modes), "runs": rows}

@@ -15,6 +15,8 @@
 * :mod:`.inflation`    the noise-inflation factor, shrunk toward its pooled value
 * :mod:`.plugin`       band weights for the plug-in noise model's sampling error
 * :mod:`.misfit_scale` the per-band noise scale, marginalised
+* :mod:`.channel_scale` the same per SUT channel: each channel's share of a
+                       band's whitened residual energy
 * :mod:`.effect`       the hook by which a physical effect extends the likelihood
 * :mod:`.jacobian`     forward-difference Jacobian of the whitened residual
 

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import misfit_scale, noisescale, plugin
+from . import channel_scale, misfit_scale, noisescale, plugin
 from ..budget import charge
 from ..response import pendulum
 from ..spectra.bandfold import fold
@@ -346,6 +346,8 @@ class Model:
         return q, np.full(q.shape[1], float(r.shape[1] * r.shape[3] * r.shape[4]))
 
     def log_likelihood(self, theta):
+        if misfit_scale.PER_CHANNEL:      # a noise scale per SUT channel
+            return channel_scale.log_likelihood(self, theta)
         return misfit_scale.band_loglik(*self.band_energy(theta), self.misfit_shape,
                                         getattr(self.noise, "weight", None))
 

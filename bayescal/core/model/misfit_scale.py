@@ -49,6 +49,11 @@ Up to 8 bands every configuration is summed (256 at most); with more bands
 only those with the fewest own scales (:func:`max_own`), so that the cost
 stays at most :data:`MAX_CONFIGS` terms a walker.
 
+**Per SUT channel** (on request, :data:`PER_CHANNEL`): any form above
+applied to each SUT channel's share of the bands' energies instead of the
+band's whole (:mod:`bayescal.core.model.channel_scale`), so that the
+channels widen apart.
+
 In the pooled form, where the model fits, the bands pool their residual
 into one scale learned from all ``K = sum K_b`` degrees of freedom (light tails: about
 ``2 (a + K)`` degrees of freedom) and every band's variance is scaled by
@@ -89,6 +94,11 @@ SCALE_FLOOR = False
 #: marginal's, joined in value and slope (module notes). 0 (the default):
 #: the marginal ``-(a + k_b) log(1 + q_b / a)`` over every ``q_b``.
 FACTOR_FLOOR = 0.0
+#: Whether each SUT channel has its own noise scales, the form above applied
+#: to the channel's share of each band's whitened residual energy
+#: (:mod:`bayescal.core.model.channel_scale`), instead of the band's scales
+#: shared by its channels. False (the default): shared.
+PER_CHANNEL = False
 #: At most this many configurations of pooled and own bands are summed:
 #: every one for up to 8 bands, else those with the fewest own scales.
 MAX_CONFIGS = 256
@@ -279,11 +289,17 @@ def describe(a, q=None, k=None, weight=None):
                  + (" restricted to s >= 1" if SCALE_FLOOR else "") + ", marginalised: a "
                  "residual beyond the noise model widens all bands by the pooled ratio, or one "
                  "band alone where only it misses (docs/validation/misfit_scale.md)")
+    per_channel = PER_CHANNEL and not gaussian
+    if per_channel:
+        model = ("a noise scale per SUT channel, its share of each band's whitened residual "
+                 "energy, each channel's scales: " + model)
     out = {"shape_a": None if gaussian else float(a), "model": model}
+    if per_channel:
+        out["per_channel"] = True
     if not gaussian and not _per_band(None):
         out.update(own_scale_prob=OWN_SCALE_PROB, scale_floor=SCALE_FLOOR)
     elif not gaussian and FACTOR_FLOOR > 0:
         out["factor_floor"] = FACTOR_FLOOR
-    if q is not None:
+    if q is not None and not per_channel:
         out["band_variance_factor"] = [round(float(v), 4) for v in band_scale(q, k, a, weight)]
     return out
