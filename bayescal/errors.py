@@ -51,6 +51,12 @@ class BudgetSpent(Exception):
     ends with its best point so far."""
 
 
+class OffChart(Exception):
+    """A least-squares polish reached an axis at its chart's edge
+    (:func:`bayescal.core.fit.modes.off_chart`): raised from its Jacobian,
+    caught by the polish, which then has no optimum to report."""
+
+
 class BudgetWarning(UserWarning):
     """A stage of a fit ended by its work budget, before its own rule
     (:meth:`bayescal.core.budget.Budget.note` says which, and what helps)."""

@@ -10,6 +10,7 @@ from bayescal.core import Budget
 from bayescal.core.budget import charge
 from bayescal.core.fit import modes
 from bayescal.core.fit.leastsq import refine
+from bayescal.errors import OffChart
 
 #: A linear least-squares problem: its minimum in closed form.
 A = np.array([[1.0, 0.0, 0.5], [0.2, 1.0, 0.0], [0.0, 0.3, 1.0], [1.0, 1.0, 1.0],
@@ -85,7 +86,7 @@ def test_a_polish_run_off_its_chart_ends_at_no_optimum(fitted, monkeypatch):
     from the start) and is no optimum: turning that axis 5 and 20 degrees
     toward the first fit's raises the log-posterior (measured: by 15 and
     54). With the rule the search stops that polish and lists no mode for
-    it."""
+    it, stopped from its Jacobian at the edge before least squares ends."""
     model, theta = fitted.model, fitted.theta_ls
     label, v = next((lb, v) for lb, v in modes.starts(model, theta)
                     if lb.startswith("XX.SIM.10.MH2"))
@@ -106,6 +107,19 @@ def test_a_polish_run_off_its_chart_ends_at_no_optimum(fitted, monkeypatch):
 
     lp = [turned(d) for d in (0.0, 5.0, 20.0)]
     assert lp[1] > lp[0] + 10 and lp[2] > lp[1] + 10
+    monkeypatch.undo()
+    raised, watch = [], modes._EdgeWatch.__call__
+
+    def watched(self, theta_, *args):
+        try:
+            return watch(self, theta_, *args)
+        except OffChart:
+            raised.append(np.hypot(*theta_[chart.slices[k][0]]))
+            raise
+
+    monkeypatch.setattr(modes._EdgeWatch, "__call__", watched)
+    assert modes._polish(chart, modes.theta_for(chart, v, theta), model.noise.cholesky()) is None
+    assert len(raised) == 1 and raised[0] < 1e6         # stopped at the edge, not at its end
     monkeypatch.undo()
     _, report = modes.search(model, theta)
     assert report["off_chart"] == 1 and len(report["modes"]) == 1

@@ -71,7 +71,7 @@ from scipy.special import gammaincinv
 from ..orientation.geometry import Circle, Sphere, azimuth_dip
 from ..model.jacobian import forward_jacobian as _jacobian
 from ..model.jacobian import least_squares_objective
-from ...errors import BudgetSpent
+from ...errors import BudgetSpent, OffChart
 from .leastsq import solve
 from .unconstrained import information, pendulum_precision, prior_bounds
 
@@ -150,7 +150,7 @@ def _polish(model, theta, factors, budget=None):
     try:
         with np.errstate(all="ignore"):     # wild steps from a poor start: the optimizer rejects them
             res = _least_squares(model, theta, factors, lo, hi, budget)
-    except StopIteration:                   # an accepted point at the chart's edge
+    except OffChart:                        # an accepted point at the chart's edge
         return None
     if res.status == -3:
         raise BudgetSpent(res.message)
@@ -172,8 +172,8 @@ def _least_squares(model, theta, factors, lo, hi, budget):
 
 
 class _EdgeWatch:
-    """A least-squares ``jac`` that raises :class:`StopIteration` (scipy's
-    own signal to stop a run) at a point inside the box ``[lo, hi]`` with
+    """A least-squares ``jac`` that raises :class:`~bayescal.errors.OffChart`
+    (caught by :func:`_polish`) at a point inside the box ``[lo, hi]`` with
     an axis at its chart's edge: scipy's methods evaluate the Jacobian only
     at the points they accept, so the polish has settled on running off
     its chart (:func:`off_chart`)."""
@@ -184,7 +184,7 @@ class _EdgeWatch:
     def __call__(self, theta, *args):
         inside = np.all(theta >= self.lo) and np.all(theta <= self.hi)
         if inside and off_chart(self.model, theta):
-            raise StopIteration("an axis at its chart's edge")
+            raise OffChart("an axis at its chart's edge")
         return self.jac(theta, *args)
 
 
@@ -451,6 +451,6 @@ def _counted(count, budget):
             "and at most one ended away from the first fit, so the data hold the others"))
     if count["off_chart"]:
         out.update(off_chart=count["off_chart"], off_chart_why=(
-            "least squares ran an axis to the edge of its start's chart (90 degrees from the "
-            "start), where the fit stops changing: no optimum of the posterior"))
+            "least squares turned an axis to within a degree of 90 degrees from its start, "
+            "where the fit stops changing: no optimum of the posterior"))
     return out

@@ -17,8 +17,10 @@ precision, ``z = W^(1/2) x`` (or ``A^(1/2) R B^(1/2)``), gives ``q_b =
 c's entries of ``z`` (c's row of ``R``: its ``n_r`` reference columns, real
 and imaginary parts). The shares sum to ``q_b``. Where the model holds the
 entries of ``z`` are independent standard normals on the statistic's support,
-so ``q_bc`` is Gamma(k_bc, 1) with ``k_bc`` the trace of the support's
-projector over c's entries, halved (``n_r`` per time block for the complex
+so ``q_bc`` has mean ``k_bc``, the trace of the support's projector over c's
+entries, halved, and is Gamma(k_bc, 1) exactly where that projector does not
+mix the channels (a full-rank precision; a singular one gives a weighted sum
+of chi-square terms, Gamma only approximately) (``n_r`` per time block for the complex
 residual; the shares of ``k_b`` sum to it). Where the noise covariance has
 no terms between channels the square root is block diagonal and ``q_bc``
 is channel c's own whitened energy; where it has them, the symmetric root is
