@@ -7,13 +7,17 @@ Two cases, simulated as the README simulates them (30 minutes at 10 Hz, band
 turned 3 deg), and ``late``, one whose check fails, the SUT's clock 0.3 s
 late (``seed=2``, ``timing_offset_s=0.3``), so the criticism runs in the fit
 and its pages are in the report. Each repeat runs the fit, then the report
-of the first fit's folder; printed: medians of wall-clock and CPU seconds
-(the child's user + system time), their ratio report / fit, the machine's
-load (1-minute average, waiting processes on its cores) before each case,
-and whether the goal is met. ``--json`` keeps the runs. ``--baseline DIR``
-(a source tree of bayescal, e.g. ``git worktree add /tmp/base <commit>``)
-adds that tree's report of the same folder, alternated with the others, and
-the ratio candidate / baseline.
+of the first fit's folder in each variant: ``report`` (the default: the PDF
+without the pages drawn on request), ``full`` (``--full``: every page) and
+``full_png`` (``--full --png``: every page, and each as a PNG). Printed:
+medians of wall-clock and CPU seconds (the child's user + system time), the
+ratio of each report to the fit, the machine's load (1-minute average,
+waiting processes on its cores) before and after each case, and whether the
+goal is met by the default report. ``--json`` keeps the runs.
+``--baseline DIR`` (a source tree of bayescal, e.g. ``git archive`` of an
+earlier commit unpacked there) adds that tree's ``bayescal report`` of the
+same folder, alternated with the others, and the ratio default report /
+baseline.
 
     python benchmarks/bench_report.py [--repeats 5] [--cases pass late] [--json FILE]
                                       [--baseline DIR]
@@ -32,6 +36,8 @@ import time
 
 CASES = {"pass": {"seed": 3, "sut_azimuth": (3, 93, 0), "noise_in_counts": True},
          "late": {"seed": 2, "timing_offset_s": 0.3}}
+#: The report's variants: name and the options of ``bayescal report``.
+VARIANTS = {"report": [], "full": ["--full"], "full_png": ["--full", "--png"]}
 
 
 def simulate(case, folder):
@@ -64,17 +70,18 @@ def commands(data, out):
 
 
 def run_case(case, tmp, repeats, baseline=None):
-    """Alternate fit and report (and the baseline's report) ``repeats``
-    times; returns the case's record."""
+    """Alternate the fit and the report's variants (and the baseline's
+    report) ``repeats`` times; returns the case's record."""
     data = os.path.join(tmp, case)
     simulate(case, data)
     load = os.getloadavg()[0]
-    runs = {"fit": [], "report": []} | ({"baseline_report": []} if baseline else {})
+    runs = {"fit": [], **{v: [] for v in VARIANTS}} | ({"baseline_report": []} if baseline else {})
     for i in range(repeats):
         fit, _ = commands(data, os.path.join(tmp, f"{case}_fit{i}"))
         runs["fit"].append(timed(fit))
         report = commands(data, os.path.join(tmp, f"{case}_fit0"))[1]
-        runs["report"].append(timed(report))
+        for name, options in VARIANTS.items():
+            runs[name].append(timed(report + options))
         if baseline:
             runs["baseline_report"].append(timed(report, baseline))
     med = {k: {"wall_s": statistics.median(w for w, _ in v),
@@ -82,11 +89,27 @@ def run_case(case, tmp, repeats, baseline=None):
     out = {"case": case, "repeats": repeats, "load_before": load, "runs": runs,
            "median": med, "load_after": os.getloadavg()[0],
            "ratio_wall": med["report"]["wall_s"] / med["fit"]["wall_s"],
-           "ratio_cpu": med["report"]["cpu_s"] / med["fit"]["cpu_s"]}
+           "ratio_cpu": med["report"]["cpu_s"] / med["fit"]["cpu_s"],
+           "ratio_cpu_to_fit": {k: med[k]["cpu_s"] / med["fit"]["cpu_s"] for k in med}}
     if baseline:
         out["baseline"] = os.path.abspath(baseline)
         out["ratio_to_baseline_cpu"] = med["report"]["cpu_s"] / med["baseline_report"]["cpu_s"]
     return out
+
+
+def _print(r, repeats):
+    """The lines of one case's record."""
+    m = r["median"]
+    print(f"{r['case']}: fit {m['fit']['wall_s']:.2f} s wall, {m['fit']['cpu_s']:.2f} s CPU; "
+          f"report {m['report']['wall_s']:.2f} s wall, {m['report']['cpu_s']:.2f} s CPU; "
+          f"report / fit {r['ratio_wall']:.2f} (wall), {r['ratio_cpu']:.2f} (CPU); "
+          f"load {r['load_before']:.1f} -> {r['load_after']:.1f} on {os.cpu_count()} "
+          f"cores; medians of {repeats}; goal (report <= its fit): "
+          f"{'met' if r['ratio_wall'] <= 1 and r['ratio_cpu'] <= 1 else 'NOT met'}")
+    for name in [*VARIANTS, "baseline_report"][1:]:
+        if name in m:
+            print(f"  {name}: {m[name]['wall_s']:.2f} s wall, {m[name]['cpu_s']:.2f} s CPU, "
+                  f"{r['ratio_cpu_to_fit'][name]:.2f} x the fit's CPU")
 
 
 def main(argv=None):
@@ -99,19 +122,8 @@ def main(argv=None):
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         for case in a.cases:
-            r = run_case(case, tmp, a.repeats, a.baseline)
-            out.append(r)
-            m = r["median"]
-            print(f"{case}: fit {m['fit']['wall_s']:.2f} s wall, {m['fit']['cpu_s']:.2f} s CPU; "
-                  f"report {m['report']['wall_s']:.2f} s wall, {m['report']['cpu_s']:.2f} s CPU; "
-                  f"report / fit {r['ratio_wall']:.2f} (wall), {r['ratio_cpu']:.2f} (CPU); "
-                  f"load {r['load_before']:.1f} -> {r['load_after']:.1f} on {os.cpu_count()} "
-                  f"cores; medians of {a.repeats}; goal (report <= its fit): "
-                  f"{'met' if r['ratio_wall'] <= 1 and r['ratio_cpu'] <= 1 else 'NOT met'}")
-            if a.baseline:
-                b = m["baseline_report"]
-                print(f"  baseline report {b['wall_s']:.2f} s wall, {b['cpu_s']:.2f} s CPU; "
-                      f"report / baseline {r['ratio_to_baseline_cpu']:.2f} (CPU)")
+            out.append(run_case(case, tmp, a.repeats, a.baseline))
+            _print(out[-1], a.repeats)
     if a.json:
         os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
         with open(a.json, "w") as fh:

@@ -116,7 +116,7 @@ def main(argv=None):
         if folder is None:
             continue
         t1 = time.perf_counter()
-        paths = write_report(folder, nominal_tolerance_deg=a.threshold)
+        paths = write_report(folder, nominal_tolerance_deg=a.threshold, png=True, full=True)
         t2 = time.perf_counter()
         size = sum(os.path.getsize(q) for q in paths) / 1e6
         print(f"{name}: fit {t1 - t0:.1f} s, report {t2 - t1:.1f} s -> {paths[0]}"

@@ -120,7 +120,7 @@ def _pages(folder):
     """``bayescal report`` of ``folder``: each page's text, spaces folded."""
     from pypdf import PdfReader
 
-    assert main(["report", str(folder)]) == 0
+    assert main(["report", str(folder), "--full"]) == 0
     return [" ".join(p.extract_text().split()) for p in PdfReader(str(folder / "report.pdf")).pages]
 
 

@@ -174,7 +174,7 @@ def test_swapped_sensors_are_named(tmp_path):
     out = io.StringIO()
     print_summary(saved, out)
     assert "the reference is noisier than the sensor under test by" in out.getvalue()
-    written = write_report(str(tmp_path))
+    written = write_report(str(tmp_path), png=True)
     assert any(p.endswith("report_self_noise.png") for p in written)
     from pypdf import PdfReader
     page1 = PdfReader(written[0]).pages[0].extract_text()

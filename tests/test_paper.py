@@ -42,11 +42,11 @@ def test_fit_report_one_page_size(gain_result, tmp_path):
     from bayescal.report.fit import write_report
 
     # the command line: A4 unless told
-    assert main(["report", str(gain_result)]) == 0
+    assert main(["report", str(gain_result), "--full"]) == 0
     boxes = mediaboxes(gain_result / "report.pdf")
     assert len(boxes) == 8 and set(boxes) == {A4_PT}, boxes   # with the self-noise page
     out = tmp_path / "report.pdf"
-    write_report(str(gain_result), out_pdf=str(out), paper="letter")
+    write_report(str(gain_result), out_pdf=str(out), paper="letter", full=True)
     boxes = mediaboxes(out)
     assert len(boxes) == 8 and set(boxes) == {LETTER_PT}, boxes
 
@@ -110,7 +110,7 @@ def test_vertical_only_sut_has_no_empty_intervals_page(tmp_path):
                               band=(0.03, 1.0), progress=False, fit_response="gain")
     folder = tmp_path / "z"
     save_posterior(post, str(folder))
-    paths = write_report(str(folder))
+    paths = write_report(str(folder), full=True)
     texts = [p.extract_text() for p in pypdf.PdfReader(paths[0]).pages]
     assert not any("Angle credible intervals" in t for t in texts)
     assert not (folder / "report_intervals.png").exists()

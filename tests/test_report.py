@@ -44,7 +44,7 @@ def flagged(tmp_path_factory):
     sim = simulate_pair(duration=3600, fs=10, seed=4, coherence=0.99, sut_azimuth=TRUE_AZ,
                         sut_dip=TRUE_DIP, polarity_reversal=1)
     folder = _fit(tmp_path_factory.mktemp("flagged"), "result", sim, fit_response="none")
-    paths = write_report(folder)
+    paths = write_report(folder, png=True, full=True)
     return folder, paths
 
 
@@ -57,7 +57,7 @@ def gain_fit(tmp_path_factory):
                                       (30.0, 0.707, 750.0)))
     folder = _fit(tmp_path_factory.mktemp("gain"), "result", sim,
                   ref=sim.ref.select(channel="BH[NE]"), fit_response="gain")
-    paths = write_report(folder, nominal_tolerance_deg=3.0)
+    paths = write_report(folder, nominal_tolerance_deg=3.0, png=True, full=True)
     return folder, paths
 
 
@@ -105,6 +105,39 @@ def test_pages_pngs_and_metadata(flagged):
     assert "Self-noise of both sensors" in pages[5]
     assert "Convergence of the sampler" in pages[6]
     assert not [f for f in os.listdir(folder) if f.startswith(".report")]
+
+
+def test_default_report_leaves_the_sampler_pages_on_request(flagged, tmp_path):
+    """Without ``full``, a fit whose sampler converged to one mode gets the
+    pages an operator acts on, in order: summary, angle intervals, data and
+    fit, the response as the data see it, self-noise; the corner plots and
+    the convergence page only with ``full`` (the fixture's 7 pages)."""
+    out = str(tmp_path / "default.pdf")
+    assert write_report(flagged[0], out_pdf=out) == [out]
+    titles = ["bayescal calibration report", "Angle credible intervals", "Data and fit",
+              "The SUT's response as the data see it", "Self-noise of both sensors"]
+    pages = [p.extract_text() for p in pypdf.PdfReader(out).pages]
+    assert len(pages) == len(titles)
+    assert all(t in p for t, p in zip(titles, pages)), [p[:60] for p in pages]
+
+
+def test_sampler_pages_drawn_unasked_when_page_one_warns():
+    """:func:`bayescal.report.fit.shown`: the convergence page when the
+    sampler did not converge, the corner plots when two modes each hold at
+    least the threshold's mass; every page with ``full``."""
+    from bayescal.report.fit import ON_REQUEST, PAGES, shown
+
+    calm = {"convergence": {"converged": True}, "channels": {}}
+    stuck = {"convergence": {"converged": False}, "channels": {}}
+    modes = {**calm, "multimodal": {"detected": True, "mass_threshold": 0.05,
+                                    "modes": [{"mass_fraction": 0.7}, {"mass_fraction": 0.3}]}}
+    one = {**calm, "multimodal": {"detected": True, "mass_threshold": 0.05,
+                                  "modes": [{"mass_fraction": 0.98}, {"mass_fraction": 0.02}]}}
+    assert [n for n in PAGES if not shown(n, calm)] == list(ON_REQUEST)
+    assert [n for n in PAGES if not shown(n, one)] == list(ON_REQUEST)
+    assert [n for n in PAGES if not shown(n, stuck)] == ["corner_angles", "corner_response"]
+    assert [n for n in PAGES if not shown(n, modes)] == ["convergence"]
+    assert all(shown(n, calm, full=True) for n in PAGES)
 
 
 def test_summary_table_matches_result_and_truth(flagged):
@@ -241,7 +274,7 @@ def test_flags_follow_truth(flagged, tmp_path):
     text = pypdf.PdfReader(out).pages[0].extract_text()
     flags = text[text.index("Flags"):text.index("Not estimable")]
     assert "BH1" not in flags and "REVERSED" in flags
-    assert os.path.exists(tmp_path / "wide_summary.png")
+    assert os.listdir(tmp_path) == ["wide.pdf"]          # the PDF only: PNGs on request
 
 
 def test_corner_page_states_levels_and_truth(flagged):
@@ -344,7 +377,7 @@ def test_rerun_without_report_removes_the_earlier_report(flagged, tmp_path):
     with staging(folder) as tmp:                        # a first run: results only
         write_results(load_result(folder), tmp)
     (tmp_path / "fit" / "notes.txt").write_text("mine")
-    drawn = [os.path.basename(p) for p in write_report(folder)]
+    drawn = [os.path.basename(p) for p in write_report(folder, png=True)]
     assert "report.pdf" in drawn and len(drawn) >= 6
     with staging(folder) as tmp:                        # the rerun with --no-report
         write_results(load_result(folder), tmp)
@@ -363,7 +396,7 @@ def test_single_channel_reference(tmp_path):
     folder = _fit(tmp_path, "z", sim, ref=sim.ref.select(channel="BHZ"), fit_response="gain")
     stale = os.path.join(folder, "report_corner_angles.png")     # from an earlier report
     open(stale, "wb").close()
-    paths = write_report(folder)
+    paths = write_report(folder, png=True, full=True)
     assert not os.path.exists(stale)
     _, pages = _pages(folder)
     names = [os.path.basename(p) for p in paths[1:]]
@@ -387,10 +420,10 @@ def test_renders_without_display(flagged, tmp_path):
     env["MPLBACKEND"] = "TkAgg"
     out = str(tmp_path / "headless.pdf")
     code = ("import sys; from bayescal.report import write_report; "
-            f"p = write_report({flagged[0]!r}, out_pdf={out!r}); print(len(p))")
+            f"p = write_report({flagged[0]!r}, out_pdf={out!r}, full=True); print(len(p))")
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "8"
+    assert run.stdout.strip() == "1"                   # the PDF: PNGs on request
     assert len(pypdf.PdfReader(out).pages) == 7
 
 
@@ -424,7 +457,7 @@ def test_report_rebuilt_from_the_three_files(flagged, tmp_path):
     folder.mkdir()
     for name in ("result.json", "samples.npz", "diagnostics.npz"):
         shutil.copy(os.path.join(flagged[0], name), folder / name)
-    run = subprocess.run([sys.executable, "-m", "bayescal", "report", str(folder)],
+    run = subprocess.run([sys.executable, "-m", "bayescal", "report", str(folder), "--full"],
                          capture_output=True, text=True, env={**os.environ, "MPLBACKEND": "Agg"})
     assert run.returncode == 0, run.stderr
     res = _result(str(folder))
@@ -448,9 +481,10 @@ def test_unconverged_and_missing_diagnostics(flagged, tmp_path):
     folder = str(tmp_path / "unconverged")
     save_posterior(post, folder)
     assert not os.path.exists(os.path.join(folder, "diagnostics.npz"))
-    write_report(folder)
+    write_report(folder)                     # the convergence page drawn unasked
     _, pages = _pages(folder)
     assert "SAMPLER NOT CONVERGED" in pages[0]
-    assert "converged: NO" in pages[0] and "converged: NO" in pages[-1]
-    assert "no diagnostics.npz in the result folder" in pages[3]
+    assert "converged: NO" in pages[0] and "Convergence of the sampler" in pages[-1]
+    assert "converged: NO" in pages[-1]
+    assert any("no diagnostics.npz in the result folder" in p for p in pages)
     assert "SAMPLER NOT CONVERGED" not in _pages(flagged[0])[1][0]

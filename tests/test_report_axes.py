@@ -42,7 +42,7 @@ def test_psd_axis_says_counts_with_flat_metadata():
 
     flat = page_data_fit(_data_ctx(flat=SUT + REF)).axes[0].get_ylabel()
     assert "counts" in flat and "(m/s)" not in flat
-    assert page_data_fit(_data_ctx()).axes[0].get_ylabel() == "PSD ((m/s)$^2$/Hz)"
+    assert page_data_fit(_data_ctx()).axes[0].get_ylabel() == "PSD ((m/s)²/Hz)"
     mixed = page_data_fit(_data_ctx(flat=SUT)).axes[0].get_ylabel()
     assert "counts" in mixed and "(m/s)" in mixed
 

@@ -134,7 +134,7 @@ def test_report_rebuilt_from_files_draws_the_curve(late, tmp_path):
             np.testing.assert_array_equal(entry[key]["ci95"], live["channels"][cid][key]["ci95"])
     assert bayescal.load_posterior(str(tmp_path)).response_curve == saved
     root = pathlib.Path(__file__).resolve().parents[1]
-    subprocess.run([sys.executable, "-m", "bayescal.cli", "report", str(tmp_path)], check=True,
+    subprocess.run([sys.executable, "-m", "bayescal.cli", "report", str(tmp_path), "--png"], check=True,
                    capture_output=True, text=True, cwd=str(root))
     assert (tmp_path / "report_response_curve.png").exists()
     from bayescal.report.fit import PAGES

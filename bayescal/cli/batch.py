@@ -28,7 +28,7 @@ Examples:
 from __future__ import annotations
 
 from ..errors import InputError
-from ..report.batch import FLAG_THRESHOLD_DEG, FLAG_THRESHOLD_PCT
+from ..report.flags import FLAG_THRESHOLD_DEG, FLAG_THRESHOLD_PCT
 from .common import add_paper_argument
 
 HELP = "calibrate many pairs (CSV plan or SDS archive) on Dask, resumable, with a network report"

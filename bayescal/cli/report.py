@@ -1,8 +1,9 @@
 """Render the report of a saved bayescal folder, from its files alone.
 
 A fit's folder (``bayescal fit``: result.json, samples.npz) gets
-DIR/report.pdf (summary, angle intervals, corner plots, data and fit,
-convergence) and one PNG per figure (DIR/report_*.png); truth markers are
+DIR/report.pdf (summary, angle intervals, data and fit, response,
+self-noise; with --full also the corner plots and the convergence page),
+and with --png one PNG per page (DIR/report_*.png); truth markers are
 drawn when DIR/truth.json (simulate's format) is present. A ``bayescal
 diagnose`` folder gets that report and its diagnosis page
 (DIR/diagnosis.pdf, .png, from diagnosis.json). A folder of ``bayescal
@@ -27,7 +28,7 @@ OUTPUTS = (("result.json", "bayescal fit or diagnose"), ("cal.json", "bayescal c
 
 def configure(parser):
     """Arguments of ``bayescal report``."""
-    from ..report.batch import FLAG_THRESHOLD_DEG
+    from ..report.flags import FLAG_THRESHOLD_DEG
     parser.add_argument("folder", metavar="DIR",
                         help="a folder that bayescal fit, diagnose, cal, uvw, noise or batch "
                              "wrote")
@@ -36,6 +37,13 @@ def configure(parser):
                              f"(default {FLAG_THRESHOLD_DEG:g}, as bayescal batch)")
     parser.add_argument("--truth", metavar="JSON", default=None,
                         help="simulation truth for truth markers (default DIR/truth.json)")
+    parser.add_argument("--full", action="store_true",
+                        help="a fit's report: also the corner plots and the convergence page "
+                             "(drawn anyway when the posterior is multimodal or the sampler "
+                             "did not converge)")
+    parser.add_argument("--png", action="store_true",
+                        help="a fit's report: also one PNG per page (DIR/report_*.png; "
+                             "about as long again to draw as the PDF)")
     add_paper_argument(parser)
 
 
@@ -51,9 +59,9 @@ def run(args):
     folder = args.folder
     if not os.path.isdir(folder) or os.path.isfile(os.path.join(folder, "result.json")):
         paths = write_report(folder, nominal_tolerance_deg=args.threshold, truth=args.truth,
-                             paper=args.paper)
+                             paper=args.paper, png=args.png, full=args.full)
         shown = paths[0] if os.path.isabs(folder) else os.path.relpath(paths[0])
-        print(f"report: {shown} ({len(paths) - 1} PNG figures)")
+        print(f"report: {shown}" + (f" ({len(paths) - 1} PNG figures)" if args.png else ""))
         if os.path.isfile(os.path.join(folder, "diagnosis.json")):
             print(f"diagnosis page: {_diagnosis_page(folder, args.paper)}")
         return 0

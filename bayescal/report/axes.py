@@ -1,5 +1,5 @@
-"""Axis helpers of the report pages: readable log-frequency ticks over a
-narrow band, the PSD's unit (counts when the metadata were ``flat``
+"""Axis helpers of the report pages: readable plain-number ticks on log
+axes (several over a narrow band), the PSD's unit (counts when the metadata were ``flat``
 placeholders) and the sampler's parameters in the units users read
 (degrees, seconds, percent of the metadata gain).
 """
@@ -7,36 +7,41 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Tick mantissas on a log frequency axis, by the number of decades spanned.
+#: Tick mantissas on a log axis, by the number of decades spanned.
 _SUBS = ((1.2, tuple(range(1, 10))), (2.5, (1.0, 2.0, 5.0)))
 
 
-#: Below this span (decades) a log frequency axis gets evenly spaced ticks.
+#: Below this span (decades) a log axis gets evenly spaced ticks.
 NARROW_DECADES = 0.7
+#: Most decades labelled on a wide log axis (a stride of decades beyond).
+WIDE_TICKS = 8
 
 
-def frequency_ticks(ax, lo=None, hi=None, axis="x"):
-    """Label a log frequency axis so that a narrow band shows several values
-    (evenly spaced round values under a factor 5, 1-9 x 10^n within about a
-    decade, 1, 2, 5 x 10^n within 2.5 decades;
-    matplotlib's default labels only the powers of ten, which leaves two or
-    fewer labels on a band such as 0.125-0.33 Hz). ``lo``/``hi`` default to
+def log_ticks(ax, lo=None, hi=None, axis="x"):
+    """Label a log axis (frequency, PSD, ratio) in plain numbers so that a
+    narrow range shows several values: evenly spaced round values under a
+    factor 5, 1-9 x 10^n within about a decade, 1, 2, 5 x 10^n within 2.5
+    decades, the powers of ten (at most :data:`WIDE_TICKS`) beyond
+    (matplotlib's default labels only the powers of ten, which leaves two or
+    fewer labels on a band such as 0.125-0.33 Hz, and writes them as
+    mathtext). Labels are ``{:g}`` of the value (``0.05``, ``1e-14``); no
+    minor ticks (each tick is an object to draw). ``lo``/``hi`` default to
     the axis's current limits."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullLocator
 
     which = ax.xaxis if axis == "x" else ax.yaxis
     if lo is None or hi is None:
         lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    lo, hi = min(lo, hi), max(lo, hi)
     decades = np.log10(hi / lo) if lo > 0 and hi > lo else 10.0
-    subs = next((s for span, s in _SUBS if decades <= span), None)
-    if subs is None:
-        return
+    subs = next((s for span, s in _SUBS if decades <= span), (1.0,))
     if decades <= NARROW_DECADES:     # under a factor 5: evenly spaced round values
         which.set_major_locator(MaxNLocator(nbins=6, steps=[1, 2, 2.5, 5, 10]))
     else:
-        which.set_major_locator(LogLocator(base=10.0, subs=subs, numticks=40))
+        which.set_major_locator(LogLocator(base=10.0, subs=subs,
+                                           numticks=40 if len(subs) > 1 else WIDE_TICKS))
     which.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    which.set_minor_formatter(NullFormatter())
+    which.set_minor_locator(NullLocator())
 
 
 def placeholder_ids(meta):
@@ -52,10 +57,10 @@ def psd_label(meta, ids):
     every channel had ``flat`` placeholder metadata, both when mixed."""
     flat = placeholder_ids(meta) & set(ids)
     if not flat:
-        return "PSD ((m/s)$^2$/Hz)"
+        return "PSD ((m/s)²/Hz)"
     if flat >= set(ids):
-        return "PSD (counts$^2$/Hz: 'flat' metadata, no response removed)"
-    return "PSD ((m/s)$^2$/Hz; counts$^2$/Hz for 'flat' channels)"
+        return "PSD (counts²/Hz: 'flat' metadata, no response removed)"
+    return "PSD ((m/s)²/Hz; counts²/Hz for 'flat' channels)"
 
 
 def trace_in_user_units(name, values, nominal=None):

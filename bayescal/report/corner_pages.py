@@ -109,17 +109,19 @@ def _corner(fig, data, labels, truths, width, height, box):
     inches; axis labels sit at a fixed distance in inches so they stay on
     the page whatever the number of panels. Returns True if truths were drawn."""
     import corner
+    import matplotlib
 
     data = thinned(data)
     k = data.shape[1]
     truths = None if truths is None or np.all(np.isnan(truths)) else list(truths)
     if k > 4:                                   # narrow panels: channel above quantity
         labels = [lb.replace(" ", "\n", 1) for lb in labels]
-    corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
-                  truths=truths if k > 1 else None,       # corner cannot draw 1-D truths
-                  truth_color="0.25", color="k", plot_datapoints=False, plot_density=False,
-                  fill_contours=True, contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
-                  smooth=1.0, bins=30, max_n_ticks=3, label_kwargs={"fontsize": 7})
+    with matplotlib.rc_context({"axes.grid": False}):    # grid lines: no use between contours
+        corner.corner(data, fig=fig, labels=labels, levels=CORNER_LEVELS, quantiles=CORNER_QUANTILES,
+                      truths=truths if k > 1 else None,   # corner cannot draw 1-D truths
+                      truth_color="0.25", color="k", plot_datapoints=False, plot_density=False,
+                      fill_contours=True, contourf_kwargs={"colors": ["white", "0.88", "0.7"]},
+                      smooth=1.0, bins=30, max_n_ticks=3, label_kwargs={"fontsize": 7})
     axes = fig.axes
     if k == 1 and truths is not None:
         axes[0].axvline(truths[0], color="0.25")

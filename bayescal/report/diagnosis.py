@@ -18,7 +18,7 @@ def build_figure(diagnosis, paper="a4"):
     (what the line shows), so it stays short however many channels."""
     from matplotlib.figure import Figure
 
-    from .axes import frequency_ticks
+    from .axes import log_ticks
 
     d = diagnosis
     edges = np.asarray(d.band_edges)
@@ -33,7 +33,7 @@ def build_figure(diagnosis, paper="a4"):
     colours = _draw_curves(d, ax1, ax2, np.sqrt(edges[:-1] * edges[1:]))
     _label_panels(ax1, ax2, colours, after=d.final is not d.base)
     for ax in (ax1, ax2):
-        frequency_ticks(ax, edges[0], edges[-1])
+        log_ticks(ax, edges[0], edges[-1])
     return fig
 
 

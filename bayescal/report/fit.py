@@ -49,15 +49,39 @@ def _named(name, drawn):
     return [(name if i == 0 else f"{name}_{i + 1}", fig) for i, fig in enumerate(drawn)]
 
 
+#: Pages drawn on request (``full``): the posterior's corner plots and the
+#: sampler's traces, which page 1 condenses into the intervals and the
+#: sampler's figures (ESS, R-hat, converged); each is drawn anyway when page
+#: 1 warns of what it shows (:func:`shown`). Without them a report costs
+#: about half (docs/report.md).
+ON_REQUEST = ("corner_angles", "corner_response", "convergence")
+
+
+def shown(name, summary, full=False):
+    """Whether page ``name`` is drawn for the result ``summary``: every page
+    with ``full``; else all but :data:`ON_REQUEST`, and of those the corner
+    plots when the posterior is multimodal, the convergence page when the
+    sampler did not converge."""
+    from ..core.posterior import multimodal_line
+
+    if full or name not in ON_REQUEST:
+        return True
+    if name == "convergence":
+        return not summary["convergence"]["converged"]
+    return bool(multimodal_line(summary))
+
+
 def figures(ctx):
     """``(name, figure)`` of every page of the report of ``ctx`` (a
-    :class:`~bayescal.report.layout.ReportContext`) that applies, in page
-    order; a page continued on further pages gives ``name_2``, ... ."""
+    :class:`~bayescal.report.layout.ReportContext`) that applies and is
+    drawn (:func:`shown`, ``ctx.full``), in page order; a page continued on
+    further pages gives ``name_2``, ... ."""
     from . import corner_pages, fit_pages, pair_noise, response_curve
 
     for name in PAGES:
-        yield from _named(name, _builder(name, fit_pages, corner_pages, pair_noise,
-                                         response_curve)(ctx))
+        if shown(name, ctx.summary, ctx.full):
+            yield from _named(name, _builder(name, fit_pages, corner_pages, pair_noise,
+                                             response_curve)(ctx))
 
 
 def _check_folder(folder):
@@ -80,14 +104,15 @@ def load_result(folder):
 
 
 def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG, truth=None,
-                 paper="a4"):
+                 paper="a4", *, png=False, full=False):
     """Render the calibration report of the result saved in ``folder``.
 
-    Writes ``folder/report.pdf`` (or ``out_pdf``) and one PNG per figure
-    next to it (``report_<figure>.png``). All files are drawn in a temporary
-    folder first and moved into place at the end, so a failure leaves
-    nothing half-written. PNGs of an earlier report that no longer apply
-    (e.g. a response corner plot) are removed. The files written are listed
+    Writes ``folder/report.pdf`` (or ``out_pdf``) and, with ``png``, one PNG
+    per figure next to it (``report_<figure>.png``), all drawn in a
+    temporary folder and moved into place at the end (a failure leaves
+    nothing half-written). An earlier report's PNGs this one does not draw
+    are removed: the folder's figures are this report's.
+    The files written are listed
     in the folder's manifest (:data:`bayescal.atomic.MANIFEST`), so a later
     run into the folder (e.g. ``bayescal fit --no-report``) removes them
     rather than leaving an earlier run's report beside its results.
@@ -103,6 +128,8 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
     truth : simulation truth (dict or JSON path) for truth markers; default
         the meta's ``truth`` entry or ``folder/truth.json`` when present.
     paper : "a4" (default) or "letter": every page of the PDF has this size.
+    png : also each page as a PNG (greyscale, 90 dpi; docs/report.md).
+    full : also the pages drawn on request (:data:`ON_REQUEST`).
 
     Returns the list of written paths, each absolute (PDF first).
     """
@@ -119,7 +146,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
     stem = os.path.splitext(os.path.basename(out_pdf))[0]
     ctx = layout.ReportContext(folder=folder, post=post, summary=summary, truth=truth,
                                tolerance_deg=float(nominal_tolerance_deg),
-                               page=layout.page_size(paper))
+                               page=layout.page_size(paper), full=full)
     stale = [f"{stem}_{name}.png" for name in PAGES] + [   # an earlier report's, if not redrawn
         n for n in (os.listdir(out_dir) if os.path.isdir(out_dir) else ())
         if n.startswith(f"{stem}_summary_") and n.endswith(".png")
@@ -132,6 +159,7 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
                 "Subject": layout.subject_line(ctx), "Creator": f"bayescal {__version__}",
                 "Keywords": "seismometer calibration; orientation; Bayesian"}
         written = layout.write_pages(
-            [(os.path.join(tmp, f"{stem}_{name}.png"), fig) for name, fig in drawn],
+            [(os.path.join(tmp, f"{stem}_{name}.png") if png else None, fig)
+             for name, fig in drawn],
             os.path.join(tmp, os.path.basename(out_pdf)), page=ctx.page, metadata=meta)
     return [os.path.join(out_dir, os.path.basename(p)) for p in [out_pdf, *written]]

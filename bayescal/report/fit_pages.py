@@ -17,7 +17,6 @@ from functools import partial
 import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from scipy.special import gammaincinv
 
 from ..core.checks import describe
 from ..criticism.verdict import lines as criticism_lines
@@ -26,7 +25,7 @@ from ..core.posterior import multimodal_line
 from ..result import Convergence
 from .tables import (interval_row, angle_rows, response_rows, truth_values, two_pole_nominal,
                      wrap180)
-from .axes import (frequency_ticks, parameter_label, placeholder_ids, psd_label,
+from .axes import (log_ticks, parameter_label, placeholder_ids, psd_label,
                    trace_in_user_units)
 from .layout import LINESTYLES, MARKERS, PARAM_UNITS, flow_text, header_lines, summary_table
 
@@ -131,7 +130,7 @@ def _flag_lines(ctx, flags, modes):
             text += textwrap.wrap(line, 130, subsequent_indent="      ")
     elif verdict["ok"] is False:
         text.append("  MODEL CHECK FAILED: the misfit exceeds the noise model (see the first lines"
-                    " and page 4; `bayescal diagnose`)")
+                    " and the page \"Data and fit\"; `bayescal diagnose`)")
     elif crit.get("effects"):       # the model fits, but the metadata need correcting
         for line in criticism_lines(crit):
             text += textwrap.wrap(f"  {line}", 130, subsequent_indent="      ")
@@ -276,9 +275,25 @@ def page_intervals(ctx):
 
 def misfit_range(n_r, p=0.95):
     """Central ``p`` range of a band misfit for a model that fits: the mean of
-    ``n_r`` unit-variance complex Gaussian energies, Gamma(n_r, 1/n_r)."""
-    lo, hi = gammaincinv(n_r, [(1 - p) / 2, (1 + p) / 2]) / n_r    # Gamma quantiles
-    return float(lo), float(hi)
+    ``n_r`` unit-variance complex Gaussian energies, Gamma(n_r, 1/n_r). The
+    shape counts reference channels: Erlang, whose CDF is closed (``1 -
+    exp(-y) sum_{k<n_r} y^k / k!``, ``y = n_r x``), its quantiles bisected
+    to machine precision (no scipy import for two numbers)."""
+    n = int(n_r)
+    k = np.arange(n)
+    factorial = np.cumprod(np.r_[1.0, np.arange(1.0, n)])
+
+    def cdf(x):
+        y = n * x[:, None]
+        return 1.0 - np.exp(-y[:, 0]) * np.sum(y ** k / factorial, axis=1)
+
+    target = np.array([(1 - p) / 2, (1 + p) / 2])
+    lo, hi = np.zeros(2), np.full(2, 50.0)       # the mean is 1; its 97.5 % point below 3.7
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        below = cdf(mid) < target
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return float(lo[0]), float(hi[1])
 
 
 def page_data_fit(ctx):
@@ -310,7 +325,8 @@ def page_data_fit(ctx):
                   "Power spectra (metadata responses removed; 'flat' channels as recorded)")
                  + "; SUT black, reference grey", loc="left")
     ax.legend(ncol=2, loc="best")
-    frequency_ticks(ax, f[0], f[-1])
+    log_ticks(ax, f[0], f[-1])
+    log_ticks(ax, axis="y")
     ax = fig.add_subplot(gs[1])
     incoherent = np.clip(1.0 - d["multiple_coherence"], 1e-8, 1.0)
     for i, cid in enumerate(sut):
@@ -321,7 +337,8 @@ def page_data_fit(ctx):
     ax.set_title("Incoherent fraction of each SUT channel's power, against all reference channels"
                  " (0.01 = coherence 0.99)", loc="left")
     ax.legend(loc="best")
-    frequency_ticks(ax, f[0], f[-1])
+    log_ticks(ax, f[0], f[-1])
+    log_ticks(ax, axis="y")
     _misfit_panel(fig.add_subplot(gs[2]), d, sut, len(ref))
     return fig
 
@@ -353,10 +370,11 @@ def _misfit_panel(ax, d, sut, n_r):
     if top > 10 * hi:                    # far off: a log axis keeps the expected range visible
         ax.set_yscale("log")
         ax.set_ylim(min(lo, float(np.nanmin(mis))) / 1.5, top * 2)
+        log_ticks(ax, axis="y")
     else:
         ax.set_ylim(0, max(hi * 1.3, top * 1.15))
     ax.legend(loc="upper left", ncol=2)
-    frequency_ticks(ax, edges[0], edges[-1])
+    log_ticks(ax, edges[0], edges[-1])
 
 
 def page_convergence(ctx):

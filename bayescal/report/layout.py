@@ -12,6 +12,8 @@ put legends beside the axes (:func:`legend_beside`), size tables with
 from __future__ import annotations
 
 import contextlib
+import functools
+import logging
 import textwrap
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -71,7 +73,9 @@ def save_pdf_page(pdf, fig, page):
 
 @dataclass
 class ReportContext:
-    """Everything the pages draw from; ``page`` is the paper size (inches)."""
+    """Everything the pages draw from; ``page`` is the paper size (inches);
+    ``full``: every page, also those a fit's report draws on request
+    (:data:`bayescal.report.fit.ON_REQUEST`)."""
 
     folder: str
     post: object
@@ -79,14 +83,13 @@ class ReportContext:
     truth: dict | None
     tolerance_deg: float
     page: tuple = A4
+    full: bool = True
 
 
 @contextlib.contextmanager
 def style():
-    """Report style: Type 3 fonts in the PDF (matplotlib's default: the
-    same DejaVu glyphs as outlines, Latin-1 text extractable; a PDF with Type 42
-    TrueType fonts looks the same but costs a font subsetting of each font
-    when it is closed), ASCII minus signs, thin grid, small fonts that stay
+    """Report style: the PDF's text in the standard PDF font Helvetica
+    (:func:`core_fonts`), ASCII minus signs, thin grid, small fonts that stay
     inside the page. Titles sit just above their axes (``axes.titley``; no
     report axes has tick labels on top), so drawing does not measure every
     axis to place them."""
@@ -97,6 +100,70 @@ def style():
                                 "legend.fontsize": 7, "axes.grid": True, "grid.color": "0.85",
                                 "grid.linewidth": 0.5, "savefig.facecolor": "white"}):
         yield
+
+
+#: The text encoding of the PDF's standard fonts (WinAnsiEncoding).
+CORE_ENCODING = "cp1252"
+
+
+def _strings(fig):
+    """The text of ``fig`` (a Figure or SubFigure): its texts and legends,
+    and each axes' texts, titles, axis labels, legend and tables; tick
+    labels are numbers. Read without walking every artist (which would
+    make every tick)."""
+    for t in fig.texts:
+        yield t.get_text()
+    for leg in fig.legends:
+        yield from (t.get_text() for t in leg.get_texts())
+    for ax in fig.axes:
+        yield from (t.get_text() for t in ax.texts)
+        yield from (ax.get_title(loc) for loc in ("left", "center", "right"))
+        yield from (ax.get_xlabel(), ax.get_ylabel())
+        if ax.get_legend() is not None:
+            yield from (t.get_text() for t in ax.get_legend().get_texts())
+        for tab in ax.tables:
+            yield from (c.get_text().get_text() for c in tab.get_celld().values())
+    for sub in fig.subfigs:
+        yield from _strings(sub)
+
+
+def _in_core_encoding(fig):
+    """True when all the text of ``fig`` is in :data:`CORE_ENCODING`."""
+    try:
+        for text in _strings(fig):
+            text.encode(CORE_ENCODING)
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+class _RegularHelvetica(logging.Filter):
+    """Drops matplotlib's warning that Helvetica has no weight "normal":
+    the standard font's metrics (AFM) name its regular face "Medium"."""
+
+    def filter(self, record):
+        return not (str(record.msg).startswith("findfont: Failed to find font weight")
+                    and len(record.args or ()) > 1 and record.args[1] == "Helvetica")
+
+
+@contextlib.contextmanager
+def core_fonts(fig):
+    """Draw ``fig`` into a PDF in the standard PDF fonts (Helvetica, text
+    as strings in the font's encoding, no font embedded; matplotlib's
+    ``pdf.use14corefonts``) when all its text is in their encoding
+    (:data:`CORE_ENCODING`), else in Type 3 fonts (DejaVu glyphs embedded).
+    Drawn in the standard fonts, text costs no glyph layout (its widths are
+    the font's metrics), which is most of a page's drawing time in Type 3.
+    Helvetica is narrower than DejaVu Sans, in which the layout is measured
+    (Agg; the PNGs): text placed to fit in DejaVu fits in Helvetica."""
+    log = logging.getLogger("matplotlib.font_manager")
+    quiet = _RegularHelvetica()
+    log.addFilter(quiet)
+    try:
+        with matplotlib.rc_context({"pdf.use14corefonts": _in_core_encoding(fig)}):
+            yield
+    finally:
+        log.removeFilter(quiet)
 
 
 def save_png(fig, path, dpi=PNG_DPI):
@@ -149,10 +216,11 @@ def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=
     pngs = []
     with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:
         for png, fig in pages:
-            if page is None:
-                pdf.savefig(fig)
-            else:
-                save_pdf_page(pdf, fig, page)
+            with core_fonts(fig):
+                if page is None:
+                    pdf.savefig(fig)
+                else:
+                    save_pdf_page(pdf, fig, page)
             if png is not None:
                 with atomic_path(png) as tmp_png:
                     if grey:
@@ -244,13 +312,19 @@ CELL_PAD = 0.1
 
 def _text_width_in(text, size):
     """Width in inches of ``text`` (its longest line) at ``size`` points."""
+    return max(_line_width_in(ln, size) for ln in str(text).split("\n"))
+
+
+@functools.lru_cache(maxsize=4096)
+def _line_width_in(line, size):
+    """Width in inches of one line of text at ``size`` points in the report's
+    font, as Agg lays it out (each line measured once: a table's notes are
+    measured at every width tried)."""
     from matplotlib.backends.backend_agg import RendererAgg
     from matplotlib.font_manager import FontProperties
 
-    r = RendererAgg(1, 1, 72)
-    prop = FontProperties(size=size)
-    return max(r.get_text_width_height_descent(ln, prop, ismath=False)[0]
-               for ln in str(text).split("\n")) / 72.0
+    return RendererAgg(1, 1, 72).get_text_width_height_descent(
+        line, FontProperties(size=size), ismath=False)[0] / 72.0
 
 
 def fit_columns(rows, width_in, size):

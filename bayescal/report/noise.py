@@ -24,6 +24,7 @@ import numpy as np
 
 from ..core.selfnoise import below_resolution, db
 from ..atomic import record_written  # noqa: E402
+from .axes import log_ticks
 from .layout import A4, LINESTYLES, MARKERS, legend_beside, style, write_pages
 
 COLOURS = ("C0", "C3", "C2", "C1", "C4", "C5", "C6", "C7")
@@ -128,8 +129,9 @@ def draw_estimates(ax, e, ids):
                         label=f"{cid} upper bound (below resolution)")
     ax.set_xlim(per.min() * 0.9, per.max() * 1.1)
     ax.set_ylim(bottom, top)
+    log_ticks(ax)
     ax.set_xlabel("period (s)")
-    ax.set_ylabel("PSD, dB re 1 (m/s$^2$)$^2$/Hz")
+    ax.set_ylabel("PSD, dB re 1 (m/s²)²/Hz")
     ax.grid(True, which="major", lw=0.4)
     # beside the axes, never over a curve
     legend_beside(ax, fontsize=6.5)

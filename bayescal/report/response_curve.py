@@ -12,7 +12,7 @@ import textwrap
 import numpy as np
 from matplotlib.figure import Figure
 
-from .axes import frequency_ticks
+from .axes import log_ticks
 from .layout import LINESTYLES
 
 
@@ -51,9 +51,10 @@ def _panel(ax_amp, ax_ph, f, entry, cid, k):
         ax.plot(f, np.asarray(entry["metadata"][key], float), color="0.4", lw=1.0, ls="--",
                 label="metadata")
         ax.set_xscale("log")
-        frequency_ticks(ax, f[0], f[-1])
+        log_ticks(ax, f[0], f[-1])
         ax.set_xlabel("frequency (Hz)")
     ax_amp.set_yscale("log")
+    log_ticks(ax_amp, axis="y")
     ax_amp.set_ylabel("|R| (counts / counts)")
     ax_ph.set_ylabel("phase of R (rad)")
     ax_amp.set_title(cid, loc="left", fontsize=8)
