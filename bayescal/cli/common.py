@@ -190,6 +190,18 @@ def convergence_exit(entries, stream=None):
     return code
 
 
+def add_report_pages_arguments(parser):
+    """``--full`` and ``--png``: the pages of a fit's report beyond the
+    default ones, and a PNG per page."""
+    parser.add_argument("--full", action="store_true",
+                        help="a fit's report: also the corner plots and the convergence page "
+                             "(drawn anyway when the posterior is multimodal or the sampler "
+                             "did not converge)")
+    parser.add_argument("--png", action="store_true",
+                        help="a fit's report: also one PNG per page (DIR/report_*.png; "
+                             "about as long again to draw as the PDF)")
+
+
 def add_paper_argument(parser):
     """``--paper a4|letter``: the size of every page of the PDF reports."""
     parser.add_argument("--paper", choices=["a4", "letter"], default="a4",

@@ -48,7 +48,7 @@ import sys
 import time
 import warnings
 
-from .common import (add_pair_arguments, convergence_exit, priors_from,
+from .common import (add_pair_arguments, add_report_pages_arguments, convergence_exit, priors_from,
                      quiet_convergence_warnings, say, staging)
 
 HELP = "estimate the SUT's orientation and gain (and response) from recordings beside a reference"
@@ -57,6 +57,7 @@ HELP = "estimate the SUT's orientation and gain (and response) from recordings b
 def configure(parser):
     """Arguments of ``bayescal fit``."""
     add_pair_arguments(parser)
+    add_report_pages_arguments(parser)
     parser.add_argument("--no-diagnose", action="store_true",
                         help="when the model check fails, do not look for the cause (by "
                              "default the fit then names what the model leaves out, models it "
@@ -311,7 +312,7 @@ def run(args):
             from ..report.fit import write_report
             say(args, "writing the report ...")
             try:
-                write_report(tmp, paper=args.paper)
+                write_report(tmp, paper=args.paper, png=args.png, full=args.full)
             except Exception as exc:  # the fit's results matter more than its figures
                 print(f"bayescal: warning: the report could not be written "
                       f"({type(exc).__name__}: {exc}); results are complete", file=sys.stderr)

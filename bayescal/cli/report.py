@@ -16,7 +16,7 @@ Example:
 """
 from __future__ import annotations
 
-from .common import add_paper_argument
+from .common import add_paper_argument, add_report_pages_arguments
 
 HELP = "redraw the report of a saved fit, diagnose, cal, uvw, noise or batch folder"
 
@@ -37,13 +37,7 @@ def configure(parser):
                              f"(default {FLAG_THRESHOLD_DEG:g}, as bayescal batch)")
     parser.add_argument("--truth", metavar="JSON", default=None,
                         help="simulation truth for truth markers (default DIR/truth.json)")
-    parser.add_argument("--full", action="store_true",
-                        help="a fit's report: also the corner plots and the convergence page "
-                             "(drawn anyway when the posterior is multimodal or the sampler "
-                             "did not converge)")
-    parser.add_argument("--png", action="store_true",
-                        help="a fit's report: also one PNG per page (DIR/report_*.png; "
-                             "about as long again to draw as the PDF)")
+    add_report_pages_arguments(parser)
     add_paper_argument(parser)
 
 
