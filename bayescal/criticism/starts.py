@@ -13,8 +13,9 @@ cases (the huddle pair in two bands, the COWI pair as it is and with a
 hidden clock offset, a simulated 2-h 3+3 pair): the second pass lowered a
 start's misfit by at most 45 %, and every start the rule abandons (the
 timing offset's other phase-wrap modes) ended at least 90 times the best
-start's misfit. A start that is not abandoned is refined exactly as
-before (its two passes split at the noise re-estimate between them).
+start's misfit. The first start's two passes run at once; a later start
+that is not abandoned is refined as they are (its two passes split at the
+noise re-estimate between them).
 """
 from __future__ import annotations
 
@@ -61,11 +62,14 @@ def best_start_fit(model, starts, noise):
     for theta0 in starts:
         jac = forward_jacobian(model, matmul=True)
         try:
-            theta, cov = least_squares_fit(model, theta0, iterations=1, jac=jac)
-            if best is not None and best[0] >= 0 and \
-                    misfit_under(model, theta, noise) > ABANDON_RATIO * best[0] + ABANDON_SLACK:
-                continue
-            theta, cov = least_squares_fit(model, theta, iterations=1, jac=jac)
+            if best is None:            # nothing to compare with: both passes at once
+                theta, cov = least_squares_fit(model, theta0, jac=jac)
+            else:
+                theta, cov = least_squares_fit(model, theta0, iterations=1, jac=jac)
+                if best[0] >= 0 and misfit_under(model, theta, noise) > \
+                        ABANDON_RATIO * best[0] + ABANDON_SLACK:
+                    continue
+                theta, cov = least_squares_fit(model, theta, iterations=1, jac=jac)
         except Exception:   # noqa: BLE001 - a start that fails is not a fit
             continue
         if not np.isfinite(model.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
