@@ -4,6 +4,7 @@
                     each a nested extension of the likelihood
 * :mod:`.locate`    where the misfit is: per band and channel, with p-values
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
+* :mod:`.starts`    a candidate's least squares from its grid's best starting points
 * :mod:`.prior_choice`  whether to leave the sensor's stated prior for the wide
                     corner: the prior-data conflict test, then the evidence
 * :mod:`.naming`    which kept effects are named: pruning, a timing offset's

@@ -39,6 +39,7 @@ from ..core.sampling import default_walkers, sample
 from ..core.fit import (assemble_posterior, plugin_meta, least_squares_fit, describe_late,
                         information, late_flags)
 from ..core.orientation import unit_vector
+from ..core.threads import single_threaded_blas
 from ..core.response import prior_sensitivity, set_by_prior_entries
 from ..core.posterior import interval_summary
 from ..result import Convergence
@@ -207,7 +208,15 @@ def diagnose(base, seed=0, mcmc=True, progress=False, log=None, budget=None, **s
     ``Diagnosis.incomplete``), and the improved model's chain gets what is
     left of it (at least :data:`MIN_CHAIN_WORK`). None: no limit.
     Returns a :class:`Diagnosis`.
+
+    BLAS runs single-threaded throughout (:func:`bayescal.core.threads.single_threaded_blas`):
+    the products are small, and on a busy machine threads only wait on each other.
     """
+    with single_threaded_blas():
+        return _diagnose(base, seed, mcmc, progress, log, budget, sample_kw)
+
+
+def _diagnose(base, seed, mcmc, progress, log, budget, sample_kw):
     model0 = base.model
     free = base.meta.free_response or "none"
     th0 = base.theta_ls

@@ -15,6 +15,7 @@ from ..core.threads import single_threaded_blas
 from ..core.orientation import Fixed
 from ..core.response import TwoPoleFamily
 from .locate import overdispersion
+from .starts import best_start_fit, grid_starts
 from .prior_choice import BY_EVIDENCE, by_evidence, log_evidence_gain, prior_conflict
 
 
@@ -205,38 +206,16 @@ def fit_candidate(cur_model, cur_theta, effects, grid, new_index):
     ll = np.full(len(grid), -np.inf)
     ll[ok] = m.log_likelihood(trial[ok])
     new = effects[new_index]
-    best = None
-    for theta0 in _starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1):
-        try:
-            theta, cov = least_squares_fit(m, theta0, jac=forward_jacobian(m, matmul=True))
-        except Exception:
-            continue
-        if not np.isfinite(m.log_prior(theta))[0] or not np.all(np.isfinite(np.diag(cov))):
-            continue
-        # starts are compared under one noise model, the current model's
-        own = m.noise
-        m.adopt_noise(cur_model.noise)
-        fit_ll = float(m.log_likelihood(theta)[0])
-        if best is None or fit_ll > best[0]:
-            best = (fit_ll, theta, cov, own)
+    starts = grid_starts(trial, ll, N_STARTS if getattr(new, "multimodal", False) else 1)
+    best = best_start_fit(m, starts, cur_model.noise)
     if best is None:
         return None
-    _, theta, cov, m.noise = best
+    theta, cov, m.noise = best
     sp = m.spectra
     if hasattr(new, "identifiable") and not new.identifiable(theta[new_slice], sp.band_edges[0],
                                                              sp.band_edges[-1]):
         return None
     return m, theta, cov
-
-
-def _starts(trial, ll, n):
-    """The ``n`` best local maxima of ``ll`` along the grid ``trial`` (a
-    delay's likelihood is multimodal: one least-squares run from the grid's
-    best point can end in a neighbouring mode)."""
-    inner = np.r_[True, ll[1:] >= ll[:-1]] & np.r_[ll[:-1] >= ll[1:], True] & np.isfinite(ll)
-    idx = np.flatnonzero(inner)
-    idx = idx[np.argsort(ll[idx])[::-1]][:n]
-    return [trial[i] for i in idx] or [trial[int(np.argmax(ll))]]
 
 
 def _best_loglik(model, starts):

@@ -376,8 +376,8 @@ def _misfit_advice(d, free, band_given):
         advice.append(narrower)
     if free != "all" and "response_parameters" not in d.tried:
         advice.append("--fit-response all (period and damping fitted)")
-    caveat = d.sentences()[-1] if d.sentences() and "third co-located" in \
-        d.sentences()[-1] else None
+    said = d.sentences()
+    caveat = said[-1] if said and "third co-located" in said[-1] else None
     if caveat:
         advice.append(caveat)
     return advice, why

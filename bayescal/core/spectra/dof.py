@@ -5,6 +5,8 @@ Every likelihood weight, self-noise interval and noise model that needs them
 takes them from here."""
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from .welch import hann
@@ -25,9 +27,22 @@ def band_dof(spectra):
     :func:`bayescal.core.spectra.welch.cross_spectra` uses):
     :func:`effective_dof`. A model's fit does not enter: a band that misfits
     is not counted as having fewer samples.
+
+    The value depends on the segment layout only (window length, segment
+    starts, bins per band): it is computed once per layout (a fit and its
+    criticism re-estimate noise models many times over the same spectra).
     """
-    return effective_dof(hann(spectra.nperseg), spectra.segment_starts,
-                         np.asarray(spectra.bins_per_band, int))
+    layout = (int(spectra.nperseg), np.asarray(spectra.segment_starts, np.int64).tobytes(),
+              np.asarray(spectra.bins_per_band, np.int64).tobytes())
+    return _layout_dof(*layout).copy()
+
+
+@lru_cache(maxsize=8)
+def _layout_dof(nperseg, starts, bins):
+    """:func:`effective_dof` of a periodic Hann window of ``nperseg`` samples
+    at the segment ``starts`` and ``bins`` per band (int64 bytes)."""
+    return effective_dof(hann(nperseg), np.frombuffer(starts, np.int64),
+                         np.frombuffer(bins, np.int64))
 
 
 def _window_correlation(window, lags):

@@ -129,10 +129,12 @@ class SutCorner(CriticismEffect):
 
     def factor(self, f, p):
         new, nom = self._denominators(f, p)
-        norm = np.array([fam.norm_freq for fam in self.families])
-        new_n, nom_n = self._denominators(norm, p)
-        k = np.arange(len(self.rows))
-        scale = np.abs(nom_n[k, k])[None, :] / np.abs(new_n[:, k, k])        # (W, n)
+        # each row at its own family's normalisation frequency (the diagonal
+        # of the denominators at all of them)
+        x = 1j * np.array([fam.norm_freq for fam in self.families]) * 2 * np.pi / self.w1
+        new_n = x[None] ** 2 + p[:, 0::2] * x[None] + p[:, 1::2]              # (W, n)
+        nom_n = x ** 2 + self.nominal_ab[:, 0] * x + self.nominal_ab[:, 1]
+        scale = np.abs(nom_n)[None, :] / np.abs(new_n)                         # (W, n)
         with np.errstate(all="ignore"):
             return new / nom[None] * scale[:, :, None]
 
