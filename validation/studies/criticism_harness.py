@@ -270,7 +270,7 @@ def summarise(records):
         "max_seconds": float(max(r["seconds"] for r in records)) if records else None,
         "extra": [what_ran(r, extra_names=r["extra_names"]) for r in eff
                   if r.get("extra_names")],
-        "misses": [what_ran(r) for r in eff if r["outcome"] != "right name"],
+        "misses": [what_ran(r, named=r["named"]) for r in eff if r["outcome"] != "right name"],
         "sizes_by_noise": sizes_by_noise(eff),
     }
 
