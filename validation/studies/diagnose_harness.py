@@ -148,12 +148,16 @@ def gain_false_alarms(records):
 
 def noise_and_leftovers(records):
     """Of the runs the fit accepted: how many had the reference's own
-    self-noise named (kept by its BIC test, before any effect is tried) and
-    how many kept a mismatch the final model leaves unexplained."""
+    self-noise named (kept by its BIC test, before any effect is tried),
+    how many kept a mismatch the final model leaves unexplained, and each
+    run with a name (seed, hidden effect, names, the diagnosis's
+    sentences)."""
     done = [r for r in records if r["outcome"] != "refused"]
-    return {"runs": len(done),
+    return {"accepted": len(done),
             "reference_noise_named": sum(bool(r.get("reference_noise_kept")) for r in done),
-            "unexplained": sum(bool(r.get("unexplained")) for r in done)}
+            "unexplained": sum(bool(r.get("unexplained")) for r in done),
+            "named": [{"seed": r["seed"], "truth": r["truth"], "named": r["named"],
+                       "sentences": r.get("sentences", [])} for r in done if r["named"]]}
 
 
 def table(records):
@@ -175,7 +179,14 @@ def main(argv=None):
                     help="noise regime of the runs (reference coherence, noise shape)")
     ap.add_argument("--gain-off", type=float, default=0.0,
                     help="SUT gains off their metadata by up to this fraction (e.g. 0.03)")
+    ap.add_argument("--summarise", action="store_true",
+                    help="write OUT's noise and leftover counts again from its per-run records")
     args = ap.parse_args(argv)
+    if args.summarise:
+        doc = study_results.read(args.out)
+        doc["noise_and_leftovers"] = noise_and_leftovers(doc["runs"])
+        study_results.write(args.out, doc)
+        return 0
     records = []
     t0 = time.perf_counter()
     for k in range(args.runs):
