@@ -58,3 +58,26 @@ def test_design_rate_is_wilks():
 def _sci(x):
     """``x`` as the docs write it: 3.5e-04."""
     return f"{x:.1e}"
+
+
+def test_stored_details_follow_the_table_and_the_seed_design():
+    """The per-pair facts diagnose.md quotes (``details``) against the
+    stored table and the study's design: every single-effect pair counted
+    once under its hidden effect, the named effects never more than those
+    drawn, the hidden tilts not named are the tilt pairs less those named,
+    and each clean pair with a name is one of the table's, its reference
+    and noise shape those its seed fixes (reference by seed mod 3: 100x
+    quieter, 10x quieter, as noisy; noise white in counts on even seeds)."""
+    stored = json.loads(STORED.read_text())
+    d, rows = stored["details"], _rows(stored["table"])
+    _, (drawn, refused, _, named, _) = rows["single effect"]
+    assert sum(v["of"] for v in d["named_by_effect"].values()) == drawn - refused
+    assert all(0 <= v["named"] <= v["of"] for v in d["named_by_effect"].values())
+    tilt = d["named_by_effect"]["tilt_noise"]
+    assert len(d["missed_tilts"]) == tilt["of"] - tilt["named"]
+    _, (_, _, _, clean_named, _) = rows["clean"]
+    assert len(d["clean_named"]) == clean_named
+    for pair in d["clean_named"]:
+        assert 4000 <= pair["seed"] < 4060 and pair["named"]
+        assert pair["regime"] == ("default", "ref10x", "equal")[pair["seed"] % 3]
+        assert pair["noise"] == ("counts" if pair["seed"] % 2 == 0 else "ground")

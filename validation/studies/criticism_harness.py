@@ -267,7 +267,36 @@ def summarise(records):
         "criticism_incomplete": sum(not r.get("complete", True) for r in records),
         "by_kind": by_kind,
         "median_seconds": float(np.median([r["seconds"] for r in records])) if records else None,
+        "max_seconds": float(max(r["seconds"] for r in records)) if records else None,
+        "extra": [what_ran(r, extra_names=r["extra_names"]) for r in eff
+                  if r.get("extra_names")],
+        "misses": [what_ran(r, named=r["named"]) for r in eff if r["outcome"] != "right name"],
+        "sizes_by_noise": sizes_by_noise(eff),
     }
+
+
+def what_ran(r, **more):
+    """The facts of one run a page cites: seed, hidden effect, record
+    length (h), noise, field, whether the model check passed, the verdict."""
+    g = r["regime"]
+    return {"seed": r["seed"], "kind": r["kind"], "hours": g["duration_s"] / 3600,
+            "noise": "ground" if "ground" in g["noise"] else "counts", "field": g["field"],
+            "check_ok": bool(r.get("check_ok")), "verdict": r.get("verdict"), **more}
+
+
+def sizes_by_noise(eff):
+    """Sizes given as measurements, inside their 95 % intervals / counted,
+    split by the noise's shape; and the gain errors measured as the fit's
+    relative gain in each."""
+    out = {}
+    for noise in ("ground", "counts"):
+        rs = [r for r in eff if ("ground" in r["regime"]["noise"]) == (noise == "ground")]
+        sz = [s for r in rs for s in r.get("sizes", {}).values() if s.get("measurement", True)]
+        gains = [s for r in rs if r["kind"] == "gain_error"
+                 for s in r.get("sizes", {}).values()]
+        out[noise] = {"covered": sum(s["covered"] for s in sz), "sizes": len(sz),
+                      "gain_covered": sum(s["covered"] for s in gains), "gains": len(gains)}
+    return out
 
 
 def main(argv=None):
@@ -289,9 +318,18 @@ def main(argv=None):
                          "checkpoint OUT.I.partial")
     ap.add_argument("--merge", nargs="+", default=None, metavar="CHECKPOINT",
                     help="write OUT from these shard checkpoints (and remove them)")
+    ap.add_argument("--summarise", action="store_true",
+                    help="write OUT's summary again from its per-run records (OUT's .runs.json)")
     args = ap.parse_args(argv)
     if args.out is None:
         args.out = f"validation/results/criticism/harness_{args.seeds}.json"
+    if args.summarise:          # the summary again from the per-run records beside OUT
+        runs_file = os.path.splitext(args.out)[0] + ".runs.json"
+        doc = json.load(open(runs_file))
+        doc["summary"] = summarise(doc["runs"])
+        study_results.write(args.out, doc)
+        print(json.dumps(doc["summary"], indent=1))
+        return 0
     if args.merge:
         parts = [json.load(open(f)) for f in args.merge]
         records = sorted((r for p in parts for r in p["runs"]),

@@ -68,6 +68,7 @@ def run_one(seed, p_clean, regime="default", gain_off=0.0, ref_noise="quiet"):
     rec = {"seed": seed, "truth": kind, "truth_size": truth, "named": names,
            "coherence": coherence, "regime": regime, "gain_off": gain_off,
            "reference_noise_delta_bic": (d.signatures.get("reference_noise") or {}).get("delta_bic"),
+           "reference_noise_kept": bool((d.signatures.get("reference_noise") or {}).get("kept")),
            "tilt_delta_bic": (d.signatures.get("tilt_noise") or {}).get("delta_bic"),
            "seconds": time.perf_counter() - t0, "unexplained": d.unexplained(),
            "sentences": d.sentences()}
@@ -145,6 +146,20 @@ def gain_false_alarms(records):
     return n_ex, n_ch, runs_ex, runs
 
 
+def noise_and_leftovers(records):
+    """Of the runs the fit accepted: how many had the reference's own
+    self-noise named (kept by its BIC test, before any effect is tried),
+    how many kept a mismatch the final model leaves unexplained, and each
+    run with a name (seed, hidden effect, names, the diagnosis's
+    sentences)."""
+    done = [r for r in records if r["outcome"] != "refused"]
+    return {"accepted": len(done),
+            "reference_noise_named": sum(bool(r.get("reference_noise_kept")) for r in done),
+            "unexplained": sum(bool(r.get("unexplained")) for r in done),
+            "named": [{"seed": r["seed"], "truth": r["truth"], "named": r["named"],
+                       "sentences": r.get("sentences", [])} for r in done if r["named"]]}
+
+
 def table(records):
     """Confusion table: rows = hidden effect, columns = outcomes."""
     cols = ["right name", "wrong name", "miss", "false alarm", "clean", "refused"]
@@ -164,7 +179,14 @@ def main(argv=None):
                     help="noise regime of the runs (reference coherence, noise shape)")
     ap.add_argument("--gain-off", type=float, default=0.0,
                     help="SUT gains off their metadata by up to this fraction (e.g. 0.03)")
+    ap.add_argument("--summarise", action="store_true",
+                    help="write OUT's noise and leftover counts again from its per-run records")
     args = ap.parse_args(argv)
+    if args.summarise:
+        doc = study_results.read(args.out)
+        doc["noise_and_leftovers"] = noise_and_leftovers(doc["runs"])
+        study_results.write(args.out, doc)
+        return 0
     records = []
     t0 = time.perf_counter()
     for k in range(args.runs):
@@ -207,6 +229,9 @@ def main(argv=None):
         "false_alarm_fraction": false, "markdown": text,
         "gain_rule_false_alarms": {"channels_excluding_1": g_ex, "channels_checked": g_ch,
                                    "clean_runs_with_one": g_runs_ex, "clean_runs": g_runs},
+        "noise_and_leftovers": noise_and_leftovers(records),
+        "command": " ".join(["python validation/studies/diagnose_harness.py",
+                             *(sys.argv[1:] if argv is None else argv)]),
         "settings": {"duration_s": 3600, "fs": 10, "band_hz": BAND,
                      "coherence": "uniform 0.9-0.995", "p_clean": args.p_clean,
                      "regime": args.regime, "gain_off": args.gain_off}})

@@ -134,6 +134,35 @@ def table(records):
     return rows
 
 
+def details(records):
+    """What the page says of single pairs: per hidden effect, the pairs
+    where it is named (of those drawn); the hidden tilts not named (level,
+    noise shape); each clean pair with a name (seed, reference, noise
+    shape, SUT coherence, names, whether its check passed)."""
+    done = [r for r in records if r["outcome"] != "refused"]
+    named = {}
+    for r in done:
+        if r["truth"] != "none":
+            d = named.setdefault(r["truth"], {"named": 0, "of": 0})
+            d["of"] += 1
+            d["named"] += r["truth"] in r["named"]
+    missed_tilts = [{"seed": r["seed"], "level": r["truth_size"]["level"], "noise": r["noise"]}
+                    for r in done if r["truth"] == "tilt_noise" and "tilt_noise" not in r["named"]]
+    clean_named = [{"seed": r["seed"], "regime": r["regime"], "noise": r["noise"],
+                    "coherence": r["coherence"], "named": r["named"], "check_ok": r["check_ok"]}
+                   for r in done if r["truth"] == "none" and r["named"]]
+    return {"named_by_effect": named, "missed_tilts": missed_tilts, "clean_named": clean_named}
+
+
+def summary_from_runs(out):
+    """Write ``out``'s summary again from its per-run records (``out``'s
+    ``.runs.json``), :func:`details` included."""
+    doc = study_results.read(out)
+    doc["details"] = details(doc["runs"])
+    study_results.write(out, doc)
+    return doc
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="validation/results/diagnose/false_alarms.json")
@@ -143,7 +172,12 @@ def main(argv=None):
                     default=list(tilt.NOISE_SHAPES),
                     help="the self-noise shapes the tilt test judges against ('signal' "
                          "alone: the test without the sensor's own noise shape)")
+    ap.add_argument("--summarise", action="store_true",
+                    help="write OUT's summary again from its per-run records (OUT's .runs.json)")
     args = ap.parse_args(argv)
+    if args.summarise:
+        print(summary_from_runs(args.out)["details"])
+        return
     tilt.NOISE_SHAPES = tuple(args.noise_shapes)
     sl = slice(args.first, args.first + args.pairs)
     jobs = [(s, True) for s in CLEAN_SEEDS[sl]] + [(s, False) for s in EFFECT_SEEDS[sl]]
@@ -170,6 +204,7 @@ def main(argv=None):
     text = "\n".join(lines)
     print(text)
     study_results.write(args.out, {"runs": records, "design": rate, "table": text,
+                                   "details": details(records),
                                    "settings": {"band": BAND, "ground": GROUND,
                                                 "noise_shapes": list(tilt.NOISE_SHAPES),
                                                 "duration_s": DURATION, "fs": FS}})

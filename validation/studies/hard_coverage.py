@@ -259,6 +259,21 @@ def _count(pairs):
             "consistent": bool(lo <= k <= hi) if n else None}
 
 
+def corner_data_fix(rows):
+    """At the corner, the values the refits say the data fix (period,
+    damping, damping/period of every channel, pooled): how many, how many
+    the flag leaves unflagged, and each one flagged (seed, channel, name,
+    the median's shift under the doubled prior in sds, the reference's
+    noise ratio)."""
+    items = [(r, cid, name, e[name]) for r in rows if r["regime"] == "corner"
+             for cid, e in r["channels"].items() for name in NAMES
+             if not e[name]["exact"]["set_by_prior"]]
+    return {"values": len(items), "flag_absent": sum(not x["flag"] for *_, x in items),
+            "flagged": [{"seed": r["seed"], "channel": cid, "name": name,
+                         "shift_sd": x["exact"]["shift_sd"], "ref_noise_ratio": r["ref_noise_ratio"]}
+                        for r, cid, name, x in items if x["flag"]]}
+
+
 def summarise(all_rows):
     rows = [r for r in all_rows if "refused" not in r]
     cov = {"angles": [v[0] for r in rows for v in r["angles"].values()]}
@@ -287,6 +302,12 @@ def summarise(all_rows):
             "rate_absent": float(1 - np.mean(corner)) if corner else None,
             "agreement": float(np.mean([f == x for f, x, _ in items]))}
     table["flags"] = flags
+    table["corner_data_fix"] = corner_data_fix(rows)
+    table["gain_by_ref_noise_ratio"] = {
+        format(ratio, "g"): _count([e["gain"]["inside90"] for r in rows
+                                    if not r["ref_metadata_off"] and r["ref_noise_ratio"] == ratio
+                                    for e in r["channels"].values()])
+        for ratio in sorted({r["ref_noise_ratio"] for r in rows})}
     by = {}
     for key in ("regime", "ref_noise_ratio"):
         for val in sorted({r[key] for r in rows}, key=str):

@@ -95,6 +95,7 @@ def run_pair(seed, regime):
         flagged = not b["separable"]
         in_b = bool(lo <= truth <= hi)
         checks[cid] = {"truth": truth, "median": rel["median"], "ci95": rel["ci95"],
+                       "sd": rel["sd"], "correlation": sides_correlation(b),
                        "hold": hold, "flagged": flagged, "in_bounds": in_b,
                        "ok": bool(hold or (flagged and in_b)), "bounds": [b["lower"], b["upper"]],
                        "interval95": [lo, hi], "sut_gain": su["gain"], "sut_sd": su["sd"],
@@ -105,6 +106,54 @@ def run_pair(seed, regime):
                                     bool(abs(su["gain"] - truth) <= 1.959964 * su["sd"]))}
     return {"seed": seed, "regime": regime[0], "cpu_s": time.process_time() - t0,
             "converged": bool(summ["convergence"].get("converged", True)), "checks": checks}
+
+
+def sides_correlation(b):
+    """The correlation of the SUT-side and the reference-side gains' errors
+    of one channel's bounds entry ``b``, from their standard errors and
+    that of their difference (``difference / difference_z``); None when
+    any is missing."""
+    su, sr, dz = b["sut_side"], b["reference_side"], b["difference_z"]
+    if None in (su["gain"], su["sd"], sr["gain"], sr["sd"], dz) or dz == 0:
+        return None
+    d_sd = (su["gain"] - sr["gain"]) / dz
+    return float((su["sd"] ** 2 + sr["sd"] ** 2 - d_sd ** 2) / (2 * su["sd"] * sr["sd"]))
+
+
+def z_stats(values):
+    """Mean and sd of standardised errors (None without any)."""
+    v = np.asarray([x for x in values if x is not None], float)
+    return {"mean": float(v.mean()), "sd": float(v.std(ddof=1)), "n": int(v.size)} \
+        if v.size > 1 else None
+
+
+def regime_z(cs):
+    """The standardised errors of one regime's channels: the fit's relative
+    gain, the SUT-side gain, the two sides' difference; and the two sides'
+    error correlation (median and range)."""
+    rho = [c["correlation"] for c in cs if c.get("correlation") is not None]
+    return {"fit_z": z_stats((c["median"] - c["truth"]) / c["sd"] for c in cs),
+            "sut_z": z_stats(None if c["sut_gain"] is None or not c["sut_sd"]
+                             else (c["sut_gain"] - c["truth"]) / c["sut_sd"] for c in cs),
+            "difference_z": z_stats(c["difference_z"] for c in cs),
+            "correlation": ({"median": float(np.median(rho)),
+                             "q10_q90": [float(q) for q in np.percentile(rho, [10, 90])]}
+                            if rho else None)}
+
+
+def outside_bounds(rows):
+    """Every flagged channel whose truth lies outside the bounds' 95 %
+    interval: its regime, channel and how far above (+) or below (-) the
+    interval the truth is, in percent of the interval's end."""
+    out = []
+    for r in rows:
+        for cid, c in r["checks"].items():
+            if c["flagged"] and not c["in_bounds"]:
+                lo, hi = c["interval95"]
+                off = c["truth"] / hi - 1 if c["truth"] > hi else c["truth"] / lo - 1
+                out.append({"regime": r["regime"], "seed": r["seed"], "channel": cid,
+                            "percent_outside": 100 * off})
+    return out
 
 
 def summarise(rows):
@@ -131,8 +180,20 @@ def summarise(rows):
                     "sut_band95": list(binomial_band(len(sut), 0.95)) if sut else None,
                     "median_ref_noise_fraction": float(np.median(
                         [c["ref_noise_fraction"] for c in cs
-                         if c["ref_noise_fraction"] is not None] or [np.nan]))})
+                         if c["ref_noise_fraction"] is not None] or [np.nan])),
+                    **(regime_z(cs) if all("sd" in c for c in cs) else {})})
     return out
+
+
+def flagged_totals(rows):
+    """Over every regime: channels flagged, flagged with the truth inside
+    the bounds' 95 % interval, those outside (:func:`outside_bounds`), and
+    the CPU minutes of the fits."""
+    cs = [c for r in rows for c in r["checks"].values()]
+    return {"flagged": sum(c["flagged"] for c in cs),
+            "flagged_in_bounds": sum(c["flagged"] and c["in_bounds"] for c in cs),
+            "outside": outside_bounds(rows),
+            "cpu_minutes": sum(r["cpu_s"] for r in rows) / 60}
 
 
 def table(summary):
@@ -160,7 +221,7 @@ def criticism_gain_pairs(out):
     import bayescal
     import criticism_harness as ch
     from bayescal.simulate.pair import simulate_pair
-    rows = []
+    rows, t0 = [], time.process_time()
     for name in ("fourth", "fifth", "sixth", "seventh"):
         for seed in ch.SEED_SETS[name][1][:60]:
             kind = ch.KINDS[seed % len(ch.KINDS)]
@@ -181,6 +242,7 @@ def criticism_gain_pairs(out):
                 rows.append({"set": name, "seed": seed, "channel": cid, "truth": g,
                              "gain_error_channel": k == truth["row"],
                              "hold": bool(rel["ci95"][0] <= g <= rel["ci95"][1]),
+                             "excludes_1": not rel["ci95"][0] <= 1.0 <= rel["ci95"][1],
                              "flagged": not b["separable"],
                              "in_bounds": bool(b["interval95"][0] <= g <= b["interval95"][1])})
             print(seed, flush=True)
@@ -190,7 +252,26 @@ def criticism_gain_pairs(out):
                                           "held": sum(r["hold"] for r in rows),
                                           "flagged": sum(r["flagged"] for r in rows),
                                           "flagged_in_bounds": sum(r["flagged"] and r["in_bounds"]
-                                                                   for r in rows)}})
+                                                                   for r in rows),
+                                          "by_set": gain_channels_by_set(rows),
+                                          "cpu_minutes": (time.process_time() - t0) / 60}})
+
+
+def gain_channels_by_set(rows):
+    """Per seed set, the channels carrying the gain error: pairs, how many
+    relative gains hold the truth, and the same among those the harness
+    counts as measured (95 % interval excluding 1)."""
+    out = {}
+    for r in rows:
+        if not r["gain_error_channel"]:
+            continue
+        d = out.setdefault(r["set"], {"pairs": 0, "held": 0, "measured": 0,
+                                      "measured_held": 0})
+        d["pairs"] += 1
+        d["held"] += r["hold"]
+        d["measured"] += r["excludes_1"]
+        d["measured_held"] += r["excludes_1"] and r["hold"]
+    return out
 
 
 def main(argv=None):
@@ -217,6 +298,7 @@ def main(argv=None):
                     continue
                 doc["rows"].append(run_pair(seed, regime))
                 doc["summary"] = summarise(doc["rows"])
+                doc["flagged"] = flagged_totals(doc["rows"])
                 doc["command"] = "python validation/studies/refnoise_gain.py --n %d" % args.n
                 study_results.write(args.out, doc)
                 print(seed, regime[0], round(doc["rows"][-1]["cpu_s"], 1), flush=True)
