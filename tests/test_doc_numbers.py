@@ -202,3 +202,14 @@ def test_a_template_is_filled_as_an_f_string():
     names = {"d": tables.wrap({"a b": [1.23456, 2], "k": {"x": 3}}, "d"), "f": ".2f"}
     template = "{{doc}} {d['a b'][0]:{f}} {d.k.x:+d} {':'.join(['p', 'q'])} {d['a b'][0:1][0]:.1e}"
     assert tables.fill(template, names) == "{doc} 1.23 +3 p:q 1.2e+00"
+
+
+def test_every_unstored_phrase_is_on_its_page_and_marked():
+    """An [unstored] phrase names a result the page shows without a stored
+    run: it must still be on its page (else the list is stale), and the
+    page must say "not stored" (so a reader knows)."""
+    for name, phrases in uncovered.settings().get("unstored", {}).items():
+        text = (ROOT / name).read_text()
+        stale = [p for p in phrases if not uncovered.words_of(p).search(text)]
+        assert not stale, f"{name}: [unstored] phrases not on the page: {stale}"
+        assert "not stored" in text, f"{name} lists unstored results but does not say so"
