@@ -5,6 +5,8 @@
 * :mod:`.locate`    where the misfit is: per band and channel, with p-values
 * :mod:`.search`    which effects to add: candidates, fits and BIC scores
 * :mod:`.starts`    a candidate's least squares from its grid's best starting points
+* :mod:`.per_block` the search's hand-over from the per-block likelihood (a clock
+                    drift's) to the model with the reference's noise
 * :mod:`.prior_choice`  whether to leave the sensor's stated prior for the wide
                     corner: the prior-data conflict test, then the evidence
 * :mod:`.naming`    which kept effects are named: pruning, a timing offset's

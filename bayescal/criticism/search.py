@@ -10,11 +10,11 @@ import numpy as np
 
 from . import effects as catalogue, words
 from ..core.model import forward_jacobian, EIVModel, EIVNoise, MIN_TIME_BLOCKS, Model
-from ..core.fit import TIGHT, solve, least_squares_fit, prior_bounds
+from ..core.fit import TIGHT, solve, prior_bounds
 from ..core.threads import single_threaded_blas
 from ..core.orientation import Fixed
 from ..core.response import TwoPoleFamily
-from .locate import overdispersion
+from .per_block import drift_under_eiv, search_again, set_aside
 from .starts import best_start_fit, grid_starts
 from .prior_choice import BY_EVIDENCE, by_evidence, log_evidence_gain, prior_conflict
 
@@ -367,10 +367,16 @@ def search(model, theta, free, log=None, drift=None, budget=None, eiv=None):
     ``eiv``: the errors-in-variables base model, when ``model`` is the
     per-block base model a clock drift needs; once a drift is named the
     search goes on under ``eiv`` on the spectra with the drift taken out
-    (:func:`drift_under_eiv`).
+    (:func:`.per_block.drift_under_eiv`); when none is named, the search
+    runs again under ``eiv`` (:func:`.per_block.search_again`).
     BLAS runs single-threaded (small products: threads only add latency)."""
     with single_threaded_blas():
-        return _search(model, theta, free, log, drift, budget, eiv)
+        out = _search(model, theta, free, log, drift, budget, eiv)
+        if not search_again(out, eiv, log):
+            return out
+        cur, th, cov, more = _search(with_effects(eiv, []), np.asarray(theta, float), free,
+                                     log, None, budget, None)
+        return cur, th, cov, set_aside(out[3]) + more
 
 
 def _search(model, theta, free, log, drift, budget=None, eiv=None):
@@ -396,7 +402,9 @@ def _search(model, theta, free, log, drift, budget=None, eiv=None):
         cur, th, cov = best["fit"]
         steps[-1].append({"kept": best["effect"], "delta_bic": best["delta_bic"]})
         if best["effect"] == "clock_drift" and eiv is not None:
-            cur, th, cov = drift_under_eiv(eiv, cur, th, cov, log)
+            steps[:-1] = set_aside(steps[:-1])
+            base = theta_base(*restored(cur, th, model, theta))
+            cur, th, cov = drift_under_eiv(eiv, cur, th, cov, log, base=base)
     return cur, th, cov, steps
 
 
@@ -459,41 +467,3 @@ def _best(tried, log):
         if s["delta_bic"] <= BIC_KEEP and timing["delta_bic"] > BIC_KEEP:
             best = timing
     return best
-
-
-def drift_under_eiv(eiv, model, theta, cov, log=None):
-    """A clock drift named on the per-block likelihood (``model``, which has
-    no errors-in-variables treatment of the reference's self-noise: its
-    dilution of the transfer function by that noise would be left for
-    further effects to take up) carried over to the errors-in-variables
-    model ``eiv``: the drift's rate is taken out of the spectra
-    (:func:`.effects.drift_corrected`) and its offset at mid-record stays a
-    parameter (:class:`.effects.CorrectedDrift`).
-
-    The rate is the per-block estimate: only the time blocks see it (the
-    record's totals under ``eiv`` do to second order only, through the
-    decoherence). Its standard deviation is the per-block one scaled as a
-    quasi-likelihood's, by the square root of the dispersion the per-block
-    model leaves (:func:`overdispersion`: the median standardised misfit,
-    at least 1), the reference's noise that model lacks included.
-    Returns (model, theta, cov)."""
-    k = next(i for i, e in enumerate(model.effects) if e.name == "clock_drift")
-    drift, sl = model.effects[k], model.effect_slices[k]
-    tau, ppm = (float(x) for x in np.asarray(theta)[sl])
-    phi = overdispersion(model, theta)
-    sd = float(np.sqrt(cov[sl, sl][1, 1] * phi))
-    others = [(e, np.asarray(theta)[s]) for e, s in zip(model.effects, model.effect_slices)
-              if e is not drift]
-    sp = catalogue.drift_corrected(model.spectra, drift, ppm)
-    eff = [e for e, _ in others] + [catalogue.CorrectedDrift(drift.rows, ppm, sd, dispersion=phi)]
-    m = EIVModel(sp, eiv.ref_vectors, eiv.blocks, eiv.priors, ref_noise=eiv.ref_noise,
-                 effects=eff, known_noise=getattr(eiv, "known_noise", None))
-    th0 = np.concatenate([theta_base(model, theta)] + [p for _, p in others] + [[tau]])
-    th, c = least_squares_fit(m, th0, jac=forward_jacobian(m, matmul=True))
-    if log:
-        log(f"  clock_drift carried to the errors-in-variables model: {ppm:.4g} +- {sd:.2g} ppm "
-            f"(per-block dispersion {phi:.3g})")
-    return m, th, c
-
-
-# --- posterior of the final model --------------------------------------------
