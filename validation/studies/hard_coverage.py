@@ -134,17 +134,32 @@ def exact_flags(posts, cid):
     return rule_on_samples(*(_logs(p, cid) for p in posts))
 
 
+def _half_range(x):
+    """Half the spread between the 16th and 84th percentiles (an sd that a
+    few far samples do not move)."""
+    lo, hi = np.quantile(x, (0.16, 0.84))
+    return float((hi - lo) / 2)
+
+
 def rule_on_samples(base, half, double):
     """The prior-sensitivity rule on three fits' log period, damping and
-    damping/period samples (prior width x1, x0.5, x2)."""
+    damping/period samples (prior width x1, x0.5, x2), with the spread the
+    flag uses (:func:`_half_range`, as ``bayescal.core.response.pendulum``
+    does): a few far samples (a period the reference's tolerance sends
+    beyond 1e6 s) do not move it. ``width_ratio_sd``: the ratio by the
+    standard deviation, for the record."""
     out = {}
     for name in NAMES:
+        hr1 = _half_range(base[name])
+        width = max(max(_half_range(x[name]) / hr1, hr1 / _half_range(x[name]))
+                    for x in (half, double))
         sd1 = base[name].std()
-        width = max(max(x[name].std() / sd1, sd1 / x[name].std()) for x in (half, double))
-        shift = abs(np.median(double[name]) - np.median(base[name])) / sd1
+        width_sd = max(max(x[name].std() / sd1, sd1 / x[name].std()) for x in (half, double))
+        shift = abs(np.median(double[name]) - np.median(base[name])) / hr1
         out[name] = {"set_by_prior": bool(width > pendulum.WIDTH_RATIO
                                           or shift > pendulum.SHIFT_SD),
-                     "width_ratio": float(width), "shift_sd": float(shift)}
+                     "width_ratio": float(width), "shift_sd": float(shift),
+                     "width_ratio_sd": float(width_sd)}
     return out
 
 
@@ -274,6 +289,74 @@ def corner_data_fix(rows):
                         for r, cid, name, x in items if x["flag"]]}
 
 
+#: A refit's sd this many times the default fit's cannot come from halving
+#: or doubling the prior (which changes a Gaussian posterior's sd by at most
+#: a factor 2): the refit, not the prior, moved.
+REFIT_BLOWN = 3.0
+
+
+def _sd_ratio(x):
+    """A refit's width ratio by the standard deviation (stored as
+    ``width_ratio_sd``; runs written before it was stored hold it as
+    ``width_ratio``)."""
+    return x["exact"].get("width_ratio_sd", x["exact"]["width_ratio"])
+
+
+def flag_misses(rows):
+    """The values the refits say the prior sets but the flag leaves
+    unflagged: how many, how many in pairs whose reference's tolerance is
+    stated, how many whose refit's sd is :data:`REFIT_BLOWN` or more times
+    the default fit's (with the range of those ratios), and each of the
+    others (seed, channel, name, width ratio, shift, tolerance stated)."""
+    items = [(r, cid, name, e[name]) for r in rows for cid, e in r["channels"].items()
+             for name in NAMES if e[name]["exact"]["set_by_prior"] and not e[name]["flag"]]
+    blown = [(r, x) for r, *_, x in items if _sd_ratio(x) >= REFIT_BLOWN]
+    ratios = [_sd_ratio(x) for _, x in blown]
+    return {"misses": len(items),
+            "with_tolerance": sum(bool(r["ref_metadata_off"]) for r, *_ in items),
+            "refit_blown": len(blown),
+            "refit_blown_tolerance": sum(bool(r["ref_metadata_off"]) for r, _ in blown),
+            "refit_blown_ratio": [min(ratios), max(ratios)] if ratios else None,
+            "refit_blown_pairs": sorted({r["seed"] for r, _ in blown}),
+            "others": [{"seed": r["seed"], "channel": cid, "name": name,
+                        "width_ratio": x["exact"]["width_ratio"],
+                        "shift_sd": x["exact"]["shift_sd"],
+                        "tolerance": bool(r["ref_metadata_off"])}
+                       for r, cid, name, x in items if _sd_ratio(x) < REFIT_BLOWN]}
+
+
+def refit_spread(seed, noise_in_counts=True):
+    """One pair's three fits looked at closely: per channel and value the
+    log samples' sd and half 16-84 % range in each fit (prior width x1,
+    x0.5, x2), the samples whose period exceeds 1e6 s, the width ratio and
+    shift by either spread, and each fit's convergence."""
+    case = draw_regime(seed)
+    sim, *_ = simulate(seed, case, noise_in_counts)
+    tol = REF_TOLERANCE if case["ref_metadata_off"] else 0.0
+    posts = [fit(sim, case["band"], s, seed, tol) for s in (1.0, 0.5, 2.0)]
+    out = {"seed": seed, "nominal_period": case["nominal_period"], "tolerance": tol,
+           "samples": int(posts[0].response[posts[0].channel_ids[0]].shape[0]),
+           "convergence": [{k: p.summary()["convergence"][k]
+                            for k in ("converged", "n_steps", "rhat_max", "ess_min")}
+                           for p in posts], "channels": {}}
+    for cid in posts[0].channel_ids:
+        logs = [_logs(p, cid) for p in posts]
+        entry = {"far_periods": [int((p.response[cid][:, 0] > 1e6).sum()) for p in posts],
+                 "largest_period": [float(p.response[cid][:, 0].max()) for p in posts]}
+        for name in NAMES:
+            sd = [float(x[name].std()) for x in logs]
+            hr = [_half_range(x[name]) for x in logs]
+            shift = abs(np.median(logs[2][name]) - np.median(logs[0][name]))
+            entry[name] = {"sd": sd, "half_range": hr,
+                           "width_ratio_sd": max(max(v / sd[0], sd[0] / v) for v in sd[1:]),
+                           "width_ratio_half_range": max(max(v / hr[0], hr[0] / v)
+                                                         for v in hr[1:]),
+                           "shift_sd": float(shift / sd[0]),
+                           "shift_half_range": float(shift / hr[0])}
+        out["channels"][cid] = entry
+    return out
+
+
 def summarise(all_rows):
     rows = [r for r in all_rows if "refused" not in r]
     cov = {"angles": [v[0] for r in rows for v in r["angles"].values()]}
@@ -302,6 +385,7 @@ def summarise(all_rows):
             "rate_absent": float(1 - np.mean(corner)) if corner else None,
             "agreement": float(np.mean([f == x for f, x, _ in items]))}
     table["flags"] = flags
+    table["flag_misses"] = flag_misses(rows)
     table["corner_data_fix"] = corner_data_fix(rows)
     table["gain_by_ref_noise_ratio"] = {
         format(ratio, "g"): _count([e["gain"]["inside90"] for r in rows
@@ -344,7 +428,24 @@ def main(argv=None):
     ap.add_argument("--coil", type=int, default=0, metavar="N",
                     help="N coil runs with --fit all instead of the pairs")
     ap.add_argument("--out", default="validation/results/coverage/hard.json")
+    ap.add_argument("--summarise", action="store_true",
+                    help="rewrite --out's summary from the per-run records beside it, "
+                         "without fitting")
+    ap.add_argument("--refit-spread", type=int, nargs="+", metavar="SEED",
+                    help="look closely at these pairs' three fits (refit_spread) and write "
+                         "them to --out instead")
     args = ap.parse_args(argv)
+    if args.refit_spread:
+        rows = [refit_spread(seed, args.noise == "counts") for seed in args.refit_spread]
+        study_results.write(args.out, {"pairs": rows, "config": vars(args)})
+        print(json.dumps(rows[0]["channels"], indent=1)[:2000])
+        return
+    if args.summarise:
+        doc = study_results.read(args.out)
+        doc["table"] = summarise(doc["runs"])
+        study_results.write(args.out, doc)
+        print(json.dumps(doc["table"]["flag_misses"], indent=1))
+        return
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     rows, t0 = [], time.time()
     if args.coil:
