@@ -122,3 +122,27 @@ def test_the_prior_flag_judges_the_reported_values_once_the_tolerance_is_in():
     holes[::3, 1] = -1.0
     holed = pendulum.reweighted_sensitivity(samples, blocks, tol, tol, {"X": holes})["X"]
     assert holed["damping"]["set_by_prior"]
+
+
+def test_a_draw_leaving_no_pendulum_is_drawn_again():
+    """A 360-s SUT beside a 120-s reference known to 5 %: some draws of the
+    reference's error would leave the SUT no pendulum (w0^2 <= 0; a period
+    of 1e150 s). Such draws are drawn again, so the moved periods follow the
+    error's law conditioned on a pendulum: checked against that law sampled
+    directly (rejection, written here from the module's docstring) and
+    against the unconditioned rows, which stay as they were."""
+    t, h, tol, n = 360.0, 0.7, 0.05, 40000
+    samples = np.tile([t, h, 1500.0], (n, 1))
+    got = reference_tolerance.widen(samples, (120.0, 0.707), tol, np.random.default_rng(1))
+    assert np.all(np.isfinite(got)) and got[:, 0].max() < 1e8        # none at 1e150 s
+    w = lambda T: 2 * np.pi / T                                   # noqa: E731
+    c1, q = 2 * h * w(t), w(t) ** 2 * (1 - 2 * h * h)
+    e = tol * np.random.default_rng(2).standard_normal((4 * n, 2))
+    tr, hr = 120.0 * np.exp(e[:, 0]), 0.707 * np.exp(e[:, 1])
+    c1n = c1 + 2 * hr * w(tr) - 2 * 0.707 * w(120.0)
+    qn = q + w(tr) ** 2 * (1 - 2 * hr ** 2) - w(120.0) ** 2 * (1 - 2 * 0.707 ** 2)
+    c0 = qn + 0.5 * c1n ** 2
+    assert 0.001 < np.mean(c0 <= 0) < 0.5                        # the case arises
+    direct = 2 * np.pi / np.sqrt(c0[c0 > 0])
+    for p in (5, 25, 50, 75, 95):
+        assert np.percentile(got[:, 0], p) == pytest.approx(np.percentile(direct, p), rel=0.03)

@@ -39,10 +39,23 @@ def _coefficients(period, damping):
     return 2 * h * w0, w0 * w0 * (1 - 2 * h * h)
 
 
+#: Draws of the reference's error a sample may take before it is left
+#: unmoved (:func:`widen`).
+MAX_REDRAWS = 50
+
+
 def _period_damping(c1, q):
-    c0 = np.maximum(q + 0.5 * c1 * c1, 1e-300)
-    w0 = np.sqrt(c0)
+    w0 = np.sqrt(q + 0.5 * c1 * c1)
     return 2 * np.pi / w0, c1 / (2 * w0)
+
+
+def _shift(reference, eps):
+    """The reference's error in ``(c1, q)`` for the relative errors ``eps``
+    (columns: period, damping)."""
+    t_r, h_r = reference
+    c1_r, q_r = _coefficients(t_r, h_r)
+    c1_t, q_t = _coefficients(t_r * np.exp(eps[:, 0]), h_r * np.exp(eps[:, 1]))
+    return c1_t - c1_r, q_t - q_r
 
 
 def widen(samples, reference, tolerance, rng):
@@ -52,17 +65,27 @@ def widen(samples, reference, tolerance, rng):
     ``reference``: the aligned reference channel's nominal ``(period,
     damping)``, or None when its response is not a two-pole pendulum (then
     only the gain moves); ``tolerance``: relative standard deviation of the
-    reference's gain, period and damping."""
+    reference's gain, period and damping. A draw of the period and damping
+    error that would leave a sample without a pendulum (``w0^2 <= 0``) is
+    drawn again."""
     out = np.array(samples, float, copy=True)
     n = out.shape[0]
     eps = tolerance * rng.standard_normal((n, 3))
     out[:, 2] *= np.exp(eps[:, 2])
     if reference is not None and np.all(np.isfinite(out[:, :2])):
-        t_r, h_r = reference
-        c1_r, q_r = _coefficients(t_r, h_r)
-        c1_t, q_t = _coefficients(t_r * np.exp(eps[:, 0]), h_r * np.exp(eps[:, 1]))
         c1, q = _coefficients(out[:, 0], out[:, 1])
-        out[:, 0], out[:, 1] = _period_damping(c1 + c1_t - c1_r, q + q_t - q_r)
+        dc1, dq = _shift(reference, eps[:, :2])
+        # a draw that leaves no pendulum (w0^2 = q + c1^2 / 2 <= 0) is no
+        # possible reference: drawn again (the error's law conditioned on a
+        # pendulum); a sample still without one after MAX_REDRAWS is not moved
+        bad = q + dq + 0.5 * (c1 + dc1) ** 2 <= 0
+        for _ in range(MAX_REDRAWS):
+            if not bad.any():
+                break
+            dc1[bad], dq[bad] = _shift(reference, tolerance * rng.standard_normal((bad.sum(), 2)))
+            bad = q + dq + 0.5 * (c1 + dc1) ** 2 <= 0
+        moved = ~bad
+        out[moved, 0], out[moved, 1] = _period_damping(c1[moved] + dc1[moved], q[moved] + dq[moved])
     return out
 
 
