@@ -89,3 +89,18 @@ def test_table_cells_hold_their_text_in_the_pdf(tmp_path):
             room = cell.get_window_extent(renderer).width * 72 / fig.dpi * (1 - 2 * CELL_PAD)
             for line in cell.get_text().get_text().split("\n"):
                 assert _pdf_width_pt(line, TABLE_PT) <= room, (line, room)
+
+
+def test_a_legend_title_outside_the_standard_encoding_keeps_embedded_fonts():
+    """A legend's title is text of the page: one in Greek (outside the
+    standard fonts' encoding) keeps the page in embedded fonts, so that no
+    character is lost."""
+    from bayescal.report.layout import _in_core_encoding
+
+    fig = Figure()
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1], label="a")
+    ax.legend(title="noise")
+    assert _in_core_encoding(fig)
+    ax.legend(title="σ noise")
+    assert not _in_core_encoding(fig)

@@ -1,9 +1,10 @@
-"""Calibration reports: a multi-page PDF plus one PNG per figure, rendered
+"""Calibration reports: a multi-page PDF (and one PNG per page on request), rendered
 from a saved result folder (``result.json``, ``samples.npz``,
 ``diagnostics.npz``).
 
     >>> from bayescal.report import write_report
-    >>> write_report("out")          # out/report.pdf, out/report_*.png
+    >>> write_report("out")            # out/report.pdf
+    >>> write_report("out", png=True)  # and out/report_*.png
 
 Pages: (1) summary table with flags, (2) angle credible intervals against
 nominal, (3) corner plots of the angles (and of the response parameters when

@@ -114,13 +114,14 @@ def _strings(fig):
     for t in fig.texts:
         yield t.get_text()
     for leg in fig.legends:
-        yield from (t.get_text() for t in leg.get_texts())
+        yield from (t.get_text() for t in (leg.get_title(), *leg.get_texts()))
     for ax in fig.axes:
         yield from (t.get_text() for t in ax.texts)
         yield from (ax.get_title(loc) for loc in ("left", "center", "right"))
         yield from (ax.get_xlabel(), ax.get_ylabel())
         if ax.get_legend() is not None:
-            yield from (t.get_text() for t in ax.get_legend().get_texts())
+            leg = ax.get_legend()
+            yield from (t.get_text() for t in (leg.get_title(), *leg.get_texts()))
         for tab in ax.tables:
             yield from (c.get_text().get_text() for c in tab.get_celld().values())
     for sub in fig.subfigs:
@@ -138,12 +139,14 @@ def _in_core_encoding(fig):
 
 
 class _RegularHelvetica(logging.Filter):
-    """Drops matplotlib's warning that Helvetica has no weight "normal":
-    the standard font's metrics (AFM) name its regular face "Medium"."""
+    """Drops matplotlib's warning that a standard PDF font (Helvetica,
+    Courier, ...) has no weight "normal": the standard fonts' metrics (AFM)
+    name their regular faces "Medium"."""
 
     def filter(self, record):
         return not (str(record.msg).startswith("findfont: Failed to find font weight")
-                    and len(record.args or ()) > 1 and record.args[1] == "Helvetica")
+                    and len(record.args or ()) > 1
+                    and str(record.args[1]).startswith(("Helvetica", "Courier", "Times")))
 
 
 @contextlib.contextmanager
@@ -160,7 +163,8 @@ def core_fonts(fig):
     quiet = _RegularHelvetica()
     log.addFilter(quiet)
     try:
-        with matplotlib.rc_context({"pdf.use14corefonts": _in_core_encoding(fig)}):
+        with matplotlib.rc_context({"pdf.use14corefonts": _in_core_encoding(fig),
+                                    "axes.unicode_minus": False}):
             yield
     finally:
         log.removeFilter(quiet)

@@ -7,7 +7,8 @@ When the reference's metadata are known only to a tolerance (a relative
 standard deviation of its gain, natural period and damping, each
 log-normal), every posterior sample of an SUT channel's response is moved
 by an independent draw of the error of the reference channel most aligned
-with it:
+with it (a draw that would leave the sample no pendulum is drawn again:
+the error's law given that the sample stays a pendulum):
 
 * gain: multiplied by the reference's gain error;
 * period and damping: with ``w0 = 2 pi / T``, a velocity two-pole response
