@@ -33,12 +33,17 @@ def test_band_dof_once_per_layout_each_its_own():
     n = 256
     layouts = [SimpleNamespace(nperseg=n, segment_starts=np.arange(k) * n,
                                bins_per_band=np.array([1, 4, 9])) for k in (10, 20)]
+    from bayescal.core.spectra.dof import _layout_dof
+
+    before = _layout_dof.cache_info()
     for _ in range(2):            # the second round is answered from the cache
         for sp in layouts:
             k = sp.segment_starts.size
             got = band_dof(sp)
             assert got == pytest.approx([_hann_dof(k, b) for b in (1, 4, 9)], rel=1e-12)
             got[:] = -1.0         # the caller's copy: the cache keeps its own
+    after = _layout_dof.cache_info()
+    assert after.hits - before.hits >= 2 and after.misses - before.misses <= 2
 
 
 @pytest.fixture(scope="module")
@@ -83,3 +88,7 @@ def test_later_starts_abandoned_only_where_they_end_worse(delayed_fit, monkeypat
     # the first start in one call, each later one in two unless abandoned after its first
     assert calls[0] is None and len(calls) < 1 + 2 * (len(starts) - 1)
     assert abs(theta[-1] - 0.12) < Z_001 * np.sqrt(cov[-1, -1])
+    # the best start need not come first: later starts are judged against it all the same
+    for order in ([1, 0, 2], [2, 1, 0]):
+        got, _, _ = starts_mod.best_start_fit(m, [starts[i] for i in order], noise)
+        assert got == pytest.approx(full[0][1], rel=1e-9, abs=1e-12)

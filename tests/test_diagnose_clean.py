@@ -51,6 +51,29 @@ def test_clean_pair_a_drift_screen_passes_on_names_no_response_effect():
     assert np.median(d.after["misfit"]) < 1.5, np.median(d.after["misfit"])
 
 
+def test_clean_pair_stopped_by_its_budget_keeps_nothing_from_the_per_block_search(monkeypatch):
+    """The same pair, its budget spent right after the per-block search kept
+    the SUT's corner (the budget's stop marked on that search's last step):
+    nothing is left to score the corner with the reference's noise modelled,
+    so it is not kept, and no name comes from a likelihood that lacks that
+    noise."""
+    from bayescal.criticism import search as search_module
+
+    calls, inner = [], search_module._search
+
+    def ended_after_first(*args, **kwargs):
+        calls.append(1)
+        cur, th, cov, steps = inner(*args, **kwargs)
+        if len(calls) == 1 and cur.effects:
+            steps = steps + [[{"stopped": "budget", "not_tried": []}]]
+        return cur, th, cov, steps
+
+    monkeypatch.setattr(search_module, "_search", ended_after_first)
+    d = _harness_run(1014, "equal-counts", 0.03)
+    assert d.names == [], d.sentences()
+    assert any("set_aside" in t for step in d.steps for t in step), d.steps
+
+
 def _diagnose(**effect):
     sim = simulate_pair(duration=3600, fs=10, seed=1000, coherence=COHERENCE,
                         ref_coherence=COHERENCE, noise_in_counts=True,

@@ -37,18 +37,22 @@ def set_aside(steps):
 
 def search_again(out, eiv, log=None):
     """Whether the search's result ``out`` ``(model, theta, cov, steps)``
-    must be searched again under the errors-in-variables model ``eiv``: it
-    kept effects on the per-block likelihood and none is a clock drift (a
-    drift named is carried over by :func:`drift_under_eiv`), and the
-    budget did not stop it. False without ``eiv``."""
-    model, _, _, steps = out
-    stopped = bool(steps and steps[-1] and steps[-1][-1].get("stopped"))
-    if eiv is None or stopped or not model.effects or any(e.name == "clock_drift"
-                                                          for e in model.effects):
+    holds effects kept on the per-block likelihood that the errors-in-
+    variables model ``eiv`` must score again: it kept effects and none is a
+    clock drift (a drift named is carried over by :func:`drift_under_eiv`).
+    False without ``eiv``. Where the budget stopped the search, the caller
+    keeps none of them (nothing is left to score them with)."""
+    model = out[0]
+    if eiv is None or not model.effects or any(e.name == "clock_drift" for e in model.effects):
         return False
     if log:
         log(f"  {', '.join(e.name for e in model.effects)} set aside: {SET_ASIDE}")
     return True
+
+
+def stopped(steps):
+    """Whether the budget stopped the search whose ``steps`` these are."""
+    return bool(steps and steps[-1] and steps[-1][-1].get("stopped"))
 
 
 def drift_under_eiv(eiv, model, theta, cov, log=None, base=None):

@@ -14,7 +14,7 @@ from ..core.fit import TIGHT, solve, prior_bounds
 from ..core.threads import single_threaded_blas
 from ..core.orientation import Fixed
 from ..core.response import TwoPoleFamily
-from .per_block import drift_under_eiv, search_again, set_aside
+from .per_block import drift_under_eiv, search_again, set_aside, stopped
 from .starts import best_start_fit, grid_starts
 from .prior_choice import BY_EVIDENCE, by_evidence, log_evidence_gain, prior_conflict
 
@@ -368,14 +368,17 @@ def search(model, theta, free, log=None, drift=None, budget=None, eiv=None):
     per-block base model a clock drift needs; once a drift is named the
     search goes on under ``eiv`` on the spectra with the drift taken out
     (:func:`.per_block.drift_under_eiv`); when none is named, the search
-    runs again under ``eiv`` (:func:`.per_block.search_again`).
+    runs again under ``eiv`` (:func:`.per_block.search_again`), or, where
+    the budget stopped it, keeps none of the per-block search's effects.
     BLAS runs single-threaded (small products: threads only add latency)."""
     with single_threaded_blas():
         out = _search(model, theta, free, log, drift, budget, eiv)
         if not search_again(out, eiv, log):
             return out
-        cur, th, cov, more = _search(with_effects(eiv, []), np.asarray(theta, float), free,
-                                     log, None, budget, None)
+        base, theta = with_effects(eiv, []), np.asarray(theta, float)
+        if stopped(out[3]):         # no budget left to score them again: none is kept
+            return base, theta, None, set_aside(out[3])
+        cur, th, cov, more = _search(base, theta, free, log, None, budget, None)
         return cur, th, cov, set_aside(out[3]) + more
 
 

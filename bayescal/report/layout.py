@@ -138,7 +138,7 @@ def _in_core_encoding(fig):
     return True
 
 
-class _RegularHelvetica(logging.Filter):
+class _StandardFontWeight(logging.Filter):
     """Drops matplotlib's warning that a standard PDF font (Helvetica,
     Courier, ...) has no weight "normal": the standard fonts' metrics (AFM)
     name their regular faces "Medium"."""
@@ -160,7 +160,7 @@ def core_fonts(fig):
     Helvetica is narrower than DejaVu Sans, in which the layout is measured
     (Agg; the PNGs): text placed to fit in DejaVu fits in Helvetica."""
     log = logging.getLogger("matplotlib.font_manager")
-    quiet = _RegularHelvetica()
+    quiet = _StandardFontWeight()
     log.addFilter(quiet)
     try:
         with matplotlib.rc_context({"pdf.use14corefonts": _in_core_encoding(fig),
