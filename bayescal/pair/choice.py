@@ -16,9 +16,12 @@ criticism made one, is ``result.improved`` either way.
 """
 from __future__ import annotations
 
-from ..core.fit import judged_response_flags
-from ..core.response import meta_entry, widen_responses
+import warnings
+
+from ..core.response import (MIN_KISH, judged_sensitivity, meta_entry, set_by_prior_entries,
+                             sut_priors, widen_responses)
 from ..core.selfnoise import for_fit
+from ..errors import InputWarning
 from .response_curve import relative_response
 
 
@@ -35,18 +38,47 @@ def self_noise(state, data, *, fit_response, seed=0):
 
 
 def _tolerated(state, data, tolerance, seed):
-    """(responses, meta) of ``state`` with the reference's metadata
-    ``tolerance`` drawn into its responses
-    (:mod:`bayescal.core.response.reference_tolerance`); as they are when
-    the tolerance is 0."""
+    """(responses, meta, info) of ``state`` with the reference's metadata
+    ``tolerance`` integrated out of its responses, weighed by the SUT's
+    prior (:mod:`bayescal.core.response.reference_tolerance`; ``info`` per
+    channel its Kish share and effective draws); as they are when the
+    tolerance is 0."""
     if not tolerance:
-        return state.response, state.meta
+        return state.response, state.meta, {}
     rows = {str(cid): k for k, cid in enumerate(data.fitted.sut_ids)}
     sut_vectors = [data.sut_vectors[rows[cid]] for cid in state.channel_ids]
-    response = widen_responses(state.response, state.channel_ids, sut_vectors=sut_vectors,
-                               ref_vectors=data.ref_vectors, ref_families=data.ref_families,
-                               tolerance=tolerance, seed=seed)
-    return response, state.meta.replace(reference_tolerance=meta_entry(tolerance))
+    response, info = widen_responses(state.response, state.channel_ids, sut_vectors=sut_vectors,
+                                     ref_vectors=data.ref_vectors,
+                                     ref_families=data.ref_families, tolerance=tolerance,
+                                     seed=seed, priors=sut_priors(state.model))
+    return response, state.meta.replace(reference_tolerance=meta_entry(tolerance, info)), info
+
+
+def _tolerance_flags(head, response, info):
+    """The meta entries of ``head`` that change once the reference's
+    tolerance is in its ``response`` (:func:`judged_sensitivity`: what the
+    prior sets among the reported values), ``{}`` when nothing is judged;
+    warns (:class:`~bayescal.errors.InputWarning`) when the SUT's prior
+    leaves few of the reference's draws effective."""
+    low = {cid: v["kish_fraction"] for cid, v in info.items() if v["kish_fraction"] < MIN_KISH}
+    if low:
+        warnings.warn(
+            "the reference's tolerance is much wider than the SUT's prior allows: "
+            + ", ".join(f"{cid} keeps {100 * f:.1f} % of its draws" for cid, f in low.items())
+            + "; its response intervals rest on few draws", InputWarning, stacklevel=4)
+    if head.model is None or not head.meta.prior_sensitivity:
+        return {}
+    ess = head.convergence.ess_min
+    n_eff = {cid: min(ess, v["effective_draws"]) if ess else v["effective_draws"]
+             for cid, v in info.items()}
+    sens = judged_sensitivity(response, sut_priors(head.model), n_eff)
+    entries = dict(head.meta.set_by_prior or {})
+    for cid in sens:
+        for name in ("period_s", "damping", "damping_over_period"):
+            entries.pop(f"{cid}:{name}", None)
+    entries.update(set_by_prior_entries(sens))
+    return {"set_by_prior": entries, "prior_sensitivity": {**head.meta.prior_sensitivity,
+                                                           **sens}}
 
 
 def headline_is_improved(criticism):
@@ -143,19 +175,19 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         tolerance = getattr(getattr(state.model, "priors", None), "reference_tolerance", 0.0)
     improved = rejected = None
     if criticism.improved is not None:
-        response, meta = _tolerated(criticism.improved, data, tolerance, seed)
+        response, meta, _ = _tolerated(criticism.improved, data, tolerance, seed)
         improved = criticism.improved.to_result(response=response, meta=meta)
     head = state
     if headline_is_improved(criticism):
-        response, meta = _tolerated(state, data, tolerance, seed)
+        response, meta, _ = _tolerated(state, data, tolerance, seed)
         rejected = rejected_entry(state.to_result(response=response, meta=meta))
         head = criticism.improved
     # the split is made for the pair model without effects (an improved model's
     # gain terms take up the incoherent power it reads, e.g. a noisier reference's)
     noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
-    response, meta = _tolerated(head, data, tolerance, seed)
+    response, meta, info = _tolerated(head, data, tolerance, seed)
     if tolerance:
-        meta = meta.replace(**judged_response_flags(head, response))
+        meta = meta.replace(**_tolerance_flags(head, response, info))
     meta = meta.replace(headline=headline_entry(criticism))
     return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
                           criticism=criticism.summary, improved=improved,
