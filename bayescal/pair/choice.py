@@ -60,12 +60,15 @@ def _tolerance_flags(head, response, info):
     prior sets among the reported values), ``{}`` when nothing is judged;
     warns (:class:`~bayescal.errors.InputWarning`) when the SUT's prior
     leaves few of the reference's draws effective."""
-    low = {cid: v["kish_fraction"] for cid, v in info.items() if v["kish_fraction"] < MIN_KISH}
+    low = {cid: v for cid, v in info.items() if v["kish_fraction"] < MIN_KISH}
     if low:
         warnings.warn(
             "the reference's tolerance is much wider than the SUT's prior allows: "
-            + ", ".join(f"{cid} keeps {100 * f:.1f} % of its draws" for cid, f in low.items())
-            + "; its response intervals rest on few draws", InputWarning, stacklevel=4)
+            + ", ".join(f"{cid} keeps {100 * v['kish_fraction']:.2g} % of the reference's draws "
+                        f"({v['effective_draws']:.0f} effective)" for cid, v in low.items())
+            + "; the response intervals of " + ("this channel" if len(low) == 1 else
+                                                "these channels")
+            + " rest on few draws", InputWarning, stacklevel=4)
     if head.model is None or not head.meta.prior_sensitivity:
         return {}
     ess = head.convergence.ess_min
