@@ -120,14 +120,31 @@ def summarise(rows):
                     "flagged": sum(c[name]["flag"] for c in chans), "n": n, "band": [lo, hi]}
              for name in NAMES}
     kish = np.array([c["kish_fraction"] for c in chans]) if chans else np.zeros(0)
-    by_period = {}
+    by_period, by_draws = {}, {}
     for r in fitted:
         for c in r["channels"].values():
-            by_period.setdefault(str(int(r["nominal_period"])), []).append(c["kish_fraction"])
+            by_period.setdefault(str(int(r["nominal_period"])), []).append(c)
+            edge = next(e for e in DRAW_BINS[1:] + [np.inf] if c["effective_draws"] < e)
+            by_draws.setdefault(str(edge), []).append(c)
     return {"quantities": table, "pairs": len(fitted), "refused": len(rows) - len(fitted),
             "converged": sum(r["converged"] for r in fitted),
-            "kish_median_by_period": {k: float(np.median(v)) for k, v in by_period.items()},
+            "by_period": {k: _group(v) for k, v in sorted(by_period.items(), key=lambda x: float(x[0]))},
+            "by_effective_draws_below": {k: _group(v) for k, v in
+                                         sorted(by_draws.items(), key=lambda x: float(x[0]))},
             "kish_below_0.1": int((kish < 0.1).sum())}
+
+
+#: Bins of the effective draws (lower edges) for the coverage by draws.
+DRAW_BINS = [0, 100, 300, 1000]
+
+
+def _group(chans):
+    """Coverage counts, band and the Kish share's median of a group of channels."""
+    n = len(chans)
+    return {"n": n, "band": list(binomial_band(n, 0.9, 0.01)),
+            "inside": {name: sum(c[name]["inside90"] for c in chans) for name in NAMES},
+            "kish_median": float(np.median([c["kish_fraction"] for c in chans])),
+            "effective_draws_median": float(np.median([c["effective_draws"] for c in chans]))}
 
 
 def main(argv=None):
@@ -139,9 +156,10 @@ def main(argv=None):
                     help="the reference's tolerance (relative sd; default 0.036)")
     ap.add_argument("--out", default="validation/results/coverage/reference_tolerance.json")
     args = ap.parse_args(argv)
-    done = {}
+    done, before = {}, 0.0            # the runs stored by an earlier call, and their seconds
     try:
-        done = {r["seed"]: r for r in study_results.read(args.out).get("runs", [])}
+        doc = study_results.read(args.out)
+        done, before = {r["seed"]: r for r in doc.get("runs", [])}, doc.get("seconds", 0.0)
     except (OSError, ValueError):
         pass
     rows, t0 = [], time.time()
@@ -150,13 +168,11 @@ def main(argv=None):
         r = rows[-1]
         print(f"[{len(rows)}/{args.n}] seed {seed} T0={r['nominal_period']:g} k={r['k']:.1f} "
               f"{'REFUSED' if 'refused' in r else ''} ({time.time() - t0:.0f} s)", flush=True)
-        if len(rows) % 5 == 0:
-            study_results.write(args.out, {"table": summarise(rows), "config": vars(args),
-                                           "partial": len(rows) < args.n, "runs": rows})
-    table = summarise(rows)
-    study_results.write(args.out, {"table": table, "config": vars(args),
-                                   "seconds": time.time() - t0, "runs": rows})
-    print(json.dumps(table, indent=1))
+        if len(rows) % 5 == 0 or len(rows) == args.n:       # kept as they come
+            doc = {"table": summarise(rows), "config": vars(args), "runs": rows,
+                   "partial": len(rows) < args.n, "seconds": before + time.time() - t0}
+            study_results.write(args.out, doc)
+    print(json.dumps(doc["table"], indent=1))
 
 
 if __name__ == "__main__":
