@@ -191,3 +191,27 @@ def test_a_360_s_sut_beside_a_120_s_reference_stays_within_its_prior():
         assert summary[cid]["response"]["period_s"]["set_by_prior"]
         lo, hi = np.quantile(post.response[cid][:, 0], (0.05, 0.95))
         assert lo <= truth[k][0] <= hi
+
+
+@pytest.mark.parametrize("sd, flagged", [(0.045, True), (0.01, False)])
+def test_the_flag_reweights_the_reported_values_at_their_own_prior(sd, flagged):
+    """Reported log period and damping N(0, sd^2) about nominal, the SUT's
+    prior 5 %: the prior acts on them, so the halved and doubled prior's
+    weights are taken at them, and the reweighted spread is the Gaussian
+    closed form: precision 1/sd^2 + (1/s^2 - 1)/0.05^2 for the prior scaled
+    by s, so the width ratio is max(sqrt(1 + 3 sd^2/0.05^2), 1/sqrt(1 -
+    0.75 sd^2/0.05^2)): 1.85 (the prior sets them, flagged) for sd 0.045,
+    1.06 (the data do) for 0.01; within Monte Carlo error."""
+    rng = np.random.default_rng(21)
+    n, tol, nom = 40_000, 0.05, (360.0, 0.7)
+    r = np.column_stack([nom[0] * np.exp(sd * rng.standard_normal(n)),
+                         nom[1] * np.exp(sd * rng.standard_normal(n)), np.full(n, 750.0)])
+    prior = rt.SutPrior(free="all", log_gain=(0.0, 20.0), nominal=nom, tolerance=(tol, tol))
+    got = rt.judged_sensitivity({"X": r}, {"X": prior}, {"X": n})["X"]
+    v = (sd / tol) ** 2
+    want = max(np.sqrt(1 + 3 * v), 1 / np.sqrt(1 - 0.75 * v))
+    for name in ("period_s", "damping"):
+        e = got[name]
+        assert e["set_by_prior"] == flagged
+        assert abs(e["width_ratio"] - want) < Z_001 * want * np.sqrt(
+            pendulum.HALF_WIDTH_VAR * 2 / (n * 0.3)), (name, e["width_ratio"], want)
