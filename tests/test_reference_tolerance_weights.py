@@ -73,16 +73,20 @@ def test_gaussian_toy_matches_its_closed_form():
     assert not any(old)
 
 
-def test_pendulum_weights_match_the_target_sampled_directly():
+@pytest.mark.parametrize("fit_tol", [0.05, 0.2])
+def test_pendulum_weights_match_the_target_sampled_directly(fit_tol):
     """A 360-s SUT (prior log-normal, 5 %) beside a 120-s reference known
     to 4 %, a likelihood Gaussian in what the data fix, ``(c1_sut - c1_ref,
-    q_sut - q_ref)``, as wide as the SUT's prior: the target, the SUT's
+    q_sut - q_ref)``, half as wide as the SUT's prior: the target, the SUT's
     prior times the likelihood with the reference's error integrated out,
     sampled directly by rejection (SUT draws from its prior, the
     reference's error from its law, accepted with the likelihood); the fit
-    by rejection with the reference exact. The widened fit's period and
-    damping quantiles match the target's; without the Jacobian of (T, h)
-    -> (c1, q) in the weights (the log-normal density alone) they do not."""
+    by rejection with the reference exact, its prior the stated one or
+    (``fit_tol`` 0.2) a wider one, as the fit samples with. The widened
+    fit's period and damping quantiles match the target's; without the
+    Jacobian of (T, h) -> (c1, q) in the weights (the log-normal density
+    alone) they do not, and with the stated prior in place of the sampled
+    one they do not or the weights collapse onto a few samples."""
     rng = np.random.default_rng(11)
     nom, ref, tol, ptol, n = (360.0, 0.7), (120.0, 0.707), 0.04, 0.05, 400_000
 
@@ -95,16 +99,16 @@ def test_pendulum_weights_match_the_target_sampled_directly():
     s = np.array([c1n * 0.035, 1.6e-5])         # half the prior's spread in (c1, q)
     u_obs = np.array([c1n - c1r, qn - qr]) + np.array([0.5, -0.7]) * s
 
-    def prior_draws(k):
-        return nom[0] * np.exp(ptol * rng.standard_normal(k)), nom[1] * np.exp(
-            ptol * rng.standard_normal(k))
+    def prior_draws(k, tol_=ptol):
+        return nom[0] * np.exp(tol_ * rng.standard_normal(k)), nom[1] * np.exp(
+            tol_ * rng.standard_normal(k))
 
     def accepted(t, h, dc1, dq):
         c1, q = coeffs(t, h)
         r = ((c1 - c1r - dc1 - u_obs[0]) / s[0]) ** 2 + ((q - qr - dq - u_obs[1]) / s[1]) ** 2
         return rng.uniform(size=t.size) < np.exp(-0.5 * r)
 
-    t, h = prior_draws(n)
+    t, h = prior_draws(n * int(fit_tol / ptol) ** 2, fit_tol)
     keep = accepted(t, h, 0.0, 0.0)
     fit = np.column_stack([t[keep], h[keep], np.full(keep.sum(), 750.0)])
     t, h = prior_draws(8 * n)
@@ -115,6 +119,8 @@ def test_pendulum_weights_match_the_target_sampled_directly():
     target = np.column_stack([t[keep], h[keep]])
     assert fit.shape[0] > 5000 and target.shape[0] > 5000
     prior = rt.SutPrior(free="all", log_gain=(0.0, 20.0), nominal=nom, tolerance=(ptol, ptol))
+    sampled = rt.SutPrior(free="all", log_gain=(0.0, 20.0), nominal=nom,
+                          tolerance=(fit_tol, fit_tol))
 
     class NoJacobian(rt.SutPrior):
         def log_density(self, rows):
@@ -122,8 +128,8 @@ def test_pendulum_weights_match_the_target_sampled_directly():
             lp = -0.5 * (x / ptol) ** 2 - 0.5 * (y / ptol) ** 2
             return np.where(np.isfinite(lp), lp, -np.inf)
 
-    def quantiles_match(p):
-        out, info = rt.widen(fit, ref, tol, np.random.default_rng(12), p)
+    def quantiles_match(p, q_=sampled):
+        out, info = rt.widen(fit, ref, tol, np.random.default_rng(12), p, q_)
         ne = min(_effective(info, fit.shape[0]), target.shape[0])
         ok = []
         for j in (0, 1):
@@ -133,10 +139,15 @@ def test_pendulum_weights_match_the_target_sampled_directly():
                 dens = 0.02 / np.diff(np.quantile(target[:, j], [q - 0.01, q + 0.01]))[0]
                 se = np.sqrt(q * (1 - q) * (1 / ne + 1 / target.shape[0])) / dens
                 ok.append(abs(got - want) < Z_001 * se)
-        return ok
+        return all(ok), info["effective_draws"]
 
-    assert all(quantiles_match(prior))
-    assert not all(quantiles_match(NoJacobian(**prior.__dict__)))
+    right, draws = quantiles_match(prior)
+    assert right
+    if fit_tol == ptol:
+        assert not quantiles_match(NoJacobian(**prior.__dict__))[0]
+    else:       # the wrong denominator: off, or its weights collapse onto a few samples
+        wrong, few = quantiles_match(prior, prior)
+        assert not wrong or few < 0.01 * draws, (wrong, few, draws)
 
 
 def test_a_flat_prior_moves_each_sample_by_one_draw():
@@ -180,6 +191,9 @@ def test_a_360_s_sut_beside_a_120_s_reference_stays_within_its_prior():
                          sut_xml=sim.sut_inventory, band=(9 / 360.0, 1.0), fit_response="all",
                          seed=43, progress=False, diagnose=False,
                          priors=Priors(reference_tolerance=0.036))
+    # sampled with the reference's error in its prior; the stated prior reported
+    assert post.meta.response_prior["period_tolerance"] == 0.05
+    assert post.meta.reference_tolerance["sampled_with"]["damping_tolerance"] > 0.3
     said = [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
     assert any("much wider than the SUT's prior" in s for s in said), said
     summary = post.summary()["channels"]
@@ -215,3 +229,24 @@ def test_the_flag_reweights_the_reported_values_at_their_own_prior(sd, flagged):
         assert e["set_by_prior"] == flagged
         assert abs(e["width_ratio"] - want) < Z_001 * want * np.sqrt(
             pendulum.HALF_WIDTH_VAR * 2 / (n * 0.3)), (name, e["width_ratio"], want)
+
+
+def test_the_sampling_prior_adds_the_reference_error_carried_into_the_sut():
+    """The reference's error carried into the SUT's (ln T, ln h) through
+    ``d(c1, q)/d(ln T, ln h)`` of each, its variance 1.5 times added to the
+    stated prior's: for a SUT with the reference's own nominal values the
+    map is the identity, each tolerance hypot(0.05, sqrt(1.5) tol). At
+    h = 1/sqrt 2 (q = 0) and a SUT of three times the reference's period,
+    the reference's errors (e_T, e_h) move ``q`` by -2 w0r^2 e_h, which the
+    SUT's -2 w0s^2 d ln h takes up: d ln h = 9 e_h; and ``c1`` by c1r (e_h -
+    e_T) = 3 c1s (e_h - e_T), so d ln T = d ln h - 3 (e_h - e_T) = 6 e_h +
+    3 e_T: variances 81 tol^2 and 45 tol^2."""
+    tol = 0.036
+    same = rt.sampling_tolerances(tol, [((120.0, 0.707), (120.0, 0.707))], 0.05, 0.05)
+    assert same == pytest.approx((np.hypot(0.05, np.sqrt(1.5) * tol),) * 2, rel=1e-9)
+    t, h = rt.sampling_tolerances(tol, [((360.0, 1 / np.sqrt(2)), (120.0, 1 / np.sqrt(2)))],
+                                  0.05, 0.05)
+    var_h = 81 * tol ** 2
+    var_t = (36 + 9) * tol ** 2
+    assert (t, h) == pytest.approx((np.sqrt(0.05 ** 2 + 1.5 * var_t),
+                                    np.sqrt(0.05 ** 2 + 1.5 * var_h)), rel=1e-9)

@@ -52,9 +52,22 @@ the sampler uses in ``(c0_rel, c1_rel)`` (:func:`.pendulum.log_prior`):
 no pendulum (``w0^2 <= 0``) or a negative damping lies outside the prior:
 its weight is 0, so sample and draw are conditioned jointly.
 
+**The prior the fit samples with.** The same holds when the fit samples
+``z`` with a prior ``pi_s`` other than the stated ``pi``: the pair's
+density is then ``pi_s(z' - d) L(z' - d - m) p(d)``, and the weight
+``pi(z') / pi_s(z_i)``. This matters where the data fix ``z`` no better
+than the SUT's prior and the reference's error is wider than that prior (a
+360-s SUT beside a 120-s reference): the fit's samples, held by ``pi``,
+cover only the middle of what the reference's error allows, the weights'
+variance is infinite and a few samples carry them all. The fit then samples
+with the period and damping tolerances widened by the reference's error
+mapped into the SUT's ``(ln T, ln h)`` (:func:`sampling_tolerances`), so
+that its samples cover the posterior, and the weights take the stated
+prior back.
+
 Where a channel's prior is flat in the moved coordinates (its gain alone
 free, or no prior given) every weight is 1 and each sample is moved by one
-draw. Otherwise each sample takes :data:`DRAWS` draws and the channel's
+draw. Otherwise each sample takes several draws (:data:`DRAWS`) and the channel's
 samples are resampled (systematic resampling, seeded) from that pool by
 their weights; the Kish effective share of the pool's draws
 (``kish_fraction``) says how much of the reference's error the SUT's prior
@@ -80,11 +93,19 @@ import numpy as np
 
 from . import pendulum
 
-#: Draws of the reference's error per sample where the SUT's prior weighs them.
-DRAWS = 8
+#: Draws of the reference's error per sample where the SUT's prior weighs
+#: them: as many as a pool of :data:`POOL` rows allows, within these bounds.
+DRAWS = (8, 64)
+#: Rows of the pool of moved samples a channel's draws fill (memory).
+POOL = 1 << 20
 #: Kish effective share of the draws below which the reference's tolerance
 #: is called far wider than the SUT's prior.
 MIN_KISH = 0.1
+#: Factor on the variance of the reference's error, mapped into the SUT's
+#: log period and damping, added to the prior the fit samples with
+#: (:func:`sampling_tolerances`): more than 1, so that the samples' spread
+#: exceeds the posterior's in every direction.
+SAMPLING_INFLATION = 1.5
 
 
 @dataclass(frozen=True)
@@ -126,11 +147,15 @@ class SutPrior:
         return out
 
 
-def sut_priors(model):
+def sut_priors(model, priors=None):
     """``{channel id: SutPrior}`` of a pair model (anything with ``blocks``
-    and ``priors``, as :class:`bayescal.core.model.likelihood.Model`); None
-    when it has none (every channel's prior then counts as flat)."""
-    blocks, priors = getattr(model, "blocks", None), getattr(model, "priors", None)
+    and ``priors``, as :class:`bayescal.core.model.likelihood.Model`) under
+    its own priors or under ``priors`` (a
+    :class:`bayescal.core.priors.Priors`: the stated ones, where the fit
+    sampled with others); None when it has none (every channel's prior then
+    counts as flat)."""
+    blocks = getattr(model, "blocks", None)
+    priors = priors or getattr(model, "priors", None)
     if blocks is None or priors is None:
         return None
     out = {}
@@ -172,6 +197,29 @@ def _shift(reference, eps):
     return c1_t - c1_r, q_t - q_r
 
 
+def _log_jacobian(period, damping):
+    """``d(c1, q) / d(ln T, ln h)`` (2, 2) at a period and damping."""
+    c1, q = _coefficients(period, damping)
+    w0sq = (2 * np.pi / period) ** 2
+    return np.array([[-c1, c1], [-2 * q, -4 * w0sq * damping ** 2]])
+
+
+def sampling_tolerances(tolerance, pairs, period_tol, damping_tol):
+    """The period and damping tolerances the fit samples with when the
+    reference's metadata are known to ``tolerance`` (module docstring):
+    the stated ``period_tol`` and ``damping_tol`` with
+    :data:`SAMPLING_INFLATION` times the variance of the reference's error
+    in ``(c1, q)``, carried into the SUT's ``(ln T, ln h)``, added (the
+    largest over ``pairs``, ``((T_sut, h_sut), (T_ref, h_ref))`` nominal
+    values of each SUT channel and its aligned reference channel)."""
+    var = np.zeros(2)
+    for sut, ref in pairs:
+        m = np.linalg.solve(_log_jacobian(*sut), _log_jacobian(*ref))
+        var = np.maximum(var, tolerance ** 2 * np.diag(m @ m.T))
+    return (float(np.sqrt(period_tol ** 2 + SAMPLING_INFLATION * var[0])),
+            float(np.sqrt(damping_tol ** 2 + SAMPLING_INFLATION * var[1])))
+
+
 def moved(samples, reference, eps, pendulum_moves=True):
     """(N, 3) period, damping, gain ``samples`` moved by the reference's
     relative errors ``eps`` (N, 3: period, damping, gain): the gain
@@ -199,7 +247,7 @@ def systematic(weights, n, rng):
                       len(weights) - 1)
 
 
-def widen(samples, reference, tolerance, rng, prior=None):
+def widen(samples, reference, tolerance, rng, prior=None, sampled=None):
     """(N, 3) period, damping, gain samples of one SUT channel with the
     reference's metadata error integrated out (module docstring).
 
@@ -216,7 +264,9 @@ def widen(samples, reference, tolerance, rng, prior=None):
         damping.
     rng : numpy.random.Generator
     prior : SutPrior or None
-        The channel's prior; None: flat in every moved coordinate.
+        The channel's stated prior; None: flat in every moved coordinate.
+    sampled : SutPrior or None
+        The prior the fit sampled with (None: ``prior``).
 
     Returns
     -------
@@ -227,13 +277,15 @@ def widen(samples, reference, tolerance, rng, prior=None):
     """
     samples = np.asarray(samples, float)
     prior = prior or SutPrior(free="all")
+    sampled = sampled or prior
     n = samples.shape[0]
-    draws = 1 if prior.flat else DRAWS
+    flat = prior.flat and sampled.flat
+    draws = 1 if flat else int(np.clip(POOL // max(n, 1), *DRAWS))
     pool = np.repeat(samples, draws, axis=0)
     out = moved(pool, reference, tolerance * rng.standard_normal((n * draws, 3)),
                 pendulum_moves=prior.free == "all")
-    logw = prior.log_density(out) - (0.0 if prior.flat else np.repeat(
-        prior.log_density(samples), draws))
+    logw = prior.log_density(out) - (0.0 if flat else np.repeat(
+        sampled.log_density(samples), draws))
     logw = np.where(np.isfinite(logw), logw, -np.inf)
     if not np.isfinite(logw).any():
         raise ValueError("no draw of the reference's error is allowed by the SUT's prior")
@@ -250,26 +302,41 @@ def aligned_reference(sut_vectors, ref_vectors):
     return np.argmax(np.abs(np.asarray(sut_vectors) @ np.asarray(ref_vectors).T), axis=1)
 
 
+def _pendulum(family):
+    """A family's nominal ``(period, damping)``, or None when it has none."""
+    t = getattr(family, "period_s", np.nan)
+    return (t, family.damping) if np.isfinite(t) else None
+
+
+def pendulum_pairs(families, sut_vectors, ref_vectors, ref_families):
+    """``((T_sut, h_sut), (T_ref, h_ref))`` of each SUT channel with a
+    pendulum and its aligned reference channel with one
+    (:func:`sampling_tolerances`)."""
+    along = aligned_reference(sut_vectors, ref_vectors)
+    pairs = [(_pendulum(f), _pendulum(ref_families[k])) for f, k in zip(families, along)]
+    return [(s, r) for s, r in pairs if s is not None and r is not None]
+
+
 def widen_responses(response, channel_ids, *, sut_vectors, ref_vectors, ref_families,
-                    tolerance, seed=0, priors=None):
+                    tolerance, seed=0, priors=None, sampled=None):
     """A fit's responses (channel id -> (N, 3)) with the reference's metadata
     ``tolerance`` integrated out of every one (:func:`widen`); the input is
     left as it is. ``sut_vectors`` in the order of ``channel_ids``;
     ``ref_families`` per reference channel (a
     :class:`bayescal.core.response.TwoPoleFamily` or anything else);
-    ``priors`` ``{channel id: SutPrior}`` (:func:`sut_priors`; None: flat).
-    Returns ``(responses, info)``, ``info`` per channel :func:`widen`'s."""
+    ``priors`` ``{channel id: SutPrior}`` (:func:`sut_priors`; None: flat),
+    the stated ones, ``sampled`` those the fit sampled with (None:
+    ``priors``). Returns ``(responses, info)``, ``info`` per channel
+    :func:`widen`'s."""
     rng = np.random.default_rng([seed, 0x7EF])
     along = aligned_reference(sut_vectors, ref_vectors)
     out, info = dict(response), {}
     for k, cid in enumerate(channel_ids):
         if cid not in response:
             continue
-        fam = ref_families[along[k]]
-        ref = ((fam.period_s, fam.damping) if np.isfinite(getattr(fam, "period_s", np.nan))
-               else None)
+        ref = _pendulum(ref_families[along[k]])
         out[cid], info[cid] = widen(response[cid], ref, tolerance, rng,
-                                    (priors or {}).get(cid))
+                                    (priors or {}).get(cid), (sampled or priors or {}).get(cid))
     return out, info
 
 
@@ -294,10 +361,12 @@ def judged_sensitivity(response, priors, n_eff):
     return out
 
 
-def meta_entry(tolerance, info=None):
+def meta_entry(tolerance, info=None, sampled_with=None):
     """The ``reference_tolerance`` meta entry of a fit widened by
     ``tolerance``; ``info`` per channel :func:`widen`'s (its Kish share
-    under ``kish_fraction``, its effective draws under ``effective_draws``)."""
+    under ``kish_fraction``, its effective draws under ``effective_draws``);
+    ``sampled_with`` the period and damping tolerances the fit sampled with
+    when not the stated ones (:func:`sampling_tolerances`)."""
     entry = {"relative_sd": float(tolerance),
              "note": "the reference's gain, natural period and damping known to this relative "
                      "standard deviation (log-normal): each SUT channel's response intervals "
@@ -307,4 +376,7 @@ def meta_entry(tolerance, info=None):
         entry["kish_fraction"] = {cid: round(float(v["kish_fraction"]), 4)
                                   for cid, v in info.items()}
         entry["effective_draws"] = {cid: int(v["effective_draws"]) for cid, v in info.items()}
+    if sampled_with:
+        entry["sampled_with"] = {"period_tolerance": round(float(sampled_with[0]), 4),
+                                 "damping_tolerance": round(float(sampled_with[1]), 4)}
     return entry
