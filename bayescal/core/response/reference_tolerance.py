@@ -67,12 +67,13 @@ prior back.
 
 Where a channel's prior is flat in the moved coordinates (its gain alone
 free, or no prior given) every weight is 1 and each sample is moved by one
-draw. Otherwise each sample takes several draws (:data:`DRAWS`) and the channel's
-samples are resampled (systematic resampling, seeded) from that pool by
-their weights; the Kish effective share of the pool's draws
+draw. Otherwise each sample takes several draws (:data:`DRAWS`) and the
+channel's samples are resampled (systematic resampling, seeded) from that
+pool by their weights; the Kish effective share of the pool's draws
 (``kish_fraction``) says how much of the reference's error the SUT's prior
 allows: small (below :data:`MIN_KISH`), the reference's tolerance is far
-wider than the SUT's prior and the intervals rest on few draws. A
+wider than the SUT's prior, which then sets the period and damping; their
+number (``effective_draws``) is how many draws the intervals rest on. A
 parameter held at its nominal value (its prior a point) is not moved.
 Each channel is resampled on its own (its weights hold only its own
 parameters and draw): its marginal is the posterior's where the fit does
