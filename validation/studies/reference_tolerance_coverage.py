@@ -128,7 +128,8 @@ def summarise(rows):
             by_draws.setdefault(str(edge), []).append(c)
     return {"quantities": table, "pairs": len(fitted), "refused": len(rows) - len(fitted),
             "converged": sum(r["converged"] for r in fitted),
-            "by_period": {k: _group(v) for k, v in sorted(by_period.items(), key=lambda x: float(x[0]))},
+            "by_period": {k: _group(v)
+                          for k, v in sorted(by_period.items(), key=lambda x: float(x[0]))},
             "by_effective_draws_below": {k: _group(v) for k, v in
                                          sorted(by_draws.items(), key=lambda x: float(x[0]))},
             "kish_below_0.1": int((kish < 0.1).sum())}
