@@ -41,10 +41,8 @@ def test_the_shift_recovers_the_sut_seen_against_a_wrong_reference(k):
     fit = least_squares(resid, np.log([120.0, 0.707]), xtol=1e-14, ftol=1e-14)
     measured = np.array([[*np.exp(fit.x), 1.0]])
 
-    class Exact:                      # the reference's true error as the "draw"
-        def standard_normal(self, shape):
-            return np.log(np.array([[true[0] / meta[0], true[1] / meta[1], 1.0]]))
-    got = reference_tolerance.widen(measured, meta, 1.0, Exact())[0]
+    eps = np.log(np.array([[true[0] / meta[0], true[1] / meta[1], 1.0]]))   # the true error
+    got = reference_tolerance.moved(measured, meta, eps)[0]
     for j in (0, 1):      # the wrong reference shows; the shift takes it out
         assert abs(measured[0, j] / sut[j] - 1) > 0.02
         assert got[j] == pytest.approx(sut[j], rel=5e-3)
@@ -124,16 +122,17 @@ def test_the_prior_flag_judges_the_reported_values_once_the_tolerance_is_in():
     assert holed["damping"]["set_by_prior"]
 
 
-def test_a_draw_leaving_no_pendulum_is_drawn_again():
-    """A 360-s SUT beside a 120-s reference known to 5 %: some draws of the
-    reference's error would leave the SUT no pendulum (w0^2 <= 0; a period
-    of 1e150 s). Such draws are drawn again, so the moved periods follow the
-    error's law conditioned on a pendulum: checked against that law sampled
-    directly (rejection, written here from the module's docstring) and
-    against the unconditioned rows, which stay as they were."""
+def test_a_draw_leaving_no_pendulum_has_no_weight():
+    """A 360-s SUT beside a 120-s reference known to 5 %, its prior flat:
+    some draws of the reference's error would leave the SUT no pendulum
+    (w0^2 <= 0; a period of 1e150 s). Such draws have weight 0, so the
+    moved periods follow the error's law conditioned on a pendulum: checked
+    against that law sampled directly (rejection, written here from the
+    module's docstring)."""
     t, h, tol, n = 360.0, 0.7, 0.05, 40000
     samples = np.tile([t, h, 1500.0], (n, 1))
-    got = reference_tolerance.widen(samples, (120.0, 0.707), tol, np.random.default_rng(1))
+    got, info = reference_tolerance.widen(samples, (120.0, 0.707), tol,
+                                          np.random.default_rng(1))
     assert np.all(np.isfinite(got)) and got[:, 0].max() < 1e8        # none at 1e150 s
     w = lambda T: 2 * np.pi / T                                   # noqa: E731
     c1, q = 2 * h * w(t), w(t) ** 2 * (1 - 2 * h * h)
@@ -143,6 +142,7 @@ def test_a_draw_leaving_no_pendulum_is_drawn_again():
     qn = q + w(tr) ** 2 * (1 - 2 * hr ** 2) - w(120.0) ** 2 * (1 - 2 * 0.707 ** 2)
     c0 = qn + 0.5 * c1n ** 2
     assert 0.001 < np.mean(c0 <= 0) < 0.5                        # the case arises
+    assert info["kish_fraction"] == pytest.approx(np.mean(c0 > 0), abs=0.005)
     direct = 2 * np.pi / np.sqrt(c0[c0 > 0])
     for p in (5, 25, 50, 75, 95):
         assert np.percentile(got[:, 0], p) == pytest.approx(np.percentile(direct, p), rel=0.03)

@@ -16,9 +16,13 @@ criticism made one, is ``result.improved`` either way.
 """
 from __future__ import annotations
 
-from ..core.fit import judged_response_flags
-from ..core.response import meta_entry, widen_responses
+import warnings
+from dataclasses import replace
+
+from ..core.response import (MIN_KISH, judged_sensitivity, meta_entry, set_by_prior_entries,
+                             sut_priors, widen_responses)
 from ..core.selfnoise import for_fit
+from ..errors import InputWarning
 from .response_curve import relative_response
 
 
@@ -34,19 +38,80 @@ def self_noise(state, data, *, fit_response, seed=0):
                    poorly_separated="note" in rn.get("separation", {}))
 
 
-def _tolerated(state, data, tolerance, seed):
-    """(responses, meta) of ``state`` with the reference's metadata
-    ``tolerance`` drawn into its responses
-    (:mod:`bayescal.core.response.reference_tolerance`); as they are when
-    the tolerance is 0."""
+def _tolerated(state, data, tolerance, seed, stated=None):
+    """(responses, meta, info) of ``state`` with the reference's metadata
+    ``tolerance`` integrated out of its responses, weighed by the SUT's
+    ``stated`` prior (a :class:`~bayescal.core.priors.Priors`; None: the
+    model's own) against the one the fit sampled with
+    (:mod:`bayescal.core.response.reference_tolerance`; ``info`` per
+    channel its Kish share and effective draws); as they are when the
+    tolerance is 0."""
     if not tolerance:
-        return state.response, state.meta
+        return state.response, state.meta, {}
     rows = {str(cid): k for k, cid in enumerate(data.fitted.sut_ids)}
     sut_vectors = [data.sut_vectors[rows[cid]] for cid in state.channel_ids]
-    response = widen_responses(state.response, state.channel_ids, sut_vectors=sut_vectors,
-                               ref_vectors=data.ref_vectors, ref_families=data.ref_families,
-                               tolerance=tolerance, seed=seed)
-    return response, state.meta.replace(reference_tolerance=meta_entry(tolerance))
+    response, info = widen_responses(state.response, state.channel_ids, sut_vectors=sut_vectors,
+                                     ref_vectors=data.ref_vectors,
+                                     ref_families=data.ref_families, tolerance=tolerance,
+                                     seed=seed, priors=sut_priors(state.model, stated),
+                                     sampled=sut_priors(state.model))
+    own = getattr(state.model, "priors", None)
+    tols = lambda p: (p.period_tolerance, p.damping_tolerance)   # noqa: E731
+    wider = stated is not None and own is not None and tols(own) != tols(stated)
+    entry = meta_entry(tolerance, info, tols(own) if wider else None)
+    return response, state.meta.replace(reference_tolerance=entry), info
+
+
+def stated_priors(state):
+    """The priors stated for the fit ``state``: its model's, with the period
+    and damping tolerances of its ``meta.response_prior`` where it sampled
+    with others (:func:`bayescal.pair.fitting.stated_prior`); None without
+    a model."""
+    own = getattr(state.model, "priors", None)
+    rp = state.meta.response_prior or {}
+    if own is None or "sampled_with" not in rp:
+        return own
+    return replace(own, period_tolerance=rp["period_tolerance"],
+                   damping_tolerance=rp["damping_tolerance"])
+
+
+def _tolerance_flags(head, response, info, stated=None):
+    """The meta entries of ``head`` that change once the reference's
+    tolerance is in its ``response`` (:func:`judged_sensitivity`: what the
+    prior sets among the reported values), ``{}`` when nothing is judged;
+    warns (:class:`~bayescal.errors.InputWarning`) when the SUT's prior
+    leaves few of the reference's draws effective."""
+    low = {cid: v for cid, v in info.items() if v["kish_fraction"] < MIN_KISH}
+    if low:
+        warnings.warn(
+            "the reference's tolerance is much wider than the SUT's prior allows: "
+            + ", ".join(f"{cid} keeps {100 * v['kish_fraction']:.2g} % of the reference's draws "
+                        f"({v['effective_draws']:.0f} effective)" for cid, v in low.items())
+            + "; " + ("its" if len(low) == 1 else "their")
+            + " period and damping rest on the SUT's prior and on those draws",
+            InputWarning, stacklevel=4)
+    if head.model is None or not head.meta.prior_sensitivity:
+        return {}
+    ess = head.convergence.ess_min
+    n_eff = {cid: min(ess, v["effective_draws"]) if ess else v["effective_draws"]
+             for cid, v in info.items()}
+    sens = judged_sensitivity(response, sut_priors(head.model, stated), n_eff)
+    entries = dict(head.meta.set_by_prior or {})
+    for cid in sens:
+        for name in ("period_s", "damping", "damping_over_period"):
+            entries.pop(f"{cid}:{name}", None)
+    entries.update(set_by_prior_entries(sens))
+    return {"set_by_prior": entries, "prior_sensitivity": {**head.meta.prior_sensitivity,
+                                                           **sens}}
+
+
+def _reported(head, data, tolerance, seed, stated):
+    """(responses, meta) the headline ``head`` reports: the tolerance in
+    (:func:`_tolerated`), the flags on what the prior set judged on them."""
+    response, meta, info = _tolerated(head, data, tolerance, seed, stated)
+    if tolerance:
+        meta = meta.replace(**_tolerance_flags(head, response, info, stated))
+    return response, meta
 
 
 def headline_is_improved(criticism):
@@ -101,7 +166,7 @@ def rejected_entry(result):
             "not_estimable": result.not_estimable}
 
 
-def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0):
+def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0, priors=None):
     """The :class:`~bayescal.result.record.Result` of a pair fit.
 
     Parameters
@@ -118,13 +183,14 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         fitted (``state.meta.free_response``).
     tolerance : float or None
         The reference's metadata tolerance (``Priors.reference_tolerance``;
-        None: the fit's model's priors', 0 for a fit without a model):
-        both the fit's and the improved model's responses carry it (the
-        criticism judged the move between them on the data's own intervals,
-        which the reference's error moves alike); the fit's flags on what
-        the prior set are then judged on the responses it reports.
+        None: the model's, 0 without one): the fit's and the improved model's
+        responses carry it (the criticism judged the move between them on the
+        data's own intervals); the prior flags judge the responses reported.
     seed : int
         Seed of the self-noise draws and of the tolerance's.
+    priors : Priors or None
+        The stated priors (the fit may sample with wider ones,
+        :func:`bayescal.pair.fitting.sampling_priors`); None: :func:`stated_priors`.
 
     Returns
     -------
@@ -139,23 +205,22 @@ def choose(state, criticism, *, data, fit_response=None, tolerance=None, seed=0)
         model's live state is ``improved.state``).
     """
     fit_response = fit_response or state.meta.free_response or "none"
+    priors = priors or stated_priors(state)
     if tolerance is None:
         tolerance = getattr(getattr(state.model, "priors", None), "reference_tolerance", 0.0)
     improved = rejected = None
     if criticism.improved is not None:
-        response, meta = _tolerated(criticism.improved, data, tolerance, seed)
+        response, meta, _ = _tolerated(criticism.improved, data, tolerance, seed, priors)
         improved = criticism.improved.to_result(response=response, meta=meta)
     head = state
     if headline_is_improved(criticism):
-        response, meta = _tolerated(state, data, tolerance, seed)
+        response, meta, _ = _tolerated(state, data, tolerance, seed, priors)
         rejected = rejected_entry(state.to_result(response=response, meta=meta))
         head = criticism.improved
     # the split is made for the pair model without effects (an improved model's
     # gain terms take up the incoherent power it reads, e.g. a noisier reference's)
     noise, order = self_noise(state, data, fit_response=fit_response, seed=seed)
-    response, meta = _tolerated(head, data, tolerance, seed)
-    if tolerance:
-        meta = meta.replace(**judged_response_flags(head, response))
+    response, meta = _reported(head, data, tolerance, seed, priors)
     meta = meta.replace(headline=headline_entry(criticism))
     return head.to_result(response=response, meta=meta, self_noise=noise, sensor_order=order,
                           criticism=criticism.summary, improved=improved,

@@ -21,10 +21,42 @@ one-channel pair cannot separate the reference's noise); see
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..core.fit import fit_spectra
 from ..core.priors import Priors
+from ..core.response import pendulum_pairs, sampling_tolerances
 from ..io.band import MIN_COHERENCE
 from ..errors import InputError
+
+
+def sampling_priors(data, priors, fit_response):
+    """The priors the fit of ``data`` samples with: ``priors``, their period
+    and damping tolerances widened by the reference's error where its
+    tolerance is stated and they are fitted
+    (:func:`bayescal.core.response.sampling_tolerances`; the stated ones
+    are weighed back in by :func:`bayescal.pair.choice.choose`)."""
+    if not priors.reference_tolerance or fit_response != "all":
+        return priors
+    pairs = pendulum_pairs(data.families, data.sut_vectors, data.ref_vectors, data.ref_families)
+    if not pairs:
+        return priors
+    t, h = sampling_tolerances(priors.reference_tolerance, pairs, priors.period_tolerance,
+                               priors.damping_tolerance)
+    return replace(priors, period_tolerance=t, damping_tolerance=h)
+
+
+def stated_prior(meta, priors):
+    """``meta`` (a fit's) with its ``response_prior`` the stated ``priors``'
+    period and damping tolerances, and those it sampled with under
+    ``sampled_with`` where they differ (:func:`sampling_priors`)."""
+    rp = meta.response_prior
+    stated = {"period_tolerance": priors.period_tolerance,
+              "damping_tolerance": priors.damping_tolerance}
+    if not rp or all(rp[k] == v for k, v in stated.items()):
+        return meta
+    sampled = {k: rp[k] for k in stated}
+    return meta.replace(response_prior={**rp, **stated, "sampled_with": sampled})
 
 
 def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, progress=True,
@@ -46,7 +78,8 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
         exact) the relative standard deviation of the reference's gain,
         period and damping, carried into the SUT's response intervals by
         :func:`bayescal.pair.choice.choose`
-        (:mod:`bayescal.core.response.reference_tolerance`).
+        (:mod:`bayescal.core.response.reference_tolerance`; the fit then
+        samples with wider period and damping priors, :func:`sampling_priors`).
     seed : int
         Random seed (results are reproducible).
     ref_noise : {None, "estimate", "quiet", "equal"}
@@ -72,10 +105,11 @@ def fit(data, *, fit_response="gain", priors=Priors(), seed=0, ref_noise=None, p
                              "treat the reference's noise: give one")
         ref_noise = "fixed"
     state = fit_spectra(data.fitted, data.ref_vectors, data.sut_vectors, data.families,
-                        free=fit_response, priors=priors, seed=seed, progress=progress,
+                        free=fit_response, priors=sampling_priors(data, priors, fit_response),
+                        seed=seed, progress=progress,
                         meta=data.meta, ref_noise=ref_noise, known_noise=data.known_noise,
                         **sample_kw)
-    meta = state.meta
+    meta = stated_prior(state.meta, priors)
     given = data.meta.get("reference_noise_input")
     if given is not None:
         meta = meta.replace(reference_noise=dict(meta.reference_noise or {}, input=given))
