@@ -191,8 +191,9 @@ def save_png(fig, path, dpi=PNG_DPI):
 
 def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=None):
     """Write a report's pages: each figure on one page of the PDF
-    ``pdf_path`` and, when it has a PNG path, as that PNG. Each figure is
-    closed once written; each file is written under a temporary name and
+    ``pdf_path`` and, when it has a PNG path, as that PNG, its ticks made
+    only where they are drawn (:func:`bayescal.report.in_view.ticks_in_view`).
+    Each figure is closed once written; each file is written under a temporary name and
     renamed when complete (:func:`bayescal.atomic.atomic_path`).
 
     Parameters
@@ -216,10 +217,12 @@ def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=
     from matplotlib.backends.backend_pdf import PdfPages
 
     from ..atomic import atomic_path
+    from .in_view import ticks_in_view
 
     pngs = []
     with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:
         for png, fig in pages:
+            ticks_in_view(fig)
             with core_fonts(fig):
                 if page is None:
                     pdf.savefig(fig)

@@ -1,0 +1,130 @@
+"""What a report saves in drawing without changing a page: the ticks
+matplotlib would make beyond an axis's view and not draw
+(:func:`bayescal.report.in_view.ticks_in_view`), and Python's cyclic garbage
+collection paused while a report is drawn
+(:mod:`bayescal.report.collection`)."""
+from __future__ import annotations
+
+import gc
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from bayescal.errors import InputError
+from bayescal.report.axes import log_ticks
+from bayescal.report.in_view import ticks_in_view
+from bayescal.report.collection import collection_paused
+from bayescal.report.layout import write_pages
+
+#: A 0.03-1 Hz band on a log axis, labelled 1, 2, 5 x 10^n (1.5 decades):
+#: in view 0.05, 0.1, 0.2, 0.5, 1 (matplotlib's locator adds a decade or so
+#: on each side).
+LOG_IN_VIEW = [0.05, 0.1, 0.2, 0.5, 1.0]
+#: A linear axis over 0.5-9.5: matplotlib's automatic ticks 0, 2, ..., 10,
+#: of which 2, 4, 6, 8 in view.
+LINEAR_IN_VIEW = [2.0, 4.0, 6.0, 8.0]
+
+
+def _figure():
+    """A page's axes: log frequency against a linear quantity, with a legend
+    and a grid (the report's style)."""
+    fig = Figure(figsize=(4, 3), dpi=90)
+    ax = fig.add_subplot()
+    f = np.geomspace(0.03, 1.0, 60)
+    ax.plot(f, 0.5 + 9.0 * (f - 0.03) / 0.97, label="curve")
+    ax.set_xscale("log")
+    log_ticks(ax, 0.03, 1.0)
+    ax.set_xlim(0.03, 1.0)
+    ax.set_ylim(0.5, 9.5)
+    ax.grid(True)
+    ax.legend()
+    return fig, ax
+
+
+def _pixels(fig):
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba()).copy()
+
+
+def test_only_the_ticks_in_view_are_made_and_the_page_is_the_same():
+    plain, ax0 = _figure()
+    trimmed, ax1 = _figure()
+    ticks_in_view(trimmed)
+    assert np.array_equal(_pixels(plain), _pixels(trimmed))
+    untrimmed = ax0.xaxis.get_majorticklocs()
+    assert min(untrimmed) < 0.03 and max(untrimmed) > 1.0
+    np.testing.assert_allclose(ax1.xaxis.get_majorticklocs(), LOG_IN_VIEW)
+    np.testing.assert_allclose(ax1.yaxis.get_majorticklocs(), LINEAR_IN_VIEW)
+    # a tick object per location given: those beyond the view are not made
+    assert len(ax1.xaxis.majorTicks) == len(LOG_IN_VIEW)
+    assert len(ax1.yaxis.majorTicks) == len(LINEAR_IN_VIEW)
+    assert len(ax0.xaxis.majorTicks) == len(untrimmed)
+
+
+def test_autoscaled_limits_are_the_locators():
+    """Limits left to autoscaling are those without the trimming (the
+    base locator's ``nonsingular`` and ``view_limits``), also for data that
+    are one value (a singular range)."""
+    def limits(trim):
+        fig = Figure()
+        ax = fig.add_subplot()
+        ax.plot([1.0, 1.0], [3.0, 3.0])
+        if trim:
+            ticks_in_view(fig)
+        FigureCanvasAgg(fig).draw()
+        return ax.get_xlim(), ax.get_ylim(), ax.yaxis.get_majorticklocs()
+    (x0, y0, t0), (x1, y1, t1) = limits(False), limits(True)
+    assert x0 == x1 and y0 == y1
+    lo, hi = y1
+    np.testing.assert_array_equal(t1, [t for t in t0 if lo <= t <= hi])
+
+
+def test_written_pages_have_only_their_ticks_in_view(tmp_path):
+    fig, ax = _figure()
+    write_pages([(None, fig)], str(tmp_path / "page.pdf"))
+    np.testing.assert_allclose(ax.xaxis.get_majorticklocs(), LOG_IN_VIEW)
+    np.testing.assert_allclose(ax.yaxis.get_majorticklocs(), LINEAR_IN_VIEW)
+
+
+def test_collection_paused_and_resumed():
+    assert gc.isenabled()
+    with collection_paused():
+        assert not gc.isenabled()
+    assert gc.isenabled()
+    with pytest.raises(ValueError), collection_paused():
+        raise ValueError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with collection_paused():
+            pass
+        assert not gc.isenabled()          # left as it was
+    finally:
+        gc.enable()
+
+
+def test_a_fit_report_is_drawn_with_the_collector_paused(monkeypatch):
+    """``write_report`` and ``bayescal report`` run with the collector
+    paused, and resume it, also when the folder cannot be read."""
+    from bayescal.cli import report as cli_report
+    from bayescal.report import fit
+
+    seen = []
+
+    def unreadable(folder):
+        seen.append(gc.isenabled())
+        raise InputError(f"{folder}: unreadable")
+
+    monkeypatch.setattr(fit, "load_result", unreadable)
+    with pytest.raises(InputError):
+        fit.write_report("nowhere")
+    args = SimpleNamespace(folder="nowhere", threshold=2.0, truth=None, paper="a4", png=False,
+                           full=False)
+    with pytest.raises(InputError):
+        cli_report.run(args)
+    assert seen == [False, False]
+    assert gc.isenabled()
