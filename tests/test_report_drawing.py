@@ -1,7 +1,8 @@
 """What a report saves in drawing without changing a page: the ticks
 matplotlib would make beyond an axis's view and not draw
-(:func:`bayescal.report.in_view.ticks_in_view`), and Python's cyclic garbage
-collection paused while a report is drawn
+(:func:`bayescal.report.in_view.ticks_in_view`), tables whose cells are
+placed once (:mod:`bayescal.report.placed_table`), and Python's cyclic
+garbage collection paused while a report is drawn
 (:mod:`bayescal.report.collection`)."""
 from __future__ import annotations
 
@@ -128,3 +129,47 @@ def test_a_fit_report_is_drawn_with_the_collector_paused(monkeypatch):
         cli_report.run(args)
     assert seen == [False, False]
     assert gc.isenabled()
+
+
+def test_a_placed_table_is_drawn_as_matplotlibs_table():
+    """A table whose cells are placed once (``placed_table``) draws the same
+    pixels as matplotlib's ``ax.table`` laying out the same cells (columns
+    of given widths, rows of given heights, the header first, a wrapped
+    note), its cells and texts where matplotlib places them."""
+    from bayescal.report.placed_table import placed_table
+
+    rows = [["channel", "quantity", "median", "note"],
+            ["XX.SIM.10.BH1", "azimuth (deg)", "3.25", ""],
+            ["XX.SIM.10.BHZ", "tilt (deg)", "0.57", "undefined\n(near vertical)"],
+            ["XX.SIM.10.BH2", "gain", "756.3", "-"]]
+    widths = [0.3, 0.3, 0.15, 0.25]
+    heights = [0.2, 0.2, 0.4, 0.2]
+
+    def page(place):
+        fig = Figure(figsize=(5, 2), dpi=90)
+        ax = fig.add_axes([0.05, 0.1, 0.9, 0.8])
+        ax.axis("off")
+        if place:
+            tab = placed_table(ax, rows, widths, heights, 6.5)
+        else:
+            tab = ax.table(cellText=rows[1:], colLabels=rows[0], loc="upper left",
+                           cellLoc="left", colLoc="left", edges="horizontal",
+                           bbox=[0, 0, 1, 1])
+            tab.auto_set_font_size(False)
+            tab.set_fontsize(6.5)
+            for (i, j), cell in tab.get_celld().items():
+                cell.set_width(widths[j])
+                cell.set_height(heights[i])
+        return fig, tab
+
+    (fig0, tab0), (fig1, tab1) = page(False), page(True)
+    assert np.array_equal(_pixels(fig0), _pixels(fig1))
+    r0, r1 = fig0.canvas.get_renderer(), fig1.canvas.get_renderer()
+    cells0, cells1 = tab0.get_celld(), tab1.get_celld()
+    assert sorted(cells0) == sorted(cells1)
+    for key, cell in cells1.items():
+        np.testing.assert_allclose(cell.get_window_extent(r1).extents,
+                                   cells0[key].get_window_extent(r0).extents, atol=1e-9)
+        np.testing.assert_allclose(cell.get_text().get_position(),
+                                   cells0[key].get_text().get_position(), atol=1e-9)
+        assert cell.get_text().get_text() == cells0[key].get_text().get_text()

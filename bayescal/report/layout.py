@@ -282,8 +282,11 @@ ROW_H = 0.0150
 
 
 def summary_table(fig, top, rows, title, with_truth):
-    """Draw a summary table whose top edge is at figure fraction ``top``;
-    returns the figure fraction just below it."""
+    """Draw a summary table whose top edge is at figure fraction ``top``
+    (its cells placed once, :mod:`bayescal.report.placed_table`); returns
+    the figure fraction just below it."""
+    from .placed_table import placed_table
+
     labels = ["channel", "quantity", "median", "68 % interval", "95 % interval", "nominal",
               "deviation"] + (["truth"] if with_truth else []) + ["note"]
     cells = []
@@ -299,13 +302,7 @@ def summary_table(fig, top, rows, title, with_truth):
     height = sum(rows_h)
     ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
     ax.axis("off")
-    tab = ax.table(cellText=cells[1:], colLabels=cells[0], loc="upper left", cellLoc="left",
-                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(TABLE_PT)
-    for (i, j), cell in tab.get_celld().items():     # matplotlib scales them to the bbox
-        cell.set_width(widths[j])
-        cell.set_height(rows_h[i])
+    placed_table(ax, cells, widths, [h / height for h in rows_h], TABLE_PT)
     return top - 0.02 - height - 0.025
 
 
