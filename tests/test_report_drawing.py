@@ -173,3 +173,35 @@ def test_a_placed_table_is_drawn_as_matplotlibs_table():
         np.testing.assert_allclose(cell.get_text().get_position(),
                                    cells0[key].get_text().get_position(), atol=1e-9)
         assert cell.get_text().get_text() == cells0[key].get_text().get_text()
+
+
+def test_a_commands_collection_is_left_to_its_exit():
+    """``bayescal report``'s collection: paused while it runs and resumed
+    after, nothing kept frozen in the process, and at the process's exit the
+    collector passes over nothing: a reference cycle left then is not
+    collected (its finaliser does not run), as it is in a plain process."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from bayescal.report.collection import collection_left_to_exit
+
+    with collection_left_to_exit():
+        assert not gc.isenabled()
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    with pytest.raises(ValueError), collection_left_to_exit():
+        raise ValueError
+    assert gc.isenabled()
+    code = ("class Cycle:\n"
+            "    def __del__(self): print('collected')\n"
+            "{}\n"
+            "c = Cycle(); c.me = c; del c\n")
+    use = ("from bayescal.report.collection import collection_left_to_exit\n"
+           "with collection_left_to_exit(): pass")
+
+    def run(prefix):
+        return subprocess.run([sys.executable, "-c", code.format(prefix)], capture_output=True,
+                              text=True, check=True,
+                              cwd=Path(__file__).resolve().parents[1]).stdout
+    assert run("pass") == "collected\n"
+    assert run(use) == ""
