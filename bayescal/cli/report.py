@@ -16,6 +16,7 @@ Example:
 """
 from __future__ import annotations
 
+from ..report.collection import collection_left_to_exit
 from .common import add_paper_argument, add_report_pages_arguments
 
 HELP = "redraw the report of a saved fit, diagnose, cal, uvw, noise or batch folder"
@@ -41,8 +42,12 @@ def configure(parser):
     add_paper_argument(parser)
 
 
+@collection_left_to_exit()
 def run(args):
-    """Render the report; returns the exit code."""
+    """Render the report (Python's cyclic garbage collection paused while
+    it draws, and left to the command's exit,
+    :func:`bayescal.report.collection.collection_left_to_exit`); returns the
+    exit code."""
     import os
 
     from ..errors import InputError

@@ -3,6 +3,9 @@
 * :mod:`.layout`     what every page shares: context, style, tables, headers, and
                      the loop writing a report's pages into its PDF and PNGs
 * :mod:`.axes`       axis helpers: log-frequency ticks, the PSD's unit
+* :mod:`.in_view`    ticks made only where they are drawn (in the axis's view)
+* :mod:`.placed_table` the summary tables, their cells placed once
+* :mod:`.collection` the cyclic garbage collector paused while a report is drawn
 * :mod:`.tables`     rows of the fit report (intervals, nominal, deviations)
 * :mod:`.fit`        the fit report from a result folder
 * :mod:`.fit_pages`  its pages

@@ -25,6 +25,7 @@ import os
 from functools import partial
 
 from ..errors import InputError
+from .collection import collection_paused
 from .tables import load_truth
 from .flags import FLAG_THRESHOLD_DEG
 
@@ -104,6 +105,7 @@ def load_result(folder):
         raise InputError(f"{folder}: cannot read the saved result ({exc})") from None
 
 
+@collection_paused()
 def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG, truth=None,
                  paper="a4", *, png=False, full=False):
     """Render the calibration report of the result saved in ``folder``.
@@ -112,9 +114,8 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
     per figure next to it (``report_<figure>.png``), all drawn in a
     temporary folder and moved into place at the end (a failure leaves
     nothing half-written). An earlier report's PNGs this one does not draw
-    are removed: the folder's figures are this report's.
-    The files written are listed
-    in the folder's manifest (:data:`bayescal.atomic.MANIFEST`), so a later
+    are removed: the folder's figures are this report's. The files written
+    are listed in the folder's manifest (:data:`bayescal.atomic.MANIFEST`), so a later
     run into the folder (e.g. ``bayescal fit --no-report``) removes them
     rather than leaving an earlier run's report beside its results.
 
@@ -132,7 +133,8 @@ def write_report(folder, out_pdf=None, nominal_tolerance_deg=FLAG_THRESHOLD_DEG,
     png : also each page as a PNG (greyscale, 90 dpi; docs/report.md).
     full : also the pages drawn on request (:data:`ON_REQUEST`).
 
-    Returns the list of written paths, each absolute (PDF first).
+    Returns the list of written paths, each absolute (PDF first). Drawn with
+    the cyclic garbage collector paused (:mod:`bayescal.report.collection`).
     """
     from ..atomic import move_files, staging
     from ..version import __version__

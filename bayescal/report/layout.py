@@ -191,8 +191,9 @@ def save_png(fig, path, dpi=PNG_DPI):
 
 def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=None):
     """Write a report's pages: each figure on one page of the PDF
-    ``pdf_path`` and, when it has a PNG path, as that PNG. Each figure is
-    closed once written; each file is written under a temporary name and
+    ``pdf_path`` and, when it has a PNG path, as that PNG, its ticks made
+    only where they are drawn (:func:`bayescal.report.in_view.ticks_in_view`).
+    Each figure is closed once written; each file is written under a temporary name and
     renamed when complete (:func:`bayescal.atomic.atomic_path`).
 
     Parameters
@@ -216,10 +217,12 @@ def write_pages(pages, pdf_path, *, page=None, dpi=PNG_DPI, grey=True, metadata=
     from matplotlib.backends.backend_pdf import PdfPages
 
     from ..atomic import atomic_path
+    from .in_view import ticks_in_view
 
     pngs = []
     with atomic_path(pdf_path) as tmp, PdfPages(tmp, metadata=metadata) as pdf:
         for png, fig in pages:
+            ticks_in_view(fig)
             with core_fonts(fig):
                 if page is None:
                     pdf.savefig(fig)
@@ -279,8 +282,11 @@ ROW_H = 0.0150
 
 
 def summary_table(fig, top, rows, title, with_truth):
-    """Draw a summary table whose top edge is at figure fraction ``top``;
-    returns the figure fraction just below it."""
+    """Draw a summary table whose top edge is at figure fraction ``top``
+    (its cells placed once, :mod:`bayescal.report.placed_table`); returns
+    the figure fraction just below it."""
+    from .placed_table import placed_table
+
     labels = ["channel", "quantity", "median", "68 % interval", "95 % interval", "nominal",
               "deviation"] + (["truth"] if with_truth else []) + ["note"]
     cells = []
@@ -296,13 +302,7 @@ def summary_table(fig, top, rows, title, with_truth):
     height = sum(rows_h)
     ax = fig.add_axes([0.05, top - 0.02 - height, 0.9, height])
     ax.axis("off")
-    tab = ax.table(cellText=cells[1:], colLabels=cells[0], loc="upper left", cellLoc="left",
-                   colLoc="left", edges="horizontal", bbox=[0, 0, 1, 1])
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(TABLE_PT)
-    for (i, j), cell in tab.get_celld().items():     # matplotlib scales them to the bbox
-        cell.set_width(widths[j])
-        cell.set_height(rows_h[i])
+    placed_table(ax, cells, widths, [h / height for h in rows_h], TABLE_PT)
     return top - 0.02 - height - 0.025
 
 
