@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 
-def draw_parameter(ax, rec):
-    """One parameter's panel on axes ``ax``."""
+def draw_parameter(ax, rec, legend=True):
+    """One parameter's panel on axes ``ax`` (with the legend beside it)."""
     from ..report.layout import GREYS, legend_beside
     hours = rec.times / 3600.0
     lo, hi = rec.fit.mu["ci95"]
@@ -30,7 +30,8 @@ def draw_parameter(ax, rec):
                  f"{tau['median']:.2g} [{tau['ci95'][0]:.2g}, {tau['ci95'][1]:.2g}], time "
                  f"scale {rec.fit.ell['median'] / 3600:.2g} h", loc="left")
     ax.set_xlabel(f"hours after {str(rec.starts[0])[:19]}")
-    legend_beside(ax)
+    if legend:
+        legend_beside(ax)
 
 
 def build_figure(records):
@@ -38,8 +39,8 @@ def build_figure(records):
     import matplotlib.pyplot as plt
     n = len(records)
     fig, axes = plt.subplots(n, 1, figsize=(10.0, 1.2 + 2.2 * n), squeeze=False)
-    for ax, rec in zip(axes[:, 0], records.values()):
-        draw_parameter(ax, rec)
+    for k, (ax, rec) in enumerate(zip(axes[:, 0], records.values())):
+        draw_parameter(ax, rec, legend=k == 0)
     fig.subplots_adjust(left=0.08, right=0.7, top=1 - 0.4 / fig.get_figheight(),
                         bottom=0.5 / fig.get_figheight(), hspace=0.7)
     return fig

@@ -27,9 +27,14 @@ of ``x`` and of a column of ones). The grid's posterior weights use the prior
   no wander, is on the grid and has the highest prior density; heavy tailed,
   so a wander many times a window's sd is reachable);
 * ``ell``: log-uniform from a quarter of the shortest spacing of the windows
-  (a wander then acts as extra white scatter) to ten times the record's span
-  (a wander then acts as one offset over the record, which only the prior on
-  ``tau`` bounds).
+  (a wander then acts as extra white scatter) to the record's span. A
+  wander slower than that is one offset over the record, which the windows
+  cannot tell from the record's value; the model does not claim to see it.
+  Within the range, a slow wander's mean over the record is seen only
+  through the wander the windows show, so with no wander (``tau = 0``) the
+  interval of ``mu`` is wider than the data alone need (conservative) and
+  with a wander as slow as the record and small against ``s_i`` it can be
+  narrower (docs/validation/hard_posteriors.md gives the rates).
 
 What it gives: ``mu`` (median and 68/95 % intervals of the mixture over the
 grid), ``tau`` and ``ell`` (median and 95 %), the repeatability ratio
@@ -48,8 +53,8 @@ import numpy as np
 
 #: The grid's prior, as the docs state it.
 PRIOR = {"tau": "half-Cauchy, scale the windows' median sd; grid uniform in tau / (tau + scale)",
-         "ell": "log-uniform from a quarter of the shortest window spacing to ten times "
-                "the record's span"}
+         "ell": "log-uniform from a quarter of the shortest window spacing to the record's "
+                "span"}
 #: Grid sizes: tau (0 included), ell.
 N_TAU, N_ELL = 64, 32
 #: Largest tau on the grid, in units of the prior's scale.
@@ -66,7 +71,9 @@ class WanderFit:
     ----------
     mu, tau, ell : dict
         ``median``, ``ci95`` (and for ``mu``: ``ci68`` and ``sd``, the
-        mixture's standard deviation); ``ell`` in the units of ``t``.
+        mixture's standard deviation); ``ell`` in the units of ``t``
+        (seconds from :mod:`~bayescal.record.combine`: ``ell_s`` in
+        :meth:`summary`).
     ratio_without, ratio_with : float
         ``sqrt(chi2_red)`` of the window estimates about ``mu``'s median
         with sds ``s_i``, and with ``sqrt(s_i^2 + tau^2)`` (``tau`` its
@@ -99,7 +106,7 @@ class WanderFit:
 
     def summary(self):
         """The numbers as plain Python (for JSON)."""
-        return {"mu": self.mu, "tau": self.tau, "ell": self.ell,
+        return {"mu": self.mu, "tau": self.tau, "ell_s": self.ell,
                 "ratio_without": self.ratio_without, "ratio_with": self.ratio_with,
                 "prior": PRIOR}
 

@@ -62,6 +62,17 @@ def parameters(result):
     return out
 
 
+def recorded_span(traces):
+    """From the latest first sample to the earliest end over the channels
+    (each channel's traces taken together, gaps inside allowed)."""
+    spans = {}
+    for tr in traces:
+        a, b = tr.stats.starttime, tr.stats.endtime + tr.stats.delta
+        lo, hi = spans.get(tr.id, (a, b))
+        spans[tr.id] = (min(lo, a), max(hi, b))
+    return max(a for a, _ in spans.values()), min(b for _, b in spans.values())
+
+
 def fit_window(pair, t0, t1, seed, **options):
     """One window's :class:`Window`; ``pair``: ``(ref, ref_xml, sut, sut_xml)``
     as :func:`~bayescal.pair.workflow.calibrate` takes them, ``options`` its
@@ -113,9 +124,9 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
         When ``[start, end)`` holds no whole window.
     """
     from ..errors import InputError
-    traces = list(ref) + list(sut)
-    start = start if start is not None else max(tr.stats.starttime for tr in traces)
-    end = end if end is not None else min(tr.stats.endtime for tr in traces)
+    first, last = recorded_span(list(ref) + list(sut))
+    start = start if start is not None else first
+    end = end if end is not None else last
     edges = window_edges(start, end, window)
     if not edges:
         raise InputError(f"{start} - {end} holds no whole window of {window:g} s")

@@ -173,6 +173,110 @@ def cowi_summary(rows):
         abs(r[c]["median"] - bounds[r["start"]][c]["median"]) for r in ok for c in CHANNELS))
     return out
 
+
+#: The simulated settings: wander sd (deg), then (SUT coherence, reference coherence).
+TAUS = (0.0, 0.05, 0.2)
+NOISES = ((0.999, 0.9999), (0.999, 0.999), (0.99, 0.9999), (0.99, 0.999))
+#: Windows per record, their length (s), the wander's time scale (s), the band (Hz).
+N_WINDOWS, WINDOW_S, ELL_S, SIM_BAND = 24, 600.0, 7200.0, (0.1, 0.8)
+
+
+def sim_setting(r):
+    """Record ``r``'s setting: (tau, (coherence, reference coherence)),
+    cycling through all twelve so that any first records are balanced."""
+    return TAUS[r % len(TAUS)], NOISES[(r // len(TAUS)) % len(NOISES)]
+
+
+def sim_record(r):
+    """One simulated record: 24 windows, each a pair whose SUT is turned by
+    the truth plus the wander at its time; the wander model per horizontal
+    channel; what holds the truth."""
+    from bayescal.record import combine
+    from bayescal.record.windows import fit_window
+    from bayescal.simulate import simulate_pair
+    from obspy import UTCDateTime
+    tau, (coh, ref_coh) = sim_setting(r)
+    rng = np.random.default_rng(1000 + r)
+    az0 = rng.uniform(-5.0, 5.0)
+    t = np.arange(N_WINDOWS) * WINDOW_S
+    w = np.empty(N_WINDOWS)
+    w[0] = tau * rng.standard_normal()
+    phi = np.exp(-WINDOW_S / ELL_S)
+    for i in range(1, N_WINDOWS):
+        w[i] = phi * w[i - 1] + tau * np.sqrt(1 - phi ** 2) * rng.standard_normal()
+    drawn = int(rng.integers(N_WINDOWS))
+    windows = []
+    for i in range(N_WINDOWS):
+        t0 = UTCDateTime(2026, 1, 1) + i * WINDOW_S
+        p = simulate_pair(duration=WINDOW_S, fs=2.0, seed=100000 * r + i, coherence=coh,
+                          ref_coherence=ref_coh, sut_azimuth=(az0 + w[i], az0 + 90 + w[i], 0.0),
+                          start=t0)
+        windows.append(fit_window((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0,
+                                  t0 + WINDOW_S, i, band=SIM_BAND, diagnose=False,
+                                  progress=False))
+    recs = combine(windows, seed=r)
+    out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
+           "skipped": sum(not win.fitted for win in windows)}
+    for ch, truth in (("MH1", az0), ("MH2", az0 + 90.0)):
+        rec = recs[f"XX.SIM.10.{ch}:azimuth_deg"]
+        truth += 360.0 * np.round((rec.fit.mu["median"] - truth) / 360.0)   # SEED's 0-360
+        lo, hi = rec.fit.mu["ci95"]
+        k = min(drawn, len(rec.medians) - 1)
+        out[ch] = {"mu_holds": bool(lo <= truth <= hi), "mu_z": (rec.fit.mu["median"] - truth)
+                   / rec.fit.mu["sd"], "window_holds": bool(rec.record_ci95[k, 0] <= truth
+                                                             <= rec.record_ci95[k, 1]),
+                   "own_holds_truth": bool(rec.ci95[k, 0] <= truth <= rec.ci95[k, 1]),
+                   "tau_median": rec.fit.tau["median"], "median_sd68": float(np.median(
+                       [np.diff(win.values[f"XX.SIM.10.{ch}:azimuth_deg"]["ci68"])[0] / 2
+                        for win in windows if win.fitted]))}
+    return out
+
+
+def sim_summary(runs):
+    """Per wander sd and over all: the record values' and the drawn
+    windows' intervals holding the truth (one channel per record, MH1 for
+    even records and MH2 for odd, so the counts are independent), with the
+    two-sided 99 % binomial band."""
+    out = {}
+    groups = {f"tau_{tau:g}": [x for x in runs if x["tau"] == tau] for tau in TAUS}
+    groups["all"] = runs
+    for name, rows in groups.items():
+        if not rows:
+            continue
+        one = [x["MH1" if x["record"] % 2 == 0 else "MH2"] for x in rows]
+        n = len(one)
+        band = [int(binom.ppf(0.005, n, 0.95)), int(binom.ppf(0.995, n, 0.95))]
+        counts = {key: int(sum(o[key] for o in one))
+                  for key in ("mu_holds", "window_holds", "own_holds_truth")}
+        out[name] = {"records": n, **counts, "band99": band,
+                     "mu_in_band": band[0] <= counts["mu_holds"] <= band[1],
+                     "window_in_band": band[0] <= counts["window_holds"] <= band[1],
+                     "mu_z_sd": float(np.std([o["mu_z"] for o in one])),
+                     "median_window_sd68": float(np.median([o["median_sd68"] for o in one])),
+                     "median_tau": float(np.median([o["tau_median"] for o in one]))}
+    return out
+
+
+def sim_main(args):
+    """Run records until ``args.records`` are stored (resumable), then summarise."""
+    doc = study_results.read(SIM_OUT) if (SIM_OUT.exists() or study_results.runs_path(
+        SIM_OUT).exists()) else {"runs": []}
+    doc.update(command=f"python validation/studies/record_wander.py --part sim --records "
+                       f"{args.records}", settings={"taus_deg": TAUS, "noises": NOISES,
+                                                    "windows": N_WINDOWS, "window_s": WINDOW_S,
+                                                    "ell_s": ELL_S, "band_hz": SIM_BAND})
+    done = {x["record"] for x in doc["runs"]}
+    for r in range(args.records):
+        if r in done or args.summarise:
+            continue
+        doc["runs"].append(sim_record(r))
+        print(json.dumps(doc["runs"][-1]), flush=True)
+        doc["summary"] = sim_summary(doc["runs"])
+        study_results.write(SIM_OUT, doc)
+    doc["summary"] = sim_summary(doc["runs"])
+    study_results.write(SIM_OUT, doc)
+    print(json.dumps(doc["summary"], indent=1))
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", choices=["cowi", "sim"], required=True)
