@@ -23,7 +23,7 @@ Its public names (``__all__``) are loaded on first use
 import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
-    "wander": ["PRIOR", "WanderFit", "fit_wander", "record_intervals", "widen_samples"],
+    "wander": ["PRIOR", "WanderFit", "draw_wander", "fit_wander", "record_intervals", "widen_samples"],
     "windows": ["Window", "fit_windows"],
     "combine": ["ParameterRecord", "combine"],
     "figure": ["build_figure", "write_figure"],

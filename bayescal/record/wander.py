@@ -27,14 +27,14 @@ of ``x`` and of a column of ones). The grid's posterior weights use the prior
   no wander, is on the grid and has the highest prior density; heavy tailed,
   so a wander many times a window's sd is reachable);
 * ``ell``: log-uniform from a quarter of the shortest spacing of the windows
-  (a wander then acts as extra white scatter) to the record's span. A
-  wander slower than that is one offset over the record, which the windows
-  cannot tell from the record's value; the model does not claim to see it.
-  Within the range, a slow wander's mean over the record is seen only
-  through the wander the windows show, so with no wander (``tau = 0``) the
-  interval of ``mu`` is wider than the data alone need (conservative) and
-  with a wander as slow as the record and small against ``s_i`` it can be
-  narrower (docs/validation/hard_posteriors.md gives the rates).
+  (a wander then acts as extra white scatter) to :data:`ELL_MAX` times the
+  record's span. A wander much slower than the record is one offset over
+  it, which the windows cannot tell from the record's value: how far
+  ``mu``'s interval allows for one is set by this prior, not by the data.
+  With no wander (``tau = 0``) the interval of ``mu`` is therefore wider
+  than the data alone need (conservative); with a wander slower than
+  :data:`ELL_MAX` spans it is too narrow
+  (docs/validation/hard_posteriors.md gives the rates).
 
 What it gives: ``mu`` (median and 68/95 % intervals of the mixture over the
 grid), ``tau`` and ``ell`` (median and 95 %), the repeatability ratio
@@ -53,12 +53,14 @@ import numpy as np
 
 #: The grid's prior, as the docs state it.
 PRIOR = {"tau": "half-Cauchy, scale the windows' median sd; grid uniform in tau / (tau + scale)",
-         "ell": "log-uniform from a quarter of the shortest window spacing to the record's "
-                "span"}
+         "ell": "log-uniform from a quarter of the shortest window spacing to three times "
+                "the record's span"}
 #: Grid sizes: tau (0 included), ell.
 N_TAU, N_ELL = 64, 32
 #: Largest tau on the grid, in units of the prior's scale.
 TAU_MAX = 60.0
+#: Largest ell on the grid, in units of the record's span.
+ELL_MAX = 3.0
 #: Fewest windows the model is fitted to.
 MIN_WINDOWS = 3
 
@@ -170,7 +172,7 @@ def grids(s, t):
     dt = np.diff(t)
     shortest = float(np.min(dt[dt > 0])) if np.any(dt > 0) else 1.0
     span = max(float(t[-1] - t[0]), shortest)
-    ell = np.geomspace(shortest / 4, span, N_ELL)
+    ell = np.geomspace(shortest / 4, ELL_MAX * span, N_ELL)
     return tau, prior_tau / prior_tau.sum(), ell
 
 
@@ -305,3 +307,16 @@ def fit_wander(x, s, t, level=0.95):
         ratio_with=reduced_chi_square(x, np.sqrt(s ** 2 + tau_q[0] ** 2))[1],
         record=record_intervals(x, s, tau_g, weights.sum(axis=1), level),
         path=path, tau_grid=tau_g, ell_grid=ell_g, weights=weights)
+
+
+def draw_wander(t, tau, ell, rng):
+    """An exact draw of the stationary wander (sd ``tau``, time scale
+    ``ell``) at the sorted times ``t``: what the model assumes, for
+    simulations with a known wander."""
+    t = np.asarray(t, float)
+    w = np.empty(t.size)
+    w[0] = tau * rng.standard_normal()
+    for i in range(1, t.size):
+        phi = np.exp(-(t[i] - t[i - 1]) / ell)
+        w[i] = phi * w[i - 1] + tau * np.sqrt(1 - phi ** 2) * rng.standard_normal()
+    return w

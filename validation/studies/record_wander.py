@@ -22,6 +22,12 @@ Out of sample: tau and ell's posterior learned from one half of the
 windows, the other half's intervals widened by it, the whole record's value
 counted inside them.
 
+The model alone (``--part model``): window estimates drawn from the model
+itself in nine regimes (no wander, a small one and a large one; time
+scales below the spacing, of a few spacings, and of half the record), 200
+records each: how often the record value's and a window's intervals hold
+the truth.
+
 Simulation (``--part sim``): records of 24 ten-minute windows, each window
 a pair from :func:`bayescal.simulate.simulate_pair` whose SUT azimuths are
 the truth plus an OU wander ``w(t_i)`` (tau 0, 0.05 or 0.2 deg, time scale
@@ -31,7 +37,8 @@ counted against the truth.
 
     python validation/studies/record_wander.py --part cowi      # fits 102 windows (~5 min)
     python validation/studies/record_wander.py --part cowi --summarise
-    python validation/studies/record_wander.py --part sim --records 8
+    python validation/studies/record_wander.py --part sim --records 120   # resumable
+    python validation/studies/record_wander.py --part model    # the model alone, ~2 min
 """
 from __future__ import annotations
 
@@ -52,6 +59,8 @@ RESULTS = ROOT / "validation" / "results" / "repeatability"
 COWI_OUT = RESULTS / "record_wander_cowi.json"
 SIM_OUT = RESULTS / "record_wander_sim.json"
 CHANNELS = ("LHN", "LHE")
+#: The prior's longest time scale (in record spans) of the sensitivity check.
+SENSITIVITY_ELL_MAX = 1.0
 #: Quantile levels of each window's posterior kept in the runs file (its samples' shape).
 LEVELS = np.linspace(0.0, 1.0, 201)
 
@@ -88,7 +97,7 @@ def cowi_windows():
 
 
 
-def draws_from_quantiles(quantiles, rng, n=4000):
+def draws_from_quantiles(quantiles, rng, n=40000):
     """``n`` draws of a window's posterior from its stored quantiles
     (:data:`LEVELS`), by the inverse distribution function."""
     return np.interp(rng.uniform(size=n), LEVELS, quantiles)
@@ -166,8 +175,17 @@ def cowi_summary(rows):
     sw = study_results.read(RESULTS / "short_windows.json")
     bounds = {r["start"][:19]: r["drop"] for r in sw["runs"]}
     ok = [r for r in rows if "LHN" in r]
+    from bayescal.record import wander
     rng = np.random.default_rng(41)
     out = {c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng) for c in CHANNELS}
+    default, wander.ELL_MAX = wander.ELL_MAX, SENSITIVITY_ELL_MAX
+    try:
+        out["ell_max_sensitivity"] = {"ell_max_spans": SENSITIVITY_ELL_MAX, **{
+            c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng)
+            for c in CHANNELS}}
+    finally:
+        wander.ELL_MAX = default
+    out["ell_max_spans"] = default
     out["windows"], out["skipped"] = len(ok), [r for r in rows if "LHN" not in r]
     out["max_median_difference_from_short_windows"] = float(max(
         abs(r[c]["median"] - bounds[r["start"]][c]["median"]) for r in ok for c in CHANNELS))
@@ -191,19 +209,14 @@ def sim_record(r):
     """One simulated record: 24 windows, each a pair whose SUT is turned by
     the truth plus the wander at its time; the wander model per horizontal
     channel; what holds the truth."""
-    from bayescal.record import combine
+    from bayescal.record import combine, draw_wander
     from bayescal.record.windows import fit_window
     from bayescal.simulate import simulate_pair
     from obspy import UTCDateTime
     tau, (coh, ref_coh) = sim_setting(r)
     rng = np.random.default_rng(1000 + r)
     az0 = rng.uniform(-5.0, 5.0)
-    t = np.arange(N_WINDOWS) * WINDOW_S
-    w = np.empty(N_WINDOWS)
-    w[0] = tau * rng.standard_normal()
-    phi = np.exp(-WINDOW_S / ELL_S)
-    for i in range(1, N_WINDOWS):
-        w[i] = phi * w[i - 1] + tau * np.sqrt(1 - phi ** 2) * rng.standard_normal()
+    w = draw_wander(np.arange(N_WINDOWS) * WINDOW_S, tau, ELL_S, rng)
     drawn = int(rng.integers(N_WINDOWS))
     windows = []
     for i in range(N_WINDOWS):
@@ -277,9 +290,59 @@ def sim_main(args):
     study_results.write(SIM_OUT, doc)
     print(json.dumps(doc["summary"], indent=1))
 
+
+MODEL_OUT = RESULTS / "record_wander_model.json"
+#: The model alone: wander sd over the windows' median sd, time scale in
+#: spacings (the last: half the record), records per regime, windows per record.
+REGIMES_TAU, REGIMES_ELL, MODEL_RECORDS, MODEL_WINDOWS = (0.0, 0.5, 4.0), (0.3, 5.0, 48.0), 200, 96
+
+
+def model_regime(tau_rel, ell_rel, first):
+    """The wander model alone on window estimates drawn from it (96 windows
+    10 minutes apart, sds 0.5-2 times a common one): how often the record
+    value's 95 % interval and one drawn window's interval hold the truth,
+    and the record value's z standard deviation."""
+    from bayescal.record import draw_wander, fit_wander
+    held_mu = held_window = 0
+    z = []
+    for seed in range(first, first + MODEL_RECORDS):
+        rng = np.random.default_rng(seed)
+        t = np.arange(MODEL_WINDOWS) * 600.0
+        s = rng.uniform(0.5, 2.0, MODEL_WINDOWS) * 0.1
+        m = float(np.median(s))
+        x = draw_wander(t, tau_rel * m, ell_rel * 600.0, rng) + s * rng.standard_normal(t.size)
+        k = int(rng.integers(t.size))
+        f = fit_wander(x, s, t)
+        held_mu += f.mu["ci95"][0] <= 0.0 <= f.mu["ci95"][1]
+        held_window += f.record[k, 0] <= 0.0 <= f.record[k, 1]
+        z.append(f.mu["median"] / f.mu["sd"])
+    band = [int(binom.ppf(0.005, MODEL_RECORDS, 0.95)), int(binom.ppf(0.995, MODEL_RECORDS, 0.95))]
+    return {"tau_over_sd": tau_rel, "ell_over_spacing": ell_rel, "records": MODEL_RECORDS,
+            "mu_holds": int(held_mu), "window_holds": int(held_window), "band99": band,
+            "mu_z_sd": float(np.std(z))}
+
+
+def model_main():
+    """Every regime of :data:`REGIMES_TAU` x :data:`REGIMES_ELL`, stored,
+    with the prior's default longest time scale and with
+    :data:`SENSITIVITY_ELL_MAX`."""
+    from bayescal.record import wander
+    doc = {"command": "python validation/studies/record_wander.py --part model",
+           "windows": MODEL_WINDOWS, "ell_max_spans": wander.ELL_MAX}
+    for key, ell_max in (("regimes", wander.ELL_MAX), ("sensitivity", SENSITIVITY_ELL_MAX)):
+        default, wander.ELL_MAX = wander.ELL_MAX, ell_max
+        try:
+            doc[key] = [model_regime(a, b, 10000 * (3 * i + j)) for i, a in enumerate(REGIMES_TAU)
+                        for j, b in enumerate(REGIMES_ELL)]
+        finally:
+            wander.ELL_MAX = default
+    doc["sensitivity_ell_max_spans"] = SENSITIVITY_ELL_MAX
+    study_results.write(MODEL_OUT, doc)
+    print(json.dumps(doc, indent=1))
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=["cowi", "sim"], required=True)
+    ap.add_argument("--part", choices=["cowi", "sim", "model"], required=True)
     ap.add_argument("--summarise", action="store_true",
                     help="recompute the summary from the runs stored beside the output")
     ap.add_argument("--records", type=int, default=8, help="simulated records per setting")
@@ -295,6 +358,8 @@ def main(argv=None):
         doc["summary"] = cowi_summary(doc["runs"])
         study_results.write(COWI_OUT, doc)
         print(json.dumps(doc["summary"], indent=1))
+    elif args.part == "model":
+        model_main()
     else:
         sim_main(args)
 
