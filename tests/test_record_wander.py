@@ -139,8 +139,8 @@ def test_coverage_fails_without_the_wander(monkeypatch):
     to 0): both intervals hold the truth below the band (the coverage test
     has the power to see a missing wander)."""
     monkeypatch.setattr(wander, "TAU_MAX", 1e-9)
-    held_mu, held_window = coverage(120)
-    lo, _ = band(120)
+    held_mu, held_window = coverage(60)
+    lo, _ = band(60)
     assert held_mu < lo and held_window < lo, (held_mu, held_window, lo)
 
 
