@@ -62,6 +62,26 @@ def test_kalman_filter_is_the_dense_gaussian_likelihood():
             assert got[key][g] == pytest.approx(want[key], rel=1e-9), (key, g)
 
 
+def test_integrated_likelihood_is_the_mean_integrated_out():
+    """The log-likelihood with mu integrated under a flat prior, compared
+    between two (tau, ell): the same difference as the dense Gaussian
+    density integrated over mu numerically."""
+    from scipy.integrate import quad
+    from scipy.stats import multivariate_normal
+    rng = np.random.default_rng(10)
+    t = np.cumsum(rng.uniform(300, 900, 12))
+    s = rng.uniform(0.1, 0.3, 12)
+    x = rng.normal(1.0, 0.3, 12)
+    tau, ell = np.array([0.05, 0.4]), np.array([600.0, 3000.0])
+    got, _, _ = integrated_loglik(kalman_terms(x, s, t, tau, ell))
+    want = []
+    for g in range(2):
+        k = tau[g] ** 2 * np.exp(-np.abs(t[:, None] - t[None, :]) / ell[g]) + np.diag(s ** 2)
+        dens = multivariate_normal(np.zeros(12), k)
+        want.append(np.log(quad(lambda mu: np.exp(dens.logpdf(x - mu)), -5, 7, points=[1.0])[0]))
+    assert got[1] - got[0] == pytest.approx(want[1] - want[0], abs=1e-6)
+
+
 def test_no_wander_is_the_weighted_mean():
     """tau = 0: the GLS mean is the inverse-variance weighted mean and its
     variance 1 / sum(1 / s^2) (closed form)."""
