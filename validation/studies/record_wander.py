@@ -37,8 +37,8 @@ counted against the truth.
 
     python validation/studies/record_wander.py --part cowi      # fits 102 windows (~5 min)
     python validation/studies/record_wander.py --part cowi --summarise
-    python validation/studies/record_wander.py --part sim --records 120   # resumable
-    python validation/studies/record_wander.py --part model    # the model alone, ~2 min
+    python validation/studies/record_wander.py --part sim --records 180   # resumable, ~40 min
+    python validation/studies/record_wander.py --part model    # the model alone, ~4 min
 """
 from __future__ import annotations
 
