@@ -44,8 +44,8 @@ import tables  # noqa: E402  (docs/tables.py)
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: README, then the user-guide pages in the order of the docs' table of contents.
-GUIDE = ["index", "install", "fit", "report", "diagnose", "noise", "cal", "uvw", "batch",
-         "python", "science", "gallery"]
+GUIDE = ["index", "install", "fit", "report", "diagnose", "windows", "noise", "cal", "uvw",
+         "batch", "python", "science", "gallery"]
 PAGES = [ROOT / "README.md", *[DOCS / f"{name}.md" for name in GUIDE]]
 #: The stored outputs the pages quote.
 STORED = DOCS / "gallery" / "outputs.json"

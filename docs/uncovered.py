@@ -34,8 +34,8 @@ QUOTED = ROOT / "docs" / "quoted.toml"
 #: The README and the user guide (whose ``text`` blocks are outputs).
 GUIDE = [ROOT / "README.md",
          *[ROOT / "docs" / f"{name}.md" for name in
-           ("index", "install", "fit", "report", "diagnose", "noise", "cal", "uvw", "batch",
-            "python", "science", "gallery", "architecture")]]
+           ("index", "install", "fit", "report", "diagnose", "windows", "noise", "cal", "uvw",
+            "batch", "python", "science", "gallery", "architecture")]]
 #: The pages whose numbers must be accounted for.
 PAGES = [*GUIDE, *sorted((ROOT / "docs" / "validation").glob("*.md"))]
 #: A number standing alone (not a digit inside a name such as ``BH1`` or

@@ -19,8 +19,9 @@ ALLOWED = {
     "coil": {"core", "io"},
     "report": {"core", "io", "criticism", "coil", "result"},
     "network": {"core", "io", "criticism", "report", "pair", "result"},
+    "record": {"core", "io", "pair", "report", "result"},
     "cli": {"core", "io", "criticism", "coil", "report", "network", "simulate", "pair",
-            "result"},
+            "record", "result"},
 }
 #: Top-level modules every layer may import: leaves that import nothing of bayescal.
 LEAVES = ("version", "errors", "atomic")

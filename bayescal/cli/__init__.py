@@ -2,7 +2,7 @@
 
 Each sub-command is a module of this package named in ``COMMANDS`` and
 defining ``HELP`` (one line), ``configure(parser)`` and ``run(args) -> int``:
-:mod:`.fit`, :mod:`.report`, :mod:`.diagnose`, :mod:`.noise`, :mod:`.cal`,
+:mod:`.fit`, :mod:`.report`, :mod:`.diagnose`, :mod:`.windows`, :mod:`.noise`, :mod:`.cal`,
 :mod:`.uvw` and :mod:`.batch`; :mod:`.common` holds what several of them
 share. This is the top layer: it may import every other subpackage, and
 nothing imports it. Errors a user can fix (bad files, no overlap, too little
@@ -22,7 +22,7 @@ import lazy_loader
 from ..version import __version__
 
 #: The sub-commands, in the order ``bayescal --help`` lists them.
-COMMANDS = ("fit", "report", "diagnose", "noise", "uvw", "cal", "batch")
+COMMANDS = ("fit", "report", "diagnose", "windows", "noise", "uvw", "cal", "batch")
 
 __getattr__, _, _LAZY_NAMES = lazy_loader.attach(__name__, submod_attrs={
     "fit": ["print_summary", "response_lines"],

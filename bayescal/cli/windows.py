@@ -1,0 +1,162 @@
+"""Cut a pair's record into consecutive windows, fit each, and combine them
+into the record's value.
+
+Each window of --window seconds (default 600) in [--start, --end) is fitted
+as `bayescal fit` fits one (the same options; the criticism only with
+--diagnose). Per parameter (each SUT channel's azimuth, dip where estimated,
+relative gain where fitted) the windows' medians and standard deviations are
+combined by a model of the record: the record's value plus a slow wander
+between windows (an Ornstein-Uhlenbeck process of unknown size and time
+scale, which no single window can measure) plus each window's own error.
+Written into DIR:
+
+  windows.csv    one row per window and parameter: start, end, median, its
+                 95 % interval, and the window's 95 % interval for the
+                 record's value (its posterior widened by the wander)
+  record.json    per parameter: the record's value (median, 68 and 95 %),
+                 the wander's size and time scale, the repeatability ratios
+                 without and with the wander; the windows skipped and why
+  windows.pdf    each parameter's windows against time, the record's value
+  windows.png    and its band, the wander's smoothed path (unless --no-report)
+
+A window the fit refuses (too little gap-free data, no coherence in the
+band) is skipped and named with its reason; at least three fitted windows
+are needed. docs/windows.md explains the model and its assumptions.
+
+Example:
+  bayescal windows --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
+                   --out record --band 0.125 0.333 --window 600
+
+Exit codes: 0 success; 2 bad input (one line naming the file and the
+problem; nothing is written to DIR).
+"""
+from __future__ import annotations
+
+import csv
+import os
+import sys
+
+from .common import add_pair_arguments, priors_from, quiet_convergence_warnings, say, staging
+
+HELP = "fit consecutive windows of a record and combine them into the record's value"
+
+
+def configure(parser):
+    """Arguments of ``bayescal windows``."""
+    add_pair_arguments(parser)
+    parser.add_argument("--window", type=float, default=600.0, metavar="SECONDS",
+                        help="length of each window in seconds (default 600)")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="criticise each window whose model check fails, as bayescal fit "
+                             "does (by default the windows are not criticised)")
+
+
+def read_pair(args):
+    """The two sensors' streams (read once) and inventories."""
+    from ..io import load_inventory, read_waveforms
+    from ..io.channels import select_channels
+    sut = select_channels(read_waveforms(args.sut, "SUT waveform"), args.sut_id, "SUT")
+    ref = select_channels(read_waveforms(args.ref, "reference waveform"), args.ref_id,
+                          "reference")
+    return (ref, load_inventory(args.ref_xml, ref, "reference StationXML"),
+            sut, load_inventory(args.sut_xml, sut, "SUT StationXML"))
+
+
+def fit_all(args, pair):
+    """Every window's fit, with a progress line per window on stderr."""
+    from ..record import fit_windows
+
+    def said(k, n, w):
+        what = f"skipped: {w.reason}" if not w.fitted else "fitted"
+        say(args, f"window {k + 1}/{n} {str(w.start)[:19]} - {str(w.end)[:19]}: {what}")
+
+    ref, ref_xml, sut, sut_xml = pair
+    with quiet_convergence_warnings():
+        return fit_windows(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, start=args.start,
+                           end=args.end, window=args.window, seed=args.seed, on_window=said,
+                           band=tuple(args.band) if args.band else None,
+                           fit_response=args.fit_response, priors=priors_from(args),
+                           ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
+                           transients="keep" if args.keep_transients else "drop",
+                           max_steps=args.max_steps, diagnose=args.diagnose)
+
+
+def write_csv(records, path):
+    """windows.csv: one row per window and parameter."""
+    with open(path, "w", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(["start", "end", "parameter", "median", "ci95_low", "ci95_high",
+                      "record_ci95_low", "record_ci95_high"])
+        for name, rec in records.items():
+            for i, start in enumerate(rec.starts):
+                out.writerow([str(start)[:19], str(rec.ends[i])[:19], name,
+                              f"{rec.medians[i]:.6g}", f"{rec.ci95[i, 0]:.6g}",
+                              f"{rec.ci95[i, 1]:.6g}", f"{rec.record_ci95[i, 0]:.6g}",
+                              f"{rec.record_ci95[i, 1]:.6g}"])
+
+
+def record_document(records, windows, args):
+    """record.json's content."""
+    from ..version import __version__
+    return {"schema": "bayescal.windows/1", "version": __version__, "window_s": args.window,
+            "windows": len(windows), "fitted": sum(w.fitted for w in windows),
+            "skipped": [{"start": str(w.start)[:19], "end": str(w.end)[:19], "reason": w.reason}
+                        for w in windows if not w.fitted],
+            "parameters": {name: rec.summary() for name, rec in records.items()}}
+
+
+def table_rows(records):
+    """The table's rows: parameter, record value [95 %], wander sd [95 %],
+    time scale (h), repeatability ratio without / with the wander."""
+    rows = [("parameter", "record value [95%]", "wander sd [95%]", "scale h",
+             "ratio without / with")]
+    for name, rec in records.items():
+        mu, tau = rec.fit.mu, rec.fit.tau
+        rows.append((name, f"{mu['median']:.5g} [{mu['ci95'][0]:.5g}, {mu['ci95'][1]:.5g}]",
+                     f"{tau['median']:.2g} [{tau['ci95'][0]:.2g}, {tau['ci95'][1]:.2g}]",
+                     f"{rec.fit.ell['median'] / 3600:.2g}",
+                     f"{rec.fit.ratio_without:.2f} / {rec.fit.ratio_with:.2f}"))
+    return rows
+
+
+def print_table(records, stream=None):
+    """The record's value, the wander and the ratios, one line per parameter."""
+    rows = table_rows(records)
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
+    for r in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip(), file=stream or sys.stdout)
+
+
+def run(args):
+    """Fit the windows, combine them, write DIR; returns the exit code."""
+    from ..atomic import write_json
+    from ..errors import InputError
+    from ..record import combine
+    from ..record.wander import MIN_WINDOWS
+
+    out = os.path.abspath(args.out)
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"{args.out}: exists and is not a folder")
+    if not args.window > 0:
+        raise InputError(f"--window {args.window:g}: a window is a positive number of seconds")
+    say(args, "bayescal windows: reading recordings and metadata ...")
+    windows = fit_all(args, read_pair(args))
+    fitted = sum(w.fitted for w in windows)
+    if fitted < MIN_WINDOWS:
+        reasons = "; ".join(sorted({w.reason for w in windows if not w.fitted}))
+        raise InputError(f"{fitted} of {len(windows)} windows fitted: the record's value needs "
+                         f"at least {MIN_WINDOWS}" + (f" ({reasons})" if reasons else ""))
+    records = combine(windows, seed=args.seed)
+    with staging(out) as tmp:
+        write_csv(records, os.path.join(tmp, "windows.csv"))
+        write_json(os.path.join(tmp, "record.json"), record_document(records, windows, args))
+        if not args.no_report:
+            from ..record import write_figure
+            write_figure(records, tmp)
+    print_table(records)
+    for w in windows:
+        if not w.fitted:
+            print(f"skipped {str(w.start)[:19]}: {w.reason}")
+    from .common import written
+    say(args, f"wrote {out} ({', '.join(written(out))})")
+    return 0

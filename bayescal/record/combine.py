@@ -1,0 +1,79 @@
+"""Each parameter's window estimates combined into the record's value.
+
+:func:`combine` takes the windows :func:`~bayescal.record.windows.fit_windows`
+fitted and, per parameter, fits the wander model
+(:func:`~bayescal.record.wander.fit_wander`: the record's value, the wander's
+size and time scale) to the windows' medians, their standard deviations
+(half the 68 % width) and mid-times; each window's interval for the record's
+value is the 2.5 and 97.5 % quantiles of its own samples plus draws of the
+wander (:func:`~bayescal.record.wander.widen_samples`). Azimuths are taken
+within 180 degrees of the first window's, so a record near north does not
+split at 0/360.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ParameterRecord:
+    """One parameter over the record: the fitted windows' ``starts``,
+    ``ends`` (UTCDateTime), ``medians``, ``ci95`` (n, 2) and ``record_ci95``
+    (n, 2, the windows' intervals for the record's value), ``times`` (their
+    mid-points in seconds after the first window's start) and the
+    :class:`~bayescal.record.wander.WanderFit` ``fit``."""
+
+    name: str
+    starts: list
+    ends: list
+    medians: np.ndarray
+    ci95: np.ndarray
+    record_ci95: np.ndarray
+    times: np.ndarray
+    fit: object
+
+    def summary(self):
+        """The record's value, the wander and the windows' intervals, for JSON."""
+        return {**self.fit.summary(), "windows": len(self.starts),
+                "record_ci95_median_width": float(np.median(np.diff(self.record_ci95)))}
+
+
+def _wrapped(name, values, reference):
+    """Azimuths within 180 degrees of ``reference``; other parameters as given."""
+    if not name.endswith(":azimuth_deg"):
+        return values
+    return reference + (values - reference + 180.0) % 360.0 - 180.0
+
+
+def combine_parameter(name, windows, rng):
+    """The :class:`ParameterRecord` of parameter ``name`` over the fitted
+    ``windows`` that estimate it (at least three)."""
+    from .wander import fit_wander, widen_samples
+    ws = [w for w in windows if w.fitted and name in w.values]
+    reference = ws[0].values[name]["median"]
+    med = _wrapped(name, np.array([w.values[name]["median"] for w in ws]), reference)
+    shift = med - np.array([w.values[name]["median"] for w in ws])
+    ci95 = np.array([w.values[name]["ci95"] for w in ws]) + shift[:, None]
+    sd = np.array([np.diff(w.values[name]["ci68"])[0] / 2 for w in ws])
+    t0 = ws[0].start
+    times = np.array([(w.start - t0) + 0.5 * (w.end - w.start) for w in ws])
+    fit = fit_wander(med, sd, times)
+    record = np.array([np.percentile(widen_samples(_wrapped(name, w.samples[name], m),
+                                                   fit.tau_grid, fit.tau_weights, rng),
+                                     [2.5, 97.5]) for w, m in zip(ws, med)])
+    return ParameterRecord(name=name, starts=[w.start for w in ws], ends=[w.end for w in ws],
+                           medians=med, ci95=ci95, record_ci95=record, times=times, fit=fit)
+
+
+def combine(windows, seed=0):
+    """Per parameter estimated in at least three windows, its
+    :class:`ParameterRecord` (a dict in the windows' parameter order)."""
+    from .wander import MIN_WINDOWS
+    rng = np.random.default_rng(seed)
+    names = []
+    for w in windows:
+        names += [n for n in w.values if n not in names]
+    counts = {n: sum(n in w.values for w in windows if w.fitted) for n in names}
+    return {n: combine_parameter(n, windows, rng) for n in names if counts[n] >= MIN_WINDOWS}
