@@ -186,12 +186,16 @@ def test_a_commands_collection_is_left_to_its_exit():
 
     from bayescal.report.collection import collection_left_to_exit
 
-    with collection_left_to_exit():
-        assert not gc.isenabled()
-    assert gc.isenabled() and gc.get_freeze_count() == 0
-    with pytest.raises(ValueError), collection_left_to_exit():
-        raise ValueError
-    assert gc.isenabled()
+    import atexit
+    try:
+        with collection_left_to_exit():
+            assert not gc.isenabled()
+        assert gc.isenabled() and gc.get_freeze_count() == 0
+        with pytest.raises(ValueError), collection_left_to_exit():
+            raise ValueError
+        assert gc.isenabled()
+    finally:
+        atexit.unregister(gc.freeze)    # this test process's exit stays as it was
     code = ("class Cycle:\n"
             "    def __del__(self): print('collected')\n"
             "{}\n"
@@ -205,3 +209,31 @@ def test_a_commands_collection_is_left_to_its_exit():
                               cwd=Path(__file__).resolve().parents[1]).stdout
     assert run("pass") == "collected\n"
     assert run(use) == ""
+
+
+def test_only_the_console_command_leaves_its_collection_to_exit(monkeypatch, tmp_path):
+    """``bayescal.cli.main([...])`` called from Python draws with the
+    collection paused and resumed only; the console command (``main()``,
+    the process's own arguments) also leaves it to the process's exit."""
+    import contextlib
+    import sys
+
+    from bayescal import cli
+    from bayescal.cli import report as cli_report
+
+    used = []
+
+    def recorder(name):
+        @contextlib.contextmanager
+        def ctx():
+            used.append(name)
+            yield
+        return ctx
+
+    monkeypatch.setattr(cli_report, "collection_left_to_exit", recorder("exit"))
+    monkeypatch.setattr(cli_report, "collection_paused", recorder("paused"))
+    missing = str(tmp_path / "nowhere")
+    assert cli.main(["report", missing]) == 2
+    monkeypatch.setattr(sys, "argv", ["bayescal", "report", missing])
+    assert cli.main() == 2
+    assert used == ["paused", "exit"]

@@ -60,6 +60,7 @@ def build_parser():
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.own_process = argv is None     # the console command: the process ends with it
     if not getattr(args, "command_run", None):
         parser.print_help()
         return 2

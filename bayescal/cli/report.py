@@ -16,7 +16,7 @@ Example:
 """
 from __future__ import annotations
 
-from ..report.collection import collection_left_to_exit
+from ..report.collection import collection_left_to_exit, collection_paused
 from .common import add_paper_argument, add_report_pages_arguments
 
 HELP = "redraw the report of a saved fit, diagnose, cal, uvw, noise or batch folder"
@@ -42,12 +42,18 @@ def configure(parser):
     add_paper_argument(parser)
 
 
-@collection_left_to_exit()
 def run(args):
-    """Render the report (Python's cyclic garbage collection paused while
-    it draws, and left to the command's exit,
-    :func:`bayescal.report.collection.collection_left_to_exit`); returns the
-    exit code."""
+    """Render the report with Python's cyclic garbage collection paused while
+    it draws; when the command is the whole process (``args.own_process``,
+    the console command), the collection is also left to the process's exit
+    (:func:`bayescal.report.collection.collection_left_to_exit`). Returns
+    the exit code."""
+    paused = collection_left_to_exit if getattr(args, "own_process", False) else collection_paused
+    with paused():
+        return _draw(args)
+
+
+def _draw(args):
     import os
 
     from ..errors import InputError

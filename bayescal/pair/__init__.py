@@ -14,6 +14,7 @@
                     (result.json's ``response_curve``), called by ``choose``
 * :mod:`.workflow`  the four in a row: :func:`calibrate` and
                     :func:`calibrate_files`
+* :mod:`.caller`    the user's line, where the fit's warnings point
 
 May import :mod:`bayescal.core`, :mod:`bayescal.io`, :mod:`bayescal.criticism`
 and :mod:`bayescal.result`.

@@ -23,6 +23,7 @@ from ..core.response import (MIN_KISH, judged_sensitivity, meta_entry, set_by_pr
                              sut_priors, widen_responses)
 from ..core.selfnoise import for_fit
 from ..errors import InputWarning
+from .caller import caller_stacklevel
 from .response_curve import relative_response
 
 
@@ -89,7 +90,7 @@ def _tolerance_flags(head, response, info, stated=None):
                         f"({v['effective_draws']:.0f} effective)" for cid, v in low.items())
             + "; " + ("its" if len(low) == 1 else "their")
             + " period and damping rest on the SUT's prior and on those draws",
-            InputWarning, stacklevel=4)
+            InputWarning, stacklevel=caller_stacklevel())
     if head.model is None or not head.meta.prior_sensitivity:
         return {}
     ess = head.convergence.ess_min

@@ -20,6 +20,7 @@ from ..criticism.verdict import DEFAULT_BUDGET_S
 from ..io.channels import select_channels
 from ..io.inventory import load_inventory
 from ..io.read import read_waveforms
+from .caller import caller_stacklevel
 from .choice import choose
 from .criticism import criticise
 from .fitting import fit
@@ -92,7 +93,7 @@ def calibrate(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
         criticism = criticise(state, budget_s=diagnose_budget_s, seed=seed, enabled=diagnose,
                               **sample_kw)
     result = choose(state, criticism, data=data, fit_response=fit_response,
-                    tolerance=priors.reference_tolerance, seed=seed)
+                    tolerance=priors.reference_tolerance, seed=seed, priors=priors)
     _warn_on_misfit(result)
     return result
 
@@ -114,21 +115,6 @@ def _warn_on_misfit(result):
                 "bayescal.criticism.diagnose.diagnose(result.state) finds and names the cause.")
         warnings.warn(describe(adequacy, next_step=step), ModelMisfitWarning,
                       stacklevel=caller_stacklevel())
-
-
-def caller_stacklevel():
-    """The ``stacklevel`` of :func:`warnings.warn`, called by the function
-    that calls this one, that names the first frame outside the bayescal
-    package: the user's line (the outermost frame when every frame is
-    bayescal's, as under the ``bayescal`` command)."""
-    import inspect
-    import os
-
-    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
-    frame, level = inspect.currentframe().f_back, 1
-    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
-        frame, level = frame.f_back, level + 1
-    return level if frame is not None else level - 1
 
 
 def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,

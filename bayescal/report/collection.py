@@ -3,13 +3,13 @@
 Drawing a report makes tens of thousands of small objects (matplotlib's
 artists, transforms and paths, most of them in reference cycles with their
 figure) and imports matplotlib, whose modules are hundreds of thousands
-more: the collector's automatic passes walk them all again and again and
-free next to nothing until the figures are closed
+more: each of the collector's automatic passes walks them all and
+frees next to nothing until the figures are closed
 (docs/validation/speed.md, "Reports against their fits").
 :func:`collection_paused` pauses it while a report is drawn; the collector
 resumes afterwards and frees the closed figures' cycles at once.
 :func:`collection_left_to_exit` is for a command whose process ends after
-it (``bayescal report``): there the pass after the report, and the
+it (the ``bayescal report`` command): there the pass after the report, and the
 interpreter's passes at its exit over every object alive (matplotlib's
 modules among them), would cost most of what the pause saves, to free
 memory that exiting frees anyway.

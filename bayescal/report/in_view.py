@@ -26,13 +26,17 @@ class InView(Locator):
     :meth:`view_limits`), so the axis's limits are ``base``'s."""
 
     def __init__(self, base):
+        """Wrap the locator ``base``."""
         self.base = base
 
     def set_axis(self, axis):
+        """Attach this locator and ``base`` to ``axis``."""
         super().set_axis(axis)
         self.base.set_axis(axis)
 
     def __call__(self):
+        """``base``'s locations within the view (and any the scale cannot
+        place), in its order."""
         locs = np.asarray(self.base(), float)
         lo, hi = sorted(self.axis.get_view_interval())
         scale = self.axis.get_transform()
@@ -43,12 +47,15 @@ class InView(Locator):
         return locs[~((pos < lo - tol) | (pos > hi + tol))]
 
     def tick_values(self, vmin, vmax):
+        """``base``'s locations for ``[vmin, vmax]``, all of them."""
         return self.base.tick_values(vmin, vmax)
 
     def nonsingular(self, v0, v1):
+        """``base``'s answer (autoscaling)."""
         return self.base.nonsingular(v0, v1)
 
     def view_limits(self, vmin, vmax):
+        """``base``'s answer (autoscaling)."""
         return self.base.view_limits(vmin, vmax)
 
 

@@ -38,6 +38,8 @@ class PlacedTable(Table):
         shown = self.get_transform().transform(corners.reshape(-1, 2)).reshape(-1, 2, 2)
         for key, ((x0, y0), (x1, y1)) in zip(keys, shown):
             cell = cells[key]
+            if not cell.get_visible():
+                continue
             Patch.draw(cell, renderer)
             text = cell.get_text()
             side = {"left": cell.PAD, "center": 0.5}.get(text.get_horizontalalignment(),

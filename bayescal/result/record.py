@@ -29,7 +29,10 @@ class Result:
         (azimuth in the reference's plane) or "fixed" (response only).
     vectors : (N, n_ch, 3) sampled channel axes (NED).
     response : channel id -> (N, 3) period_s, damping, gain samples; only
-        for channels whose response was fitted.
+        for channels whose response was fitted. With the reference's
+        tolerance stated (``meta.reference_tolerance``) each channel's rows
+        are resampled on their own: they do not pair across channels or
+        with ``samples``/``vectors``.
     samples, names, log_prob : raw sampler output in model coordinates;
         ``names`` are the sampler's keys (``"<channel id>:orient_a"``),
         :attr:`labels` says what each one is.

@@ -20,7 +20,7 @@ import them from here, not from its modules.
 import lazy_loader
 
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
-    "run": ["SPAN_TOLERANCE_DEG", "build_model", "fit_spectra", "judged_response_flags",
+    "run": ["SPAN_TOLERANCE_DEG", "build_model", "fit_spectra",
             "least_squares_fit", "response_fit_refusal", "span_basis"],
     "leastsq": ["TIGHT", "jacobian", "refine", "solve"],
     "assemble": ["assemble_posterior", "plugin_meta"],

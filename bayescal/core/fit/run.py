@@ -416,29 +416,6 @@ def _prior_sensitivity(model, samples, reported=None, n_eff=None):
                                                n_eff=n_eff)
 
 
-def judged_response_flags(state, response):
-    """The prior-sensitivity flags of ``state`` (a pair fit's
-    :class:`~bayescal.core.posterior.state.FitState`) redone on the period
-    and damping it reports, once the reference's metadata tolerance has
-    been drawn into them (``response``, channel id -> (N, 3), row for row
-    with ``state.full_samples``): the flag then asks what refits with the
-    prior halved or doubled would report. Returns the meta entries that
-    change, ``{"set_by_prior": ..., "prior_sensitivity": ...}`` (the
-    period and damping entries of ``set_by_prior`` replaced), or ``{}``
-    when nothing is judged."""
-    model = state.model
-    if model is None or state.full_samples is None or not state.meta.prior_sensitivity:
-        return {}
-    sens = _prior_sensitivity(model, state.full_samples, dict(response),
-                              n_eff=state.convergence.ess_min)
-    entries = dict(state.meta.set_by_prior or {})
-    for cid in sens:
-        for name in ("period_s", "damping", "damping_over_period"):
-            entries.pop(f"{cid}:{name}", None)
-    entries.update(pendulum.set_by_prior_entries(sens))
-    return {"set_by_prior": entries, "prior_sensitivity": sens}
-
-
 def _misfit_meta(model, theta):
     """``meta.misfit_scale``: the prior and each band's variance factor at ``theta``."""
     q, k = model.band_energy(np.atleast_2d(theta))
