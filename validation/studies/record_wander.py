@@ -214,10 +214,11 @@ def sim_setting(r):
     return TAUS[r % len(TAUS)], NOISES[(r // len(TAUS)) % len(NOISES)]
 
 
-def sim_record(r):
+def sim_record(r, likelihood="default"):
     """One simulated record: 24 windows, each a pair whose SUT is turned by
-    the truth plus the wander at its time; the wander model per horizontal
-    channel; what holds the truth."""
+    the truth plus the wander at its time (fitted with ``likelihood``, a key
+    of :data:`LIKELIHOODS`; gaussian: the common scale learned); the wander
+    model per horizontal channel; what holds the truth."""
     from bayescal.record import combine, draw_wander
     from bayescal.record.windows import fit_window
     from bayescal.simulate import simulate_pair
@@ -235,8 +236,8 @@ def sim_record(r):
                           start=t0)
         windows.append(fit_window((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0,
                                   t0 + WINDOW_S, i, band=SIM_BAND, diagnose=False,
-                                  progress=False))
-    recs = combine(windows, seed=r)
+                                  progress=False, **LIKELIHOODS[likelihood]))
+    recs = combine(windows, seed=r, learn_scale=likelihood == "gaussian")
     out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
            "skipped": sum(not win.fitted for win in windows)}
     for ch, truth in (("MH1", az0), ("MH2", az0 + 90.0)):
@@ -248,7 +249,8 @@ def sim_record(r):
                    / rec.fit.mu["sd"], "window_holds": bool(rec.record_ci95[k, 0] <= truth
                                                              <= rec.record_ci95[k, 1]),
                    "own_holds_truth": bool(rec.ci95[k, 0] <= truth <= rec.ci95[k, 1]),
-                   "tau_median": rec.fit.tau["median"], "median_sd68": float(np.median(
+                   "tau_median": rec.fit.tau["median"],
+                   "scale_median": rec.fit.scale["median"], "median_sd68": float(np.median(
                        [np.diff(win.values[f"XX.SIM.10.{ch}:azimuth_deg"]["ci68"])[0] / 2
                         for win in windows if win.fitted]))}
     return out
@@ -275,28 +277,32 @@ def sim_summary(runs):
                      "window_in_band": band[0] <= counts["window_holds"] <= band[1],
                      "mu_z_sd": float(np.std([o["mu_z"] for o in one])),
                      "median_window_sd68": float(np.median([o["median_sd68"] for o in one])),
-                     "median_tau": float(np.median([o["tau_median"] for o in one]))}
+                     "median_tau": float(np.median([o["tau_median"] for o in one])),
+                     "median_scale": float(np.median([o.get("scale_median", 1.0) for o in one]))}
     return out
 
 
 def sim_main(args):
     """Run records until ``args.records`` are stored (resumable), then summarise."""
-    doc = study_results.read(SIM_OUT) if (SIM_OUT.exists() or study_results.runs_path(
-        SIM_OUT).exists()) else {"runs": []}
+    out = SIM_OUT if args.likelihood == "default" else SIM_OUT.with_name(
+        f"record_wander_sim_{args.likelihood}.json")
+    doc = study_results.read(out) if (out.exists() or study_results.runs_path(
+        out).exists()) else {"runs": []}
+    flag = "" if args.likelihood == "default" else f" --likelihood {args.likelihood}"
     doc.update(command=f"python validation/studies/record_wander.py --part sim --records "
-                       f"{args.records}", settings={"taus_deg": TAUS, "noises": NOISES,
+                       f"{args.records}{flag}", likelihood=args.likelihood, settings={"taus_deg": TAUS, "noises": NOISES,
                                                     "windows": N_WINDOWS, "window_s": WINDOW_S,
                                                     "ell_s": ELL_S, "band_hz": SIM_BAND})
     done = {x["record"] for x in doc["runs"]}
     for r in range(args.records):
         if r in done or args.summarise:
             continue
-        doc["runs"].append(sim_record(r))
+        doc["runs"].append(sim_record(r, args.likelihood))
         print(json.dumps(doc["runs"][-1]), flush=True)
         doc["summary"] = sim_summary(doc["runs"])
-        study_results.write(SIM_OUT, doc)
+        study_results.write(out, doc)
     doc["summary"] = sim_summary(doc["runs"])
-    study_results.write(SIM_OUT, doc)
+    study_results.write(out, doc)
     print(json.dumps(doc["summary"], indent=1))
 
 
