@@ -39,6 +39,14 @@ counted against the truth.
     python validation/studies/record_wander.py --part cowi --summarise
     python validation/studies/record_wander.py --part sim --records 180   # resumable, ~40 min
     python validation/studies/record_wander.py --part model    # the model alone, ~4 min
+
+``--likelihood gaussian`` (parts cowi and sim): each window fitted with the
+Gaussian likelihood (``misfit_shape=inf``) and the record model's common
+factor on the windows' sds learned (``learn_scale``); the results go to
+``record_wander_cowi_gaussian.json`` and ``record_wander_sim_gaussian.json``:
+
+    python validation/studies/record_wander.py --part cowi --likelihood gaussian   # ~1 min
+    python validation/studies/record_wander.py --part sim --records 180 --likelihood gaussian
 """
 from __future__ import annotations
 
