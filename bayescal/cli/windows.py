@@ -8,13 +8,20 @@ relative gain where fitted) the windows' medians and standard deviations are
 combined by a model of the record: the record's value plus a slow wander
 between windows (an Ornstein-Uhlenbeck process of unknown size and time
 scale, which no single window can measure) plus each window's own error.
+
+--window-likelihood gaussian fits each window with the Gaussian likelihood
+(each band's noise scale as estimated, no per-band heavy tail) and learns
+one factor on all the windows' standard deviations over the record (its
+prior log-uniform on [0.5, 4]) beside the wander; default: each window
+with bayescal fit's likelihood, the factor 1.
 Written into DIR:
 
   windows.csv    one row per window and parameter: start, end, median, its
                  95 % interval, and the window's 95 % interval for the
                  record's value (its posterior widened by the wander)
   record.json    per parameter: the record's value (median, 68 and 95 %),
-                 the wander's size and time scale, the repeatability ratios
+                 the wander's size and time scale, the factor on the
+                 windows' sds (scale), the repeatability ratios
                  without and with the wander; the windows skipped and why
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
@@ -39,6 +46,9 @@ import sys
 from .common import add_pair_arguments, priors_from, quiet_convergence_warnings, say, staging
 
 HELP = "fit consecutive windows of a record and combine them into the record's value"
+#: --window-likelihood: each window's fit keywords, and whether the record learns the sds' factor.
+WINDOW_LIKELIHOODS = {"default": ({}, False),
+                      "gaussian": ({"misfit_shape": float("inf")}, True)}
 
 
 def configure(parser):
@@ -46,6 +56,11 @@ def configure(parser):
     add_pair_arguments(parser)
     parser.add_argument("--window", type=float, default=600.0, metavar="SECONDS",
                         help="length of each window in seconds (default 600)")
+    parser.add_argument("--window-likelihood", choices=list(WINDOW_LIKELIHOODS),
+                        default="default",
+                        help="each window's likelihood: default (bayescal fit's, a heavy-tailed "
+                             "noise scale per band) or gaussian (each band's noise as estimated, "
+                             "with one factor on the windows' sds learned over the record)")
     parser.add_argument("--diagnose", action="store_true",
                         help="criticise each window whose model check fails, as bayescal fit "
                              "does (by default the windows are not criticised)")
@@ -78,7 +93,8 @@ def fit_all(args, pair):
                            fit_response=args.fit_response, priors=priors_from(args),
                            ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
                            transients="keep" if args.keep_transients else "drop",
-                           max_steps=args.max_steps, diagnose=args.diagnose)
+                           max_steps=args.max_steps, diagnose=args.diagnose,
+                           **WINDOW_LIKELIHOODS[args.window_likelihood][0])
 
 
 def write_csv(records, path):
@@ -99,6 +115,7 @@ def record_document(records, windows, args):
     """record.json's content."""
     from ..version import __version__
     return {"schema": "bayescal.windows/1", "version": __version__, "window_s": args.window,
+            "window_likelihood": args.window_likelihood,
             "windows": len(windows), "fitted": sum(w.fitted for w in windows),
             "skipped": [{"start": str(w.start)[:19], "end": str(w.end)[:19], "reason": w.reason}
                         for w in windows if not w.fitted],
@@ -107,15 +124,19 @@ def record_document(records, windows, args):
 
 def table_rows(records):
     """The table's rows: parameter, record value [95 %], wander sd [95 %],
-    time scale (h), repeatability ratio without / with the wander."""
+    time scale (h), repeatability ratio without / with the wander (and the
+    factor on the windows' sds [95 %], when it is learned)."""
+    learned = any(rec.fit.scale_grid.size > 1 for rec in records.values())
     rows = [("parameter", "record value [95%]", "wander sd [95%]", "scale h",
-             "ratio without / with")]
+             "ratio without / with") + (("sd factor [95%]",) if learned else ())]
     for name, rec in records.items():
-        mu, tau = rec.fit.mu, rec.fit.tau
+        mu, tau, lam = rec.fit.mu, rec.fit.tau, rec.fit.scale
         rows.append((name, f"{mu['median']:.5g} [{mu['ci95'][0]:.5g}, {mu['ci95'][1]:.5g}]",
                      f"{tau['median']:.2g} [{tau['ci95'][0]:.2g}, {tau['ci95'][1]:.2g}]",
                      f"{rec.fit.ell['median'] / 3600:.2g}",
-                     f"{rec.fit.ratio_without:.2f} / {rec.fit.ratio_with:.2f}"))
+                     f"{rec.fit.ratio_without:.2f} / {rec.fit.ratio_with:.2f}")
+                    + ((f"{lam['median']:.2f} [{lam['ci95'][0]:.2f}, {lam['ci95'][1]:.2f}]",)
+                       if learned else ()))
     return rows
 
 
@@ -146,7 +167,8 @@ def run(args):
         reasons = "; ".join(sorted({w.reason for w in windows if not w.fitted}))
         raise InputError(f"{fitted} of {len(windows)} windows fitted: the record's value needs "
                          f"at least {MIN_WINDOWS}" + (f" ({reasons})" if reasons else ""))
-    records = combine(windows, seed=args.seed)
+    records = combine(windows, seed=args.seed,
+                      learn_scale=WINDOW_LIKELIHOODS[args.window_likelihood][1])
     with staging(out) as tmp:
         write_csv(records, os.path.join(tmp, "windows.csv"))
         write_json(os.path.join(tmp, "record.json"), record_document(records, windows, args))

@@ -5,7 +5,8 @@ fitted and, per parameter, fits the wander model
 (:func:`~bayescal.record.wander.fit_wander`: the record's value, the wander's
 size and time scale) to the windows' medians, their standard deviations
 (half the 68 % width) and mid-times; each window's interval for the record's
-value is the 2.5 and 97.5 % quantiles of its own samples plus draws of the
+value is the 2.5 and 97.5 % quantiles of its own samples (scaled about
+their median by the common factor, when it is learned) plus draws of the
 wander (:func:`~bayescal.record.wander.widen_samples`). Azimuths are taken
 within 180 degrees of the first window's, so a record near north does not
 split at 0/360.
@@ -47,9 +48,10 @@ def _wrapped(name, values, reference):
     return reference + (values - reference + 180.0) % 360.0 - 180.0
 
 
-def combine_parameter(name, windows, rng):
+def combine_parameter(name, windows, rng, learn_scale=False):
     """The :class:`ParameterRecord` of parameter ``name`` over the fitted
-    ``windows`` that estimate it (at least three)."""
+    ``windows`` that estimate it (at least three); ``learn_scale``: as
+    :func:`~bayescal.record.wander.fit_wander` takes it."""
     from .wander import fit_wander, widen_samples
     ws = [w for w in windows if w.fitted and name in w.values]
     reference = ws[0].values[name]["median"]
@@ -59,21 +61,35 @@ def combine_parameter(name, windows, rng):
     sd = np.array([np.diff(w.values[name]["ci68"])[0] / 2 for w in ws])
     t0 = ws[0].start
     times = np.array([(w.start - t0) + 0.5 * (w.end - w.start) for w in ws])
-    fit = fit_wander(med, sd, times)
+    fit = fit_wander(med, sd, times, learn_scale=learn_scale)
     record = np.array([np.percentile(widen_samples(_wrapped(name, w.samples[name], m),
-                                                   fit.tau_grid, fit.tau_weights, rng),
+                                                   fit.tau_grid, fit.scale_tau_weights, rng,
+                                                   fit.scale_grid),
                                      [2.5, 97.5]) for w, m in zip(ws, med)])
     return ParameterRecord(name=name, starts=[w.start for w in ws], ends=[w.end for w in ws],
                            medians=med, ci95=ci95, record_ci95=record, times=times, fit=fit)
 
 
-def combine(windows, seed=0):
+def combine(windows, seed=0, learn_scale=False):
     """Per parameter estimated in at least three windows, its
-    :class:`ParameterRecord` (a dict in the windows' parameter order)."""
+    :class:`ParameterRecord` (a dict in the windows' parameter order).
+
+    Parameters
+    ----------
+    windows : list of Window
+        From :func:`~bayescal.record.windows.fit_windows`.
+    seed : int
+        Seed of the wander's draws added to each window's samples.
+    learn_scale : bool
+        Learn a common factor on the windows' sds over the record
+        (:func:`~bayescal.record.wander.fit_wander`): for windows fitted
+        with the Gaussian likelihood (``misfit_shape=float("inf")``).
+    """
     from .wander import MIN_WINDOWS
     rng = np.random.default_rng(seed)
     names = []
     for w in windows:
         names += [n for n in w.values if n not in names]
     counts = {n: sum(n in w.values for w in windows if w.fitted) for n in names}
-    return {n: combine_parameter(n, windows, rng) for n in names if counts[n] >= MIN_WINDOWS}
+    return {n: combine_parameter(n, windows, rng, learn_scale) for n in names
+            if counts[n] >= MIN_WINDOWS}

@@ -39,6 +39,14 @@ counted against the truth.
     python validation/studies/record_wander.py --part cowi --summarise
     python validation/studies/record_wander.py --part sim --records 180   # resumable, ~40 min
     python validation/studies/record_wander.py --part model    # the model alone, ~4 min
+
+``--likelihood gaussian`` (parts cowi and sim): each window fitted with the
+Gaussian likelihood (``misfit_shape=inf``) and the record model's common
+factor on the windows' sds learned (``learn_scale``); the results go to
+``record_wander_cowi_gaussian.json`` and ``record_wander_sim_gaussian.json``:
+
+    python validation/studies/record_wander.py --part cowi --likelihood gaussian   # ~1 min
+    python validation/studies/record_wander.py --part sim --records 180 --likelihood gaussian
 """
 from __future__ import annotations
 
@@ -57,6 +65,8 @@ from scipy.stats import binom
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "validation" / "results" / "repeatability"
 COWI_OUT = RESULTS / "record_wander_cowi.json"
+#: Each window's likelihood (``--likelihood``): the fit's keywords, and the output's suffix.
+LIKELIHOODS = {"default": {}, "gaussian": {"misfit_shape": float("inf")}}
 SIM_OUT = RESULTS / "record_wander_sim.json"
 CHANNELS = ("LHN", "LHE")
 #: The prior's longest time scale (in record spans) of the sensitivity check.
@@ -65,10 +75,11 @@ SENSITIVITY_ELL_MAX = 1.0
 LEVELS = np.linspace(0.0, 1.0, 201)
 
 
-def cowi_windows():
-    """Fit the 102 COWI windows through :func:`bayescal.record.fit_windows`;
-    per window its start and, per channel, median, ci68, ci95 and the
-    quantiles :data:`LEVELS` of its samples (or the reason it was skipped)."""
+def cowi_windows(likelihood="default"):
+    """Fit the 102 COWI windows through :func:`bayescal.record.fit_windows`
+    (``likelihood``: a key of :data:`LIKELIHOODS`); per window its start
+    and, per channel, median, ci68, ci95 and the quantiles :data:`LEVELS`
+    of its samples (or the reason it was skipped)."""
     from obspy import UTCDateTime
 
     from bayescal.io import flat_inventory, read_waveforms
@@ -82,7 +93,8 @@ def cowi_windows():
 
     ws = fit_windows(ref=ref, ref_xml=flat_inventory(ref), sut=sut, sut_xml=flat_inventory(sut),
                      start=UTCDateTime(short_windows.START), end=UTCDateTime(short_windows.END),
-                     window=600.0, band=short_windows.BAND, diagnose=False, on_window=said)
+                     window=600.0, band=short_windows.BAND, diagnose=False, on_window=said,
+                     **LIKELIHOODS[likelihood])
     rows = []
     for w in ws:
         row = {"start": str(w.start)[:19]}
@@ -105,10 +117,12 @@ def draws_from_quantiles(quantiles, rng, n=40000):
 
 def record_intervals(rows, c, fit, rng):
     """The windows' 95 % intervals for the record's value: each window's
-    draws plus the wander's, ``tau`` from ``fit``'s posterior."""
+    draws (scaled about their median by ``lambda``) plus the wander's,
+    ``(lambda, tau)`` from ``fit``'s posterior."""
     from bayescal.record import widen_samples
     return np.array([np.percentile(widen_samples(draws_from_quantiles(r[c]["quantiles"], rng),
-                                                 fit.tau_grid, fit.tau_weights, rng),
+                                                 fit.tau_grid, fit.scale_tau_weights, rng,
+                                                 fit.scale_grid),
                                    [2.5, 97.5]) for r in rows])
 
 
@@ -122,9 +136,9 @@ def checks(rows, c, intervals, bounds, whole):
     return short_windows.channel_summary(entries, c, whole)
 
 
-def out_of_sample(rows, c, t, whole, rng):
-    """tau's posterior from one half of the windows, the other half's
-    intervals widened by it: the whole record's value inside them."""
+def out_of_sample(rows, c, t, whole, rng, learn_scale=False):
+    """tau's (and lambda's) posterior from one half of the windows, the
+    other half's intervals widened by it: the whole record's value inside them."""
     from bayescal.record import fit_wander
     half = len(rows) // 2
     out = {}
@@ -132,17 +146,18 @@ def out_of_sample(rows, c, t, whole, rng):
                                ("second_to_first", slice(half, None), slice(0, half))):
         x = np.array([r[c]["median"] for r in rows])
         sd = np.array([np.diff(r[c]["ci68"])[0] / 2 for r in rows])
-        fit = fit_wander(x[learn], sd[learn], t[learn])
+        fit = fit_wander(x[learn], sd[learn], t[learn], learn_scale=learn_scale)
         ci = record_intervals(rows[apply], c, fit, rng)
         held = int(np.sum((ci[:, 0] <= whole) & (whole <= ci[:, 1])))
         out[name] = {"windows": len(ci), "holds_whole_record": held,
                      "holds_min": short_windows.hold_min(len(ci)),
                      "tau_median": fit.tau["median"], "ell_median_h": fit.ell["median"] / 3600,
+                     "scale_median": fit.scale["median"],
                      "ok": held >= short_windows.hold_min(len(ci))}
     return out
 
 
-def cowi_channel(rows, c, bounds, whole, rng):
+def cowi_channel(rows, c, bounds, whole, rng, learn_scale=False):
     """One channel's wander model, the four checks on its windows' intervals
     for the record's value (and on the windows' own), the shown windows and
     the out-of-sample check."""
@@ -152,7 +167,7 @@ def cowi_channel(rows, c, bounds, whole, rng):
     t = np.array([UTCDateTime(r["start"]) - t0 + 300.0 for r in rows])
     x = np.array([r[c]["median"] for r in rows])
     sd = np.array([np.diff(r[c]["ci68"])[0] / 2 for r in rows])
-    fit = fit_wander(x, sd, t)
+    fit = fit_wander(x, sd, t, learn_scale=learn_scale)
     rec = record_intervals(rows, c, fit, rng)
     own = np.array([r[c]["ci95"] for r in rows])
     shown = {r["start"]: {"width95": float(own[i, 1] - own[i, 0]),
@@ -161,31 +176,33 @@ def cowi_channel(rows, c, bounds, whole, rng):
              for i, r in enumerate(rows) if r["start"] in short_windows.SHOWN}
     return {"record_value": fit.mu, "whole_record": whole,
             "record_minus_whole": fit.mu["median"] - whole,
-            "tau_deg": fit.tau, "ell_h": {k: (np.asarray(v) / 3600).tolist()
+            "tau_deg": fit.tau, "scale": fit.scale, "ell_h": {k: (np.asarray(v) / 3600).tolist()
                                           for k, v in fit.ell.items()},
             "ratio_without": fit.ratio_without, "ratio_with": fit.ratio_with,
             "record_intervals": checks(rows, c, rec, bounds, whole),
             "window_intervals": checks(rows, c, own, bounds, whole),
-            "shown": shown, "out_of_sample": out_of_sample(rows, c, t, whole, rng)}
+            "shown": shown, "out_of_sample": out_of_sample(rows, c, t, whole, rng, learn_scale)}
 
 
-def cowi_summary(rows):
+def cowi_summary(rows, learn_scale=False):
     """Per channel :func:`cowi_channel`, with the bounds and the whole
-    record's value of ``short_windows``' stored results."""
+    record's value of ``short_windows``' stored results (``learn_scale``:
+    the common factor on the windows' sds learned)."""
     sw = study_results.read(RESULTS / "short_windows.json")
     bounds = {r["start"][:19]: r["drop"] for r in sw["runs"]}
     ok = [r for r in rows if "LHN" in r]
     from bayescal.record import wander
     rng = np.random.default_rng(41)
-    out = {c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng) for c in CHANNELS}
+    out = {c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng, learn_scale)
+           for c in CHANNELS}
     default, wander.ELL_MAX = wander.ELL_MAX, SENSITIVITY_ELL_MAX
     try:
         out["ell_max_sensitivity"] = {"ell_max_spans": SENSITIVITY_ELL_MAX, **{
-            c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng)
+            c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng, learn_scale)
             for c in CHANNELS}}
     finally:
         wander.ELL_MAX = default
-    out["ell_max_spans"] = default
+    out["ell_max_spans"], out["learn_scale"] = default, learn_scale
     out["windows"], out["skipped"] = len(ok), [r for r in rows if "LHN" not in r]
     out["max_median_difference_from_short_windows"] = float(max(
         abs(r[c]["median"] - bounds[r["start"]][c]["median"]) for r in ok for c in CHANNELS))
@@ -205,10 +222,11 @@ def sim_setting(r):
     return TAUS[r % len(TAUS)], NOISES[(r // len(TAUS)) % len(NOISES)]
 
 
-def sim_record(r):
+def sim_record(r, likelihood="default"):
     """One simulated record: 24 windows, each a pair whose SUT is turned by
-    the truth plus the wander at its time; the wander model per horizontal
-    channel; what holds the truth."""
+    the truth plus the wander at its time (fitted with ``likelihood``, a key
+    of :data:`LIKELIHOODS`; gaussian: the common scale learned); the wander
+    model per horizontal channel; what holds the truth."""
     from bayescal.record import combine, draw_wander
     from bayescal.record.windows import fit_window
     from bayescal.simulate import simulate_pair
@@ -226,8 +244,8 @@ def sim_record(r):
                           start=t0)
         windows.append(fit_window((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0,
                                   t0 + WINDOW_S, i, band=SIM_BAND, diagnose=False,
-                                  progress=False))
-    recs = combine(windows, seed=r)
+                                  progress=False, **LIKELIHOODS[likelihood]))
+    recs = combine(windows, seed=r, learn_scale=likelihood == "gaussian")
     out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
            "skipped": sum(not win.fitted for win in windows)}
     for ch, truth in (("MH1", az0), ("MH2", az0 + 90.0)):
@@ -239,7 +257,8 @@ def sim_record(r):
                    / rec.fit.mu["sd"], "window_holds": bool(rec.record_ci95[k, 0] <= truth
                                                              <= rec.record_ci95[k, 1]),
                    "own_holds_truth": bool(rec.ci95[k, 0] <= truth <= rec.ci95[k, 1]),
-                   "tau_median": rec.fit.tau["median"], "median_sd68": float(np.median(
+                   "tau_median": rec.fit.tau["median"],
+                   "scale_median": rec.fit.scale["median"], "median_sd68": float(np.median(
                        [np.diff(win.values[f"XX.SIM.10.{ch}:azimuth_deg"]["ci68"])[0] / 2
                         for win in windows if win.fitted]))}
     return out
@@ -266,28 +285,32 @@ def sim_summary(runs):
                      "window_in_band": band[0] <= counts["window_holds"] <= band[1],
                      "mu_z_sd": float(np.std([o["mu_z"] for o in one])),
                      "median_window_sd68": float(np.median([o["median_sd68"] for o in one])),
-                     "median_tau": float(np.median([o["tau_median"] for o in one]))}
+                     "median_tau": float(np.median([o["tau_median"] for o in one])),
+                     "median_scale": float(np.median([o.get("scale_median", 1.0) for o in one]))}
     return out
 
 
 def sim_main(args):
     """Run records until ``args.records`` are stored (resumable), then summarise."""
-    doc = study_results.read(SIM_OUT) if (SIM_OUT.exists() or study_results.runs_path(
-        SIM_OUT).exists()) else {"runs": []}
+    out = SIM_OUT if args.likelihood == "default" else SIM_OUT.with_name(
+        f"record_wander_sim_{args.likelihood}.json")
+    doc = study_results.read(out) if (out.exists() or study_results.runs_path(
+        out).exists()) else {"runs": []}
+    flag = "" if args.likelihood == "default" else f" --likelihood {args.likelihood}"
     doc.update(command=f"python validation/studies/record_wander.py --part sim --records "
-                       f"{args.records}", settings={"taus_deg": TAUS, "noises": NOISES,
+                       f"{args.records}{flag}", likelihood=args.likelihood, settings={"taus_deg": TAUS, "noises": NOISES,
                                                     "windows": N_WINDOWS, "window_s": WINDOW_S,
                                                     "ell_s": ELL_S, "band_hz": SIM_BAND})
     done = {x["record"] for x in doc["runs"]}
     for r in range(args.records):
         if r in done or args.summarise:
             continue
-        doc["runs"].append(sim_record(r))
+        doc["runs"].append(sim_record(r, args.likelihood))
         print(json.dumps(doc["runs"][-1]), flush=True)
         doc["summary"] = sim_summary(doc["runs"])
-        study_results.write(SIM_OUT, doc)
+        study_results.write(out, doc)
     doc["summary"] = sim_summary(doc["runs"])
-    study_results.write(SIM_OUT, doc)
+    study_results.write(out, doc)
     print(json.dumps(doc["summary"], indent=1))
 
 
@@ -345,18 +368,25 @@ def main(argv=None):
     ap.add_argument("--part", choices=["cowi", "sim", "model"], required=True)
     ap.add_argument("--summarise", action="store_true",
                     help="recompute the summary from the runs stored beside the output")
+    ap.add_argument("--likelihood", choices=sorted(LIKELIHOODS), default="default",
+                    help="each window's misfit: the default per-band scale, or gaussian "
+                         "(no per-band scale; the record model learns a common one)")
     ap.add_argument("--records", type=int, default=8, help="simulated records per setting")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if args.part == "cowi":
+        out = COWI_OUT if args.likelihood == "default" else COWI_OUT.with_name(
+            f"record_wander_cowi_{args.likelihood}.json")
         if args.summarise:
-            doc = study_results.read(COWI_OUT)
+            doc = study_results.read(out)
         else:
-            doc = {"command": "python validation/studies/record_wander.py --part cowi",
-                   "runs": cowi_windows()}
-            study_results.write(COWI_OUT, doc)
-        doc["summary"] = cowi_summary(doc["runs"])
-        study_results.write(COWI_OUT, doc)
+            doc = {"command": "python validation/studies/record_wander.py --part cowi"
+                              + ("" if args.likelihood == "default"
+                                 else f" --likelihood {args.likelihood}"),
+                   "likelihood": args.likelihood, "runs": cowi_windows(args.likelihood)}
+            study_results.write(out, doc)
+        doc["summary"] = cowi_summary(doc["runs"], args.likelihood == "gaussian")
+        study_results.write(out, doc)
         print(json.dumps(doc["summary"], indent=1))
     elif args.part == "model":
         model_main()
