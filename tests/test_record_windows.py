@@ -1,5 +1,5 @@
 """A record cut into windows and combined (:mod:`bayescal.record.windows`,
-:mod:`bayescal.record.combine`) and ``bayescal windows`` on a small
+:mod:`bayescal.record.values`) and ``bayescal windows`` on a small
 simulated pair whose SUT is turned by a known angle."""
 from __future__ import annotations
 
@@ -90,7 +90,7 @@ def test_azimuths_near_north_are_combined_across_360():
     360), not 180."""
     from obspy import UTCDateTime
 
-    from bayescal.record.combine import combine
+    from bayescal.record import combine
     from bayescal.record.windows import Window
     rng = np.random.default_rng(3)
     t = UTCDateTime(2026, 1, 1)

@@ -1,6 +1,6 @@
 """The record's figure: each parameter's window estimates against time.
 
-One panel per parameter (:class:`~bayescal.record.combine.ParameterRecord`):
+One panel per parameter (:class:`~bayescal.record.values.ParameterRecord`):
 each window's median with its 95 % interval (dark) and its interval for the
 record's value (light, wider by the wander), the record's value (line) and
 its 95 % band (shaded), and the wander's smoothed path. Drawn in the

@@ -92,7 +92,7 @@ class WanderFit:
     mu, tau, ell, scale : dict
         ``median``, ``ci95`` (and for ``mu``: ``ci68`` and ``sd``, the
         mixture's standard deviation); ``ell`` in the units of ``t``
-        (seconds from :mod:`~bayescal.record.combine`: ``ell_s`` in
+        (seconds from :mod:`~bayescal.record.values`: ``ell_s`` in
         :meth:`summary`).
     ratio_without, ratio_with : float
         ``sqrt(chi2_red)`` of the window estimates about ``mu``'s median
