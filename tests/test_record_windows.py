@@ -128,3 +128,56 @@ def test_gaussian_windows_learn_the_factor_on_their_sds(files, tmp_path, capsys)
     own = [(r["ci95_low"], r["ci95_high"]) for r in rows["gaussian"]]
     assert own != [(r["ci95_low"], r["ci95_high"]) for r in rows["default"]]
     assert "sd factor [95%]" in capsys.readouterr().out
+
+
+def _azimuth_windows(medians, sds, seed=3):
+    from obspy import UTCDateTime
+
+    from bayescal.record.windows import Window
+    rng = np.random.default_rng(seed)
+    t = UTCDateTime(2026, 1, 1)
+    ws = []
+    for k, (m, s) in enumerate(zip(medians, sds)):
+        draws = (m + s * rng.standard_normal(2000)) % 360.0
+        entry = {"median": m, "ci68": [m - s, m + s], "ci95": [m - 2 * s, m + 2 * s]}
+        ws.append(Window(t + 600 * k, t + 600 * (k + 1), {"X:azimuth_deg": entry},
+                         {"X:azimuth_deg": draws}))
+    return ws
+
+
+def test_a_stray_first_window_does_not_split_the_others_at_360():
+    """Five windows near 90 degrees after a first at 270: the five stay
+    together near 90 (the windows are taken about their circular mean, not
+    about the first one's, which would put 89.9 at 449.9), and the record's
+    value lies in [0, 360)."""
+    from bayescal.record import combine
+    ws = _azimuth_windows([270.0, 89.9, 90.1, 89.95, 90.05, 90.0], [0.1] * 6)
+    rec = combine(ws)["X:azimuth_deg"]
+    assert np.all((rec.medians[1:] > 89.0) & (rec.medians[1:] < 91.0))
+    assert 0.0 <= rec.fit.mu["median"] < 360.0
+
+
+def test_a_parameter_with_a_zero_width_window_keeps_the_others():
+    """A window whose interval has no width (a value held) is left out of
+    that parameter's record; the others are combined."""
+    from bayescal.record import combine
+    ws = _azimuth_windows([30.0, 30.1, 29.9, 30.05], [0.1, 0.0, 0.1, 0.1])
+    rec = combine(ws)["X:azimuth_deg"]
+    assert len(rec.starts) == 3 and abs(rec.fit.mu["median"] - 30.0) < 0.2
+
+
+def test_windows_whose_sampler_stopped_early_exit_3_and_are_named(files, tmp_path, capsys):
+    """With --max-steps too small for the convergence rule, the record is
+    written, each window's NOT CONVERGED line is printed, record.json lists
+    the windows and the exit code is 3, as bayescal fit's."""
+    from bayescal.cli import main
+    out = tmp_path / "rec"
+    code = main(["windows", "--ref", files["ref.mseed"], "--ref-xml", files["ref.xml"],
+                 "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--band", "0.1",
+                 "0.8", "--window", str(WINDOW), "--out", str(out), "--quiet", "--no-report",
+                 "--max-steps", "40"])
+    doc = json.loads((out / "record.json").read_text())
+    printed = capsys.readouterr().out
+    assert code == 3
+    assert len(doc["not_converged"]) == 3
+    assert printed.count("NOT CONVERGED: the sampler of window") == 3

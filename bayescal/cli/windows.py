@@ -27,22 +27,28 @@ Written into DIR:
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
 A window the fit refuses (too little gap-free data, no coherence in the
-band) is skipped and named with its reason; at least three fitted windows
-are needed. docs/windows.md explains the model and its assumptions.
+band) is skipped and named with its reason; a parameter is combined from
+at least three fitted windows that estimate it (a value held in a window
+has no interval and is left out of that parameter's record). docs/windows.md explains the model and its assumptions.
 
 Example:
   bayescal windows --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
                    --out record --band 0.125 0.333 --window 600
 
 Exit codes: 0 success; 2 bad input (one line naming the file and the
-problem; nothing is written to DIR).
+problem; nothing is written to DIR); 3 results written, but the sampler of
+some window stopped at --max-steps before meeting its convergence rule (a
+NOT CONVERGED line names each; record.json lists them under
+"not_converged").
 """
 from __future__ import annotations
 
 import csv
 import os
 import sys
+import warnings
 
+from ..errors import BudgetWarning, InputWarning
 from .common import add_pair_arguments, priors_from, quiet_convergence_warnings, say, staging
 
 HELP = "fit consecutive windows of a record and combine them into the record's value"
@@ -86,15 +92,31 @@ def fit_all(args, pair):
         say(args, f"window {k + 1}/{n} {str(w.start)[:19]} - {str(w.end)[:19]}: {what}")
 
     ref, ref_xml, sut, sut_xml = pair
-    with quiet_convergence_warnings():
-        return fit_windows(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, start=args.start,
-                           end=args.end, window=args.window, seed=args.seed, on_window=said,
-                           band=tuple(args.band) if args.band else None,
-                           fit_response=args.fit_response, priors=priors_from(args),
-                           ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
-                           transients="keep" if args.keep_transients else "drop",
-                           max_steps=args.max_steps, diagnose=args.diagnose,
-                           **WINDOW_LIKELIHOODS[args.window_likelihood][0])
+    with warnings.catch_warnings(record=True) as caught, quiet_convergence_warnings():
+        warnings.simplefilter("always", InputWarning)
+        warnings.simplefilter("always", BudgetWarning)
+        windows = fit_windows(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, start=args.start,
+                              end=args.end, window=args.window, seed=args.seed, on_window=said,
+                              band=tuple(args.band) if args.band else None,
+                              fit_response=args.fit_response, priors=priors_from(args),
+                              ref_noise=args.ref_noise, ref_noise_psd=args.ref_noise_psd,
+                              transients="keep" if args.keep_transients else "drop",
+                              max_steps=args.max_steps, diagnose=args.diagnose,
+                              **WINDOW_LIKELIHOODS[args.window_likelihood][0])
+    said_once(caught)
+    return windows
+
+
+def said_once(caught):
+    """Print each distinct input or budget warning among ``caught`` once, as
+    ``bayescal fit`` prints them (with how many windows gave it)."""
+    counts = {}
+    for w in caught:
+        if issubclass(w.category, (InputWarning, BudgetWarning)):
+            counts[str(w.message)] = counts.get(str(w.message), 0) + 1
+    for message, n in counts.items():
+        times = f" ({n} times)" if n > 1 else ""
+        print(f"bayescal: warning: {message}{times}", file=sys.stderr)
 
 
 def write_csv(records, path):
@@ -119,6 +141,8 @@ def record_document(records, windows, args):
             "windows": len(windows), "fitted": sum(w.fitted for w in windows),
             "skipped": [{"start": str(w.start)[:19], "end": str(w.end)[:19], "reason": w.reason}
                         for w in windows if not w.fitted],
+            "not_converged": [str(w.start)[:19] for w in windows
+                              if w.fitted and not w.convergence.get("converged", True)],
             "parameters": {name: rec.summary() for name, rec in records.items()}}
 
 
@@ -179,6 +203,8 @@ def run(args):
     for w in windows:
         if not w.fitted:
             print(f"skipped {str(w.start)[:19]}: {w.reason}")
-    from .common import written
+    from .common import convergence_exit, written
+    code = convergence_exit([(f"the sampler of window {str(w.start)[:19]}", w.convergence)
+                             for w in windows if w.fitted])
     say(args, f"wrote {out} ({', '.join(written(out))})")
-    return 0
+    return code

@@ -8,8 +8,9 @@ size and time scale) to the windows' medians, their standard deviations
 value is the 2.5 and 97.5 % quantiles of its own samples (scaled about
 their median by the common factor, when it is learned) plus draws of the
 wander (:func:`~bayescal.record.wander.widen_samples`). Azimuths are taken
-within 180 degrees of the first window's, so a record near north does not
-split at 0/360.
+within 180 degrees of the windows' circular mean (each weighted by its
+inverse variance), so a record near north does not split at 0/360 and a
+stray first window does not move the others.
 """
 from __future__ import annotations
 
@@ -48,17 +49,25 @@ def _wrapped(name, values, reference):
     return reference + (values - reference + 180.0) % 360.0 - 180.0
 
 
+def circular_mean(degrees, weights):
+    """The weighted circular mean of angles in ``degrees``, in [0, 360)."""
+    a = np.radians(degrees)
+    return float(np.degrees(np.arctan2(np.sum(weights * np.sin(a)),
+                                       np.sum(weights * np.cos(a)))) % 360.0)
+
+
 def combine_parameter(name, windows, rng, learn_scale=False):
     """The :class:`ParameterRecord` of parameter ``name`` over the fitted
-    ``windows`` that estimate it (at least three); ``learn_scale``: as
+    ``windows`` that estimate it with an interval of some width (at least
+    three); ``learn_scale``: as
     :func:`~bayescal.record.wander.fit_wander` takes it."""
     from .wander import fit_wander, widen_samples
-    ws = [w for w in windows if w.fitted and name in w.values]
-    reference = ws[0].values[name]["median"]
-    med = _wrapped(name, np.array([w.values[name]["median"] for w in ws]), reference)
-    shift = med - np.array([w.values[name]["median"] for w in ws])
-    ci95 = np.array([w.values[name]["ci95"] for w in ws]) + shift[:, None]
+    ws = [w for w in windows if w.fitted and name in w.values
+          and np.diff(w.values[name]["ci68"])[0] > 0]       # a held value has no width
+    raw = np.array([w.values[name]["median"] for w in ws])
     sd = np.array([np.diff(w.values[name]["ci68"])[0] / 2 for w in ws])
+    med = _wrapped(name, raw, circular_mean(raw, 1.0 / np.maximum(sd, 1e-12) ** 2))
+    ci95 = np.array([w.values[name]["ci95"] for w in ws]) + (med - raw)[:, None]
     t0 = ws[0].start
     times = np.array([(w.start - t0) + 0.5 * (w.end - w.start) for w in ws])
     fit = fit_wander(med, sd, times, learn_scale=learn_scale)
@@ -71,7 +80,8 @@ def combine_parameter(name, windows, rng, learn_scale=False):
 
 
 def combine(windows, seed=0, learn_scale=False):
-    """Per parameter estimated in at least three windows, its
+    """Per parameter estimated in at least three windows (each with an
+    interval of some width), its
     :class:`ParameterRecord` (a dict in the windows' parameter order).
 
     Parameters
@@ -90,6 +100,7 @@ def combine(windows, seed=0, learn_scale=False):
     names = []
     for w in windows:
         names += [n for n in w.values if n not in names]
-    counts = {n: sum(n in w.values for w in windows if w.fitted) for n in names}
+    counts = {n: sum(n in w.values and np.diff(w.values[n]["ci68"])[0] > 0
+                     for w in windows if w.fitted) for n in names}
     return {n: combine_parameter(n, windows, rng, learn_scale) for n in names
             if counts[n] >= MIN_WINDOWS}

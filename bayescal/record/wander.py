@@ -52,7 +52,8 @@ imprecise ones. Prior: log-uniform on [:data:`SCALE_MIN`, :data:`SCALE_MAX`]
 
 What it gives: ``mu`` (median and 68/95 % intervals of the mixture over the
 grid), ``tau``, ``ell`` and ``lambda`` (median and 95 %), the repeatability ratio
-``sqrt(chi2_red)`` of the windows about ``mu`` without the wander (with
+``sqrt(chi2_red)`` of the windows about their inverse-variance weighted
+mean without the wander (with
 ``s_i``) and with it (with ``sqrt(lambda^2 s_i^2 + tau^2)``), and for each
 window an interval for the record's value: the window's posterior widened
 by the wander, ``N(x_i, lambda^2 s_i^2 + tau^2)`` mixed over the posterior
@@ -95,8 +96,8 @@ class WanderFit:
         (seconds from :mod:`~bayescal.record.values`: ``ell_s`` in
         :meth:`summary`).
     ratio_without, ratio_with : float
-        ``sqrt(chi2_red)`` of the window estimates about ``mu``'s median
-        with sds ``s_i``, and with ``sqrt(lambda^2 s_i^2 + tau^2)``
+        ``sqrt(chi2_red)`` of the window estimates about their
+        inverse-variance weighted mean, with sds ``s_i``, and with ``sqrt(lambda^2 s_i^2 + tau^2)``
         (``lambda``, ``tau`` their posterior medians).
     record : (n, 2) array
         Each window's 95 % interval for the record's value

@@ -22,13 +22,15 @@ import numpy as np
 class Window:
     """One window's fit: ``start`` and ``end`` (UTCDateTime), per parameter
     its summary (``median``, ``ci68``, ``ci95``) in ``values`` and its
-    posterior samples in ``samples``; or the ``reason`` it was skipped."""
+    posterior samples in ``samples``, its sampler's ``convergence`` (a
+    result's ``convergence`` entry); or the ``reason`` it was skipped."""
 
     start: object
     end: object
     values: dict = field(default_factory=dict)
     samples: dict = field(default_factory=dict, repr=False)
     reason: str | None = None
+    convergence: dict = field(default_factory=dict, repr=False)
 
     @property
     def fitted(self):
@@ -89,7 +91,8 @@ def fit_window(pair, t0, t1, seed, **options):
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
         samples[name] = np.asarray(draws, float)
-    return Window(t0, t1, values=values, samples=samples)
+    return Window(t0, t1, values=values, samples=samples,
+                  convergence=result.convergence.summary())
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
