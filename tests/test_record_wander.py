@@ -105,33 +105,49 @@ def test_constant_wander_adds_tau_squared_to_the_mean_variance():
     assert var[0] == pytest.approx(0.3 ** 2 + 0.2 ** 2 / 20, rel=1e-6)
 
 
-def coverage(n_sets=N_SETS, regime=None, first=0):
+def coverage(n_sets=N_SETS, regime=None, first=0, more=False):
     """Counts of the record value's 95 % interval and one window's (drawn
-    before the fit) record interval holding the truth."""
-    held_mu = held_window = 0
+    before the fit) record interval holding the truth; with ``more`` also
+    the record value's 68 % interval and the window's 95 % interval from
+    its samples widened by the wander (:func:`wander.widen_samples`, as
+    ``bayescal windows`` makes it; the window's posterior drawn as
+    ``N(x_k, s_k^2)``)."""
+    held = np.zeros(4, int)
     for seed in range(first, first + n_sets):
         x, s, t, mu, k = synthetic(seed, regime)
         f = fit_wander(x, s, t)
-        held_mu += f.mu["ci95"][0] <= mu <= f.mu["ci95"][1]
-        held_window += f.record[k, 0] <= mu <= f.record[k, 1]
-    return held_mu, held_window
+        held[0] += f.mu["ci95"][0] <= mu <= f.mu["ci95"][1]
+        held[1] += f.record[k, 0] <= mu <= f.record[k, 1]
+        if more:
+            rng = np.random.default_rng(seed)
+            draws = wander.widen_samples(x[k] + s[k] * rng.standard_normal(4000), f.tau_grid,
+                                         f.scale_tau_weights, rng, f.scale_grid)
+            held[2] += f.mu["ci68"][0] <= mu <= f.mu["ci68"][1]
+            held[3] += np.percentile(draws, 2.5) <= mu <= np.percentile(draws, 97.5)
+    return tuple(int(h) for h in held) if more else (int(held[0]), int(held[1]))
 
 
-def band(n):
-    return int(binom.ppf(0.005, n, 0.95)), int(binom.ppf(0.995, n, 0.95))
+def band(n, p=0.95):
+    """The two-sided 99 % binomial band of ``n`` intervals at level ``p``."""
+    return int(binom.ppf(0.005, n, p)), int(binom.ppf(0.995, n, p))
 
 
 def test_intervals_hold_the_truth_at_the_binomial_rate():
     """Over 240 seeded records with the wander drawn from the model's
     stated prior (tau from 0 to many times the sds, time scales from below
     the spacing to the record's span; 20-150 windows) the record value's
-    95 % interval and each record's drawn window's interval hold the truth
-    inside the two-sided 99 % binomial band (a calibrated posterior holds it
-    at exactly 95 % under its prior)."""
-    held_mu, held_window = coverage()
+    95 % interval, each record's drawn window's interval (from the mixture
+    and from its samples widened as ``bayescal windows`` widens them) and
+    the record value's 68 % interval hold the truth inside their two-sided
+    99 % binomial bands (a calibrated posterior holds it at exactly its
+    level under its prior)."""
+    held_mu, held_window, held_mu68, held_widened = coverage(more=True)
     lo, hi = band(N_SETS)
     assert lo <= held_mu <= hi, (held_mu, (lo, hi))
     assert lo <= held_window <= hi, (held_window, (lo, hi))
+    assert lo <= held_widened <= hi, (held_widened, (lo, hi))
+    lo68, hi68 = band(N_SETS, 0.68)
+    assert lo68 <= held_mu68 <= hi68, (held_mu68, (lo68, hi68))
 
 
 @pytest.mark.parametrize("regime", [(4.0, 0.3), (4.0, 5.0)])
