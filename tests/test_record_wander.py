@@ -119,7 +119,7 @@ def coverage(n_sets=N_SETS, regime=None, first=0, more=False):
         held[0] += f.mu["ci95"][0] <= mu <= f.mu["ci95"][1]
         held[1] += f.record[k, 0] <= mu <= f.record[k, 1]
         if more:
-            rng = np.random.default_rng(seed)
+            rng = np.random.default_rng([seed, 1])     # apart from the record's own draws
             draws = wander.widen_samples(x[k] + s[k] * rng.standard_normal(4000), f.tau_grid,
                                          f.scale_tau_weights, rng, f.scale_grid)
             held[2] += f.mu["ci68"][0] <= mu <= f.mu["ci68"][1]

@@ -109,7 +109,7 @@ def fit_all(args, pair):
 
 def said_once(caught):
     """Print each distinct input or budget warning among ``caught`` once, as
-    ``bayescal fit`` prints them (with how many windows gave it)."""
+    a ``bayescal: warning:`` line on stderr (with how many windows gave it)."""
     counts = {}
     for w in caught:
         if issubclass(w.category, (InputWarning, BudgetWarning)):
