@@ -72,17 +72,6 @@ def configure(parser):
                              "does (by default the windows are not criticised)")
 
 
-def read_pair(args):
-    """The two sensors' streams (read once) and inventories."""
-    from ..io import load_inventory, read_waveforms
-    from ..io.channels import select_channels
-    sut = select_channels(read_waveforms(args.sut, "SUT waveform"), args.sut_id, "SUT")
-    ref = select_channels(read_waveforms(args.ref, "reference waveform"), args.ref_id,
-                          "reference")
-    return (ref, load_inventory(args.ref_xml, ref, "reference StationXML"),
-            sut, load_inventory(args.sut_xml, sut, "SUT StationXML"))
-
-
 def fit_all(args, pair):
     """Every window's fit, with a progress line per window on stderr."""
     from ..record import fit_windows
@@ -185,7 +174,10 @@ def run(args):
     if not args.window > 0:
         raise InputError(f"--window {args.window:g}: a window is a positive number of seconds")
     say(args, "bayescal windows: reading recordings and metadata ...")
-    windows = fit_all(args, read_pair(args))
+    from ..pair.workflow import read_pair
+    windows = fit_all(args, read_pair(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
+                                      sut_xml=args.sut_xml, sut_id=args.sut_id,
+                                      ref_id=args.ref_id))
     fitted = sum(w.fitted for w in windows)
     if fitted < MIN_WINDOWS:
         reasons = "; ".join(sorted({w.reason for w in windows if not w.fitted}))

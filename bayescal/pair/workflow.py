@@ -117,6 +117,17 @@ def _warn_on_misfit(result):
                       stacklevel=caller_stacklevel())
 
 
+def read_pair(*, ref, ref_xml, sut, sut_xml, sut_id=None, ref_id=None):
+    """``(ref, ref_inventory, sut, sut_inventory)`` from file paths (any
+    waveform format ObsPy reads; StationXML, RESP, GSE2 or ``"flat"``), the
+    channels chosen by ``sut_id``/``ref_id``, as :func:`calibrate_files`
+    reads them."""
+    sut = select_channels(read_waveforms(sut, "SUT waveform"), sut_id, "SUT")
+    ref = select_channels(read_waveforms(ref, "reference waveform"), ref_id, "reference")
+    return (ref, load_inventory(ref_xml, ref, "reference StationXML"),
+            sut, load_inventory(sut_xml, sut, "SUT StationXML"))
+
+
 def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=None,
                     fit_response="gain", seed=0, start=None, end=None, progress=True,
                     sut_id=None, ref_id=None, **kw):
@@ -151,11 +162,8 @@ def calibrate_files(*args, ref=None, ref_xml=None, sut=None, sut_xml=None, band=
     _keywords_only("calibrate_files", args)
     if any(x is None for x in (ref, ref_xml, sut, sut_xml)):
         raise TypeError(f"calibrate_files() needs {KEYWORDS}")
-    sut_files, ref_files = sut, ref
-    sut = select_channels(read_waveforms(sut_files, "SUT waveform"), sut_id, "SUT")
-    ref = select_channels(read_waveforms(ref_files, "reference waveform"), ref_id, "reference")
-    sut_inv = load_inventory(sut_xml, sut, "SUT StationXML")
-    ref_inv = load_inventory(ref_xml, ref, "reference StationXML")
+    ref, ref_inv, sut, sut_inv = read_pair(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml,
+                                           sut_id=sut_id, ref_id=ref_id)
     start = UTCDateTime(start) if start is not None else None
     end = UTCDateTime(end) if end is not None else None
     sut_name = sut_xml if isinstance(sut_xml, str) else "SUT StationXML"
