@@ -82,9 +82,9 @@ def test_kalman_filter_with_a_scale_is_the_dense_gaussian_likelihood():
         assert got["logdet"][0] == pytest.approx(np.linalg.slogdet(k)[1], rel=1e-9)
 
 
-@pytest.mark.parametrize("scale, first", [(1.0, 0), (1.5, 5000)])
+@pytest.mark.parametrize("scale, first", [(1.2, 0), (1.5, 5000)])
 def test_learned_scale_intervals_hold_the_truth(small_grid, scale, first):
-    """Records with lambda 1 or 1.5 and a wander of the windows' median sd
+    """Records with lambda 1.2 or 1.5 and a wander of the windows' median sd
     (5 spacings): the record value's, a drawn window's and lambda's 95 %
     intervals hold their truth inside the two-sided 99 % binomial band over
     80 records, and the five least precise windows' of each record inside
@@ -94,6 +94,18 @@ def test_learned_scale_intervals_hold_the_truth(small_grid, scale, first):
     lo5, hi5 = band(N_WORST * N_SETS)
     assert np.all((lo <= held[:3]) & (held[:3] <= hi)), (held.tolist(), (lo, hi))
     assert lo5 <= held[3] <= hi5, (held.tolist(), (lo5, hi5))
+
+
+def test_scale_at_its_lower_end_errs_wide(small_grid):
+    """lambda = 1, the prior's lower end (``SCALE_MIN``): the record
+    value's, a drawn window's, lambda's and the least precise windows'
+    intervals hold the truth at least at the binomial rate (at the prior's
+    end they err wide, not narrow)."""
+    assert wander.SCALE_MIN == 1.0
+    held = coverage(1.0, True, 0)
+    lo, _ = band(N_SETS)
+    lo5, _ = band(N_WORST * N_SETS)
+    assert np.all(held[:3] >= lo) and held[3] >= lo5, held.tolist()
 
 
 def test_scale_fixed_at_one_fails_on_lambda_one_and_a_half(small_grid):

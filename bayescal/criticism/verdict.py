@@ -301,6 +301,7 @@ def _sampler_options(sample_kw):
     # the fit's own options, not the sampler's: the improved model takes the
     # fit's misfit shape from its model (criticism.diagnose)
     sample_kw.pop("misfit_shape", None)
+    sample_kw.pop("inflation_floor", None)
     # the improved model's sampler is bounded too: a chain that does not
     # converge in MAX_STEPS falls back to the Gaussian approximation
     sample_kw["max_steps"] = min(int(sample_kw.get("max_steps") or MAX_STEPS), MAX_STEPS)

@@ -5,6 +5,8 @@
                   error: :func:`fit_wander` (Kalman filter, grid posterior)
 * :mod:`.windows` a pair's record cut into consecutive windows, each fitted
                   by :mod:`bayescal.pair`: :func:`fit_windows`
+* :mod:`.pooling` the record's noise inflation, a floor under each
+                  window's: :func:`floor_windows`
 * :mod:`.values`  each parameter's windows combined into the record's
                   value: :func:`combine`
 * :mod:`.figure`  each parameter's windows against time, the record's
@@ -25,6 +27,7 @@ import lazy_loader
 __getattr__, __dir__, __all__ = lazy_loader.attach(__name__, submod_attrs={
     "wander": ["PRIOR", "WanderFit", "draw_wander", "fit_wander", "record_intervals", "widen_samples"],
     "windows": ["Window", "fit_windows"],
+    "pooling": ["floor_windows", "record_floor"],
     "values": ["ParameterRecord", "combine"],
     "figure": ["build_figure", "write_figure"],
 })

@@ -47,8 +47,12 @@ carry the misfit's extra variance only as far as the record shows it.
 ``lambda`` and ``tau`` are told apart by the windows' spread of ``s_i``:
 ``tau`` dominates the scatter of precise windows, ``lambda`` that of
 imprecise ones. Prior: log-uniform on [:data:`SCALE_MIN`, :data:`SCALE_MAX`]
-(a window's sd may be too wide as well as too narrow), on a grid beside
-``tau`` and ``ell``.
+on a grid beside ``tau`` and ``ell``, ``lambda >= 1``: a window's sd
+already holds the information its spectra carry and no more (its noise
+inflation floored at the record's, :mod:`bayescal.record.pooling`), so the
+record can widen it (non-stationary noise, a misfit) but not narrow it; a
+factor below 1 would claim an interval narrower than the window's
+information limit.
 
 What it gives: ``mu`` (median and 68/95 % intervals of the mixture over the
 grid), ``tau``, ``ell`` and ``lambda`` (median and 95 %), the repeatability ratio
@@ -71,7 +75,7 @@ import numpy as np
 PRIOR = {"tau": "half-Cauchy, scale the windows' median sd; grid uniform in tau / (tau + scale)",
          "ell": "log-uniform from a quarter of the shortest window spacing to three times "
                 "the record's span",
-         "scale": "1 (the windows' sds as given), or learned: log-uniform on [0.5, 4]"}
+         "scale": "1 (the windows' sds as given), or learned: log-uniform on [1, 4]"}
 #: Grid sizes: tau (0 included), ell.
 N_TAU, N_ELL = 64, 32
 #: Largest tau on the grid, in units of the prior's scale.
@@ -79,7 +83,7 @@ TAU_MAX = 60.0
 #: Largest ell on the grid, in units of the record's span.
 ELL_MAX = 3.0
 #: The learned scale's grid: log-uniform on [SCALE_MIN, SCALE_MAX], N_SCALE points.
-SCALE_MIN, SCALE_MAX, N_SCALE = 0.5, 4.0, 43
+SCALE_MIN, SCALE_MAX, N_SCALE = 1.0, 4.0, 29
 #: Fewest windows the model is fitted to.
 MIN_WINDOWS = 3
 

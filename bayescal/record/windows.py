@@ -31,6 +31,8 @@ class Window:
     samples: dict = field(default_factory=dict, repr=False)
     reason: str | None = None
     convergence: dict = field(default_factory=dict, repr=False)
+    inflation: object = field(default=None, repr=False)
+    floored: bool = False
 
     @property
     def fitted(self):
@@ -91,12 +93,15 @@ def fit_window(pair, t0, t1, seed, **options):
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
         samples[name] = np.asarray(draws, float)
+    inflation = getattr(result.meta, "noise_inflation", None)
     return Window(t0, t1, values=values, samples=samples,
-                  convergence=result.convergence.summary())
+                  convergence=result.convergence.summary(),
+                  inflation=None if inflation is None else np.asarray(inflation, float),
+                  floored=options.get("inflation_floor") is not None)
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
-                on_window=None, **options):
+                on_window=None, pool_inflation=False, **options):
     """Fit each window of a pair's record.
 
     Parameters
@@ -112,7 +117,12 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     seed : int
         Window ``k`` is fitted with seed ``seed + k``.
     on_window : callable or None
-        Called with ``(k, n, Window)`` after each window (progress).
+        Called with ``(k, n, Window)`` after each window (progress), and
+        again after each window fitted with the record's inflation floor.
+    pool_inflation : bool
+        Fit again, with the record's noise inflation as a floor, each
+        window whose own inflation falls below it in some band
+        (:mod:`bayescal.record.pooling`).
     **options
         Every other keyword of :func:`~bayescal.pair.workflow.calibrate`
         (``band``, ``fit_response``, ``diagnose``, ``transients``, ...).
@@ -134,9 +144,16 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     if not edges:
         raise InputError(f"{start} - {end} holds no whole window of {window:g} s")
     options.setdefault("progress", False)
-    out = []
-    for k, (t0, t1) in enumerate(edges):
-        out.append(fit_window((ref, ref_xml, sut, sut_xml), t0, t1, seed + k, **options))
+    pair = (ref, ref_xml, sut, sut_xml)
+
+    def fitted(k, **extra):
+        w = fit_window(pair, *edges[k], seed + k, **options, **extra)
         if on_window is not None:
-            on_window(k, len(edges), out[-1])
+            on_window(k, len(edges), w)
+        return w
+
+    out = [fitted(k) for k in range(len(edges))]
+    if pool_inflation:
+        from .pooling import floor_windows
+        out, _ = floor_windows(out, lambda k, floor: fitted(k, inflation_floor=floor))
     return out

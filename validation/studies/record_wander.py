@@ -66,7 +66,7 @@ ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "validation" / "results" / "repeatability"
 COWI_OUT = RESULTS / "record_wander_cowi.json"
 #: Each window's likelihood (``--likelihood``): the fit's keywords, and the output's suffix.
-LIKELIHOODS = {"default": {}, "gaussian": {"misfit_shape": float("inf")}}
+LIKELIHOODS = {"default": {}, "gaussian": {"misfit_shape": float("inf"), "pool_inflation": True}}
 SIM_OUT = RESULTS / "record_wander_sim.json"
 CHANNELS = ("LHN", "LHE")
 #: The prior's longest time scale (in record spans) of the sensitivity check.
@@ -236,15 +236,25 @@ def sim_record(r, likelihood="default"):
     az0 = rng.uniform(-5.0, 5.0)
     w = draw_wander(np.arange(N_WINDOWS) * WINDOW_S, tau, ELL_S, rng)
     drawn = int(rng.integers(N_WINDOWS))
-    windows = []
+    options = dict(LIKELIHOODS[likelihood])
+    pool = options.pop("pool_inflation", False)
+    pairs = []
     for i in range(N_WINDOWS):
         t0 = UTCDateTime(2026, 1, 1) + i * WINDOW_S
         p = simulate_pair(duration=WINDOW_S, fs=2.0, seed=100000 * r + i, coherence=coh,
                           ref_coherence=ref_coh, sut_azimuth=(az0 + w[i], az0 + 90 + w[i], 0.0),
                           start=t0)
-        windows.append(fit_window((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0,
-                                  t0 + WINDOW_S, i, band=SIM_BAND, diagnose=False,
-                                  progress=False, **LIKELIHOODS[likelihood]))
+        pairs.append(((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0))
+
+    def fitted(i, **extra):
+        pair, t0 = pairs[i]
+        return fit_window(pair, t0, t0 + WINDOW_S, i, band=SIM_BAND, diagnose=False,
+                          progress=False, **options, **extra)
+
+    windows = [fitted(i) for i in range(N_WINDOWS)]
+    if pool:                          # as fit_windows does (bayescal.record.pooling)
+        from bayescal.record.pooling import floor_windows
+        windows, _ = floor_windows(windows, lambda i, floor: fitted(i, inflation_floor=floor))
     recs = combine(windows, seed=r, learn_scale=likelihood == "gaussian")
     out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
            "skipped": sum(not win.fitted for win in windows)}

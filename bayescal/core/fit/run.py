@@ -199,12 +199,15 @@ def least_squares_fit(model, theta0, iterations=2, jac=None, budget=None):
 
 def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, *, free="none",
                 priors=Priors(), seed=0, progress=True, meta=None, ref_noise=None,
-                misfit_shape=None, known_noise=None, **sample_kw):
+                misfit_shape=None, known_noise=None, inflation_floor=None, **sample_kw):
     """Whole inference from spectra: start, least squares, sampling.
 
     ``misfit_shape``: shape ``a`` of the per-band noise-scale prior
     (:mod:`bayescal.core.model.misfit_scale`); None: its default
-    ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood.
+    ``MISFIT_SHAPE``; ``inf``: the Gaussian likelihood. ``inflation_floor``:
+    None, or (B,) a lower bound on each band's noise inflation
+    (:mod:`bayescal.core.model.inflation`; :mod:`bayescal.record.pooling`
+    sets it from the windows of a record).
 
     ``ref_noise``: None (the default) is
     :func:`bayescal.core.model.refnoise.recommended_mode` of the pair: "estimate"
@@ -238,6 +241,7 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, *, free="no
                         priors=priors, ref_noise=ref_noise, known_noise=known_noise)
     setup.model.misfit_shape = (misfit_scale.MISFIT_SHAPE if misfit_shape is None
                                 else misfit_shape)
+    setup.model.inflation_floor = inflation_floor
     if setup.model.ndim == 0:
         raise FitError("nothing to estimate: against this reference the SUT channel's axis is "
                        "fixed to the reference's (one channel each), so only its response can "

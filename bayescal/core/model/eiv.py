@@ -298,7 +298,7 @@ class EIVModel(Model):
                             for b in range(sp.n_bands)], axis=1)
         scatter = lag_one_scatter(lambda x, y: np.einsum("kbi,bij,kbj->b", x, w, y), x_k,
                                   overlapping_segments(sp.segment_starts, sp.nperseg))
-        c = shrunk_inflation(scatter / rank, x_k.shape[0] * rank)
+        c = shrunk_inflation(scatter / rank, x_k.shape[0] * rank, floor=self.inflation_floor)
         self.noise = EIVNoise(cov=cov, W=w / c[:, None, None], inflation=c, along=along, rho=rho,
                               factor=factor / np.sqrt(c)[:, None, None], rank=rank,
                               weight=plugin.band_weights(band_dof(sp), nu + nr))

@@ -12,6 +12,12 @@ segments, so it is shrunk toward the mean over bands, with weight
     c_b = (w_b raw_b + S pooled) / (w_b + S),   pooled = mean_b raw_b,
 
 and floored at ``1e-3 pooled``.
+
+A fit may also be given a floor per band (``Model.inflation_floor``): the
+windows of one record share their noise process, so a window whose own
+ratio reads below the record's typical one does so by chance, from its few
+segments, not because it holds more information
+(:mod:`bayescal.record.pooling`).
 """
 from __future__ import annotations
 
@@ -22,7 +28,7 @@ import numpy as np
 INFLATION_SHRINK = 50.0
 
 
-def shrunk_inflation(raw, weight, pooled_floor=-np.inf):
+def shrunk_inflation(raw, weight, pooled_floor=-np.inf, floor=None):
     """Per-band inflation ``c_b`` (B,) from the measured ratios ``raw`` (B,)
     and their weights ``weight`` (scalar or (B,), segment x entry counts).
 
@@ -33,6 +39,8 @@ def shrunk_inflation(raw, weight, pooled_floor=-np.inf):
     pooled_floor : lower bound on the pooled value in the floor
         ``1e-3 * max(pooled, pooled_floor)`` (a model whose residuals can
         vanish, a noise-free simulation, sets it above 0).
+    floor : None or (B,) a lower bound on each band's factor (the record's
+        pooled inflation, :mod:`bayescal.record.pooling`).
 
     Returns
     -------
@@ -40,7 +48,14 @@ def shrunk_inflation(raw, weight, pooled_floor=-np.inf):
     """
     pooled = raw.mean()
     c = (weight * raw + INFLATION_SHRINK * pooled) / (weight + INFLATION_SHRINK)
-    return np.maximum(c, 1e-3 * max(pooled, pooled_floor))
+    c = np.maximum(c, 1e-3 * max(pooled, pooled_floor))
+    if floor is None:
+        return c
+    floor = np.asarray(floor, float)
+    if floor.shape != c.shape:
+        from ...errors import FitError
+        raise FitError(f"an inflation floor of {floor.size} bands given to a fit of {c.size}")
+    return np.maximum(c, floor)
 
 
 def overlapping_segments(segment_starts, nperseg):

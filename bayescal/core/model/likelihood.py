@@ -336,6 +336,8 @@ class Model:
 
     #: Per-band noise-scale prior shape (:mod:`.misfit_scale`; inf: Gaussian; fits set it).
     misfit_shape = np.inf
+    #: None, or (B,) a lower bound on each band's noise inflation (:mod:`.inflation`).
+    inflation_floor = None
 
     def band_energy(self, theta):
         """(W, B) whitened residual energy per band (Gaussian term ``-q_b``)
@@ -392,7 +394,7 @@ class Model:
         scatter = lag_one_scatter(lambda x, y: np.einsum("bij,kbjl,blm,kbim->b", sigma_inv, x,
                                                          b_inv, y.conj()).real, r_k, adjacent)
         p = nu * sp.n_r
-        c = shrunk_inflation(dof * scatter / p, r_k.shape[0] * p)
+        c = shrunk_inflation(dof * scatter / p, r_k.shape[0] * p, floor=self.inflation_floor)
         scale0 = noisescale.noise_scale(ratio, self._band_nodes, self._free_rows)[0]
         self.noise = NoiseModel(A=sigma_inv / c[:, None, None], B=b_inv_g, sigma=sigma,
                                 inflation=c, scale0=scale0,
