@@ -179,3 +179,47 @@ def test_windows_whose_sampler_stopped_early_exit_3_and_are_named(files, tmp_pat
     assert code == 3
     assert len(doc["not_converged"]) == 3
     assert printed.count("NOT CONVERGED: the sampler of window") == 3
+
+
+def test_span_keeps_two_sensors_with_the_same_seed_ids_apart():
+    """A huddle test's two sensors written with the same SEED ids: the
+    reference records [0, 1000) s, the SUT [100, 1100) s; the common span is
+    [100, 1000) s (taking the ids together would give [0, 1100))."""
+    from obspy import Stream, Trace, UTCDateTime
+
+    from bayescal.record.windows import recorded_span
+    t = UTCDateTime(2026, 1, 1)
+
+    def stream(offset):
+        return Stream([Trace(np.zeros(1000), header={
+            "network": "XX", "station": "HUD", "location": "00", "channel": f"HH{c}",
+            "sampling_rate": 1.0, "starttime": t + offset}) for c in "ZNE"])
+    first, last = recorded_span(stream(0.0), stream(100.0))
+    assert (first - t, last - t) == (100.0, 1000.0)
+
+
+@pytest.mark.parametrize("medians, sds", [
+    # drawn about 0.2 degrees (sd 0.3): their weighted circular mean falls just west of north
+    ([359.96, 359.8, 0.13, 0.33, 0.54, 0.23], [0.05, 0.05, 0.4, 0.4, 0.4, 0.4]),
+    # two precise windows either side of 0.2 and four imprecise ones west of north: the
+    # record's value lies west of north, the precise windows' weighted mean east of it
+    ([0.7, 359.9, 359.5, 359.5, 359.5, 359.5], [0.05, 0.05, 0.3, 0.3, 0.3, 0.3])])
+def test_azimuths_near_north_are_reported_as_the_fit_reports_them(tmp_path, medians, sds):
+    """As ``bayescal fit`` reports an azimuth: the record's value in
+    [0, 360) with its intervals contiguous about it (an end may pass 0 or
+    360); windows.csv's rows each with the window's own median (in
+    [0, 360), as its fit gave it) and its intervals about it."""
+    from bayescal.cli.windows import write_csv
+    from bayescal.record import combine
+    records = combine(_azimuth_windows(medians, sds))
+    mu = records["X:azimuth_deg"].summary()["mu"]
+    assert 0.0 <= mu["median"] < 360.0, mu
+    for level in ("ci68", "ci95"):
+        lo, hi = mu[level]
+        assert lo <= mu["median"] <= hi and hi - lo < 180.0, mu
+    write_csv(records, tmp_path / "windows.csv")
+    rows = list(csv.DictReader((tmp_path / "windows.csv").open()))
+    assert [float(r["median"]) for r in rows] == pytest.approx(medians, abs=1e-9)
+    for r, m, s in zip(rows, medians, sds):
+        assert float(r["ci95_low"]) == pytest.approx(m - 2 * s)
+        assert float(r["record_ci95_low"]) <= m <= float(r["record_ci95_high"]), r

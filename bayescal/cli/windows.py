@@ -115,11 +115,10 @@ def write_csv(records, path):
         out.writerow(["start", "end", "parameter", "median", "ci95_low", "ci95_high",
                       "record_ci95_low", "record_ci95_high"])
         for name, rec in records.items():
-            for i, start in enumerate(rec.starts):
-                out.writerow([str(start)[:19], str(rec.ends[i])[:19], name,
-                              f"{rec.medians[i]:.6g}", f"{rec.ci95[i, 0]:.6g}",
-                              f"{rec.ci95[i, 1]:.6g}", f"{rec.record_ci95[i, 0]:.6g}",
-                              f"{rec.record_ci95[i, 1]:.6g}"])
+            for start, end, median, ci95, record in rec.rows():
+                out.writerow([str(start)[:19], str(end)[:19], name, f"{median:.6g}",
+                              f"{ci95[0]:.6g}", f"{ci95[1]:.6g}", f"{record[0]:.6g}",
+                              f"{record[1]:.6g}"])
 
 
 def record_document(records, windows, args):

@@ -64,14 +64,17 @@ def parameters(result):
     return out
 
 
-def recorded_span(traces):
-    """From the latest first sample to the earliest end over the channels
-    (each channel's traces taken together, gaps inside allowed)."""
+def recorded_span(ref, sut):
+    """From the latest first sample to the earliest end over the channels of
+    the two sides (each channel's traces taken together, gaps inside
+    allowed). ``ref`` and ``sut`` are kept apart, so a channel of each with
+    the same SEED id (two sensors written to separate files) counts twice."""
     spans = {}
-    for tr in traces:
-        a, b = tr.stats.starttime, tr.stats.endtime + tr.stats.delta
-        lo, hi = spans.get(tr.id, (a, b))
-        spans[tr.id] = (min(lo, a), max(hi, b))
+    for side, traces in (("ref", ref), ("sut", sut)):
+        for tr in traces:
+            a, b = tr.stats.starttime, tr.stats.endtime + tr.stats.delta
+            lo, hi = spans.get((side, tr.id), (a, b))
+            spans[(side, tr.id)] = (min(lo, a), max(hi, b))
     return max(a for a, _ in spans.values()), min(b for _, b in spans.values())
 
 
@@ -127,7 +130,7 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
         When ``[start, end)`` holds no whole window.
     """
     from ..errors import InputError
-    first, last = recorded_span(list(ref) + list(sut))
+    first, last = recorded_span(ref, sut)
     start = start if start is not None else first
     end = end if end is not None else last
     edges = window_edges(start, end, window)
