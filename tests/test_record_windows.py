@@ -223,3 +223,25 @@ def test_azimuths_near_north_are_reported_as_the_fit_reports_them(tmp_path, medi
     for r, m, s in zip(rows, medians, sds):
         assert float(r["ci95_low"]) == pytest.approx(m - 2 * s)
         assert float(r["record_ci95_low"]) <= m <= float(r["record_ci95_high"]), r
+
+
+def test_budget_notes_are_said_with_the_table_as_bayescal_fit_says_them(files, tmp_path, capsys,
+                                                                         monkeypatch):
+    """Work budgets of 40 model evaluations, which no window's least squares
+    or mode search finishes: each stage's note is printed once on stdout
+    with the table, counted over the three windows (as ``bayescal fit``
+    prints it with its summary), and not as a warning on stderr."""
+    from bayescal.cli import main
+    from bayescal.core import budget
+    monkeypatch.setattr(budget, "LEAST_SQUARES_WORK", 40)
+    monkeypatch.setattr(budget, "MODE_SEARCH_WORK", 40)
+    main(["windows", "--ref", files["ref.mseed"], "--ref-xml", files["ref.xml"],
+          "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--band", "0.1", "0.8",
+          "--window", str(WINDOW), "--out", str(tmp_path / "rec"), "--quiet", "--no-report",
+          "--max-steps", "40"])
+    said = capsys.readouterr()
+    for stage in ("least squares", "mode search"):
+        line = (f"budget spent: {stage}: ended by its work budget (40 model evaluations); "
+                "a narrower --band helps (fewer bands to fit) (3 times)")
+        assert said.out.splitlines().count(line) == 1, said.out
+    assert "budget spent" not in said.err, said.err

@@ -73,7 +73,8 @@ def configure(parser):
 
 
 def fit_all(args, pair):
-    """Every window's fit, with a progress line per window on stderr."""
+    """Every window's fit, with a progress line per window on stderr, and
+    the budget notes (:func:`said_once`)."""
     from ..record import fit_windows
 
     def said(k, n, w):
@@ -92,20 +93,24 @@ def fit_all(args, pair):
                               transients="keep" if args.keep_transients else "drop",
                               max_steps=args.max_steps, diagnose=args.diagnose,
                               **WINDOW_LIKELIHOODS[args.window_likelihood][0])
-    said_once(caught)
-    return windows
+    return windows, said_once(caught)
 
 
 def said_once(caught):
-    """Print each distinct input or budget warning among ``caught`` once, as
-    a ``bayescal: warning:`` line on stderr (with how many windows gave it)."""
+    """Each distinct input or budget warning among ``caught`` once, with how
+    many times the windows gave it: the input warnings printed as
+    ``bayescal: warning:`` lines on stderr, the budget notes returned, to be
+    printed with the table on stdout (as ``bayescal fit`` says both:
+    :func:`~bayescal.cli.fit.said_warnings`)."""
+    from .fit import said_warnings
     counts = {}
     for w in caught:
         if issubclass(w.category, (InputWarning, BudgetWarning)):
-            counts[str(w.message)] = counts.get(str(w.message), 0) + 1
-    for message, n in counts.items():
-        times = f" ({n} times)" if n > 1 else ""
-        print(f"bayescal: warning: {message}{times}", file=sys.stderr)
+            key = (str(w.message), w.category)
+            counts[key] = counts.get(key, 0) + 1
+    return said_warnings([warnings.WarningMessage(message + (f" ({n} times)" if n > 1 else ""),
+                                                  category, "", 0)
+                          for (message, category), n in counts.items()])
 
 
 def write_csv(records, path):
@@ -174,9 +179,9 @@ def run(args):
         raise InputError(f"--window {args.window:g}: a window is a positive number of seconds")
     say(args, "bayescal windows: reading recordings and metadata ...")
     from ..pair.workflow import read_pair
-    windows = fit_all(args, read_pair(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
-                                      sut_xml=args.sut_xml, sut_id=args.sut_id,
-                                      ref_id=args.ref_id))
+    windows, spent = fit_all(args, read_pair(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
+                                             sut_xml=args.sut_xml, sut_id=args.sut_id,
+                                             ref_id=args.ref_id))
     fitted = sum(w.fitted for w in windows)
     if fitted < MIN_WINDOWS:
         reasons = "; ".join(sorted({w.reason for w in windows if not w.fitted}))
@@ -194,6 +199,8 @@ def run(args):
     for w in windows:
         if not w.fitted:
             print(f"skipped {str(w.start)[:19]}: {w.reason}")
+    for line in spent:       # a stage's budget ended it: said with the table, as bayescal fit says it
+        print(line)
     from .common import convergence_exit, written
     code = convergence_exit([(f"the sampler of window {str(w.start)[:19]}", w.convergence)
                              for w in windows if w.fitted])
