@@ -245,3 +245,27 @@ def test_budget_notes_are_said_with_the_table_as_bayescal_fit_says_them(files, t
                 "a narrower --band helps (fewer bands to fit) (3 times)")
         assert said.out.splitlines().count(line) == 1, said.out
     assert "budget spent" not in said.err, said.err
+
+
+def test_record_json_holds_the_settings_that_reproduce_the_run(pair, files, tmp_path):
+    """record.json's settings: the band, seed, window length and likelihood
+    as given, the span cut into windows (the pair's first sample to three
+    windows later, ISO) and the windows fitted and skipped; a second run
+    given those settings as --start, --end, --seed, --band and --window
+    writes the same windows.csv."""
+    from bayescal.cli import main
+    t0 = pair.ref[0].stats.starttime
+    base = ["windows", "--ref", files["ref.mseed"], "--ref-xml", files["ref.xml"],
+            "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--quiet", "--no-report"]
+    main(base + ["--band", "0.1", "0.8", "--window", str(WINDOW), "--seed", "7",
+                 "--out", str(tmp_path / "a")])
+    s = json.loads((tmp_path / "a" / "record.json").read_text())["settings"]
+    assert s["band_hz"] == [0.1, 0.8] and s["seed"] == 7 and s["window_s"] == WINDOW
+    assert s["window_likelihood"] == "default"
+    assert (s["start"], s["end"]) == (t0.isoformat(), (t0 + 3 * WINDOW).isoformat())
+    assert (s["windows_fitted"], s["windows_skipped"]) == (3, 0)
+    main(base + ["--band", *map(str, s["band_hz"]), "--window", str(s["window_s"]),
+                 "--seed", str(s["seed"]), "--start", s["start"], "--end", s["end"],
+                 "--out", str(tmp_path / "b")])
+    assert ((tmp_path / "b" / "windows.csv").read_text()
+            == (tmp_path / "a" / "windows.csv").read_text())

@@ -22,14 +22,27 @@ Written into DIR:
   record.json    per parameter: the record's value (median, 68 and 95 %),
                  the wander's size and time scale, the factor on the
                  windows' sds (scale), the repeatability ratios
-                 without and with the wander; the windows skipped and why
+                 without and with the wander; the windows skipped and why;
+                 "settings": what reproduces the run: band_hz (--band, null
+                 when each window's band is chosen), bands_used_hz (the
+                 windows' bands), seed (window k fitted with seed + k),
+                 window_s, window_likelihood, start and end (ISO: the span
+                 cut into windows, as --start and --end), windows_fitted,
+                 windows_skipped, fit_response, diagnose, keep_transients,
+                 max_steps
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
 A window the fit refuses (too little gap-free data, no coherence in the
 band) is skipped and named with its reason; a parameter is combined from
 at least three fitted windows that estimate it (a value held in a window
-has no interval and is left out of that parameter's record). docs/windows.md explains the model and its assumptions.
+has no interval and is left out of that parameter's record). An azimuth
+is written as bayescal fit writes one: its median in [0, 360), its
+intervals contiguous about it (one across north may end below 0 or above
+360); in windows.csv each window's about its own median. A fit stage that
+its work budget ended in some windows is said once after the table, with
+how many times (as bayescal fit says it below its summary).
+docs/windows.md explains the model and its assumptions.
 
 Example:
   bayescal windows --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
@@ -126,11 +139,29 @@ def write_csv(records, path):
                               f"{record[1]:.6g}"])
 
 
+def run_settings(windows, args):
+    """record.json's ``settings``: what reproduces the run (with the same
+    files and the span's ``start`` and ``end`` as --start and --end)."""
+    used = []
+    for w in windows:
+        if w.band_hz is not None and w.band_hz not in used:
+            used.append(w.band_hz)
+    fitted = sum(w.fitted for w in windows)
+    return {"band_hz": list(args.band) if args.band else None, "bands_used_hz": used,
+            "seed": args.seed, "window_s": args.window,
+            "window_likelihood": args.window_likelihood,
+            "start": windows[0].start.isoformat(), "end": windows[-1].end.isoformat(),
+            "windows_fitted": fitted, "windows_skipped": len(windows) - fitted,
+            "fit_response": args.fit_response, "diagnose": args.diagnose,
+            "keep_transients": args.keep_transients, "max_steps": args.max_steps}
+
+
 def record_document(records, windows, args):
     """record.json's content."""
     from ..version import __version__
     return {"schema": "bayescal.windows/1", "version": __version__, "window_s": args.window,
             "window_likelihood": args.window_likelihood,
+            "settings": run_settings(windows, args),
             "windows": len(windows), "fitted": sum(w.fitted for w in windows),
             "skipped": [{"start": str(w.start)[:19], "end": str(w.end)[:19], "reason": w.reason}
                         for w in windows if not w.fitted],

@@ -23,7 +23,8 @@ class Window:
     """One window's fit: ``start`` and ``end`` (UTCDateTime), per parameter
     its summary (``median``, ``ci68``, ``ci95``) in ``values`` and its
     posterior samples in ``samples``, its sampler's ``convergence`` (a
-    result's ``convergence`` entry); or the ``reason`` it was skipped."""
+    result's ``convergence`` entry) and the band it fitted (``band_hz``,
+    ``[fmin, fmax]``); or the ``reason`` it was skipped."""
 
     start: object
     end: object
@@ -31,6 +32,7 @@ class Window:
     samples: dict = field(default_factory=dict, repr=False)
     reason: str | None = None
     convergence: dict = field(default_factory=dict, repr=False)
+    band_hz: list | None = None
 
     @property
     def fitted(self):
@@ -94,8 +96,10 @@ def fit_window(pair, t0, t1, seed, **options):
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
         samples[name] = np.asarray(draws, float)
+    band = result.meta.band_hz
     return Window(t0, t1, values=values, samples=samples,
-                  convergence=result.convergence.summary())
+                  convergence=result.convergence.summary(),
+                  band_hz=[float(f) for f in band] if band is not None else None)
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
