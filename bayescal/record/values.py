@@ -30,7 +30,9 @@ class ParameterRecord:
     ``ends`` (UTCDateTime), ``medians``, ``ci95`` (n, 2) and ``record_ci95``
     (n, 2, the windows' intervals for the record's value), ``times`` (their
     mid-points in seconds after the first window's start) and the
-    :class:`~bayescal.record.wander.WanderFit` ``fit``."""
+    :class:`~bayescal.record.wander.WanderFit` ``fit``. An azimuth's
+    windows are contiguous about the record's value, whose median is in
+    [0, 360) (:meth:`rows`: each window about its own median)."""
 
     name: str
     starts: list
