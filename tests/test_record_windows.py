@@ -179,3 +179,93 @@ def test_windows_whose_sampler_stopped_early_exit_3_and_are_named(files, tmp_pat
     assert code == 3
     assert len(doc["not_converged"]) == 3
     assert printed.count("NOT CONVERGED: the sampler of window") == 3
+
+
+def test_span_keeps_two_sensors_with_the_same_seed_ids_apart():
+    """A huddle test's two sensors written with the same SEED ids: the
+    reference records [0, 1000) s, the SUT [100, 1100) s; the common span is
+    [100, 1000) s (taking the ids together would give [0, 1100))."""
+    from obspy import Stream, Trace, UTCDateTime
+
+    from bayescal.record.windows import recorded_span
+    t = UTCDateTime(2026, 1, 1)
+
+    def stream(offset):
+        return Stream([Trace(np.zeros(1000), header={
+            "network": "XX", "station": "HUD", "location": "00", "channel": f"HH{c}",
+            "sampling_rate": 1.0, "starttime": t + offset}) for c in "ZNE"])
+    first, last = recorded_span(stream(0.0), stream(100.0))
+    assert (first - t, last - t) == (100.0, 1000.0)
+
+
+@pytest.mark.parametrize("medians, sds", [
+    # drawn about 0.2 degrees (sd 0.3): their weighted circular mean falls just west of north
+    ([359.96, 359.8, 0.13, 0.33, 0.54, 0.23], [0.05, 0.05, 0.4, 0.4, 0.4, 0.4]),
+    # two precise windows either side of 0.2 and four imprecise ones west of north: the
+    # record's value lies west of north, the precise windows' weighted mean east of it
+    ([0.7, 359.9, 359.5, 359.5, 359.5, 359.5], [0.05, 0.05, 0.3, 0.3, 0.3, 0.3])])
+def test_azimuths_near_north_are_reported_as_the_fit_reports_them(tmp_path, medians, sds):
+    """As ``bayescal fit`` reports an azimuth: the record's value in
+    [0, 360) with its intervals contiguous about it (an end may pass 0 or
+    360); windows.csv's rows each with the window's own median (in
+    [0, 360), as its fit gave it) and its intervals about it."""
+    from bayescal.cli.windows import write_csv
+    from bayescal.record import combine
+    records = combine(_azimuth_windows(medians, sds))
+    mu = records["X:azimuth_deg"].summary()["mu"]
+    assert 0.0 <= mu["median"] < 360.0, mu
+    for level in ("ci68", "ci95"):
+        lo, hi = mu[level]
+        assert lo <= mu["median"] <= hi and hi - lo < 180.0, mu
+    write_csv(records, tmp_path / "windows.csv")
+    rows = list(csv.DictReader((tmp_path / "windows.csv").open()))
+    assert [float(r["median"]) for r in rows] == pytest.approx(medians, abs=1e-9)
+    for r, m, s in zip(rows, medians, sds):
+        assert float(r["ci95_low"]) == pytest.approx(m - 2 * s)
+        assert float(r["record_ci95_low"]) <= m <= float(r["record_ci95_high"]), r
+
+
+def test_budget_notes_are_said_with_the_table_as_bayescal_fit_says_them(files, tmp_path, capsys,
+                                                                         monkeypatch):
+    """Work budgets of 40 model evaluations, which no window's least squares
+    or mode search finishes: each stage's note is printed once on stdout
+    with the table, counted over the three windows (as ``bayescal fit``
+    prints it with its summary), and not as a warning on stderr."""
+    from bayescal.cli import main
+    from bayescal.core import budget
+    monkeypatch.setattr(budget, "LEAST_SQUARES_WORK", 40)
+    monkeypatch.setattr(budget, "MODE_SEARCH_WORK", 40)
+    main(["windows", "--ref", files["ref.mseed"], "--ref-xml", files["ref.xml"],
+          "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--band", "0.1", "0.8",
+          "--window", str(WINDOW), "--out", str(tmp_path / "rec"), "--quiet", "--no-report",
+          "--max-steps", "40"])
+    said = capsys.readouterr()
+    for stage in ("least squares", "mode search"):
+        line = (f"budget spent: {stage}: ended by its work budget (40 model evaluations); "
+                "a narrower --band helps (fewer bands to fit) (3 times)")
+        assert said.out.splitlines().count(line) == 1, said.out
+    assert "budget spent" not in said.err, said.err
+
+
+def test_record_json_holds_the_settings_that_reproduce_the_run(pair, files, tmp_path):
+    """record.json's settings: the band, seed, window length and likelihood
+    as given, the span cut into windows (the pair's first sample to three
+    windows later, ISO) and the windows fitted and skipped; a second run
+    given those settings as --start, --end, --seed, --band and --window
+    writes the same windows.csv."""
+    from bayescal.cli import main
+    t0 = pair.ref[0].stats.starttime
+    base = ["windows", "--ref", files["ref.mseed"], "--ref-xml", files["ref.xml"],
+            "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--quiet", "--no-report"]
+    main(base + ["--band", "0.1", "0.8", "--window", str(WINDOW), "--seed", "7",
+                 "--out", str(tmp_path / "a")])
+    s = json.loads((tmp_path / "a" / "record.json").read_text())["settings"]
+    assert s["band_hz"] == [0.1, 0.8] and s["seed"] == 7 and s["window_s"] == WINDOW
+    assert s["window_likelihood"] == "default"
+    assert (s["start"], s["end"]) == (t0.isoformat(), (t0 + 3 * WINDOW).isoformat())
+    assert (s["windows_fitted"], s["windows_skipped"]) == (3, 0)
+    main(base + ["--band", *map(str, s["band_hz"]), "--window", str(s["window_s"]),
+                 "--seed", str(s["seed"]), "--start", s["start"], "--end", s["end"],
+                 "--out", str(tmp_path / "b")])
+    assert ((tmp_path / "b" / "windows.csv").read_text()
+            == (tmp_path / "a" / "windows.csv").read_text())

@@ -258,7 +258,7 @@ def transient_words(transients):
             f"--keep-transients keeps them)")
 
 
-def _said_warnings(caught):
+def said_warnings(caught):
     """Print the input warnings among ``caught``; returns the budget notes
     (said with the summary, as the NOT CONVERGED line is)."""
     from ..errors import BudgetWarning, InputWarning
@@ -296,7 +296,7 @@ def run(args):
                                priors=priors_from(args),
                                diagnose=not args.no_diagnose,
                                diagnose_budget_s=args.diagnose_budget)
-    spent = _said_warnings(caught)
+    spent = said_warnings(caught)
     meta = post.meta
     used = meta.data_used
     say(args, f"data used: {used['segments']} of {used['segments_possible']} segments "

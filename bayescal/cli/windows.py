@@ -22,14 +22,27 @@ Written into DIR:
   record.json    per parameter: the record's value (median, 68 and 95 %),
                  the wander's size and time scale, the factor on the
                  windows' sds (scale), the repeatability ratios
-                 without and with the wander; the windows skipped and why
+                 without and with the wander; the windows skipped and why;
+                 "settings": what reproduces the run: band_hz (--band, null
+                 when each window's band is chosen), bands_used_hz (the
+                 windows' bands), seed (window k fitted with seed + k),
+                 window_s, window_likelihood, start and end (ISO: the span
+                 cut into windows, as --start and --end), windows_fitted,
+                 windows_skipped, fit_response, diagnose, keep_transients,
+                 max_steps
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
 A window the fit refuses (too little gap-free data, no coherence in the
 band) is skipped and named with its reason; a parameter is combined from
 at least three fitted windows that estimate it (a value held in a window
-has no interval and is left out of that parameter's record). docs/windows.md explains the model and its assumptions.
+has no interval and is left out of that parameter's record). An azimuth
+is written as bayescal fit writes one: its median in [0, 360), its
+intervals contiguous about it (one across north may end below 0 or above
+360); in windows.csv each window's about its own median. A fit stage that
+its work budget ended in some windows is said once after the table, with
+how many times (as bayescal fit says it below its summary).
+docs/windows.md explains the model and its assumptions.
 
 Example:
   bayescal windows --ref REF.mseed --ref-xml REF.xml --sut SUT.mseed --sut-xml SUT.xml \\
@@ -73,7 +86,8 @@ def configure(parser):
 
 
 def fit_all(args, pair):
-    """Every window's fit, with a progress line per window on stderr."""
+    """Every window's fit, with a progress line per window on stderr, and
+    the budget notes (:func:`said_once`)."""
     from ..record import fit_windows
 
     def said(k, n, w):
@@ -92,20 +106,24 @@ def fit_all(args, pair):
                               transients="keep" if args.keep_transients else "drop",
                               max_steps=args.max_steps, diagnose=args.diagnose,
                               **WINDOW_LIKELIHOODS[args.window_likelihood][0])
-    said_once(caught)
-    return windows
+    return windows, said_once(caught)
 
 
 def said_once(caught):
-    """Print each distinct input or budget warning among ``caught`` once, as
-    a ``bayescal: warning:`` line on stderr (with how many windows gave it)."""
+    """Each distinct input or budget warning among ``caught`` once, with how
+    many times the windows gave it: the input warnings printed as
+    ``bayescal: warning:`` lines on stderr, the budget notes returned, to be
+    printed with the table on stdout (as ``bayescal fit`` says both:
+    :func:`~bayescal.cli.fit.said_warnings`)."""
+    from .fit import said_warnings
     counts = {}
     for w in caught:
         if issubclass(w.category, (InputWarning, BudgetWarning)):
-            counts[str(w.message)] = counts.get(str(w.message), 0) + 1
-    for message, n in counts.items():
-        times = f" ({n} times)" if n > 1 else ""
-        print(f"bayescal: warning: {message}{times}", file=sys.stderr)
+            key = (str(w.message), w.category)
+            counts[key] = counts.get(key, 0) + 1
+    return said_warnings([warnings.WarningMessage(message + (f" ({n} times)" if n > 1 else ""),
+                                                  category, "", 0)
+                          for (message, category), n in counts.items()])
 
 
 def write_csv(records, path):
@@ -115,11 +133,27 @@ def write_csv(records, path):
         out.writerow(["start", "end", "parameter", "median", "ci95_low", "ci95_high",
                       "record_ci95_low", "record_ci95_high"])
         for name, rec in records.items():
-            for i, start in enumerate(rec.starts):
-                out.writerow([str(start)[:19], str(rec.ends[i])[:19], name,
-                              f"{rec.medians[i]:.6g}", f"{rec.ci95[i, 0]:.6g}",
-                              f"{rec.ci95[i, 1]:.6g}", f"{rec.record_ci95[i, 0]:.6g}",
-                              f"{rec.record_ci95[i, 1]:.6g}"])
+            for start, end, median, ci95, record in rec.rows():
+                out.writerow([str(start)[:19], str(end)[:19], name, f"{median:.6g}",
+                              f"{ci95[0]:.6g}", f"{ci95[1]:.6g}", f"{record[0]:.6g}",
+                              f"{record[1]:.6g}"])
+
+
+def run_settings(windows, args):
+    """record.json's ``settings``: what reproduces the run (with the same
+    files and the span's ``start`` and ``end`` as --start and --end)."""
+    used = []
+    for w in windows:
+        if w.band_hz is not None and w.band_hz not in used:
+            used.append(w.band_hz)
+    fitted = sum(w.fitted for w in windows)
+    return {"band_hz": list(args.band) if args.band else None, "bands_used_hz": used,
+            "seed": args.seed, "window_s": args.window,
+            "window_likelihood": args.window_likelihood,
+            "start": windows[0].start.isoformat(), "end": windows[-1].end.isoformat(),
+            "windows_fitted": fitted, "windows_skipped": len(windows) - fitted,
+            "fit_response": args.fit_response, "diagnose": args.diagnose,
+            "keep_transients": args.keep_transients, "max_steps": args.max_steps}
 
 
 def record_document(records, windows, args):
@@ -127,6 +161,7 @@ def record_document(records, windows, args):
     from ..version import __version__
     return {"schema": "bayescal.windows/1", "version": __version__, "window_s": args.window,
             "window_likelihood": args.window_likelihood,
+            "settings": run_settings(windows, args),
             "windows": len(windows), "fitted": sum(w.fitted for w in windows),
             "skipped": [{"start": str(w.start)[:19], "end": str(w.end)[:19], "reason": w.reason}
                         for w in windows if not w.fitted],
@@ -175,9 +210,9 @@ def run(args):
         raise InputError(f"--window {args.window:g}: a window is a positive number of seconds")
     say(args, "bayescal windows: reading recordings and metadata ...")
     from ..pair.workflow import read_pair
-    windows = fit_all(args, read_pair(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
-                                      sut_xml=args.sut_xml, sut_id=args.sut_id,
-                                      ref_id=args.ref_id))
+    windows, spent = fit_all(args, read_pair(ref=args.ref, ref_xml=args.ref_xml, sut=args.sut,
+                                             sut_xml=args.sut_xml, sut_id=args.sut_id,
+                                             ref_id=args.ref_id))
     fitted = sum(w.fitted for w in windows)
     if fitted < MIN_WINDOWS:
         reasons = "; ".join(sorted({w.reason for w in windows if not w.fitted}))
@@ -195,6 +230,8 @@ def run(args):
     for w in windows:
         if not w.fitted:
             print(f"skipped {str(w.start)[:19]}: {w.reason}")
+    for line in spent:       # a stage's budget ended it: said with the table, as bayescal fit says it
+        print(line)
     from .common import convergence_exit, written
     code = convergence_exit([(f"the sampler of window {str(w.start)[:19]}", w.convergence)
                              for w in windows if w.fitted])

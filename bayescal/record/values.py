@@ -10,11 +10,16 @@ their median by the common factor, when it is learned) plus draws of the
 wander (:func:`~bayescal.record.wander.widen_samples`). Azimuths are taken
 within 180 degrees of the windows' circular mean (each weighted by its
 inverse variance), so a record near north does not split at 0/360 and a
-stray first window does not move the others.
+stray first window does not move the others. An azimuth is reported as
+``bayescal fit`` reports one: its median in [0, 360) and its intervals
+contiguous about it, so an interval crossing north keeps a negative lower
+end (e.g. [-0.3, 0.6]) or an upper end above 360 (e.g. [359.7, 360.4]);
+the record's value so, and each window's row of
+:meth:`ParameterRecord.rows` so about the window's own median.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -25,7 +30,9 @@ class ParameterRecord:
     ``ends`` (UTCDateTime), ``medians``, ``ci95`` (n, 2) and ``record_ci95``
     (n, 2, the windows' intervals for the record's value), ``times`` (their
     mid-points in seconds after the first window's start) and the
-    :class:`~bayescal.record.wander.WanderFit` ``fit``."""
+    :class:`~bayescal.record.wander.WanderFit` ``fit``. An azimuth's
+    windows are contiguous about the record's value, whose median is in
+    [0, 360) (:meth:`rows`: each window about its own median)."""
 
     name: str
     starts: list
@@ -40,6 +47,34 @@ class ParameterRecord:
         """The record's value, the wander and the windows' intervals, for JSON."""
         return {**self.fit.summary(), "windows": len(self.starts),
                 "record_ci95_median_width": float(np.median(np.diff(self.record_ci95)))}
+
+    def rows(self):
+        """Per window: ``(start, end, median, ci95, record_ci95)``, an
+        azimuth's three turned by whole turns together so its median lies
+        in [0, 360) (as the window's own fit reports it)."""
+        for i, start in enumerate(self.starts):
+            turn = whole_turns(self.name, self.medians[i])
+            yield (start, self.ends[i], self.medians[i] + turn, self.ci95[i] + turn,
+                   self.record_ci95[i] + turn)
+
+
+def whole_turns(name, median):
+    """What brings an azimuth's ``median`` into [0, 360): a multiple of 360
+    degrees (0 for any other parameter)."""
+    if not name.endswith(":azimuth_deg"):
+        return 0.0
+    return -360.0 * float(np.floor(median / 360.0))
+
+
+def turned(fit, turn):
+    """The :class:`~bayescal.record.wander.WanderFit` ``fit`` with the
+    record's value, its intervals, the windows' intervals for it and the
+    wander's path moved by ``turn`` degrees."""
+    if not turn:
+        return fit
+    mu = {**fit.mu, "median": fit.mu["median"] + turn,
+          "ci68": [v + turn for v in fit.mu["ci68"]], "ci95": [v + turn for v in fit.mu["ci95"]]}
+    return replace(fit, mu=mu, record=fit.record + turn, path=fit.path + turn)
 
 
 def _wrapped(name, values, reference):
@@ -75,8 +110,10 @@ def combine_parameter(name, windows, rng, learn_scale=False):
                                                    fit.tau_grid, fit.scale_tau_weights, rng,
                                                    fit.scale_grid),
                                      [2.5, 97.5]) for w, m in zip(ws, med)])
+    turn = whole_turns(name, fit.mu["median"])     # the record's value in [0, 360)
     return ParameterRecord(name=name, starts=[w.start for w in ws], ends=[w.end for w in ws],
-                           medians=med, ci95=ci95, record_ci95=record, times=times, fit=fit)
+                           medians=med + turn, ci95=ci95 + turn, record_ci95=record + turn,
+                           times=times, fit=turned(fit, turn))
 
 
 def combine(windows, seed=0, learn_scale=False):

@@ -23,7 +23,8 @@ class Window:
     """One window's fit: ``start`` and ``end`` (UTCDateTime), per parameter
     its summary (``median``, ``ci68``, ``ci95``) in ``values`` and its
     posterior samples in ``samples``, its sampler's ``convergence`` (a
-    result's ``convergence`` entry); or the ``reason`` it was skipped."""
+    result's ``convergence`` entry) and the band it fitted (``band_hz``,
+    ``[fmin, fmax]``); or the ``reason`` it was skipped."""
 
     start: object
     end: object
@@ -31,6 +32,7 @@ class Window:
     samples: dict = field(default_factory=dict, repr=False)
     reason: str | None = None
     convergence: dict = field(default_factory=dict, repr=False)
+    band_hz: list | None = None
     inflation: object = field(default=None, repr=False)
     floored: bool = False
 
@@ -66,14 +68,17 @@ def parameters(result):
     return out
 
 
-def recorded_span(traces):
-    """From the latest first sample to the earliest end over the channels
-    (each channel's traces taken together, gaps inside allowed)."""
+def recorded_span(ref, sut):
+    """From the latest first sample to the earliest end over the channels of
+    the two sides (each channel's traces taken together, gaps inside
+    allowed). ``ref`` and ``sut`` are kept apart, so a channel of each with
+    the same SEED id (two sensors written to separate files) counts twice."""
     spans = {}
-    for tr in traces:
-        a, b = tr.stats.starttime, tr.stats.endtime + tr.stats.delta
-        lo, hi = spans.get(tr.id, (a, b))
-        spans[tr.id] = (min(lo, a), max(hi, b))
+    for side, traces in (("ref", ref), ("sut", sut)):
+        for tr in traces:
+            a, b = tr.stats.starttime, tr.stats.endtime + tr.stats.delta
+            lo, hi = spans.get((side, tr.id), (a, b))
+            spans[(side, tr.id)] = (min(lo, a), max(hi, b))
     return max(a for a, _ in spans.values()), min(b for _, b in spans.values())
 
 
@@ -93,9 +98,11 @@ def fit_window(pair, t0, t1, seed, **options):
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
         samples[name] = np.asarray(draws, float)
+    band = result.meta.band_hz
     inflation = getattr(result.meta, "noise_inflation", None)
     return Window(t0, t1, values=values, samples=samples,
                   convergence=result.convergence.summary(),
+                  band_hz=[float(f) for f in band] if band is not None else None,
                   inflation=None if inflation is None else np.asarray(inflation, float),
                   floored=options.get("inflation_floor") is not None)
 
@@ -137,7 +144,7 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
         When ``[start, end)`` holds no whole window.
     """
     from ..errors import InputError
-    first, last = recorded_span(list(ref) + list(sut))
+    first, last = recorded_span(ref, sut)
     start = start if start is not None else first
     end = end if end is not None else last
     edges = window_edges(start, end, window)
