@@ -106,7 +106,7 @@ def test_azimuths_near_north_are_combined_across_360():
 
 def test_gaussian_windows_learn_the_factor_on_their_sds(files, tmp_path, capsys):
     """--window-likelihood gaussian: the windows fitted with the Gaussian
-    likelihood (their own intervals differ from the default fit's), the
+    likelihood (their own intervals differ from the per-band fit's), the
     factor on their sds learned (its 95 % interval not the fixed [1, 1], and
     holding 1: the simulated pair's noise is what the Gaussian fit assumes),
     the record values hold the simulated truth."""
@@ -115,7 +115,7 @@ def test_gaussian_windows_learn_the_factor_on_their_sds(files, tmp_path, capsys)
             "--sut", files["sut.mseed"], "--sut-xml", files["sut.xml"], "--band", "0.1",
             "0.8", "--window", str(WINDOW), "--quiet", "--no-report"]
     rows = {}
-    for kind in ("default", "gaussian"):
+    for kind in ("per-band", "gaussian"):
         out = tmp_path / kind
         assert main(base + ["--out", str(out), "--window-likelihood", kind]) == 0
         rows[kind] = list(csv.DictReader((out / "windows.csv").open()))
@@ -126,7 +126,7 @@ def test_gaussian_windows_learn_the_factor_on_their_sds(files, tmp_path, capsys)
         assert p["mu"]["ci95"][0] <= truth <= p["mu"]["ci95"][1], (ch, p["mu"])
         assert p["scale"]["ci95"][0] <= 1.0 < p["scale"]["ci95"][1], p["scale"]
     own = [(r["ci95_low"], r["ci95_high"]) for r in rows["gaussian"]]
-    assert own != [(r["ci95_low"], r["ci95_high"]) for r in rows["default"]]
+    assert own != [(r["ci95_low"], r["ci95_high"]) for r in rows["per-band"]]
     assert "sd factor [95%]" in capsys.readouterr().out
 
 
@@ -261,7 +261,7 @@ def test_record_json_holds_the_settings_that_reproduce_the_run(pair, files, tmp_
                  "--out", str(tmp_path / "a")])
     s = json.loads((tmp_path / "a" / "record.json").read_text())["settings"]
     assert s["band_hz"] == [0.1, 0.8] and s["seed"] == 7 and s["window_s"] == WINDOW
-    assert s["window_likelihood"] == "default"
+    assert s["window_likelihood"] == "gaussian"
     assert (s["start"], s["end"]) == (t0.isoformat(), (t0 + 3 * WINDOW).isoformat())
     assert (s["windows_fitted"], s["windows_skipped"]) == (3, 0)
     main(base + ["--band", *map(str, s["band_hz"]), "--window", str(s["window_s"]),

@@ -9,11 +9,16 @@ combined by a model of the record: the record's value plus a slow wander
 between windows (an Ornstein-Uhlenbeck process of unknown size and time
 scale, which no single window can measure) plus each window's own error.
 
---window-likelihood gaussian fits each window with the Gaussian likelihood
-(each band's noise scale as estimated, no per-band heavy tail) and learns
-one factor on all the windows' standard deviations over the record (its
-prior log-uniform on [0.5, 4]) beside the wander; default: each window
-with bayescal fit's likelihood, the factor 1.
+Each window is fitted with the Gaussian likelihood (each band's noise as
+estimated, no per-band heavy tail; --window-likelihood gaussian, the
+default). A window's noise inflation (the scatter of its segments, measured
+on a dozen of them) is floored at the record's: the median over the windows,
+per band; a window whose own falls below it is fitted again with it. One
+factor on all the windows' standard deviations is learned over the record
+beside the wander (its prior log-uniform on [1, 4]: the record widens a
+window's interval, never narrows it). --window-likelihood per-band fits each
+window with bayescal fit's likelihood (a heavy-tailed noise scale per band),
+without the floor, the factor 1.
 Written into DIR:
 
   windows.csv    one row per window and parameter: start, end, median, its
@@ -29,7 +34,8 @@ Written into DIR:
                  window_s, window_likelihood, start and end (ISO: the span
                  cut into windows, as --start and --end), windows_fitted,
                  windows_skipped, fit_response, diagnose, keep_transients,
-                 max_steps
+                 max_steps; "inflation_floor": the record's noise inflation per
+                 band and the windows fitted again with it
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
@@ -66,8 +72,8 @@ from .common import add_pair_arguments, priors_from, quiet_convergence_warnings,
 
 HELP = "fit consecutive windows of a record and combine them into the record's value"
 #: --window-likelihood: each window's fit keywords, and whether the record learns the sds' factor.
-WINDOW_LIKELIHOODS = {"default": ({}, False),
-                      "gaussian": ({"misfit_shape": float("inf")}, True)}
+WINDOW_LIKELIHOODS = {"gaussian": ({"misfit_shape": float("inf"), "pool_inflation": True}, True),
+                      "per-band": ({}, False)}
 
 
 def configure(parser):
@@ -76,10 +82,11 @@ def configure(parser):
     parser.add_argument("--window", type=float, default=600.0, metavar="SECONDS",
                         help="length of each window in seconds (default 600)")
     parser.add_argument("--window-likelihood", choices=list(WINDOW_LIKELIHOODS),
-                        default="default",
-                        help="each window's likelihood: default (bayescal fit's, a heavy-tailed "
-                             "noise scale per band) or gaussian (each band's noise as estimated, "
-                             "with one factor on the windows' sds learned over the record)")
+                        default="gaussian",
+                        help="each window's likelihood: gaussian (the default: each band's noise "
+                             "as estimated, its inflation floored at the record's, one factor "
+                             "on the windows' sds learned over the record) or per-band "
+                             "(bayescal fit's, a heavy-tailed noise scale per band)")
     parser.add_argument("--diagnose", action="store_true",
                         help="criticise each window whose model check fails, as bayescal fit "
                              "does (by default the windows are not criticised)")
@@ -91,7 +98,9 @@ def fit_all(args, pair):
     from ..record import fit_windows
 
     def said(k, n, w):
-        what = f"skipped: {w.reason}" if not w.fitted else "fitted"
+        what = (f"skipped: {w.reason}" if not w.fitted else
+                "fitted again with the record's noise inflation as a floor" if w.floored
+                else "fitted")
         say(args, f"window {k + 1}/{n} {str(w.start)[:19]} - {str(w.end)[:19]}: {what}")
 
     ref, ref_xml, sut, sut_xml = pair
@@ -167,7 +176,17 @@ def record_document(records, windows, args):
                         for w in windows if not w.fitted],
             "not_converged": [str(w.start)[:19] for w in windows
                               if w.fitted and not w.convergence.get("converged", True)],
+            "inflation_floor": inflation_floor(windows),
             "parameters": {name: rec.summary() for name, rec in records.items()}}
+
+
+def inflation_floor(windows):
+    """record.json's ``inflation_floor``: the record's noise inflation per
+    band (:mod:`bayescal.record.pooling`; null when no window was fitted
+    again with it) and the windows fitted again with it."""
+    floored = [w for w in windows if w.floored]
+    return {"per_band": [float(c) for c in floored[0].floor] if floored else None,
+            "windows": [str(w.start)[:19] for w in floored]}
 
 
 def table_rows(records):

@@ -13,6 +13,7 @@ median, 68 and 95 % intervals and samples. A window the pipeline refuses
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,8 +24,10 @@ class Window:
     """One window's fit: ``start`` and ``end`` (UTCDateTime), per parameter
     its summary (``median``, ``ci68``, ``ci95``) in ``values`` and its
     posterior samples in ``samples``, its sampler's ``convergence`` (a
-    result's ``convergence`` entry) and the band it fitted (``band_hz``,
-    ``[fmin, fmax]``); or the ``reason`` it was skipped."""
+    result's ``convergence`` entry), the band it fitted (``band_hz``,
+    ``[fmin, fmax]``), each band's noise ``inflation`` and the record's
+    inflation ``floor`` it was fitted with (None: its own inflation,
+    :mod:`bayescal.record.pooling`); or the ``reason`` it was skipped."""
 
     start: object
     end: object
@@ -34,12 +37,17 @@ class Window:
     convergence: dict = field(default_factory=dict, repr=False)
     band_hz: list | None = None
     inflation: object = field(default=None, repr=False)
-    floored: bool = False
+    floor: object = field(default=None, repr=False)
 
     @property
     def fitted(self):
         """True when the window was fitted."""
         return self.reason is None
+
+    @property
+    def floored(self):
+        """True when the window was fitted with the record's inflation floor."""
+        return self.floor is not None
 
 
 def window_edges(start, end, window):
@@ -104,7 +112,7 @@ def fit_window(pair, t0, t1, seed, **options):
                   convergence=result.convergence.summary(),
                   band_hz=[float(f) for f in band] if band is not None else None,
                   inflation=None if inflation is None else np.asarray(inflation, float),
-                  floored=options.get("inflation_floor") is not None)
+                  floor=options.get("inflation_floor"))
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
@@ -126,6 +134,8 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     on_window : callable or None
         Called with ``(k, n, Window)`` after each window (progress), and
         again after each window fitted with the record's inflation floor.
+        The warnings of the fits kept (a window's last) are issued after
+        the last window.
     pool_inflation : bool
         Fit again, with the record's noise inflation as a floor, each
         window whose own inflation falls below it in some band
@@ -154,13 +164,22 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     pair = (ref, ref_xml, sut, sut_xml)
 
     def fitted(k, **extra):
-        w = fit_window(pair, *edges[k], seed + k, **options, **extra)
+        with warnings.catch_warnings(record=True) as caught:   # said once the fit is kept
+            warnings.simplefilter("always")
+            w = fit_window(pair, *edges[k], seed + k, **options, **extra)
         if on_window is not None:
             on_window(k, len(edges), w)
-        return w
+        return w, caught
 
-    out = [fitted(k) for k in range(len(edges))]
+    out, notes = zip(*[fitted(k) for k in range(len(edges))])
+    notes = list(notes)
     if pool_inflation:
         from .pooling import floor_windows
-        out, _ = floor_windows(out, lambda k, floor: fitted(k, inflation_floor=floor))
-    return out
+
+        def refit(k, floor):
+            w, notes[k] = fitted(k, inflation_floor=floor)
+            return w
+        out, _ = floor_windows(out, refit)
+    for m in (m for caught in notes for m in caught):     # the kept fits' warnings
+        warnings.warn_explicit(m.message, m.category, m.filename, m.lineno, source=m.source)
+    return list(out)

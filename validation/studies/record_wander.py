@@ -79,7 +79,10 @@ def cowi_windows(likelihood="default"):
     """Fit the 102 COWI windows through :func:`bayescal.record.fit_windows`
     (``likelihood``: a key of :data:`LIKELIHOODS`); per window its start
     and, per channel, median, ci68, ci95 and the quantiles :data:`LEVELS`
-    of its samples (or the reason it was skipped)."""
+    of its samples (or the reason it was skipped); with the record's
+    inflation floor (gaussian), each band's inflation of its first fit,
+    whether it was fitted again with the floor, and its first fit's
+    values per channel (``first``)."""
     from obspy import UTCDateTime
 
     from bayescal.io import flat_inventory, read_waveforms
@@ -88,24 +91,37 @@ def cowi_windows(likelihood="default"):
     sut = read_waveforms(str(cowi / "C100823215422_COWI.LHx"))
     ref = read_waveforms([str(cowi / "DT000110.LH1"), str(cowi / "DT000110.LH2")])
 
+    first = {}
+
     def said(k, n, w):
-        print(f"{k + 1}/{n} {w.start} {w.reason or ''}", flush=True)
+        first.setdefault(k, w)
+        print(f"{k + 1}/{n} {w.start} {w.reason or ''}{' (floored)' if w.floored else ''}",
+              flush=True)
 
     ws = fit_windows(ref=ref, ref_xml=flat_inventory(ref), sut=sut, sut_xml=flat_inventory(sut),
                      start=UTCDateTime(short_windows.START), end=UTCDateTime(short_windows.END),
                      window=600.0, band=short_windows.BAND, diagnose=False, on_window=said,
                      **LIKELIHOODS[likelihood])
     rows = []
-    for w in ws:
+    for k, w in enumerate(ws):
         row = {"start": str(w.start)[:19]}
         if not w.fitted:
             row["reason"] = w.reason
-        for c in CHANNELS if w.fitted else ():
-            name = f"US.COWI..{c}:azimuth_deg"
-            row[c] = {**w.values[name],
-                      "quantiles": np.quantile(w.samples[name], LEVELS).tolist()}
+            rows.append(row)
+            continue
+        row.update(inflation=first[k].inflation.tolist(), floored=w.floored)
+        for c in CHANNELS:
+            row[c] = window_values(w, c)
+            row[c]["first"] = window_values(first[k], c)
         rows.append(row)
     return rows
+
+
+def window_values(w, c):
+    """Channel ``c``'s azimuth in window ``w``: median, ci68, ci95 and the
+    quantiles :data:`LEVELS` of its samples."""
+    name = f"US.COWI..{c}:azimuth_deg"
+    return {**w.values[name], "quantiles": np.quantile(w.samples[name], LEVELS).tolist()}
 
 
 
@@ -202,11 +218,32 @@ def cowi_summary(rows, learn_scale=False):
             for c in CHANNELS}}
     finally:
         wander.ELL_MAX = default
+    if all("first" in r["LHN"] for r in ok):       # the windows as first fitted: no floor
+        firsts = [{"start": r["start"], **{c: r[c]["first"] for c in CHANNELS}} for r in ok]
+        out["without_floor"] = {c: cowi_channel(firsts, c, bounds, sw["whole_record"]["drop"][c],
+                                                rng, learn_scale) for c in CHANNELS}
+        out["pooling"] = pooling_summary(ok, bounds)
     out["ell_max_spans"], out["learn_scale"] = default, learn_scale
     out["windows"], out["skipped"] = len(ok), [r for r in rows if "LHN" not in r]
     out["max_median_difference_from_short_windows"] = float(max(
         abs(r[c]["median"] - bounds[r["start"]][c]["median"]) for r in ok for c in CHANNELS))
     return out
+
+
+def pooling_summary(rows, bounds):
+    """The record's inflation floor on COWI: the floor per band, how many
+    windows were fitted again with it, and per channel the correlation over
+    the windows of the first fit's log width / bound with each band's log
+    inflation (the width follows the inflation its segments measured)."""
+    infl = np.log(np.array([r["inflation"] for r in rows]))
+    corr = {}
+    for c in CHANNELS:
+        q = np.log([np.diff(r[c]["first"]["ci95"])[0] / bounds[r["start"]][c]["bound_width95"]
+                    for r in rows])
+        corr[c] = [float(np.corrcoef(q, infl[:, b])[0, 1]) for b in range(infl.shape[1])]
+    return {"floored": sum(r["floored"] for r in rows),
+            "floor": np.median([r["inflation"] for r in rows], axis=0).tolist(),
+            "corr_log_width_over_bound_log_inflation": corr}
 
 
 #: The simulated settings: wander sd (deg), then (SUT coherence, reference coherence).
