@@ -35,7 +35,8 @@ Written into DIR:
                  cut into windows, as --start and --end), windows_fitted,
                  windows_skipped, fit_response, diagnose, keep_transients,
                  max_steps; "inflation_floor": the record's noise inflation per
-                 band and the windows fitted again with it
+                 band (per_band), its bands' edges and the windows fitted
+                 again with it
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
@@ -97,10 +98,16 @@ def fit_all(args, pair):
     the budget notes (:func:`said_once`)."""
     from ..record import fit_windows
 
+    kept, seen = {}, [0]          # each window's warnings: those of the fit kept
+
     def said(k, n, w):
-        what = (f"skipped: {w.reason}" if not w.fitted else
-                "fitted again with the record's noise inflation as a floor" if w.floored
-                else "fitted")
+        if w.fitted or not w.floored:         # a refit that fails leaves the first fit
+            kept[k] = caught[seen[0]:]
+        seen[0] = len(caught)
+        what = ("fitted again with the record's noise inflation as a floor" if w.floored
+                and w.fitted else f"not fitted again with the record's noise inflation "
+                f"({w.reason}); its first fit kept" if w.floored
+                else f"skipped: {w.reason}" if not w.fitted else "fitted")
         say(args, f"window {k + 1}/{n} {str(w.start)[:19]} - {str(w.end)[:19]}: {what}")
 
     ref, ref_xml, sut, sut_xml = pair
@@ -115,7 +122,7 @@ def fit_all(args, pair):
                               transients="keep" if args.keep_transients else "drop",
                               max_steps=args.max_steps, diagnose=args.diagnose,
                               **WINDOW_LIKELIHOODS[args.window_likelihood][0])
-    return windows, said_once(caught)
+    return windows, said_once([m for k in sorted(kept) for m in kept[k]] + caught[seen[0]:])
 
 
 def said_once(caught):
@@ -182,11 +189,12 @@ def record_document(records, windows, args):
 
 def inflation_floor(windows):
     """record.json's ``inflation_floor``: the record's noise inflation per
-    band (:mod:`bayescal.record.pooling`; null when no window was fitted
-    again with it) and the windows fitted again with it."""
-    floored = [w for w in windows if w.floored]
-    return {"per_band": [float(c) for c in floored[0].floor] if floored else None,
-            "windows": [str(w.start)[:19] for w in floored]}
+    band (:mod:`bayescal.record.pooling`; null when the windows were not
+    pooled), the bands' edges (Hz) and the windows fitted again with it."""
+    pooled = [w for w in windows if w.floor is not None]
+    return {"per_band": [float(c) for c in pooled[0].floor] if pooled else None,
+            "band_edges_hz": list(pooled[0].band_edges_hz) if pooled else None,
+            "windows": [str(w.start)[:19] for w in windows if w.floored]}
 
 
 def table_rows(records):

@@ -374,7 +374,6 @@ def _improved_posterior(base, model, th, cov, *, eiv, th0, sig, free, seed, mcmc
     # widen where the improved model still misfits (the search compares
     # the Gaussian likelihoods)
     model.misfit_shape = getattr(base.model, "misfit_shape", np.inf)
-    model.inflation_floor = getattr(base.model, "inflation_floor", None)
     meta = base.meta.to_dict() if eiv is None else dict(
         base.meta.to_dict(), reference_noise=dict(reference_noise_meta(eiv, th0),
                                         chosen_by="diagnose",

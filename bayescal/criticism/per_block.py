@@ -89,6 +89,7 @@ def drift_under_eiv(eiv, model, theta, cov, log=None, base=None):
     eff = [catalogue.CorrectedDrift(drift.rows, ppm, sd, dispersion=phi)]
     m = EIVModel(sp, eiv.ref_vectors, eiv.blocks, eiv.priors, ref_noise=eiv.ref_noise,
                  effects=eff, known_noise=getattr(eiv, "known_noise", None))
+    m.inflation_floor = eiv.inflation_floor
     th, c = least_squares_fit(m, np.concatenate([base, [tau]]),
                               jac=forward_jacobian(m, matmul=True))
     if log:

@@ -69,6 +69,7 @@ def reference_noise_test(model, theta, bic_keep=10.0):
                                 "base model already models it)"}, None, None, None)
     sp = model.spectra
     eiv = EIVModel(sp, model.ref_vectors, model.blocks, model.priors, ref_noise="estimate")
+    eiv.inflation_floor = model.inflation_floor
     try:
         th_e, cov_e = least_squares_fit(eiv, theta)
     except Exception as exc:     # noqa: BLE001 - a failed fit is no evidence

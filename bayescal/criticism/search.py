@@ -135,8 +135,10 @@ def with_effects(model, effects, per_block=False, blocks=None):
     else:   # the per-block likelihood exists for the base model only
         m = Model(model.spectra, model.ref_vectors, blocks, model.priors, effects=effects,
                   per_block=per_block)
+        m.inflation_floor = model.inflation_floor
         if isinstance(model.noise, EIVNoise):   # no common noise model: estimated by the caller
             return m
+    m.inflation_floor = model.inflation_floor      # the record's floor (record.pooling)
     if model.noise is not None:
         m.adopt_noise(model.noise)
     return m
@@ -252,6 +254,7 @@ def held_orientation_loglik(model, theta, axes):
                         ref_noise=model.ref_noise)
     else:
         held = Model(model.spectra, model.ref_vectors, blocks, model.priors)
+    held.inflation_floor = model.inflation_floor
     held.adopt_noise(model.noise)
     start = np.concatenate([np.asarray(theta)[sr] for _, sr in model.slices])
     return _best_loglik(held, (start,))

@@ -24,46 +24,55 @@ docs/windows.md, docs/validation/hard_posteriors.md.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-#: Fewest fitted windows from which the record's floor is taken.
+#: Fewest fitted windows of one band layout from which the record's floor is taken.
 MIN_POOLED = 3
 
 
-def record_floor(inflations):
-    """The record's floor per band: the median over windows of their noise
-    inflations ``inflations`` (a list of (B,) arrays, the fitted windows');
-    None when fewer than :data:`MIN_POOLED` windows share one band layout
-    (the most common length ``B``: a window with another layout is not
-    counted)."""
-    arrays = [np.asarray(c, float).ravel() for c in inflations if c is not None]
-    if not arrays:
-        return None
-    sizes = [a.size for a in arrays]
-    common = max(set(sizes), key=sizes.count)
-    same = [a for a in arrays if a.size == common]
+def record_floor(windows):
+    """The record's floor per band: the median of the noise inflations of
+    the fitted ``windows`` (:class:`~bayescal.record.windows.Window`) over
+    those whose bands (``band_edges_hz``) are the most common layout's;
+    returns ``(floor (B,), edges)``, or ``(None, None)`` when fewer than
+    :data:`MIN_POOLED` windows share a layout (a window with other bands is
+    not floored: a floor is per band, so only windows of the same bands share one)."""
+    layouts = {}
+    for w in windows:
+        if w.fitted and w.inflation is not None and w.band_edges_hz is not None \
+                and len(w.band_edges_hz) == np.size(w.inflation) + 1:
+            layouts.setdefault(w.band_edges_hz, []).append(np.asarray(w.inflation, float))
+    if not layouts:
+        return None, None
+    edges, same = max(layouts.items(), key=lambda kv: (len(kv[1]), kv[0]))
     if len(same) < MIN_POOLED:
-        return None
-    return np.median(np.stack(same), axis=0)
+        return None, None
+    return np.median(np.stack(same), axis=0), edges
 
 
-def below_floor(inflation, floor):
-    """True when a window's inflation (B,) falls below ``floor`` (B,) in
-    some band (the window is then fitted again with the floor)."""
-    if inflation is None or floor is None:
+def below_floor(window, floor, edges):
+    """True when ``window`` is fitted, has the bands ``edges`` and its
+    inflation falls below ``floor`` (B,) in some band (it is then fitted
+    again with the floor)."""
+    if floor is None or not window.fitted or window.band_edges_hz != edges:
         return False
-    c = np.asarray(inflation, float).ravel()
-    return c.size == floor.size and bool(np.any(c < floor))
+    return bool(np.any(np.asarray(window.inflation, float) < floor))
 
 
 def floor_windows(windows, refit):
     """``windows`` (:class:`~bayescal.record.windows.Window`, in order) with
     those whose inflation falls below the record's floor replaced by
-    ``refit(k, floor)``; returns ``(windows, floor)`` (floor None: too few
-    windows to pool, nothing refitted)."""
-    floor = record_floor([w.inflation for w in windows if w.fitted])
+    ``refit(k, floor)`` (kept only when it fits: a refit the fit refuses
+    leaves the first fit), and every window of the floor's bands given the
+    floor (``Window.floor``); nothing changes when too few windows share
+    one band layout (:func:`record_floor`)."""
+    floor, edges = record_floor(windows)
     out = list(windows)
     for k, w in enumerate(out):
-        if w.fitted and below_floor(w.inflation, floor):
-            out[k] = refit(k, floor)
-    return out, floor
+        if floor is None or w.band_edges_hz != edges or not w.fitted:
+            continue
+        new = refit(k, floor) if below_floor(w, floor, edges) else None
+        out[k] = new if new is not None and new.fitted else replace(w, floor=floor)
+    return out

@@ -13,7 +13,6 @@ median, 68 and 95 % intervals and samples. A window the pipeline refuses
 """
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,9 +24,11 @@ class Window:
     its summary (``median``, ``ci68``, ``ci95``) in ``values`` and its
     posterior samples in ``samples``, its sampler's ``convergence`` (a
     result's ``convergence`` entry), the band it fitted (``band_hz``,
-    ``[fmin, fmax]``), each band's noise ``inflation`` and the record's
-    inflation ``floor`` it was fitted with (None: its own inflation,
-    :mod:`bayescal.record.pooling`); or the ``reason`` it was skipped."""
+    ``[fmin, fmax]``, and its bands' edges ``band_edges_hz``), each band's
+    noise ``inflation`` in the fit kept, the record's inflation ``floor``
+    when the windows were pooled (:mod:`bayescal.record.pooling`; None
+    otherwise) and whether it was fitted again with it (``refitted``); or
+    the ``reason`` it was skipped."""
 
     start: object
     end: object
@@ -36,8 +37,10 @@ class Window:
     reason: str | None = None
     convergence: dict = field(default_factory=dict, repr=False)
     band_hz: list | None = None
+    band_edges_hz: tuple | None = field(default=None, repr=False)
     inflation: object = field(default=None, repr=False)
     floor: object = field(default=None, repr=False)
+    refitted: bool = False
 
     @property
     def fitted(self):
@@ -46,8 +49,8 @@ class Window:
 
     @property
     def floored(self):
-        """True when the window was fitted with the record's inflation floor."""
-        return self.floor is not None
+        """True when the window was fitted again with the record's inflation floor."""
+        return self.refitted
 
 
 def window_edges(start, end, window):
@@ -101,18 +104,22 @@ def fit_window(pair, t0, t1, seed, **options):
         result = calibrate(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, start=t0, end=t1,
                            seed=seed, **options)
     except (InputError, SpectraError, FitError, ResponseError) as exc:
-        return Window(t0, t1, reason=str(exc))
+        floor = options.get("inflation_floor")
+        return Window(t0, t1, reason=str(exc), floor=floor, refitted=floor is not None)
     values, samples = {}, {}
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
         samples[name] = np.asarray(draws, float)
     band = result.meta.band_hz
     inflation = getattr(result.meta, "noise_inflation", None)
+    edges = getattr(result.meta, "band_edges_hz", None)
+    floor = options.get("inflation_floor")
     return Window(t0, t1, values=values, samples=samples,
                   convergence=result.convergence.summary(),
                   band_hz=[float(f) for f in band] if band is not None else None,
-                  inflation=None if inflation is None else np.asarray(inflation, float),
-                  floor=options.get("inflation_floor"))
+                  band_edges_hz=None if edges is None else tuple(float(f) for f in edges),
+                  inflation=None if inflation is None else np.asarray(inflation, float).ravel(),
+                  floor=floor, refitted=floor is not None)
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
@@ -132,10 +139,8 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     seed : int
         Window ``k`` is fitted with seed ``seed + k``.
     on_window : callable or None
-        Called with ``(k, n, Window)`` after each window (progress), and
-        again after each window fitted with the record's inflation floor.
-        The warnings of the fits kept (a window's last) are issued after
-        the last window.
+        Called with ``(k, n, Window)`` after each fit (progress), again for
+        a window fitted with the record's inflation floor.
     pool_inflation : bool
         Fit again, with the record's noise inflation as a floor, each
         window whose own inflation falls below it in some band
@@ -163,23 +168,17 @@ def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.
     options.setdefault("progress", False)
     pair = (ref, ref_xml, sut, sut_xml)
 
+    if pool_inflation and options.get("inflation_floor") is not None:
+        raise InputError("give pool_inflation or inflation_floor, not both")
+
     def fitted(k, **extra):
-        with warnings.catch_warnings(record=True) as caught:   # said once the fit is kept
-            warnings.simplefilter("always")
-            w = fit_window(pair, *edges[k], seed + k, **options, **extra)
+        w = fit_window(pair, *edges[k], seed + k, **options, **extra)
         if on_window is not None:
             on_window(k, len(edges), w)
-        return w, caught
+        return w
 
-    out, notes = zip(*[fitted(k) for k in range(len(edges))])
-    notes = list(notes)
+    out = [fitted(k) for k in range(len(edges))]
     if pool_inflation:
         from .pooling import floor_windows
-
-        def refit(k, floor):
-            w, notes[k] = fitted(k, inflation_floor=floor)
-            return w
-        out, _ = floor_windows(out, refit)
-    for m in (m for caught in notes for m in caught):     # the kept fits' warnings
-        warnings.warn_explicit(m.message, m.category, m.filename, m.lineno, source=m.source)
-    return list(out)
+        out = floor_windows(out, lambda k, floor: fitted(k, inflation_floor=floor))
+    return out

@@ -40,13 +40,20 @@ counted against the truth.
     python validation/studies/record_wander.py --part sim --records 180   # resumable, ~40 min
     python validation/studies/record_wander.py --part model    # the model alone, ~4 min
 
-``--likelihood gaussian`` (parts cowi and sim): each window fitted with the
-Gaussian likelihood (``misfit_shape=inf``) and the record model's common
-factor on the windows' sds learned (``learn_scale``); the results go to
-``record_wander_cowi_gaussian.json`` and ``record_wander_sim_gaussian.json``:
+The parts above fit each window as ``bayescal fit`` does (``--likelihood
+per-band``). ``--likelihood gaussian`` (parts cowi and sim; ``bayescal
+windows``' default): each window fitted with the Gaussian likelihood
+(``misfit_shape=inf``), the windows below the record's median noise
+inflation fitted again with it as a floor (:mod:`bayescal.record.pooling`),
+and the record model's common factor on the windows' sds learned
+(``learn_scale``); on COWI the windows' first fits (no floor) are
+summarised too (``without_floor``), with the floor and the correlation of
+the first fits' width / bound with their inflation (``pooling``). The
+results go to ``record_wander_cowi_gaussian.json`` and
+``record_wander_sim_gaussian.json``:
 
-    python validation/studies/record_wander.py --part cowi --likelihood gaussian   # ~1 min
-    python validation/studies/record_wander.py --part sim --records 180 --likelihood gaussian
+    python validation/studies/record_wander.py --part cowi --likelihood gaussian   # ~2 min
+    python validation/studies/record_wander.py --part sim --records 180 --likelihood gaussian   # ~60 min
 """
 from __future__ import annotations
 
@@ -66,7 +73,7 @@ ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "validation" / "results" / "repeatability"
 COWI_OUT = RESULTS / "record_wander_cowi.json"
 #: Each window's likelihood (``--likelihood``): the fit's keywords, and the output's suffix.
-LIKELIHOODS = {"default": {}, "gaussian": {"misfit_shape": float("inf"), "pool_inflation": True}}
+LIKELIHOODS = {"per-band": {}, "gaussian": {"misfit_shape": float("inf"), "pool_inflation": True}}
 SIM_OUT = RESULTS / "record_wander_sim.json"
 CHANNELS = ("LHN", "LHE")
 #: The prior's longest time scale (in record spans) of the sensitivity check.
@@ -75,7 +82,7 @@ SENSITIVITY_ELL_MAX = 1.0
 LEVELS = np.linspace(0.0, 1.0, 201)
 
 
-def cowi_windows(likelihood="default"):
+def cowi_windows(likelihood="per-band"):
     """Fit the 102 COWI windows through :func:`bayescal.record.fit_windows`
     (``likelihood``: a key of :data:`LIKELIHOODS`); per window its start
     and, per channel, median, ci68, ci95 and the quantiles :data:`LEVELS`
@@ -109,10 +116,13 @@ def cowi_windows(likelihood="default"):
             row["reason"] = w.reason
             rows.append(row)
             continue
-        row.update(inflation=first[k].inflation.tolist(), floored=w.floored)
+        pooled = w.floor is not None
+        if pooled:
+            row.update(inflation=first[k].inflation.tolist(), floored=w.floored)
         for c in CHANNELS:
             row[c] = window_values(w, c)
-            row[c]["first"] = window_values(first[k], c)
+            if pooled:
+                row[c]["first"] = window_values(first[k], c)
         rows.append(row)
     return rows
 
@@ -218,7 +228,7 @@ def cowi_summary(rows, learn_scale=False):
             for c in CHANNELS}}
     finally:
         wander.ELL_MAX = default
-    if all("first" in r["LHN"] for r in ok):       # the windows as first fitted: no floor
+    if ok and all("first" in r["LHN"] for r in ok):       # the windows as first fitted: no floor
         firsts = [{"start": r["start"], **{c: r[c]["first"] for c in CHANNELS}} for r in ok]
         out["without_floor"] = {c: cowi_channel(firsts, c, bounds, sw["whole_record"]["drop"][c],
                                                 rng, learn_scale) for c in CHANNELS}
@@ -259,7 +269,7 @@ def sim_setting(r):
     return TAUS[r % len(TAUS)], NOISES[(r // len(TAUS)) % len(NOISES)]
 
 
-def sim_record(r, likelihood="default"):
+def sim_record(r, likelihood="per-band"):
     """One simulated record: 24 windows, each a pair whose SUT is turned by
     the truth plus the wander at its time (fitted with ``likelihood``, a key
     of :data:`LIKELIHOODS`; gaussian: the common scale learned); the wander
@@ -291,7 +301,7 @@ def sim_record(r, likelihood="default"):
     windows = [fitted(i) for i in range(N_WINDOWS)]
     if pool:                          # as fit_windows does (bayescal.record.pooling)
         from bayescal.record.pooling import floor_windows
-        windows, _ = floor_windows(windows, lambda i, floor: fitted(i, inflation_floor=floor))
+        windows = floor_windows(windows, lambda i, floor: fitted(i, inflation_floor=floor))
     recs = combine(windows, seed=r, learn_scale=likelihood == "gaussian")
     out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
            "skipped": sum(not win.fitted for win in windows)}
@@ -339,11 +349,11 @@ def sim_summary(runs):
 
 def sim_main(args):
     """Run records until ``args.records`` are stored (resumable), then summarise."""
-    out = SIM_OUT if args.likelihood == "default" else SIM_OUT.with_name(
+    out = SIM_OUT if args.likelihood == "per-band" else SIM_OUT.with_name(
         f"record_wander_sim_{args.likelihood}.json")
     doc = study_results.read(out) if (out.exists() or study_results.runs_path(
         out).exists()) else {"runs": []}
-    flag = "" if args.likelihood == "default" else f" --likelihood {args.likelihood}"
+    flag = "" if args.likelihood == "per-band" else f" --likelihood {args.likelihood}"
     doc.update(command=f"python validation/studies/record_wander.py --part sim --records "
                        f"{args.records}{flag}", likelihood=args.likelihood, settings={"taus_deg": TAUS, "noises": NOISES,
                                                     "windows": N_WINDOWS, "window_s": WINDOW_S,
@@ -415,20 +425,21 @@ def main(argv=None):
     ap.add_argument("--part", choices=["cowi", "sim", "model"], required=True)
     ap.add_argument("--summarise", action="store_true",
                     help="recompute the summary from the runs stored beside the output")
-    ap.add_argument("--likelihood", choices=sorted(LIKELIHOODS), default="default",
-                    help="each window's misfit: the default per-band scale, or gaussian "
-                         "(no per-band scale; the record model learns a common one)")
+    ap.add_argument("--likelihood", choices=sorted(LIKELIHOODS), default="per-band",
+                    help="each window's likelihood: per-band (bayescal fit's heavy-tailed "
+                         "scale per band), or gaussian (bayescal windows' default: no per-band "
+                         "scale, the record's inflation floor, a common factor learned)")
     ap.add_argument("--records", type=int, default=8, help="simulated records per setting")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if args.part == "cowi":
-        out = COWI_OUT if args.likelihood == "default" else COWI_OUT.with_name(
+        out = COWI_OUT if args.likelihood == "per-band" else COWI_OUT.with_name(
             f"record_wander_cowi_{args.likelihood}.json")
         if args.summarise:
             doc = study_results.read(out)
         else:
             doc = {"command": "python validation/studies/record_wander.py --part cowi"
-                              + ("" if args.likelihood == "default"
+                              + ("" if args.likelihood == "per-band"
                                  else f" --likelihood {args.likelihood}"),
                    "likelihood": args.likelihood, "runs": cowi_windows(args.likelihood)}
             study_results.write(out, doc)

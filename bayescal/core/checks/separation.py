@@ -44,6 +44,7 @@ def gain_separation(model, theta, cov):
     if not idx:
         return {}
     quiet = Model(model.spectra, model.ref_vectors, model.blocks, model.priors)
+    quiet.inflation_floor = model.inflation_floor                       # like with like
     try:    # the quiet model's Fisher information at theta (its noise estimated there)
         quiet.estimate_noise(theta)
         quiet.noise.weight = getattr(model.noise, "weight", None)     # like with like
