@@ -101,7 +101,6 @@ def test_scale_at_its_lower_end_errs_wide(small_grid):
     value's, a drawn window's, lambda's and the least precise windows'
     intervals hold the truth at least at the binomial rate (at the prior's
     end they err wide, not narrow)."""
-    assert wander.SCALE_MIN == 1.0
     held = coverage(1.0, True, 0)
     lo, _ = band(N_SETS)
     lo5, _ = band(N_WORST * N_SETS)

@@ -124,6 +124,7 @@ def test_gaussian_windows_learn_the_factor_on_their_sds(files, tmp_path, capsys)
     for ch, truth in TRUTH.items():
         p = doc["parameters"][f"XX.SIM.10.{ch}:azimuth_deg"]
         assert p["mu"]["ci95"][0] <= truth <= p["mu"]["ci95"][1], (ch, p["mu"])
+        # the factor's prior starts at 1: its interval starts there when it holds 1
         assert p["scale"]["ci95"][0] <= 1.0 < p["scale"]["ci95"][1], p["scale"]
     own = [(r["ci95_low"], r["ci95_high"]) for r in rows["gaussian"]]
     assert own != [(r["ci95_low"], r["ci95_high"]) for r in rows["per-band"]]

@@ -129,8 +129,10 @@ def combine(windows, seed=0, learn_scale=False):
         Seed of the wander's draws added to each window's samples.
     learn_scale : bool
         Learn a common factor on the windows' sds over the record
-        (:func:`~bayescal.record.wander.fit_wander`): for windows fitted
-        with the Gaussian likelihood (``misfit_shape=float("inf")``).
+        (:func:`~bayescal.record.wander.fit_wander`; at least 1): for
+        windows fitted with the Gaussian likelihood and the record's
+        inflation floor (``fit_windows(..., misfit_shape=float("inf"),
+        pool_inflation=True)``), whose sds hold their information and no more.
     """
     from .wander import MIN_WINDOWS
     rng = np.random.default_rng(seed)
