@@ -163,3 +163,41 @@ def test_the_criticism_s_models_keep_the_floor():
     assert m.inflation_floor is floor
     m.estimate_noise(r.state.theta_ls)
     assert np.all(m.noise.inflation >= 7.0)
+
+
+def test_the_one_channel_reference_s_rotation_keeps_its_floor():
+    """One horizontal reference channel (ASL's rotation of the SUT's two
+    horizontals): its one inflation held at the floor, its azimuth's 95 %
+    width grown by about sqrt(floor / inflation)."""
+    from bayescal.pair import calibrate
+    from bayescal.simulate import simulate_pair
+    p = simulate_pair(duration=900.0, fs=2.0, seed=11, coherence=0.99,
+                      sut_azimuth=(10.0, 100.0, 0.0))
+    kw = dict(ref=p.ref.select(channel="MHN"), ref_xml=p.ref_inventory,
+              sut=p.sut.select(channel="MH[12]"), sut_xml=p.sut_inventory, band=(0.1, 0.8),
+              diagnose=False, seed=1, progress=False)
+    a = calibrate(**kw)
+    c = float(np.ravel(a.meta.noise_inflation)[0])
+    b = calibrate(**kw, inflation_floor=np.array([4.0 * c]))
+    assert float(np.ravel(b.meta.noise_inflation)[0]) == pytest.approx(4.0 * c)
+    cid = a.channel_ids[0]
+    wa = np.diff(a.channels[cid]["azimuth_deg"]["ci95"])[0]
+    wb = np.diff(b.channels[cid]["azimuth_deg"]["ci95"])[0]
+    assert wb / wa == pytest.approx(2.0, rel=0.15)
+
+
+@pytest.mark.parametrize("ref_noise", ["quiet", "estimate"])
+def test_both_likelihoods_hold_the_floor(ref_noise):
+    """The base model (the reference taken as quiet) and the
+    errors-in-variables model (its noise estimated): every band's
+    inflation at or above the floor given."""
+    from bayescal.pair import calibrate
+    from bayescal.simulate import simulate_pair
+    p = simulate_pair(duration=900.0, fs=2.0, seed=11, coherence=0.99)
+    kw = dict(ref=p.ref, ref_xml=p.ref_inventory, sut=p.sut, sut_xml=p.sut_inventory,
+              band=(0.1, 0.8), diagnose=False, seed=1, progress=False,
+              misfit_shape=float("inf"), ref_noise=ref_noise)
+    c = np.asarray(calibrate(**kw).meta.noise_inflation, float)
+    floor = np.full(c.shape, 1.5 * c.max())
+    got = np.asarray(calibrate(**kw, inflation_floor=floor).meta.noise_inflation, float)
+    np.testing.assert_allclose(got, floor, rtol=1e-12)

@@ -1,8 +1,8 @@
 """The record model's common factor ``lambda`` on the windows' sds
 (:func:`bayescal.record.fit_wander` with ``learn_scale=True``): the Kalman
 filter against the dense Gaussian algebra with the scaled sds, and coverage
-over seeded synthetic records with a known ``lambda`` (1 and 1.5) and
-wander (binomial 99 % band)."""
+over seeded synthetic records with a known ``lambda`` (1.2 and 1.5, and 1,
+the prior's lower end) and wander (binomial 99 % band)."""
 from __future__ import annotations
 
 import numpy as np
@@ -100,7 +100,11 @@ def test_scale_at_its_lower_end_errs_wide(small_grid):
     """lambda = 1, the prior's lower end (``SCALE_MIN``): the record
     value's, a drawn window's, lambda's and the least precise windows'
     intervals hold the truth at least at the binomial rate (at the prior's
-    end they err wide, not narrow)."""
+    end they err wide, not narrow), and no record's factor comes out below 1."""
+    for seed in range(3):
+        x, s, t, *_ = synthetic(seed, 1.0)
+        f = fit_wander(x, s, t, learn_scale=True)
+        assert f.scale["ci95"][0] >= 1.0 and f.scale_grid.min() == 1.0, f.scale
     held = coverage(1.0, True, 0)
     lo, _ = band(N_SETS)
     lo5, _ = band(N_WORST * N_SETS)

@@ -11,12 +11,13 @@ scale, which no single window can measure) plus each window's own error.
 
 Each window is fitted with the Gaussian likelihood (each band's noise as
 estimated, no per-band heavy tail; --window-likelihood gaussian, the
-default). A window's noise inflation (the scatter of its segments, measured
-on a dozen of them) is floored at the record's: the median over the windows,
-per band; a window whose own falls below it is fitted again with it. One
-factor on all the windows' standard deviations is learned over the record
-beside the wander (its prior log-uniform on [1, 4]: the record widens a
-window's interval, never narrows it). --window-likelihood per-band fits each
+default). A window's noise inflation (the scatter of its segments: about a
+dozen in a ten-minute window) is floored at the record's: the median over
+the windows of the most common bands, per band; a window whose own falls
+below it is fitted again with it. One factor on all the windows' standard
+deviations is learned over the record beside the wander (its prior
+log-uniform on [1, 4]: the record widens a window's interval, never
+narrows it). --window-likelihood per-band fits each
 window with bayescal fit's likelihood (a heavy-tailed noise scale per band),
 without the floor, the factor 1.
 Written into DIR:
@@ -35,8 +36,8 @@ Written into DIR:
                  cut into windows, as --start and --end), windows_fitted,
                  windows_skipped, fit_response, diagnose, keep_transients,
                  max_steps; "inflation_floor": the record's noise inflation per
-                 band (per_band), its bands' edges and the windows fitted
-                 again with it
+                 band (per_band), its bands' edges, the windows fitted
+                 again with it and those of other bands (not_pooled)
   windows.pdf    each parameter's windows against time, the record's value
   windows.png    and its band, the wander's smoothed path (unless --no-report)
 
@@ -190,11 +191,15 @@ def record_document(records, windows, args):
 def inflation_floor(windows):
     """record.json's ``inflation_floor``: the record's noise inflation per
     band (:mod:`bayescal.record.pooling`; null when the windows were not
-    pooled), the bands' edges (Hz) and the windows fitted again with it."""
+    pooled), the bands' edges (Hz), the windows fitted again with it and
+    the fitted windows of other bands, which no floor reached
+    (``not_pooled``)."""
     pooled = [w for w in windows if w.floor is not None]
     return {"per_band": [float(c) for c in pooled[0].floor] if pooled else None,
             "band_edges_hz": list(pooled[0].band_edges_hz) if pooled else None,
-            "windows": [str(w.start)[:19] for w in windows if w.floored]}
+            "windows": [str(w.start)[:19] for w in windows if w.floored],
+            "not_pooled": [str(w.start)[:19] for w in windows
+                           if pooled and w.fitted and w.floor is None]}
 
 
 def table_rows(records):

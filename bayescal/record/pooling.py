@@ -5,14 +5,16 @@ Each fit measures, per band, its noise inflation ``c_b``
 residuals over what independent bins would give (window leakage, segment
 overlap and non-stationary noise make it larger than 1). A ten-minute
 window holds about a dozen segments, so its ``c_b`` scatters from window
-to window by chance, and a window whose ``c_b`` reads low is given an
-interval narrower than its information allows (below the per-bin Fisher
-bound of its spectra); one reading high is given the widening its own
-noise asks for.
+to window, partly by chance (so few segments), partly because the noise is
+not stationary; a window whose ``c_b`` reads low is given an interval
+that can fall below the per-bin Fisher bound of its spectra, one reading
+high the widening its own noise asks for.
 
 The windows of one record share their sensors and their noise process:
-the median of the windows' ``c_b`` is the record's typical inflation, and
-it is a floor for each window's. The windows are first fitted as they
+the median of the windows' ``c_b`` (over those of the most common bands)
+is the record's typical inflation, and it is a floor for each window's:
+a window is not taken to be quieter than the record's typical one, while
+one noisier keeps its own inflation. The windows are first fitted as they
 are; a window whose ``c_b`` falls below the floor in some band is fitted
 again with it (``inflation_floor``, :func:`bayescal.core.fit.run.fit_spectra`),
 the others keep their first fit (a floor that does not bind changes

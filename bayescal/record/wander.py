@@ -47,12 +47,14 @@ carry the misfit's extra variance only as far as the record shows it.
 ``lambda`` and ``tau`` are told apart by the windows' spread of ``s_i``:
 ``tau`` dominates the scatter of precise windows, ``lambda`` that of
 imprecise ones. Prior: log-uniform on [:data:`SCALE_MIN`, :data:`SCALE_MAX`]
-on a grid beside ``tau`` and ``ell``, ``lambda >= 1``: a window's sd
-already holds the information its spectra carry and no more (its noise
-inflation floored at the record's, :mod:`bayescal.record.pooling`), so the
-record can widen it (non-stationary noise, a misfit) but not narrow it; a
-factor below 1 would claim an interval narrower than the window's
-information limit.
+on a grid beside ``tau`` and ``ell``, ``lambda >= 1``: a conservative
+choice. A window's sd comes from its own spectra (its noise inflation
+floored at the record's, :mod:`bayescal.record.pooling`), and the record
+may widen it (noise that is not stationary, a misfit the windows share)
+but not narrow it on the strength of the windows' scatter alone; where
+``lambda`` truly is 1 the intervals err wide. Whether the intervals reach
+the information limit is checked against the per-bin Fisher bound
+(docs/validation/hard_posteriors.md).
 
 What it gives: ``mu`` (median and 68/95 % intervals of the mixture over the
 grid), ``tau``, ``ell`` and ``lambda`` (median and 95 %), the repeatability ratio

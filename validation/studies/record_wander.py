@@ -78,6 +78,8 @@ SIM_OUT = RESULTS / "record_wander_sim.json"
 CHANNELS = ("LHN", "LHE")
 #: The prior's longest time scale (in record spans) of the sensitivity check.
 SENSITIVITY_ELL_MAX = 1.0
+#: The learned factor's prior reaching below one (its lower end, grid points) in a second check.
+SENSITIVITY_SCALE_MIN, SENSITIVITY_N_SCALE = 0.5, 43
 #: Quantile levels of each window's posterior kept in the runs file (its samples' shape).
 LEVELS = np.linspace(0.0, 1.0, 201)
 
@@ -233,6 +235,15 @@ def cowi_summary(rows, learn_scale=False):
         out["without_floor"] = {c: cowi_channel(firsts, c, bounds, sw["whole_record"]["drop"][c],
                                                 rng, learn_scale) for c in CHANNELS}
         out["pooling"] = pooling_summary(ok, bounds)
+    if learn_scale:                 # the factor's prior reaching below one: what its end costs
+        kept = wander.SCALE_MIN, wander.N_SCALE
+        wander.SCALE_MIN, wander.N_SCALE = SENSITIVITY_SCALE_MIN, SENSITIVITY_N_SCALE
+        try:
+            out["scale_min_sensitivity"] = {"scale_min": SENSITIVITY_SCALE_MIN, **{
+                c: cowi_channel(ok, c, bounds, sw["whole_record"]["drop"][c], rng, learn_scale)
+                for c in CHANNELS}}
+        finally:
+            wander.SCALE_MIN, wander.N_SCALE = kept
     out["ell_max_spans"], out["learn_scale"] = default, learn_scale
     out["windows"], out["skipped"] = len(ok), [r for r in rows if "LHN" not in r]
     out["max_median_difference_from_short_windows"] = float(max(

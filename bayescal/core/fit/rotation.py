@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.inflation import overlapping_segments
+from ..model.inflation import floor_inflation, overlapping_segments
 from ..orientation.geometry import azimuth_dip, unit_vector
 from ...result import Convergence
 
@@ -84,9 +84,10 @@ def log_likelihood(band_sums, n_eff, alpha_deg, phi_deg, s):
     return -(np.log(np.maximum(p, 1e-300)) * n_eff).sum(axis=1)
 
 
-def _inflation(per_segment, segment_starts, nperseg, bins, w):
+def _inflation(per_segment, segment_starts, nperseg, bins, w, floor=None):
     """Spread of per-segment band residual powers against the
-    independent-bin value (1 for independent bins, about 2 for Hann)."""
+    independent-bin value (1 for independent bins, about 2 for Hann), at
+    least ``floor`` (None, or (1,): :func:`~bayescal.core.model.inflation.floor_inflation`)."""
     p = _power(per_segment, w[None])[0]                          # (K, B)
     mean = p.mean(axis=0)
     d = p - mean
@@ -94,13 +95,15 @@ def _inflation(per_segment, segment_starts, nperseg, bins, w):
     adjacent = overlapping_segments(segment_starts, nperseg)
     cov1 = (d[adjacent] * d[adjacent + 1]).sum(axis=0) / max(p.shape[0], 1)
     ratio = (var + 2.0 * cov1) * bins / np.maximum(mean ** 2, 1e-300)
-    return float(np.median(np.clip(ratio, 0.5, 20.0)))
+    infl = float(np.median(np.clip(ratio, 0.5, 20.0)))
+    return infl if floor is None else float(floor_inflation(np.array([infl]), floor)[0])
 
 
-def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
+def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None, inflation_floor=None):
     """Posterior of the SUT horizontals' common azimuth from one reference
     channel (see the module docstring). ``pair`` is :func:`orthogonal_pair`'s
-    answer. Returns a :class:`bayescal.core.posterior.state.FitState` with both
+    answer; ``inflation_floor``: None, or (1,) a lower bound on the fit's
+    one noise inflation (:mod:`bayescal.record.pooling`). Returns a :class:`bayescal.core.posterior.state.FitState` with both
     channels of kind "circle", their azimuths differing by exactly 90."""
     from ..posterior.state import FitState
 
@@ -114,7 +117,7 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None):
     coarse = np.arange(0.0, 360.0, 0.25)
     best = coarse[np.argmax(log_likelihood(sums, bins * spectra.n_segments, coarse, phi, s))]
     infl = _inflation(seg, spectra.segment_starts, spectra.nperseg, bins,
-                      _weights(best, phi, s))
+                      _weights(best, phi, s), inflation_floor)
     n_eff = bins * spectra.n_segments / infl
     for half in (2.0, 20.0, 180.0):        # widen until the grid holds the posterior
         grid = np.linspace(best - half, best + half, 8001)

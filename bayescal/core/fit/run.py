@@ -232,7 +232,8 @@ def fit_spectra(spectra, ref_vectors, sut_nominal_vectors, families, *, free="no
             raise FitError(f"--ref-noise {ref_noise} is not available with a one-channel "
                            "horizontal reference (ASL's orthogonal-pair rotation, which assumes "
                            "the reference quiet)")
-        return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta)
+        return fit_rotation(spectra, ref_vectors, pair, seed=seed, meta=meta,
+                            inflation_floor=inflation_floor)
     chosen_by = "user"
     if ref_noise is None:       # the default: unbiased whatever the split of noise
         from ..model.refnoise import recommended_mode

@@ -13,11 +13,10 @@ segments, so it is shrunk toward the mean over bands, with weight
 
 and floored at ``1e-3 pooled``.
 
-A fit may also be given a floor per band (``Model.inflation_floor``): the
-windows of one record share their noise process, so a window whose own
-ratio reads below the record's typical one does so by chance, from its few
-segments, not because it holds more information
-(:mod:`bayescal.record.pooling`).
+A fit may also be given a floor per band (``Model.inflation_floor``;
+:func:`floor_inflation`): the windows of one record share their noise
+process, and a window's ratio, measured on few segments, is not taken to
+be below the record's typical one (:mod:`bayescal.record.pooling`).
 """
 from __future__ import annotations
 
@@ -49,12 +48,16 @@ def shrunk_inflation(raw, weight, pooled_floor=-np.inf, floor=None):
     pooled = raw.mean()
     c = (weight * raw + INFLATION_SHRINK * pooled) / (weight + INFLATION_SHRINK)
     c = np.maximum(c, 1e-3 * max(pooled, pooled_floor))
-    if floor is None:
-        return c
+    return c if floor is None else floor_inflation(c, floor)
+
+
+def floor_inflation(c, floor):
+    """``max(c, floor)`` per band: inflations ``c`` (B,) held at or above
+    ``floor`` (B,); a floor of another number of bands is refused (FitError)."""
     floor = np.asarray(floor, float)
-    if floor.shape != c.shape:
+    if floor.shape != np.shape(c):
         from ...errors import FitError
-        raise FitError(f"an inflation floor of {floor.size} bands given to a fit of {c.size}")
+        raise FitError(f"an inflation floor of {floor.size} bands given to a fit of {np.size(c)}")
     return np.maximum(c, floor)
 
 
