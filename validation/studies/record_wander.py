@@ -264,7 +264,32 @@ def pooling_summary(rows, bounds):
         corr[c] = [float(np.corrcoef(q, infl[:, b])[0, 1]) for b in range(infl.shape[1])]
     return {"floored": sum(r["floored"] for r in rows),
             "floor": np.median([r["inflation"] for r in rows], axis=0).tolist(),
-            "corr_log_width_over_bound_log_inflation": corr}
+            "corr_log_width_over_bound_log_inflation": corr,
+            "thirds": inflation_thirds(rows, bounds, infl[:, -1])}
+
+
+def inflation_thirds(rows, bounds, log_top):
+    """The windows split in thirds by their first fit's inflation in the
+    highest band (``log_top``, log): per third and channel, the rms of
+    (median - whole record) over the bound's sd, and the median of the
+    window's own sd (half its 95 % width over 1.96) over the bound's sd,
+    before the floor and after it."""
+    sw = study_results.read(RESULTS / "short_windows.json")["whole_record"]["drop"]
+    out = []
+    for part in np.array_split(np.argsort(log_top), 3):
+        entry = {"inflation_range": [float(np.exp(log_top[part].min())),
+                                     float(np.exp(log_top[part].max()))]}
+        for c in CHANNELS:
+            b = np.array([bounds[rows[i]["start"]][c]["bound_sd"] for i in part])
+            err = np.array([rows[i][c]["median"] - sw[c] for i in part]) / b
+            sd = {k: np.array([np.diff(v["ci95"])[0] / 3.92 for v in
+                               (rows[i][c] if k == "floored" else rows[i][c]["first"]
+                                for i in part)]) / b for k in ("first", "floored")}
+            entry[c] = {"rms_error_over_bound": float(np.sqrt(np.mean(err ** 2))),
+                        **{f"median_sd_over_bound_{k}": float(np.median(v))
+                           for k, v in sd.items()}}
+        out.append(entry)
+    return out
 
 
 #: The simulated settings: wander sd (deg), then (SUT coherence, reference coherence).
