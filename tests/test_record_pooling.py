@@ -44,6 +44,7 @@ def test_the_record_floor_is_the_median_per_band_of_one_layout():
     assert below_floor(ws[0], floor, EDGES)
     assert not below_floor(windows_of([[2.0, 2.0]])[0], floor, EDGES)
     assert not below_floor(ws[3], floor, EDGES)                         # another layout
+    assert not below_floor(Window(0.0, 1.0, band_edges_hz=EDGES), floor, EDGES)   # none measured
 
 
 def test_only_windows_below_the_floor_are_fitted_again_with_it():

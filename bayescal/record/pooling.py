@@ -58,7 +58,8 @@ def below_floor(window, floor, edges):
     """True when ``window`` is fitted, has the bands ``edges`` and its
     inflation falls below ``floor`` (B,) in some band (it is then fitted
     again with the floor)."""
-    if floor is None or not window.fitted or window.band_edges_hz != edges:
+    if floor is None or not window.fitted or window.band_edges_hz != edges \
+            or window.inflation is None:
         return False
     return bool(np.any(np.asarray(window.inflation, float) < floor))
 
