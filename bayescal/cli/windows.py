@@ -262,7 +262,7 @@ def run(args):
     for w in windows:
         if not w.fitted:
             print(f"skipped {str(w.start)[:19]}: {w.reason}")
-    for line in spent:       # a stage's budget ended it: said with the table, as bayescal fit says it
+    for line in spent:       # a stage its budget ended: said with the table, as bayescal fit does
         print(line)
     from .common import convergence_exit, written
     code = convergence_exit([(f"the sampler of window {str(w.start)[:19]}", w.convergence)

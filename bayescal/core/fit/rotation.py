@@ -103,8 +103,9 @@ def fit_rotation(spectra, ref_vector, pair, seed=0, meta=None, inflation_floor=N
     """Posterior of the SUT horizontals' common azimuth from one reference
     channel (see the module docstring). ``pair`` is :func:`orthogonal_pair`'s
     answer; ``inflation_floor``: None, or (1,) a lower bound on the fit's
-    one noise inflation (:mod:`bayescal.record.pooling`). Returns a :class:`bayescal.core.posterior.state.FitState` with both
-    channels of kind "circle", their azimuths differing by exactly 90."""
+    one noise inflation (:mod:`bayescal.record.pooling`). Returns a
+    :class:`bayescal.core.posterior.state.FitState` with both channels of
+    kind "circle", their azimuths differing by exactly 90."""
     from ..posterior.state import FitState
 
     i, j, s = pair
