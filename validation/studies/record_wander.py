@@ -299,17 +299,45 @@ NOISES = ((0.999, 0.9999), (0.999, 0.999), (0.99, 0.9999), (0.99, 0.999))
 N_WINDOWS, WINDOW_S, ELL_S, SIM_BAND = 24, 600.0, 7200.0, (0.1, 0.8)
 
 
+#: ``--varied``: what real records vary, cycled over blocks of twelve records
+#: (each block every wander and noise setting): the simulator's keywords,
+#: and whether every other window carries a burst of noise in the SUT.
+VARIANTS = {"steep ground": ({"ground": "steep-microseism"}, False),
+            "noise in counts": ({"noise_in_counts": True}, False),
+            "two plane waves": ({"n_waves": 2, "diffuse": 0.05}, False),
+            "bursts": ({}, True)}
+#: A burst: its length (s) and its noise's sd over the SUT trace's own.
+BURST_S, BURST_SD = 120.0, 1.0
+
+
+def sim_variant(r):
+    """Record ``r``'s variant under ``--varied`` (a key of :data:`VARIANTS`)."""
+    return list(VARIANTS)[(r // (len(TAUS) * len(NOISES))) % len(VARIANTS)]
+
+
+def add_burst(sut, rng):
+    """Add to each horizontal SUT trace (MH1, MH2) a burst of white noise,
+    :data:`BURST_S` long at a random time, its sd :data:`BURST_SD` times the
+    trace's own: noise that is not stationary within the window."""
+    for tr in sut.select(channel="MH[12]"):
+        n = int(BURST_S * tr.stats.sampling_rate)
+        a = int(rng.integers(0, len(tr.data) - n))
+        tr.data = tr.data.astype(float)
+        tr.data[a:a + n] += rng.normal(0.0, BURST_SD * np.std(tr.data), n)
+
+
 def sim_setting(r):
     """Record ``r``'s setting: (tau, (coherence, reference coherence)),
     cycling through all twelve so that any first records are balanced."""
     return TAUS[r % len(TAUS)], NOISES[(r // len(TAUS)) % len(NOISES)]
 
 
-def sim_record(r, likelihood="per-band"):
+def sim_record(r, likelihood="per-band", varied=False):
     """One simulated record: 24 windows, each a pair whose SUT is turned by
     the truth plus the wander at its time (fitted with ``likelihood``, a key
-    of :data:`LIKELIHOODS`; gaussian: the common scale learned); the wander
-    model per horizontal channel; what holds the truth."""
+    of :data:`LIKELIHOODS`; gaussian: the common scale learned; ``varied``:
+    the record's :func:`sim_variant`); the wander model per horizontal
+    channel; what holds the truth."""
     from bayescal.record import combine, draw_wander
     from bayescal.record.windows import fit_window
     from bayescal.simulate import simulate_pair
@@ -321,12 +349,16 @@ def sim_record(r, likelihood="per-band"):
     drawn = int(rng.integers(N_WINDOWS))
     options = dict(LIKELIHOODS[likelihood])
     pool = options.pop("pool_inflation", False)
+    variant = sim_variant(r) if varied else None
+    sim_kw, bursts = VARIANTS[variant] if varied else ({}, False)
     pairs = []
     for i in range(N_WINDOWS):
         t0 = UTCDateTime(2026, 1, 1) + i * WINDOW_S
         p = simulate_pair(duration=WINDOW_S, fs=2.0, seed=100000 * r + i, coherence=coh,
                           ref_coherence=ref_coh, sut_azimuth=(az0 + w[i], az0 + 90 + w[i], 0.0),
-                          start=t0)
+                          start=t0, **sim_kw)
+        if bursts and i % 2:
+            add_burst(p.sut, np.random.default_rng([r, i]))
         pairs.append(((p.ref, p.ref_inventory, p.sut, p.sut_inventory), t0))
 
     def fitted(i, **extra):
@@ -340,7 +372,8 @@ def sim_record(r, likelihood="per-band"):
         windows = floor_windows(windows, lambda i, floor: fitted(i, inflation_floor=floor))
     recs = combine(windows, seed=r, learn_scale=likelihood == "gaussian")
     out = {"record": r, "tau": tau, "coherence": coh, "ref_coherence": ref_coh, "drawn": drawn,
-           "skipped": sum(not win.fitted for win in windows)}
+           "skipped": sum(not win.fitted for win in windows),
+           **({"variant": variant} if varied else {})}
     for ch, truth in (("MH1", az0), ("MH2", az0 + 90.0)):
         rec = recs[f"XX.SIM.10.{ch}:azimuth_deg"]
         truth += 360.0 * np.round((rec.fit.mu["median"] - truth) / 360.0)   # SEED's 0-360
@@ -364,6 +397,7 @@ def sim_summary(runs):
     two-sided 99 % binomial band."""
     out = {}
     groups = {f"tau_{tau:g}": [x for x in runs if x["tau"] == tau] for tau in TAUS}
+    groups.update({v: [x for x in runs if x.get("variant") == v] for v in VARIANTS})
     groups["all"] = runs
     for name, rows in groups.items():
         if not rows:
@@ -385,20 +419,26 @@ def sim_summary(runs):
 
 def sim_main(args):
     """Run records until ``args.records`` are stored (resumable), then summarise."""
-    out = SIM_OUT if args.likelihood == "per-band" else SIM_OUT.with_name(
-        f"record_wander_sim_{args.likelihood}.json")
+    name = ("record_wander_sim" + ("" if args.likelihood == "per-band" else f"_{args.likelihood}")
+            + ("_varied" if args.varied else ""))
+    out = SIM_OUT.with_name(f"{name}.json")
     doc = study_results.read(out) if (out.exists() or study_results.runs_path(
         out).exists()) else {"runs": []}
-    flag = "" if args.likelihood == "per-band" else f" --likelihood {args.likelihood}"
+    flag = ("" if args.likelihood == "per-band" else f" --likelihood {args.likelihood}") \
+        + (" --varied" if args.varied else "")
     doc.update(command=f"python validation/studies/record_wander.py --part sim --records "
                        f"{args.records}{flag}", likelihood=args.likelihood, settings={"taus_deg": TAUS, "noises": NOISES,
                                                     "windows": N_WINDOWS, "window_s": WINDOW_S,
-                                                    "ell_s": ELL_S, "band_hz": SIM_BAND})
+                                                    "ell_s": ELL_S, "band_hz": SIM_BAND,
+                                                    **({"variants": VARIANTS,
+                                                        "burst_s": BURST_S,
+                                                        "burst_sd": BURST_SD}
+                                                       if args.varied else {})})
     done = {x["record"] for x in doc["runs"]}
     for r in range(args.records):
         if r in done or args.summarise:
             continue
-        doc["runs"].append(sim_record(r, args.likelihood))
+        doc["runs"].append(sim_record(r, args.likelihood, args.varied))
         print(json.dumps(doc["runs"][-1]), flush=True)
         doc["summary"] = sim_summary(doc["runs"])
         study_results.write(out, doc)
@@ -466,6 +506,9 @@ def main(argv=None):
                          "scale per band), or gaussian (bayescal windows' default: no per-band "
                          "scale, the record's inflation floor, a common factor learned)")
     ap.add_argument("--records", type=int, default=8, help="simulated records per setting")
+    ap.add_argument("--varied", action="store_true",
+                    help="part sim: the records cycle through VARIANTS (a steep ground "
+                         "spectrum, noise in counts, two plane waves, noise bursts)")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     if args.part == "cowi":
