@@ -62,7 +62,7 @@ def test_only_windows_below_the_floor_are_fitted_again_with_it():
         if k == 2:
             return Window(0.0, 1.0, reason="the refit failed")
         return Window(0.0, 1.0, inflation=np.maximum(ws[k].inflation, floor), floor=floor,
-                      band_edges_hz=EDGES, refitted=True)
+                      band_edges_hz=EDGES, floored=True)
 
     out = floor_windows(ws, refit)
     assert calls == [(0, [2.5, 2.5]), (1, [2.5, 2.5]), (2, [2.5, 2.5])]

@@ -27,7 +27,7 @@ class Window:
     ``[fmin, fmax]``, and its bands' edges ``band_edges_hz``), each band's
     noise ``inflation`` in the fit kept, the record's inflation ``floor``
     when the windows were pooled (:mod:`bayescal.record.pooling`; None
-    otherwise) and whether it was fitted again with it (``refitted``); or
+    otherwise) and whether it was fitted again with it (``floored``); or
     the ``reason`` it was skipped."""
 
     start: object
@@ -40,17 +40,12 @@ class Window:
     band_edges_hz: tuple | None = field(default=None, repr=False)
     inflation: object = field(default=None, repr=False)
     floor: object = field(default=None, repr=False)
-    refitted: bool = False
+    floored: bool = False
 
     @property
     def fitted(self):
         """True when the window was fitted."""
         return self.reason is None
-
-    @property
-    def floored(self):
-        """True when the window was fitted again with the record's inflation floor."""
-        return self.refitted
 
 
 def window_edges(start, end, window):
@@ -100,12 +95,12 @@ def fit_window(pair, t0, t1, seed, **options):
     from ..errors import FitError, InputError, ResponseError, SpectraError
     from ..pair import calibrate
     ref, ref_xml, sut, sut_xml = pair
+    floor = options.get("inflation_floor")
     try:
         result = calibrate(ref=ref, ref_xml=ref_xml, sut=sut, sut_xml=sut_xml, start=t0, end=t1,
                            seed=seed, **options)
     except (InputError, SpectraError, FitError, ResponseError) as exc:
-        floor = options.get("inflation_floor")
-        return Window(t0, t1, reason=str(exc), floor=floor, refitted=floor is not None)
+        return Window(t0, t1, reason=str(exc), floor=floor, floored=floor is not None)
     values, samples = {}, {}
     for name, (entry, draws) in parameters(result).items():
         values[name] = {k: entry[k] for k in ("median", "ci68", "ci95")}
@@ -113,13 +108,12 @@ def fit_window(pair, t0, t1, seed, **options):
     band = result.meta.band_hz
     inflation = getattr(result.meta, "noise_inflation", None)
     edges = getattr(result.meta, "band_edges_hz", None)
-    floor = options.get("inflation_floor")
     return Window(t0, t1, values=values, samples=samples,
                   convergence=result.convergence.summary(),
                   band_hz=[float(f) for f in band] if band is not None else None,
                   band_edges_hz=None if edges is None else tuple(float(f) for f in edges),
                   inflation=None if inflation is None else np.asarray(inflation, float).ravel(),
-                  floor=floor, refitted=floor is not None)
+                  floor=floor, floored=floor is not None)
 
 
 def fit_windows(*, ref, ref_xml, sut, sut_xml, start=None, end=None, window=600.0, seed=0,
